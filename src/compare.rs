@@ -1,0 +1,1 @@
+//! Comparison of float EXR images (`isoview compare`).

@@ -39,6 +39,18 @@ pub enum Inside {
     Above,
 }
 
+impl Inside {
+    /// The one inside test every method follows (GPU: `is_inside` in `shaders/include/field.glsl`):
+    /// strictly below (or above) the isovalue is inside; a value equal to the isovalue is
+    /// outside. A crossing is a change of this predicate between two points.
+    pub fn contains(self, value: f64, isovalue: f64) -> bool {
+        match self {
+            Inside::Below => value < isovalue,
+            Inside::Above => value > isovalue,
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceSettings {
     pub isovalue: f64,

@@ -3,4 +3,5 @@
 //! `ISOVIEW_SKIP_GPU_TESTS=1` to skip them on a machine without Vulkan (CI never does).
 
 mod common;
+mod layout;
 mod render;

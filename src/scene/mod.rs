@@ -1,8 +1,112 @@
-//! Scene files: TOML → parsed → validated → an immutable [`Scene`].
+//! Scene files: TOML → parsed → `--set` overrides applied → validated → an immutable
+//! [`Scene`].
 //!
-//! The keys, their defaults and their meaning are the interface contract
-//! (`README.md`, "Scene format"). Errors name `file:line:col` and the key.
+//! The keys, their defaults and their meaning are the interface contract (`README.md`,
+//! "Scene format"; the defaults live in the `Default` impls in `types.rs`). The pipeline:
+//!
+//! ```text
+//!   text ──toml::de::DeTable──> tree of values with origins (file:line:col or --set N)
+//!        ──apply --set KEY=VALUE, in order──> same tree
+//!        ──validate (unknown keys, types, ranges, cross-key checks, data headers)──> Scene
+//! ```
+//!
+//! Invariants of a [`Scene`]: every number is finite; image sides are in 1..=16384; the camera
+//! has `eye != target`, `0 < fov_y_deg < 180` and `up` not parallel to the view; the field has
+//! at least 2 points per axis, `bounds.min < bounds.max` on every axis, fits the memory cap,
+//! and its data file (if any) has a readable header and exactly the bytes the header promises.
+//!
+//! Every error is one line, `FILE:LINE:COL: KEY.PATH: what is wrong` (or `--set KEY=VALUE:
+//! KEY.PATH: ...` when an override is at fault). Unknown keys are errors, also for keys that
+//! belong to another field source or shape. Relative data paths are resolved against the scene
+//! file's folder (also when they come from `--set`).
 
+mod error;
+mod field;
+mod read;
+mod tree;
 mod types;
+mod validate;
 
+use std::path::Path;
+
+pub use error::{SceneError, SceneErrorKind};
 pub use types::*;
+pub use validate::{MAX_IMAGE_SIDE, MAX_NEWTON_STEPS, MAX_STEPS};
+
+use crate::field::GridLimits;
+use tree::Source;
+
+/// Loads the scene file at `path`, applies `overrides` (`KEY=VALUE`, VALUE in TOML syntax or a
+/// plain string), and validates it, under the grid memory cap of `ISOVIEW_MAX_GRID_MIB`.
+pub fn load(path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
+    load_with(path, overrides, &env_limits(&path.display().to_string())?)
+}
+
+/// [`load`] under an explicit memory cap.
+pub fn load_with(path: &Path, overrides: &[String], limits: &GridLimits) -> Result<Scene, SceneError> {
+    let name = path.display().to_string();
+    let text = std::fs::read(path).map_err(|e| {
+        let what = match e.kind() {
+            std::io::ErrorKind::NotFound => "file not found".to_string(),
+            std::io::ErrorKind::PermissionDenied => "permission denied".to_string(),
+            std::io::ErrorKind::IsADirectory => "is a directory, not a scene file".to_string(),
+            _ => e.to_string(),
+        };
+        SceneError::new(SceneErrorKind::Io, name.clone(), None, format!("cannot read scene: {what}"))
+    })?;
+    let text = String::from_utf8(text).map_err(|e| {
+        let at = Source::new(&name, "", &[]).location(tree::Origin::START);
+        let _ = at;
+        let prefix = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let line = prefix.iter().filter(|&&b| b == b'\n').count() + 1;
+        SceneError::new(
+            SceneErrorKind::Syntax,
+            format!("{name}:{line}"),
+            None,
+            "invalid TOML: the file is not UTF-8",
+        )
+    })?;
+    let base_dir = path.parent().unwrap_or(Path::new(""));
+    let mut scene = from_str_with(&text, &name, base_dir, overrides, limits)?;
+    scene.path = Some(path.to_path_buf());
+    Ok(scene)
+}
+
+/// Parses and validates scene text. `origin` names it in errors (usually the file name);
+/// relative data paths are resolved against `base_dir`. The scene's `path` is `None`.
+pub fn from_str(
+    text: &str,
+    origin: &str,
+    base_dir: &Path,
+    overrides: &[String],
+) -> Result<Scene, SceneError> {
+    from_str_with(text, origin, base_dir, overrides, &env_limits(origin)?)
+}
+
+/// [`from_str`] under an explicit memory cap.
+pub fn from_str_with(
+    text: &str,
+    origin: &str,
+    base_dir: &Path,
+    overrides: &[String],
+    limits: &GridLimits,
+) -> Result<Scene, SceneError> {
+    let src = Source::new(origin, text, overrides);
+    let mut root = src.parse()?;
+    for i in 0..overrides.len() {
+        src.apply_override(&mut root, i)?;
+    }
+    validate::scene(&src, &root, base_dir, limits)
+}
+
+/// The memory cap from the environment, as a scene error if the variable is malformed.
+fn env_limits(origin: &str) -> Result<GridLimits, SceneError> {
+    GridLimits::from_env().map_err(|e| {
+        let _ = origin;
+        let mut err = SceneError::new(SceneErrorKind::Data, crate::field::GRID_CAP_ENV, None, "");
+        err.message = e.to_string().split_once(": ").map_or(e.to_string(), |(_, m)| m.to_string());
+        err.location = e.to_string().split_once(": ").map_or(err.location.clone(), |(l, _)| l.to_string());
+        err.field_error = Some(e);
+        err
+    })
+}

@@ -21,6 +21,13 @@ pub struct ImageSettings {
     pub height: u32,
 }
 
+impl Default for ImageSettings {
+    /// 512 x 512.
+    fn default() -> Self {
+        ImageSettings { width: 512, height: 512 }
+    }
+}
+
 /// Pinhole camera, world space.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraSettings {
@@ -29,6 +36,18 @@ pub struct CameraSettings {
     pub up: DVec3,
     /// Full vertical field of view, degrees.
     pub fov_y_deg: f64,
+}
+
+impl Default for CameraSettings {
+    /// Eye at (2.2, 1.6, 2.4) looking at the origin, y up, 40 degrees.
+    fn default() -> Self {
+        CameraSettings {
+            eye: DVec3::new(2.2, 1.6, 2.4),
+            target: DVec3::ZERO,
+            up: DVec3::Y,
+            fov_y_deg: 40.0,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -40,6 +59,17 @@ pub enum Inside {
 }
 
 impl Inside {
+    /// Both conventions.
+    pub const ALL: [Inside; 2] = [Inside::Below, Inside::Above];
+
+    /// The name as written in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Inside::Below => "below",
+            Inside::Above => "above",
+        }
+    }
+
     /// The one inside test every method follows (GPU: `is_inside` in `shaders/include/field.glsl`):
     /// strictly below (or above) the isovalue is inside; a value equal to the isovalue is
     /// outside. A crossing is a change of this predicate between two points.
@@ -57,6 +87,13 @@ pub struct SurfaceSettings {
     pub inside: Inside,
 }
 
+impl Default for SurfaceSettings {
+    /// Isovalue 0, values below it inside (signed distance convention).
+    fn default() -> Self {
+        SurfaceSettings { isovalue: 0.0, inside: Inside::Below }
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
     Analytic,
@@ -65,6 +102,9 @@ pub enum Method {
 }
 
 impl Method {
+    /// Every method, in the order the contract lists them.
+    pub const ALL: [Method; 3] = [Method::Analytic, Method::FixedStep, Method::Mesh];
+
     /// The name as written in scene files.
     pub fn name(self) -> &'static str {
         match self {
@@ -85,6 +125,15 @@ pub enum MeshAlgorithm {
 }
 
 impl MeshAlgorithm {
+    /// Every algorithm, in the order the contract lists them.
+    pub const ALL: [MeshAlgorithm; 5] = [
+        MeshAlgorithm::MarchingCubes,
+        MeshAlgorithm::Mc33,
+        MeshAlgorithm::SurfaceNets,
+        MeshAlgorithm::DualContouring,
+        MeshAlgorithm::MarchingTetrahedra,
+    ];
+
     /// The name as written in scene files.
     pub fn name(self) -> &'static str {
         match self {
@@ -108,6 +157,16 @@ pub enum Shading {
 }
 
 impl Shading {
+    /// Every shading mode, in the order the contract lists them.
+    pub const ALL: [Shading; 6] = [
+        Shading::Lambert,
+        Shading::Normal,
+        Shading::Depth,
+        Shading::Steps,
+        Shading::Cells,
+        Shading::Solid,
+    ];
+
     /// The name as written in scene files.
     pub fn name(self) -> &'static str {
         match self {
@@ -136,11 +195,39 @@ pub struct RenderSettings {
     pub color: [f32; 3],
 }
 
+impl Default for RenderSettings {
+    /// Analytic, 200 fixed steps, 10 Newton steps, marching cubes, Lambert shading, transparent
+    /// black background, colour (0.85, 0.65, 0.45).
+    fn default() -> Self {
+        RenderSettings {
+            method: Method::Analytic,
+            steps: 200,
+            newton_steps: 10,
+            mesh: MeshAlgorithm::MarchingCubes,
+            shading: Shading::Lambert,
+            background: [0.0, 0.0, 0.0, 0.0],
+            color: [0.85, 0.65, 0.45],
+        }
+    }
+}
+
 /// Axis-aligned world-space box of the grid.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bounds {
     pub min: DVec3,
     pub max: DVec3,
+}
+
+impl Bounds {
+    /// The unit cube `[0, 1]^3`.
+    pub const UNIT: Bounds = Bounds { min: DVec3::ZERO, max: DVec3::ONE };
+
+    /// The grid's own index space, `[0, 0, 0]..[nx - 1, ny - 1, nz - 1]`: the default when a
+    /// scene gives no `bounds` (for one cell, the unit cube).
+    pub fn index_space(resolution: [usize; 3]) -> Bounds {
+        let [nx, ny, nz] = resolution.map(|n| n.saturating_sub(1) as f64);
+        Bounds { min: DVec3::ZERO, max: DVec3::new(nx, ny, nz) }
+    }
 }
 
 /// Signed-distance shapes of `source = "sdf"`; `center` is subtracted before evaluation.

@@ -1,0 +1,88 @@
+use std::path::PathBuf;
+
+use super::limits::GRID_CAP_ENV;
+
+/// Why a field could not be sampled: a data file that is missing, malformed or too large, or an
+/// expression that does not parse or produces a non-finite value.
+///
+/// `Display` is one line that names the file (or expression) and what is wrong.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum FieldError {
+    /// The data file could not be opened or read.
+    #[error("{}: {message}", path.display())]
+    Io { path: PathBuf, message: String },
+
+    /// The file is not a valid `.npy` file.
+    #[error("{}: not a valid .npy file ({reason})", path.display())]
+    NotNpy { path: PathBuf, reason: String },
+
+    /// The samples' type is not one isoview reads.
+    #[error("{}: unsupported dtype {dtype} ({hint})", path.display())]
+    UnsupportedDtype { path: PathBuf, dtype: String, hint: String },
+
+    /// The array is not a 3-D grid of at least 2 points per axis.
+    #[error("{}: {message}", path.display())]
+    BadShape { path: PathBuf, message: String },
+
+    /// The file ends before all samples were read.
+    #[error(
+        "{}: truncated data: expected {expected} bytes of samples ({layout}), found {actual}",
+        path.display()
+    )]
+    Truncated { path: PathBuf, expected: u64, actual: u64, layout: String },
+
+    /// The file holds more bytes than the declared dims and dtype account for.
+    #[error(
+        "{}: dims do not match the data: {layout} is {expected} bytes of samples, the file has {actual}",
+        path.display()
+    )]
+    SizeMismatch { path: PathBuf, expected: u64, actual: u64, layout: String },
+
+    /// The grid's `f32` samples would exceed the memory cap; refused before any allocation.
+    #[error(
+        "{what}: a grid of {}x{}x{} points needs {} of f32 samples, over the cap of {}; \
+         raise the cap with {GRID_CAP_ENV}={} (or GridLimits::max_bytes)",
+        dims[0], dims[1], dims[2], mib(*bytes), mib(*cap as u128), bytes.div_ceil(1 << 20)
+    )]
+    TooLarge { what: String, dims: [u64; 3], bytes: u128, cap: u64 },
+
+    /// A sample is NaN or infinite; `index` is the first such grid point (x fastest).
+    #[error("{what}: value {value} at grid point [{}, {}, {}]{detail} is not finite", index[0], index[1], index[2])]
+    NonFinite { what: String, index: [usize; 3], value: f32, detail: String },
+
+    /// An expression that does not parse, or names something unknown.
+    #[error("expression \"{text}\": {message}")]
+    Expr { text: String, message: String },
+
+    /// `ISOVIEW_MAX_GRID_MIB` is set to something that is not a positive whole number.
+    #[error("{GRID_CAP_ENV}={value:?}: expected a positive whole number of MiB")]
+    BadLimit { value: String },
+}
+
+/// `bytes` as MiB, whole when exact, one decimal otherwise.
+fn mib(bytes: u128) -> String {
+    if bytes % (1 << 20) == 0 {
+        format!("{} MiB", bytes >> 20)
+    } else {
+        format!("{:.1} MiB", bytes as f64 / (1u64 << 20) as f64)
+    }
+}
+
+impl FieldError {
+    /// An I/O error on `path`, worded for a user ("file not found" rather than "os error 2").
+    pub(crate) fn io(path: &std::path::Path, err: &std::io::Error) -> FieldError {
+        use std::io::ErrorKind;
+        let message = match err.kind() {
+            ErrorKind::NotFound => "file not found".to_string(),
+            ErrorKind::PermissionDenied => "permission denied".to_string(),
+            ErrorKind::IsADirectory => "is a directory, not a file".to_string(),
+            _ => format!("cannot read: {}", one_line(&err.to_string())),
+        };
+        FieldError::Io { path: path.to_path_buf(), message }
+    }
+}
+
+/// Collapses a message onto one line.
+pub(crate) fn one_line(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
+}

@@ -1,0 +1,317 @@
+//! Binary samples shared by `npy` and `raw`: element types, byte order, and streaming decode
+//! into the grid's `f32` layout (x fastest).
+
+use std::io::Read;
+use std::path::Path;
+
+use super::FieldError;
+
+/// Element type of a binary volume.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SampleType {
+    /// One byte, 0 or 1 (npy `b1`).
+    Bool,
+    U8,
+    I8,
+    U16,
+    I16,
+    U32,
+    I32,
+    U64,
+    I64,
+    /// IEEE half precision.
+    F16,
+    F32,
+    F64,
+}
+
+impl SampleType {
+    /// Every type, in the order their names are listed in messages.
+    pub const ALL: [SampleType; 12] = [
+        SampleType::U8,
+        SampleType::I8,
+        SampleType::U16,
+        SampleType::I16,
+        SampleType::U32,
+        SampleType::I32,
+        SampleType::U64,
+        SampleType::I64,
+        SampleType::F16,
+        SampleType::F32,
+        SampleType::F64,
+        SampleType::Bool,
+    ];
+
+    /// Bytes per sample.
+    pub fn size(self) -> usize {
+        match self {
+            SampleType::Bool | SampleType::U8 | SampleType::I8 => 1,
+            SampleType::U16 | SampleType::I16 | SampleType::F16 => 2,
+            SampleType::U32 | SampleType::I32 | SampleType::F32 => 4,
+            SampleType::U64 | SampleType::I64 | SampleType::F64 => 8,
+        }
+    }
+
+    /// The name used by `dtype` in scene files (`u8`, `i16`, `f32`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            SampleType::Bool => "bool",
+            SampleType::U8 => "u8",
+            SampleType::I8 => "i8",
+            SampleType::U16 => "u16",
+            SampleType::I16 => "i16",
+            SampleType::U32 => "u32",
+            SampleType::I32 => "i32",
+            SampleType::U64 => "u64",
+            SampleType::I64 => "i64",
+            SampleType::F16 => "f16",
+            SampleType::F32 => "f32",
+            SampleType::F64 => "f64",
+        }
+    }
+
+    /// Parses a scene-file `dtype` name.
+    pub fn from_name(name: &str) -> Option<SampleType> {
+        Self::ALL.into_iter().find(|t| t.name() == name)
+    }
+}
+
+/// Byte order of multi-byte samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Endian {
+    Little,
+    Big,
+}
+
+impl Endian {
+    /// The name used by `endian` in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Endian::Little => "little",
+            Endian::Big => "big",
+        }
+    }
+}
+
+/// Order in which a file stores the samples of a `[nx, ny, nz]` grid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StorageOrder {
+    /// x varies fastest (raw files, npy Fortran order): storage index = grid index.
+    XFastest,
+    /// z varies fastest (npy C order of an `(nx, ny, nz)` array).
+    ZFastest,
+}
+
+/// Converts IEEE half-precision bits to `f32` (exact: every f16 is an f32).
+pub(crate) fn f16_to_f32(h: u16) -> f32 {
+    let sign = if h & 0x8000 != 0 { -1.0f32 } else { 1.0 };
+    let exp = (h >> 10) & 0x1f;
+    let man = (h & 0x3ff) as u32;
+    match exp {
+        0 => sign * man as f32 * (2.0f32).powi(-24),
+        31 => {
+            let bits = ((h as u32 & 0x8000) << 16) | 0x7f80_0000 | (man << 13);
+            f32::from_bits(bits)
+        }
+        _ => {
+            let bits = ((h as u32 & 0x8000) << 16) | ((exp as u32 + 112) << 23) | (man << 13);
+            f32::from_bits(bits)
+        }
+    }
+}
+
+/// Decodes `n` samples of `ty` from `bytes` (exactly `n * ty.size()` long) into `out`.
+fn decode(ty: SampleType, endian: Endian, bytes: &[u8], out: &mut Vec<f32>) {
+    macro_rules! each {
+        ($n:literal, $conv:expr) => {
+            out.extend(bytes.chunks_exact($n).map(|c| {
+                let mut a = [0u8; $n];
+                a.copy_from_slice(c);
+                if endian == Endian::Big {
+                    a.reverse();
+                }
+                #[allow(clippy::redundant_closure_call)]
+                ($conv)(a)
+            }))
+        };
+    }
+    match ty {
+        SampleType::Bool => out.extend(bytes.iter().map(|&b| if b != 0 { 1.0 } else { 0.0 })),
+        SampleType::U8 => out.extend(bytes.iter().map(|&b| b as f32)),
+        SampleType::I8 => out.extend(bytes.iter().map(|&b| b as i8 as f32)),
+        SampleType::U16 => each!(2, |a| u16::from_le_bytes(a) as f32),
+        SampleType::I16 => each!(2, |a| i16::from_le_bytes(a) as f32),
+        SampleType::F16 => each!(2, |a| f16_to_f32(u16::from_le_bytes(a))),
+        SampleType::U32 => each!(4, |a| u32::from_le_bytes(a) as f32),
+        SampleType::I32 => each!(4, |a| i32::from_le_bytes(a) as f32),
+        SampleType::F32 => each!(4, f32::from_le_bytes),
+        SampleType::U64 => each!(8, |a| u64::from_le_bytes(a) as f32),
+        SampleType::I64 => each!(8, |a| i64::from_le_bytes(a) as f32),
+        SampleType::F64 => each!(8, |a| f64::from_le_bytes(a) as f32),
+    }
+}
+
+/// Describes a layout for messages: `[32, 32, 32] x u16`.
+pub(crate) fn layout(dims: [usize; 3], ty: SampleType) -> String {
+    format!("[{}, {}, {}] x {}", dims[0], dims[1], dims[2], ty.name())
+}
+
+/// Reads `dims` samples of `ty` from `reader` (positioned at the first sample) and returns them
+/// x fastest. The caller has already checked the memory cap and the file size.
+pub(crate) fn read_samples(
+    reader: &mut impl Read,
+    path: &Path,
+    ty: SampleType,
+    endian: Endian,
+    dims: [usize; 3],
+    order: StorageOrder,
+) -> Result<Vec<f32>, FieldError> {
+    let count = dims[0] * dims[1] * dims[2];
+    let size = ty.size();
+    let chunk_samples = 1 << 16;
+    let mut buf = vec![0u8; chunk_samples * size];
+    let mut stored = Vec::with_capacity(count);
+    let mut done = 0usize;
+    while done < count {
+        let n = chunk_samples.min(count - done);
+        let want = &mut buf[..n * size];
+        let got = fill(reader, want).map_err(|e| FieldError::io(path, &e))?;
+        if got < want.len() {
+            return Err(FieldError::Truncated {
+                path: path.to_path_buf(),
+                expected: (count * size) as u64,
+                actual: (done * size + got) as u64,
+                layout: layout(dims, ty),
+            });
+        }
+        decode(ty, endian, want, &mut stored);
+        done += n;
+    }
+    Ok(match order {
+        StorageOrder::XFastest => stored,
+        StorageOrder::ZFastest => {
+            let [nx, ny, nz] = dims;
+            let mut out = vec![0.0f32; count];
+            // Storage index s = (i * ny + j) * nz + k; grid index = i + nx * (j + ny * k).
+            for (s, &v) in stored.iter().enumerate() {
+                let k = s % nz;
+                let j = (s / nz) % ny;
+                let i = s / (nz * ny);
+                out[i + nx * (j + ny * k)] = v;
+            }
+            out
+        }
+    })
+}
+
+/// Reads until `buf` is full or the reader ends; returns the bytes read.
+fn fill(reader: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut got = 0;
+    while got < buf.len() {
+        match reader.read(&mut buf[got..]) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(got)
+}
+
+/// Fails on the first NaN or infinity (x-fastest order), naming its grid point.
+/// `what` names the data (a path or an expression) and `detail` is inserted after the index.
+pub(crate) fn check_finite(
+    values: &[f32],
+    dims: [usize; 3],
+    what: impl FnOnce() -> String,
+    detail: impl FnOnce([usize; 3]) -> String,
+) -> Result<(), FieldError> {
+    match values.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(n) => {
+            let index = [n % dims[0], (n / dims[0]) % dims[1], n / (dims[0] * dims[1])];
+            Err(FieldError::NonFinite {
+                what: what(),
+                index,
+                value: values[n],
+                detail: detail(index),
+            })
+        }
+    }
+}
+
+/// Checks that a file holds exactly `header + dims x ty` bytes, without reading it.
+pub(crate) fn check_file_size(
+    path: &Path,
+    file_len: u64,
+    header: u64,
+    dims: [usize; 3],
+    ty: SampleType,
+) -> Result<(), FieldError> {
+    let expected = dims.iter().map(|&d| d as u64).product::<u64>() * ty.size() as u64;
+    let actual = file_len.saturating_sub(header);
+    if actual < expected {
+        Err(FieldError::Truncated {
+            path: path.to_path_buf(),
+            expected,
+            actual,
+            layout: layout(dims, ty),
+        })
+    } else if actual > expected {
+        Err(FieldError::SizeMismatch {
+            path: path.to_path_buf(),
+            expected,
+            actual,
+            layout: layout(dims, ty),
+        })
+    } else {
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn f16_decodes_normals_subnormals_and_specials() {
+        assert_eq!(f16_to_f32(0x3c00), 1.0);
+        assert_eq!(f16_to_f32(0xc000), -2.0);
+        assert_eq!(f16_to_f32(0x3555), 0.333_251_95);
+        assert_eq!(f16_to_f32(0x0001), 2.0f32.powi(-24));
+        assert_eq!(f16_to_f32(0x8000), -0.0);
+        assert_eq!(f16_to_f32(0x7bff), 65504.0);
+        assert_eq!(f16_to_f32(0x7c00), f32::INFINITY);
+        assert!(f16_to_f32(0x7e00).is_nan());
+    }
+
+    #[test]
+    fn c_order_is_transposed_to_x_fastest() {
+        // (nx, ny, nz) = (2, 3, 4), C order: element [i, j, k] stored at (i*3 + j)*4 + k.
+        let dims = [2, 3, 4];
+        let mut bytes = Vec::new();
+        for i in 0..2u8 {
+            for j in 0..3u8 {
+                for k in 0..4u8 {
+                    bytes.push(100 * i + 10 * j + k);
+                }
+            }
+        }
+        let v = read_samples(
+            &mut bytes.as_slice(),
+            Path::new("t"),
+            SampleType::U8,
+            Endian::Little,
+            dims,
+            StorageOrder::ZFastest,
+        )
+        .unwrap();
+        for k in 0..4 {
+            for j in 0..3 {
+                for i in 0..2 {
+                    assert_eq!(v[i + 2 * (j + 3 * k)], (100 * i + 10 * j + k) as f32);
+                }
+            }
+        }
+    }
+}

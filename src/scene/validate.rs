@@ -1,0 +1,146 @@
+//! From the value tree to a [`Scene`]: defaults for absent keys, types and ranges for present
+//! ones, then the cross-key checks (eye != target, up not along the view).
+
+use std::path::Path;
+
+use super::error::SceneErrorKind;
+use super::read::{self, choice, integer, number_where, numbers, vec3, Result, View};
+use super::tree::{Node, Source, Value};
+use super::{
+    CameraSettings, ImageSettings, Inside, MeshAlgorithm, Method, RenderSettings, Scene,
+    Shading, SurfaceSettings,
+};
+use crate::field::GridLimits;
+
+/// Largest image side.
+pub const MAX_IMAGE_SIDE: i64 = 16384;
+/// Most fixed-step samples per ray.
+pub const MAX_STEPS: i64 = 1 << 20;
+/// Most Newton refinements per root.
+pub const MAX_NEWTON_STEPS: i64 = 64;
+
+const TABLES: [&str; 5] = ["image", "camera", "field", "surface", "render"];
+
+/// Validates the whole tree into a scene. `base_dir` resolves relative data paths.
+pub(crate) fn scene(
+    src: &Source,
+    root: &Node,
+    base_dir: &Path,
+    limits: &GridLimits,
+) -> Result<Scene> {
+    let Value::Table(t) = &root.value else {
+        return Err(src.err(SceneErrorKind::Type, root.at, "", "the scene must be a TOML table"));
+    };
+    let root = View { src, path: String::new(), table: Some(t), at: root.at };
+    root.check_keys(&TABLES)?;
+    // [field] first: a scene without a field is the most basic mistake.
+    let field = super::field::field(&root, base_dir, limits)?;
+    Ok(Scene {
+        path: None,
+        image: image(&root.table("image")?)?,
+        camera: camera(&root.table("camera")?)?,
+        field,
+        surface: surface(&root.table("surface")?)?,
+        render: render(&root.table("render")?)?,
+    })
+}
+
+fn image(t: &View) -> Result<ImageSettings> {
+    t.check_keys(&["width", "height"])?;
+    let d = ImageSettings::default();
+    let side = |src: &Source, key: &str, n: &Node| integer(src, key, n, 1, MAX_IMAGE_SIDE);
+    Ok(ImageSettings {
+        width: t.or("width", d.width as i64, side)? as u32,
+        height: t.or("height", d.height as i64, side)? as u32,
+    })
+}
+
+fn camera(t: &View) -> Result<CameraSettings> {
+    t.check_keys(&["eye", "target", "up", "fov_y_deg"])?;
+    let d = CameraSettings::default();
+    let c = CameraSettings {
+        eye: t.or("eye", d.eye, vec3)?,
+        target: t.or("target", d.target, vec3)?,
+        up: t.or("up", d.up, vec3)?,
+        fov_y_deg: t.or("fov_y_deg", d.fov_y_deg, |s, k, n| {
+            number_where(s, k, n, |f| f > 0.0 && f < 180.0, "must be between 0 and 180 degrees (exclusive)")
+        })?,
+    };
+    // Point at whichever of the keys involved was written (the later one first).
+    let blame = |keys: &[&'static str]| *keys.iter().find(|k| t.get(k).is_some()).unwrap_or(&keys[0]);
+    let forward = c.target - c.eye;
+    if forward.length() <= 1e-12 * c.eye.length().max(1.0) {
+        return Err(t.err(
+            SceneErrorKind::Value,
+            blame(&["target", "eye"]),
+            format!(
+                "camera.eye and camera.target are the same point {}; the camera needs a direction",
+                show_vec(c.eye)
+            ),
+        ));
+    }
+    if c.up.length() == 0.0 {
+        return Err(t.err(SceneErrorKind::Value, "up", "must not be the zero vector"));
+    }
+    if forward.normalize().cross(c.up.normalize()).length() < 1e-6 {
+        return Err(t.err(
+            SceneErrorKind::Value,
+            blame(&["up", "target", "eye"]),
+            format!(
+                "camera.up {} is parallel to the view direction {} (target - eye); pick an up \
+                 vector across the view",
+                show_vec(c.up),
+                show_vec(forward)
+            ),
+        ));
+    }
+    Ok(c)
+}
+
+fn surface(t: &View) -> Result<SurfaceSettings> {
+    t.check_keys(&["isovalue", "inside"])?;
+    let d = SurfaceSettings::default();
+    let insides = Inside::ALL.map(|i| (i.name(), i));
+    Ok(SurfaceSettings {
+        isovalue: t.or("isovalue", d.isovalue, read::number)?,
+        inside: t.or("inside", d.inside, |s, k, n| choice(s, k, n, &insides))?,
+    })
+}
+
+fn render(t: &View) -> Result<RenderSettings> {
+    t.check_keys(&["method", "steps", "newton_steps", "mesh", "shading", "background", "color"])?;
+    let d = RenderSettings::default();
+    let methods = Method::ALL.map(|m| (m.name(), m));
+    let meshes = MeshAlgorithm::ALL.map(|m| (m.name(), m));
+    let shadings = Shading::ALL.map(|m| (m.name(), m));
+    Ok(RenderSettings {
+        method: t.or("method", d.method, |s, k, n| choice(s, k, n, &methods))?,
+        steps: t.or("steps", d.steps as i64, |s, k, n| integer(s, k, n, 2, MAX_STEPS))? as u32,
+        newton_steps: t.or("newton_steps", d.newton_steps as i64, |s, k, n| {
+            integer(s, k, n, 0, MAX_NEWTON_STEPS)
+        })? as u32,
+        mesh: t.or("mesh", d.mesh, |s, k, n| choice(s, k, n, &meshes))?,
+        shading: t.or("shading", d.shading, |s, k, n| choice(s, k, n, &shadings))?,
+        background: t.or("background", d.background, colour::<4>)?,
+        color: t.or("color", d.color, colour::<3>)?,
+    })
+}
+
+/// A linear colour: `N` finite numbers that fit an `f32`.
+fn colour<const N: usize>(src: &Source, key: &str, node: &Node) -> Result<[f32; N]> {
+    let c = numbers::<N>(src, key, node)?;
+    if c.iter().any(|x| x.abs() > f32::MAX as f64) {
+        return Err(src.err(
+            SceneErrorKind::Value,
+            node.at,
+            key,
+            format!("colour components must fit a 32-bit float, got {}", super::tree::show(node)),
+        ));
+    }
+    Ok(c.map(|x| x as f32))
+}
+
+pub(crate) fn show_vec(v: glam::DVec3) -> String {
+    use super::tree::show_float;
+    format!("[{}, {}, {}]", show_float(v.x), show_float(v.y), show_float(v.z))
+}

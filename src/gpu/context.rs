@@ -1,5 +1,6 @@
 use std::ffi::c_void;
 use std::mem::ManuallyDrop;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use ash::{ext, vk};
@@ -51,12 +52,21 @@ pub struct Context {
     pub info: DeviceInfo,
 }
 
+/// Warnings and errors reported by the validation layer in this process (tests assert 0).
+static VALIDATION_MESSAGES: AtomicUsize = AtomicUsize::new(0);
+
+/// Number of validation warnings and errors reported so far in this process.
+pub fn validation_messages() -> usize {
+    VALIDATION_MESSAGES.load(Ordering::SeqCst)
+}
+
 unsafe extern "system" fn debug_callback(
     severity: vk::DebugUtilsMessageSeverityFlagsEXT,
     _types: vk::DebugUtilsMessageTypeFlagsEXT,
     data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
     _user: *mut c_void,
 ) -> vk::Bool32 {
+    VALIDATION_MESSAGES.fetch_add(1, Ordering::SeqCst);
     // SAFETY: the loader passes a valid callback-data pointer whose message is a C string.
     let message = unsafe { (*data).message_as_c_str() }
         .map(|m| m.to_string_lossy().into_owned())

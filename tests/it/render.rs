@@ -191,3 +191,20 @@ fn tall_images_render_in_bands_identically() {
         assert_eq!(p.steps, r.steps, "row {row}");
     }
 }
+
+#[test]
+fn validation_layer_reports_nothing_for_a_render() {
+    if std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() == Ok("1") {
+        return;
+    }
+    use isoview::gpu::{validation_messages, Context, ContextOptions};
+    let ctx = Context::new(&ContextOptions { device: None, validation: true })
+        .expect("Vulkan with VK_LAYER_KHRONOS_validation (apt-get install vulkan-validationlayers)");
+    let grid = grid_from([9, 8, 7], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.7);
+    let scene = scene_for(&grid, DVec3::new(0.3, 0.2, 3.0), 24, Method::FixedStep);
+    let before = validation_messages();
+    let frame = Renderer::new(&ctx).unwrap().render(&scene, &grid, 0.0).unwrap();
+    drop(ctx);
+    assert!(frame.pixels.iter().any(|p| p.is_hit()));
+    assert_eq!(validation_messages(), before, "validation warnings or errors (printed above)");
+}

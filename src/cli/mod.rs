@@ -1,1 +1,114 @@
-//! (in progress)
+//! The `isoview` command line (the contract in README "Command line"). `main.rs` only calls
+//! [`main`]; each subcommand parses its arguments here and returns an exit code:
+//! 0 success, 1 `compare` found a difference, 2 bad input, 3 no usable Vulkan device or a GPU
+//! failure. Errors are one line on stderr, never a panic.
+
+pub mod render;
+
+use std::sync::Arc;
+
+use clap::{Parser, Subcommand};
+
+use crate::gpu::{Context, ContextOptions, GpuError};
+
+/// Exit status for bad input (arguments, scene, data file).
+pub const EXIT_INPUT: i32 = 2;
+/// Exit status for a missing Vulkan device or a GPU failure.
+pub const EXIT_GPU: i32 = 3;
+
+/// A failure with its exit status and one-line message.
+#[derive(Debug)]
+pub struct Failure {
+    pub code: i32,
+    pub message: String,
+}
+
+impl Failure {
+    pub fn input(message: impl std::fmt::Display) -> Self {
+        Failure { code: EXIT_INPUT, message: message.to_string() }
+    }
+    pub fn gpu(message: impl std::fmt::Display) -> Self {
+        Failure { code: EXIT_GPU, message: message.to_string() }
+    }
+}
+
+impl From<GpuError> for Failure {
+    fn from(e: GpuError) -> Self {
+        Failure::gpu(e)
+    }
+}
+
+#[derive(Parser, Debug)]
+#[command(name = "isoview", version, about = "Isosurfaces of trilinearly interpolated scalar fields, rendered with Vulkan compute")]
+pub struct Cli {
+    /// Vulkan device to use: a case-insensitive part of its name (default: a discrete GPU, else
+    /// an integrated one, else lavapipe). Also read from ISOVIEW_DEVICE.
+    #[arg(long, global = true, env = "ISOVIEW_DEVICE")]
+    pub device: Option<String>,
+    /// Enable the Vulkan validation layer and print its warnings and errors.
+    #[arg(long, global = true)]
+    pub validation: bool,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render a scene to a float EXR with AOVs (and optionally a PNG preview).
+    Render(render::RenderArgs),
+    /// Print the Vulkan device, driver and the limits isoview relies on.
+    Info,
+}
+
+impl Cli {
+    pub fn gpu(&self) -> Result<Arc<Context>, Failure> {
+        Ok(Context::new(&ContextOptions {
+            device: self.device.clone(),
+            validation: self.validation,
+        })?)
+    }
+}
+
+/// Runs the command line and returns the process exit status.
+pub fn main() -> i32 {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Render(args) => render::run(&cli, args),
+        Command::Info => info(&cli),
+    };
+    match result {
+        Ok(code) => code,
+        Err(f) => {
+            eprintln!("isoview: {}", f.message);
+            f.code
+        }
+    }
+}
+
+fn info(cli: &Cli) -> Result<i32, Failure> {
+    let ctx = cli.gpu()?;
+    let i = &ctx.info;
+    let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
+    println!("isoview {}", crate::VERSION);
+    println!("device                 {} ({})", i.name, i.device_type);
+    println!("driver                 {} {}", i.driver_name, i.driver_info);
+    println!("Vulkan                 {}", i.api_version);
+    println!("device-local memory    {:.0} MiB", mib(i.device_local_heap));
+    println!("max allocation         {:.0} MiB", mib(i.max_memory_allocation_size));
+    println!(
+        "max storage buffer     {:.0} MiB (pixel buffers are split into bands below this)",
+        mib(i.max_storage_buffer_range)
+    );
+    println!("max 3D image           {} per axis (largest grid)", i.max_image_dimension_3d);
+    println!(
+        "max workgroups         {:?}, {} invocations per group",
+        i.max_compute_work_group_count, i.max_compute_work_group_invocations
+    );
+    println!("push constants         {} bytes", i.max_push_constants_size);
+    println!(
+        "timestamps             {}",
+        if i.timestamps { format!("yes, {} ns per tick", i.timestamp_period_ns) } else { "no".into() }
+    );
+    println!("validation             {}", if cli.validation { "on" } else { "off" });
+    Ok(0)
+}

@@ -1,1 +1,23 @@
-//! (in progress)
+//! A small Vulkan compute backend on ash + gpu-allocator. It knows nothing of isosurfaces:
+//! a [`Context`] (instance, device, queue, allocator), RAII [`Buffer`]s and [`Image3d`]s with
+//! debug names, [`ComputePipeline`]s from SPIR-V, and one-shot command submission with
+//! timestamp queries.
+//!
+//! Ownership and drop order: every resource holds an `Arc<Context>` and frees its own
+//! allocation in `Drop`; the context drops the allocator, then the device, then the instance,
+//! so it is always the last to go.
+
+mod buffer;
+mod context;
+mod error;
+mod image;
+mod pipeline;
+
+pub use buffer::Buffer;
+pub use context::{Context, ContextOptions, DeviceInfo};
+pub use error::GpuError;
+pub use gpu_allocator::MemoryLocation;
+pub use image::Image3d;
+pub use pipeline::{copy_buffer, memory_barrier, ComputePipeline, Dispatch, Resource, Timer};
+
+pub use ash::vk;

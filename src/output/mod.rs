@@ -1,1 +1,64 @@
-//! (in progress)
+//! Everything isoview writes to disk, and the EXR reader that `compare` and the tests use.
+//!
+//! - [`atomic`]: every output file is written whole or not at all (temporary file in the same
+//!   folder, fsync, rename). Other modules (meshes, JSON, SVG) use [`atomic::write_with`] too.
+//! - [`exr`]: a [`Frame`](crate::frame::Frame) as a one-part, 32-bit float, ZIP-compressed
+//!   OpenEXR file with the channels and header attributes of the interface contract, written
+//!   byte-deterministically; and a general reader ([`exr::read`]) for EXRs from any writer.
+//! - [`png`]: an 8-bit sRGB preview of the beauty (RGBA).
+
+pub mod atomic;
+pub mod exr;
+pub mod png;
+
+use std::path::{Path, PathBuf};
+
+/// Why an output file could not be written, or an input EXR could not be read.
+///
+/// Every variant names the file; `Display` is one line.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// A filesystem operation failed (`action` says which: "create", "write", "rename", "read").
+    #[error("{}: cannot {action}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        action: &'static str,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The `exr` crate could not encode or decode the file.
+    #[error("{}: {action}: {source}", path.display())]
+    Exr {
+        path: PathBuf,
+        action: &'static str,
+        #[source]
+        source: ::exr::error::Error,
+    },
+    /// The PNG encoder failed.
+    #[error("{}: cannot encode PNG: {source}", path.display())]
+    Png {
+        path: PathBuf,
+        #[source]
+        source: ::image::ImageError,
+    },
+    /// The data to write, or the file read, is not what it should be (the reason says how).
+    #[error("{}: {reason}", path.display())]
+    Invalid { path: PathBuf, reason: String },
+}
+
+impl OutputError {
+    pub(crate) fn io(path: &Path, action: &'static str, source: std::io::Error) -> Self {
+        OutputError::Io {
+            path: path.to_path_buf(),
+            action,
+            source,
+        }
+    }
+
+    pub(crate) fn invalid(path: &Path, reason: impl Into<String>) -> Self {
+        OutputError::Invalid {
+            path: path.to_path_buf(),
+            reason: reason.into(),
+        }
+    }
+}

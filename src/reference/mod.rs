@@ -1,1 +1,7 @@
-//! (in progress)
+//! CPU references in f64 of every GPU method. They read the same `f32` grid values (widened)
+//! and follow the same steps as the shaders, so tests can compare GPU output to them on random
+//! inputs with stated tolerances.
+
+pub mod field;
+pub mod fixed_step;
+pub mod shade;

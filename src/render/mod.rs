@@ -1,1 +1,250 @@
-//! (in progress)
+//! Rendering a scene: upload the grid as a 3D image, run the method's ray pass over bands of
+//! rows, read the pixels back into a [`Frame`].
+//!
+//! Bands keep every storage buffer under the device's `maxStorageBufferRange` (128 MiB on
+//! lavapipe) and every dispatch to at most [`MAX_BAND_PIXELS`] rays, so images of any size are
+//! rendered in pieces.
+
+pub mod params;
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use crate::field::Grid;
+use crate::frame::{Frame, FrameInfo, Pixel};
+use crate::gpu::{
+    copy_buffer, memory_barrier, Buffer, ComputePipeline, Context, GpuError, Image3d,
+    MemoryLocation, Resource, Timer,
+};
+use crate::passes::raymarch;
+use crate::scene::{Method, Scene};
+use params::{Band, RenderParams};
+
+/// Most rays in one dispatch (bounds the time of one submission on real GPUs too).
+pub const MAX_BAND_PIXELS: u64 = 1 << 20;
+
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error("render.method = \"{0}\" is not available in this build")]
+    Unsupported(&'static str),
+}
+
+/// A grid uploaded to the device.
+pub struct GpuGrid {
+    pub image: Image3d,
+    pub dims: [usize; 3],
+}
+
+impl GpuGrid {
+    pub fn upload(ctx: &Arc<Context>, grid: &Grid) -> Result<Self, GpuError> {
+        let extent = grid.dims.map(|d| d as u32);
+        Ok(GpuGrid { image: Image3d::upload(ctx, "grid", extent, &grid.values)?, dims: grid.dims })
+    }
+}
+
+/// Owns the pipelines and constant resources; renders any number of frames.
+pub struct Renderer {
+    ctx: Arc<Context>,
+    raymarch: ComputePipeline,
+    colormap: Buffer,
+    /// GPU time of the last frame's ray passes, in milliseconds (None without timestamps).
+    pub last_gpu_ms: Option<f64>,
+}
+
+/// The `steps` heat map: 256 linear RGBA entries of colorous's inferno (sRGB-decoded).
+pub fn colormap() -> Vec<[f32; 4]> {
+    (0..256)
+        .map(|i| {
+            let c = colorous::INFERNO.eval_continuous(i as f64 / 255.0);
+            let lin = |u: u8| {
+                let s = u as f32 / 255.0;
+                if s <= 0.04045 {
+                    s / 12.92
+                } else {
+                    ((s + 0.055) / 1.055).powf(2.4)
+                }
+            };
+            [lin(c.r), lin(c.g), lin(c.b), 1.0]
+        })
+        .collect()
+}
+
+impl Renderer {
+    pub fn new(ctx: &Arc<Context>) -> Result<Self, RenderError> {
+        let raymarch = raymarch::pipeline(ctx)?;
+        let map = colormap();
+        let mut staging = Buffer::new(
+            ctx,
+            "colormap staging",
+            (map.len() * 16) as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        staging.write(&map)?;
+        let colormap = Buffer::new(
+            ctx,
+            "colormap",
+            staging.size,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )?;
+        ctx.submit("upload colormap", |cmd| {
+            copy_buffer(ctx, cmd, &staging, 0, &colormap, 0, staging.size);
+            Ok(())
+        })?;
+        Ok(Renderer { ctx: ctx.clone(), raymarch, colormap, last_gpu_ms: None })
+    }
+
+    pub fn context(&self) -> &Arc<Context> {
+        &self.ctx
+    }
+
+    /// Renders `scene` over `grid` (sampled at `time`).
+    pub fn render(&mut self, scene: &Scene, grid: &Grid, time: f64) -> Result<Frame, RenderError> {
+        let gpu_grid = GpuGrid::upload(&self.ctx, grid)?;
+        self.render_uploaded(scene, grid, &gpu_grid, time)
+    }
+
+    /// Renders with a grid already on the device (`grid` gives its geometry and values for the
+    /// constants; it must be the grid that `gpu_grid` was uploaded from).
+    pub fn render_uploaded(
+        &mut self,
+        scene: &Scene,
+        grid: &Grid,
+        gpu_grid: &GpuGrid,
+        time: f64,
+    ) -> Result<Frame, RenderError> {
+        let pipeline = match scene.render.method {
+            Method::FixedStep => &self.raymarch,
+            Method::Analytic => return Err(RenderError::Unsupported("analytic")),
+            Method::Mesh => return Err(RenderError::Unsupported("mesh")),
+        };
+        let ctx = &self.ctx;
+        let (width, height) = (scene.image.width, scene.image.height);
+        let pixel_bytes = std::mem::size_of::<Pixel>() as u64;
+        let row_bytes = width as u64 * pixel_bytes;
+        let rows_by_range = ctx.info.max_storage_buffer_range / row_bytes;
+        let rows_by_count = MAX_BAND_PIXELS / width as u64;
+        let band_rows = rows_by_range.min(rows_by_count).clamp(1, height as u64) as u32;
+
+        let params = RenderParams::new(scene, grid);
+        let mut params_staging = Buffer::new(
+            ctx,
+            "params staging",
+            std::mem::size_of::<RenderParams>() as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        params_staging.write(std::slice::from_ref(&params))?;
+        let params_buf = Buffer::new(
+            ctx,
+            "params",
+            params_staging.size,
+            vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )?;
+        let out = Buffer::new(
+            ctx,
+            "pixels",
+            band_rows as u64 * row_bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        let readback = Buffer::new(
+            ctx,
+            "pixels readback",
+            out.size,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
+        let set = pipeline.bind(&[
+            Resource::Uniform(&params_buf),
+            Resource::Sampled(&gpu_grid.image),
+            Resource::Storage(&out),
+            Resource::Storage(&self.colormap),
+        ])?;
+        ctx.submit("upload params", |cmd| {
+            copy_buffer(ctx, cmd, &params_staging, 0, &params_buf, 0, params_staging.size);
+            Ok(())
+        })?;
+
+        let timer = Timer::new(ctx)?;
+        let mut gpu_ms = timer.as_ref().map(|_| 0.0);
+        let mut pixels = Vec::with_capacity(width as usize * height as usize);
+        let mut row = 0;
+        while row < height {
+            let rows = band_rows.min(height - row);
+            let band = Band { row_offset: row, rows };
+            let bytes = rows as u64 * row_bytes;
+            ctx.submit(&pipeline.name, |cmd| {
+                if let Some(t) = &timer {
+                    t.begin(cmd);
+                }
+                pipeline.record(
+                    cmd,
+                    &set,
+                    bytemuck::bytes_of(&band),
+                    [width.div_ceil(raymarch::GROUP), rows.div_ceil(raymarch::GROUP), 1],
+                );
+                if let Some(t) = &timer {
+                    t.end(cmd);
+                }
+                memory_barrier(
+                    ctx,
+                    cmd,
+                    (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
+                    (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
+                );
+                copy_buffer(ctx, cmd, &out, 0, &readback, 0, bytes);
+                memory_barrier(
+                    ctx,
+                    cmd,
+                    (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
+                    (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+                );
+                Ok(())
+            })?;
+            if let (Some(t), Some(ms)) = (&timer, gpu_ms.as_mut()) {
+                *ms += t.elapsed_ms()?;
+            }
+            pixels.extend(readback.read::<Pixel>((rows * width) as usize)?);
+            row += rows;
+        }
+        self.last_gpu_ms = gpu_ms;
+        Ok(Frame { width, height, pixels, info: self.frame_info(scene, grid, time) })
+    }
+
+    fn frame_info(&self, scene: &Scene, grid: &Grid, time: f64) -> FrameInfo {
+        let r = &scene.render;
+        let mut extra = vec![
+            ("shading".to_string(), r.shading.name().to_string()),
+            ("inside".to_string(), format!("{:?}", scene.surface.inside).to_lowercase()),
+            (
+                "grid".to_string(),
+                format!("{}x{}x{}", grid.dims[0], grid.dims[1], grid.dims[2]),
+            ),
+            ("steps_scale".to_string(), format!("{}", params::steps_scale(scene, grid))),
+        ];
+        match r.method {
+            Method::FixedStep => extra.push(("steps".into(), r.steps.to_string())),
+            Method::Analytic => extra.push(("newton_steps".into(), r.newton_steps.to_string())),
+            Method::Mesh => extra.push(("mesh".into(), r.mesh.name().to_string())),
+        }
+        FrameInfo {
+            scene: scene.path.as_ref().map(|p| p.display().to_string()).unwrap_or_default(),
+            eye: scene.camera.eye,
+            target: scene.camera.target,
+            up: scene.camera.up,
+            fov_y_deg: scene.camera.fov_y_deg,
+            isovalue: scene.surface.isovalue,
+            method: r.method.name().to_string(),
+            time,
+            device: self.ctx.info.name.clone(),
+            driver: self.ctx.info.driver_info.clone(),
+            extra,
+        }
+    }
+}

@@ -1,0 +1,110 @@
+//! `cargo bench --bench render` (or `./x bench`): fixed-step ray marching rays/s and samples/s
+//! on the current Vulkan device, against the f64 CPU reference measured in the same run.
+//! Prints a table; never asserts on time.
+
+use std::time::Instant;
+
+use glam::DVec3;
+use isoview::field::{FieldSource, FieldSpec, Grid};
+use isoview::gpu::{Context, ContextOptions};
+use isoview::reference::fixed_step;
+use isoview::render::{GpuGrid, Renderer};
+use isoview::scene::*;
+
+fn torus_grid(n: usize) -> Grid {
+    let spec = FieldSpec {
+        source: FieldSource::Sdf {
+            shape: SdfShape::Torus { major_radius: 0.6, minor_radius: 0.25 },
+            center: DVec3::ZERO,
+        },
+        resolution: [n, n, n],
+        bounds: Bounds { min: DVec3::splat(-1.0), max: DVec3::splat(1.0) },
+    };
+    spec.sample(0.0).expect("torus grid")
+}
+
+fn scene(grid: &Grid, size: u32, steps: u32) -> Scene {
+    Scene {
+        path: None,
+        image: ImageSettings { width: size, height: size },
+        camera: CameraSettings {
+            eye: DVec3::new(2.2, 1.6, 2.4),
+            target: DVec3::ZERO,
+            up: DVec3::Y,
+            fov_y_deg: 40.0,
+        },
+        field: FieldSpec {
+            source: FieldSource::Corners([0.0; 8]),
+            resolution: grid.dims,
+            bounds: Bounds { min: grid.min, max: grid.max },
+        },
+        surface: SurfaceSettings { isovalue: 0.0, inside: Inside::Below },
+        render: RenderSettings {
+            method: Method::FixedStep,
+            steps,
+            newton_steps: 10,
+            mesh: MeshAlgorithm::MarchingCubes,
+            shading: Shading::Lambert,
+            background: [0.0; 4],
+            color: [0.85, 0.65, 0.45],
+        },
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[v.len() / 2]
+}
+
+fn main() {
+    let ctx = match Context::new(&ContextOptions::default()) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("bench: {e}");
+            std::process::exit(3);
+        }
+    };
+    let mut renderer = Renderer::new(&ctx).expect("renderer");
+    let size = 512;
+    let steps = 200;
+    println!("device: {} ({})", ctx.info.name, ctx.info.driver_info);
+    println!("fixed-step, {size}x{size} image, torus SDF, steps = {steps}; GPU: median of 5 frames (GPU timestamps); CPU: f64 reference, one thread, every 8th row");
+    println!();
+    println!("| grid | GPU ms/frame | GPU rays/s | GPU samples/s | CPU rays/s | CPU samples/s | GPU/CPU |");
+    println!("|---|---|---|---|---|---|---|");
+    for n in [64usize, 256] {
+        let grid = torus_grid(n);
+        let sc = scene(&grid, size, steps);
+        let gpu_grid = GpuGrid::upload(&ctx, &grid).expect("upload");
+        let mut times = Vec::new();
+        let mut samples = 0.0;
+        for _ in 0..5 {
+            let frame = renderer.render_uploaded(&sc, &grid, &gpu_grid, 0.0).expect("render");
+            times.push(renderer.last_gpu_ms.unwrap_or(f64::NAN) / 1e3);
+            samples = frame.pixels.iter().map(|p| p.steps as f64).sum();
+        }
+        let gpu_s = median(times);
+        let rays = (size * size) as f64;
+
+        let cam = isoview::camera::Camera::new(&sc.camera, &sc.image);
+        let started = Instant::now();
+        let (mut cpu_rays, mut cpu_samples) = (0.0, 0.0);
+        for py in (0..size).step_by(8) {
+            for px in 0..size {
+                let m = fixed_step::march(&grid, 0.0, Inside::Below, cam.eye, cam.ray_dir(px, py), steps);
+                cpu_rays += 1.0;
+                cpu_samples += m.steps as f64;
+            }
+        }
+        let cpu_s = started.elapsed().as_secs_f64();
+        println!(
+            "| {n}³ | {:.1} | {:.3e} | {:.3e} | {:.3e} | {:.3e} | {:.1}× |",
+            gpu_s * 1e3,
+            rays / gpu_s,
+            samples / gpu_s,
+            cpu_rays / cpu_s,
+            cpu_samples / cpu_s,
+            (rays / gpu_s) / (cpu_rays / cpu_s)
+        );
+    }
+}

@@ -1,0 +1,28 @@
+// Per-render constants; mirrors `render::params::RenderParams` (std140, vec4 members only;
+// layout tested on the GPU).
+struct RenderParams {
+    vec4 eye;          // xyz: camera position
+    vec4 forward;      // xyz: unit view direction
+    vec4 right;        // xyz: right * tan(fov/2) * aspect
+    vec4 up;           // xyz: up' * tan(fov/2)
+    vec4 box_min;      // xyz: world position of grid point (0,0,0)
+    vec4 box_max;      // xyz: world position of the last grid point
+    vec4 inv_spacing;  // xyz: cells per world unit along each axis
+    vec4 background;   // linear RGBA of misses
+    vec4 color;        // rgb: surface colour
+    ivec4 dims;        // xyz: grid points per axis
+    uvec4 image;       // x: width, y: height
+    uvec4 method;      // x: method (0 fixed-step, 1 analytic), y: shading, z: steps, w: newton steps
+    vec4 surface;      // x: isovalue, y: +1 if below is inside, -1 if above; z, w: depth-shading near, far
+    vec4 debug;        // x: step count that maps to the top of the colormap
+};
+
+const uint METHOD_FIXED_STEP = 0u;
+const uint METHOD_ANALYTIC = 1u;
+
+const uint SHADE_LAMBERT = 0u;
+const uint SHADE_NORMAL = 1u;
+const uint SHADE_DEPTH = 2u;
+const uint SHADE_STEPS = 3u;
+const uint SHADE_CELLS = 4u;
+const uint SHADE_SOLID = 5u;

@@ -1,0 +1,82 @@
+#version 450
+// Fixed-step ray marching of the trilinear isosurface (`render.method = "fixed-step"`).
+// Mirrors `reference::fixed_step` (f64) step for step:
+//   1. clip the ray to the grid box: [t0, t1], t0 >= 0 (the eye may be inside);
+//   2. take `steps` samples at t_i = t0 + (t1 - t0) * i / (steps - 1), i = 0 .. steps-1;
+//   3. at the first change of the inside predicate between samples i-1 and i, refine:
+//      REFINE_BISECTIONS bisections keeping the predicate change bracketed, then one secant
+//      step on the final bracket;
+//   4. normal: analytic gradient of the trilinear interpolant at the hit.
+
+#extension GL_GOOGLE_include_directive : require
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+#include "params.glsl"
+#include "pixel.glsl"
+
+layout(std140, binding = 0) uniform Params { RenderParams P; };
+layout(binding = 1) uniform sampler3D u_grid;
+layout(std430, binding = 2) writeonly buffer Out { Pixel pixels[]; };
+layout(std430, binding = 3) readonly buffer Colormap { vec4 colormap[256]; };
+layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
+
+#include "field.glsl"
+#include "shade.glsl"
+#include "camera.glsl"
+
+const int REFINE_BISECTIONS = 8;
+
+void main() {
+    uvec2 local = gl_GlobalInvocationID.xy;
+    if (local.x >= P.image.x || local.y >= band.rows) return;
+    uvec2 px = uvec2(local.x, local.y + band.row_offset);
+    vec3 o = P.eye.xyz;
+    vec3 d = ray_dir(px);
+
+    Pixel r;
+    r.rgba = P.background;
+    r.normal = vec3(0.0);
+    r.depth = 1.0 / 0.0;
+    r.position = vec3(0.0);
+    r.steps = 0.0;
+    r.cell = ivec3(-1);
+    r.crossings = -1;
+
+    float t0, t1;
+    if (clip_box(o, d, t0, t1)) {
+        uint n = P.method.z;
+        float ta = t0;
+        float fa = field_at(to_grid(o + d * t0));
+        bool ina = is_inside(fa);
+        uint count = 1u;
+        for (uint i = 1u; i < n; i++) {
+            float tb = t0 + (t1 - t0) * (float(i) / float(n - 1u));
+            float fb = field_at(to_grid(o + d * tb));
+            count++;
+            if (is_inside(fb) != ina) {
+                // Refine: keep [ta, tb] bracketing the change of the predicate.
+                for (int k = 0; k < REFINE_BISECTIONS; k++) {
+                    float tm = 0.5 * (ta + tb);
+                    float fm = field_at(to_grid(o + d * tm));
+                    if (is_inside(fm) == ina) { ta = tm; fa = fm; } else { tb = tm; fb = fm; }
+                }
+                float s = fb != fa ? clamp((P.surface.x - fa) / (fb - fa), 0.0, 1.0) : 0.5;
+                float th = ta + (tb - ta) * s;
+                vec3 hit = o + d * th;
+                vec3 u = to_grid(hit);
+                r.depth = th;
+                r.position = hit;
+                r.cell = cell_of(u);
+                r.normal = normal_at(u, -d);
+                r.steps = float(count);
+                r.rgba = vec4(shade(r.normal, d, th, r.steps, u, r.cell), 1.0);
+                break;
+            }
+            ta = tb;
+            fa = fb;
+        }
+        r.steps = float(count);
+    }
+    pixels[local.y * P.image.x + local.x] = r;
+}

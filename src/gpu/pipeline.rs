@@ -1,0 +1,335 @@
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::error::{GpuError, VkContext};
+use super::{Buffer, Context, Image3d};
+
+/// A compute pipeline: shader module, descriptor set layout (one set, bindings 0..n in order)
+/// and push-constant range.
+pub struct ComputePipeline {
+    pub name: String,
+    pub raw: vk::Pipeline,
+    pub layout: vk::PipelineLayout,
+    set_layout: vk::DescriptorSetLayout,
+    kinds: Vec<vk::DescriptorType>,
+    push_bytes: u32,
+    ctx: Arc<Context>,
+}
+
+/// A resource for one binding slot.
+pub enum Resource<'a> {
+    Storage(&'a Buffer),
+    Uniform(&'a Buffer),
+    Sampled(&'a Image3d),
+}
+
+/// A descriptor set filled for one pipeline, with its own small pool; keep it alive until the
+/// submission that uses it has completed.
+pub struct Dispatch {
+    set: vk::DescriptorSet,
+    pool: vk::DescriptorPool,
+    ctx: Arc<Context>,
+}
+
+impl ComputePipeline {
+    /// Builds a pipeline from SPIR-V bytes. `bindings[i]` is the descriptor type of binding `i`.
+    pub fn new(
+        ctx: &Arc<Context>,
+        name: &str,
+        spirv: &[u8],
+        bindings: &[vk::DescriptorType],
+        push_bytes: u32,
+    ) -> Result<Self, GpuError> {
+        let device = &ctx.device;
+        let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv))
+            .map_err(|e| GpuError::Limit(format!("shader `{name}` is not SPIR-V: {e}")))?;
+        let layout_bindings: Vec<_> = bindings
+            .iter()
+            .enumerate()
+            .map(|(i, &ty)| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(i as u32)
+                    .descriptor_type(ty)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        // SAFETY: valid device; every object is destroyed in Drop or on the error paths.
+        unsafe {
+            let module = device
+                .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None)
+                .vk("vkCreateShaderModule")?;
+            let set_layout = device
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings),
+                    None,
+                )
+                .vk("vkCreateDescriptorSetLayout")?;
+            let ranges = [vk::PushConstantRange::default()
+                .stage_flags(vk::ShaderStageFlags::COMPUTE)
+                .size(push_bytes)];
+            let set_layouts = [set_layout];
+            let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+            if push_bytes > 0 {
+                layout_info = layout_info.push_constant_ranges(&ranges);
+            }
+            let layout = device
+                .create_pipeline_layout(&layout_info, None)
+                .vk("vkCreatePipelineLayout")?;
+            let stage = vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::COMPUTE)
+                .module(module)
+                .name(c"main");
+            let created = device.create_compute_pipelines(
+                vk::PipelineCache::null(),
+                &[vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)],
+                None,
+            );
+            device.destroy_shader_module(module, None);
+            let raw = match created {
+                Ok(p) => p[0],
+                Err((_, result)) => {
+                    device.destroy_pipeline_layout(layout, None);
+                    device.destroy_descriptor_set_layout(set_layout, None);
+                    return Err(GpuError::Vk { call: "vkCreateComputePipelines", result });
+                }
+            };
+            ctx.set_name(raw, name);
+            Ok(ComputePipeline {
+                name: name.to_string(),
+                raw,
+                layout,
+                set_layout,
+                kinds: bindings.to_vec(),
+                push_bytes,
+                ctx: ctx.clone(),
+            })
+        }
+    }
+
+    /// Allocates and fills a descriptor set with `resources` (one per binding, in order).
+    pub fn bind(&self, resources: &[Resource]) -> Result<Dispatch, GpuError> {
+        if resources.len() != self.kinds.len() {
+            return Err(GpuError::Limit(format!(
+                "pipeline `{}` takes {} bindings, got {}",
+                self.name,
+                self.kinds.len(),
+                resources.len()
+            )));
+        }
+        let device = &self.ctx.device;
+        let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
+        for &ty in &self.kinds {
+            match sizes.iter_mut().find(|s| s.ty == ty) {
+                Some(s) => s.descriptor_count += 1,
+                None => sizes.push(vk::DescriptorPoolSize { ty, descriptor_count: 1 }),
+            }
+        }
+        // SAFETY: valid device; the pool is destroyed with the Dispatch.
+        let pool = unsafe {
+            device.create_descriptor_pool(
+                &vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes),
+                None,
+            )
+        }
+        .vk("vkCreateDescriptorPool")?;
+        let mut dispatch = Dispatch { set: vk::DescriptorSet::null(), pool, ctx: self.ctx.clone() };
+        let layouts = [self.set_layout];
+        // SAFETY: pool and layout are valid.
+        let set = unsafe {
+            device.allocate_descriptor_sets(
+                &vk::DescriptorSetAllocateInfo::default()
+                    .descriptor_pool(pool)
+                    .set_layouts(&layouts),
+            )
+        }
+        .vk("vkAllocateDescriptorSets")?[0];
+
+        let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = resources
+            .iter()
+            .map(|r| match r {
+                Resource::Storage(b) | Resource::Uniform(b) => {
+                    [vk::DescriptorBufferInfo { buffer: b.raw, offset: 0, range: vk::WHOLE_SIZE }]
+                }
+                Resource::Sampled(_) => [vk::DescriptorBufferInfo::default()],
+            })
+            .collect();
+        let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = resources
+            .iter()
+            .map(|r| match r {
+                Resource::Sampled(img) => [vk::DescriptorImageInfo {
+                    sampler: img.sampler,
+                    image_view: img.view,
+                    image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                }],
+                _ => [vk::DescriptorImageInfo::default()],
+            })
+            .collect();
+        let mut writes = Vec::new();
+        for (i, r) in resources.iter().enumerate() {
+            let (ty, is_image) = match r {
+                Resource::Storage(_) => (vk::DescriptorType::STORAGE_BUFFER, false),
+                Resource::Uniform(_) => (vk::DescriptorType::UNIFORM_BUFFER, false),
+                Resource::Sampled(_) => (vk::DescriptorType::COMBINED_IMAGE_SAMPLER, true),
+            };
+            if ty != self.kinds[i] {
+                return Err(GpuError::Limit(format!(
+                    "pipeline `{}` binding {i} wants {:?}, got {ty:?}",
+                    self.name, self.kinds[i]
+                )));
+            }
+            let w = vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(i as u32)
+                .descriptor_type(ty);
+            writes.push(if is_image {
+                w.image_info(&image_infos[i])
+            } else {
+                w.buffer_info(&buffer_infos[i])
+            });
+        }
+        // SAFETY: the infos outlive the call; resources are valid.
+        unsafe { device.update_descriptor_sets(&writes, &[]) };
+        dispatch.set = set;
+        Ok(dispatch)
+    }
+
+    /// Records a dispatch of `groups` workgroups with `push` constants.
+    pub fn record(&self, cmd: vk::CommandBuffer, set: &Dispatch, push: &[u8], groups: [u32; 3]) {
+        let device = &self.ctx.device;
+        debug_assert_eq!(push.len() as u32, self.push_bytes);
+        // SAFETY: cmd is recording; pipeline, layout and set are valid.
+        unsafe {
+            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.raw);
+            device.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.layout,
+                0,
+                &[set.set],
+                &[],
+            );
+            if !push.is_empty() {
+                device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
+            }
+            device.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
+        }
+    }
+}
+
+impl Drop for ComputePipeline {
+    fn drop(&mut self) {
+        // SAFETY: no submission is in flight (submissions wait on their fence).
+        unsafe {
+            self.ctx.device.destroy_pipeline(self.raw, None);
+            self.ctx.device.destroy_pipeline_layout(self.layout, None);
+            self.ctx.device.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+impl Drop for Dispatch {
+    fn drop(&mut self) {
+        // SAFETY: destroying the pool frees its set; no submission using it is in flight.
+        unsafe { self.ctx.device.destroy_descriptor_pool(self.pool, None) };
+    }
+}
+
+/// Records a compute→transfer/host or compute→compute memory barrier on all buffers.
+pub fn memory_barrier(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    src: (vk::PipelineStageFlags, vk::AccessFlags),
+    dst: (vk::PipelineStageFlags, vk::AccessFlags),
+) {
+    let b = [vk::MemoryBarrier::default().src_access_mask(src.1).dst_access_mask(dst.1)];
+    // SAFETY: cmd is recording.
+    unsafe {
+        ctx.device
+            .cmd_pipeline_barrier(cmd, src.0, dst.0, vk::DependencyFlags::empty(), &b, &[], &[])
+    };
+}
+
+/// Records a copy of `bytes` bytes between buffers.
+pub fn copy_buffer(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    src: &Buffer,
+    src_offset: u64,
+    dst: &Buffer,
+    dst_offset: u64,
+    bytes: u64,
+) {
+    let region = vk::BufferCopy { src_offset, dst_offset, size: bytes };
+    // SAFETY: cmd is recording and both buffers are valid and large enough (callers size them).
+    unsafe { ctx.device.cmd_copy_buffer(cmd, src.raw, dst.raw, &[region]) };
+}
+
+/// A pair of timestamps around recorded work.
+pub struct Timer {
+    pool: vk::QueryPool,
+    ctx: Arc<Context>,
+}
+
+impl Timer {
+    pub fn new(ctx: &Arc<Context>) -> Result<Option<Self>, GpuError> {
+        if !ctx.info.timestamps {
+            return Ok(None);
+        }
+        let info = vk::QueryPoolCreateInfo::default()
+            .query_type(vk::QueryType::TIMESTAMP)
+            .query_count(2);
+        // SAFETY: valid device; destroyed in Drop.
+        let pool = unsafe { ctx.device.create_query_pool(&info, None) }.vk("vkCreateQueryPool")?;
+        Ok(Some(Timer { pool, ctx: ctx.clone() }))
+    }
+
+    pub fn begin(&self, cmd: vk::CommandBuffer) {
+        // SAFETY: cmd is recording; the pool has 2 queries.
+        unsafe {
+            self.ctx.device.cmd_reset_query_pool(cmd, self.pool, 0, 2);
+            self.ctx.device.cmd_write_timestamp(
+                cmd,
+                vk::PipelineStageFlags::TOP_OF_PIPE,
+                self.pool,
+                0,
+            );
+        }
+    }
+
+    pub fn end(&self, cmd: vk::CommandBuffer) {
+        // SAFETY: cmd is recording.
+        unsafe {
+            self.ctx.device.cmd_write_timestamp(
+                cmd,
+                vk::PipelineStageFlags::BOTTOM_OF_PIPE,
+                self.pool,
+                1,
+            )
+        };
+    }
+
+    /// Milliseconds between begin and end, after the submission completed.
+    pub fn elapsed_ms(&self) -> Result<f64, GpuError> {
+        let mut ticks = [0u64; 2];
+        // SAFETY: both queries were written by a completed submission.
+        unsafe {
+            self.ctx.device.get_query_pool_results(
+                self.pool,
+                0,
+                &mut ticks,
+                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+            )
+        }
+        .vk("vkGetQueryPoolResults")?;
+        Ok(ticks[1].wrapping_sub(ticks[0]) as f64 * self.ctx.info.timestamp_period_ns as f64 * 1e-6)
+    }
+}
+
+impl Drop for Timer {
+    fn drop(&mut self) {
+        // SAFETY: no submission using the pool is in flight.
+        unsafe { self.ctx.device.destroy_query_pool(self.pool, None) };
+    }
+}

@@ -1,0 +1,187 @@
+//! Whole-or-nothing file writes.
+//!
+//! ```text
+//!   dir/.out.exr.<pid>.<n>.tmp   <- create_new, write, flush, fsync
+//!            |  rename (atomic on one filesystem)
+//!            v
+//!   dir/out.exr                  <- readers see the old file or the new one, never a mix
+//! ```
+//!
+//! The temporary file sits in the destination's folder so that the rename never crosses a
+//! filesystem. On any error (or a panic in the caller's writer) the temporary file is removed
+//! and whatever was at the destination before is left untouched. After the rename the folder
+//! is fsynced (best effort) so that the new name survives a crash.
+//!
+//! A destination that is a symbolic link is replaced by a regular file (the link's target is
+//! not written); permissions of a replaced file are not carried over.
+
+use std::fs::{File, OpenOptions};
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use super::OutputError;
+
+/// Distinguishes temporary files of concurrent writers in one process.
+static COUNTER: AtomicU64 = AtomicU64::new(0);
+
+/// Writes `path` atomically: `write` fills a buffered temporary file in the same folder,
+/// which is then flushed, fsynced and renamed over `path`.
+///
+/// If `write` (or any step after it) fails, the temporary file is removed, `path` is left as
+/// it was, and the error names `path`. A writer that needs to fail with an error of its own
+/// can wrap it with [`std::io::Error::other`]; its message is kept.
+pub fn write_with<F>(path: &Path, write: F) -> Result<(), OutputError>
+where
+    F: FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+{
+    let (file, temp) = create_temp(path)?;
+    let mut guard = TempGuard(Some(temp.clone()));
+    let mut out = BufWriter::new(file);
+    write(&mut out).map_err(|e| OutputError::io(path, "write", e))?;
+    let file = out
+        .into_inner()
+        .map_err(|e| OutputError::io(path, "write", e.into_error()))?;
+    file.sync_all()
+        .map_err(|e| OutputError::io(path, "sync", e))?;
+    drop(file);
+    std::fs::rename(&temp, path).map_err(|e| OutputError::io(path, "rename into place", e))?;
+    guard.0 = None;
+    sync_parent(path);
+    Ok(())
+}
+
+/// Writes `bytes` to `path` atomically (see [`write_with`]).
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    write_with(path, |w| w.write_all(bytes))
+}
+
+/// The folder `path` is in (`.` for a bare file name).
+fn parent_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+/// Creates a fresh temporary file next to `path`.
+fn create_temp(path: &Path) -> Result<(File, PathBuf), OutputError> {
+    let name = path
+        .file_name()
+        .ok_or_else(|| OutputError::invalid(path, "not a file name"))?;
+    let dir = parent_dir(path);
+    let pid = std::process::id();
+    loop {
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let mut temp_name = std::ffi::OsString::from(".");
+        temp_name.push(name);
+        temp_name.push(format!(".{pid}.{n}.tmp"));
+        let temp = dir.join(temp_name);
+        match OpenOptions::new().write(true).create_new(true).open(&temp) {
+            Ok(file) => return Ok((file, temp)),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+            Err(e) => return Err(OutputError::io(path, "create", e)),
+        }
+    }
+}
+
+/// Removes the temporary file unless it was renamed into place.
+struct TempGuard(Option<PathBuf>);
+
+impl Drop for TempGuard {
+    fn drop(&mut self) {
+        if let Some(temp) = self.0.take() {
+            // Best effort: the original error is what the caller needs to see.
+            let _ = std::fs::remove_file(temp);
+        }
+    }
+}
+
+/// Makes the rename durable by fsyncing the folder (a no-op where folders cannot be opened).
+fn sync_parent(path: &Path) {
+    #[cfg(unix)]
+    if let Ok(dir) = File::open(parent_dir(path)) {
+        let _ = dir.sync_all();
+    }
+    #[cfg(not(unix))]
+    let _ = path;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!(
+            "isoview-atomic-{name}-{}",
+            std::process::id()
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    fn entries(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn writes_and_replaces() {
+        let dir = scratch("replace");
+        let p = dir.join("a.txt");
+        write_bytes(&p, b"one").unwrap();
+        write_bytes(&p, b"two").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"two");
+        assert_eq!(entries(&dir), vec!["a.txt"]);
+    }
+
+    #[test]
+    fn failed_write_keeps_previous_file_and_leaves_no_temp() {
+        let dir = scratch("fail");
+        let p = dir.join("a.txt");
+        write_bytes(&p, b"previous").unwrap();
+        let err = write_with(&p, |w| {
+            w.write_all(&[7u8; 100_000])?;
+            Err(std::io::Error::other("encoder gave up"))
+        })
+        .unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.contains("a.txt") && msg.contains("encoder gave up"), "{msg}");
+        assert_eq!(std::fs::read(&p).unwrap(), b"previous");
+        assert_eq!(entries(&dir), vec!["a.txt"]);
+    }
+
+    #[test]
+    fn panicking_writer_leaves_no_temp() {
+        let dir = scratch("panic");
+        let p = dir.join("a.txt");
+        let r = std::panic::catch_unwind(|| {
+            let _ = write_with(&p, |_| panic!("boom"));
+        });
+        assert!(r.is_err());
+        assert!(entries(&dir).is_empty());
+    }
+
+    #[test]
+    fn missing_folder_is_an_error_naming_the_file() {
+        let dir = scratch("missing");
+        let p = dir.join("no/such/folder/a.txt");
+        let msg = write_bytes(&p, b"x").unwrap_err().to_string();
+        assert!(msg.contains("a.txt"), "{msg}");
+    }
+
+    #[test]
+    fn destination_that_is_a_folder_fails_cleanly() {
+        let dir = scratch("isdir");
+        let p = dir.join("out");
+        std::fs::create_dir(&p).unwrap();
+        assert!(write_bytes(&p, b"x").is_err());
+        assert_eq!(entries(&dir), vec!["out"]);
+        assert!(p.is_dir());
+    }
+}

@@ -1,0 +1,116 @@
+//! The trilinear field in f64 (GPU: `shaders/include/field.glsl`), and the ray/box clip.
+
+use glam::DVec3;
+
+use crate::field::Grid;
+
+/// World position → continuous grid coordinates, clamped into the box.
+pub fn to_grid(grid: &Grid, pos: DVec3) -> DVec3 {
+    let last = DVec3::new(
+        (grid.dims[0] - 1) as f64,
+        (grid.dims[1] - 1) as f64,
+        (grid.dims[2] - 1) as f64,
+    );
+    ((pos - grid.min) / grid.spacing()).clamp(DVec3::ZERO, last)
+}
+
+/// The cell holding grid coordinates `u` (the last grid plane belongs to the last cell).
+pub fn cell_of(grid: &Grid, u: DVec3) -> [usize; 3] {
+    let c = grid.cells();
+    [
+        (u.x.floor().max(0.0) as usize).min(c[0] - 1),
+        (u.y.floor().max(0.0) as usize).min(c[1] - 1),
+        (u.z.floor().max(0.0) as usize).min(c[2] - 1),
+    ]
+}
+
+/// Corner values of a cell widened to f64, in `Grid::corners` order.
+pub fn corners(grid: &Grid, c: [usize; 3]) -> [f64; 8] {
+    grid.corners(c[0], c[1], c[2]).map(f64::from)
+}
+
+/// Trilinear interpolation of corner values at local coordinates `f` in [0,1]^3.
+pub fn trilinear_local(v: &[f64; 8], f: DVec3) -> f64 {
+    let lerp = |a: f64, b: f64, t: f64| a * (1.0 - t) + b * t;
+    let x00 = lerp(v[0], v[1], f.x);
+    let x10 = lerp(v[2], v[3], f.x);
+    let x01 = lerp(v[4], v[5], f.x);
+    let x11 = lerp(v[6], v[7], f.x);
+    lerp(lerp(x00, x10, f.y), lerp(x01, x11, f.y), f.z)
+}
+
+/// Gradient of the trilinear interpolant with respect to local coordinates.
+pub fn gradient_local(v: &[f64; 8], f: DVec3) -> DVec3 {
+    let lerp = |a: f64, b: f64, t: f64| a * (1.0 - t) + b * t;
+    DVec3::new(
+        lerp(lerp(v[1] - v[0], v[3] - v[2], f.y), lerp(v[5] - v[4], v[7] - v[6], f.y), f.z),
+        lerp(lerp(v[2] - v[0], v[3] - v[1], f.x), lerp(v[6] - v[4], v[7] - v[5], f.x), f.z),
+        lerp(lerp(v[4] - v[0], v[5] - v[1], f.x), lerp(v[6] - v[2], v[7] - v[3], f.x), f.y),
+    )
+}
+
+/// Field value at grid coordinates `u`.
+pub fn value_at(grid: &Grid, u: DVec3) -> f64 {
+    let c = cell_of(grid, u);
+    let f = u - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+    trilinear_local(&corners(grid, c), f)
+}
+
+/// World-space gradient at grid coordinates `u`.
+pub fn gradient_at(grid: &Grid, u: DVec3) -> DVec3 {
+    let c = cell_of(grid, u);
+    let f = u - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+    gradient_local(&corners(grid, c), f) / grid.spacing()
+}
+
+/// Ray/box intersection by slabs: `Some((t0, t1))` with `0 <= t0 <= t1`, or None when the ray
+/// misses the box or it lies behind the origin. Zero direction components are handled
+/// explicitly.
+pub fn clip_box(grid: &Grid, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
+    let (mut t0, mut t1) = (0.0f64, f64::MAX);
+    for a in 0..3 {
+        let (lo, hi) = (grid.min[a], grid.max[a]);
+        if d[a] == 0.0 {
+            if o[a] < lo || o[a] > hi {
+                return None;
+            }
+        } else {
+            let ta = (lo - o[a]) / d[a];
+            let tb = (hi - o[a]) / d[a];
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+    }
+    (t0 <= t1).then_some((t0, t1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn trilinear_reproduces_corners_and_gradient_of_a_linear_field() {
+        let grid = Grid {
+            dims: [2, 2, 2],
+            min: DVec3::ZERO,
+            max: DVec3::new(2.0, 4.0, 8.0),
+            values: (0..8)
+                .map(|n| (1.0 + 2.0 * (n & 1) as f64 + 3.0 * ((n >> 1) & 1) as f64
+                    - 4.0 * ((n >> 2) & 1) as f64) as f32)
+                .collect(),
+        };
+        let u = DVec3::new(0.25, 0.5, 0.75);
+        assert!((value_at(&grid, u) - (1.0 + 0.5 + 1.5 - 3.0)).abs() < 1e-12);
+        let g = gradient_at(&grid, u);
+        assert!((g - DVec3::new(1.0, 0.75, -0.5)).length() < 1e-12);
+    }
+
+    #[test]
+    fn clip_box_handles_axis_parallel_and_inside_rays() {
+        let grid = Grid { dims: [2, 2, 2], min: DVec3::ZERO, max: DVec3::ONE, values: vec![0.0; 8] };
+        assert_eq!(clip_box(&grid, DVec3::new(0.5, 0.5, -1.0), DVec3::Z), Some((1.0, 2.0)));
+        assert_eq!(clip_box(&grid, DVec3::new(1.5, 0.5, -1.0), DVec3::Z), None);
+        assert_eq!(clip_box(&grid, DVec3::splat(0.5), DVec3::X), Some((0.0, 0.5)));
+        assert_eq!(clip_box(&grid, DVec3::new(0.5, 0.5, 2.0), DVec3::Z), None);
+    }
+}

@@ -1,0 +1,108 @@
+//! Shading and whole-image rendering on the CPU (GPU: `shaders/include/shade.glsl` and the
+//! ray passes), so references produce the same `Pixel` records as the GPU.
+
+use glam::DVec3;
+
+use crate::camera::Camera;
+use crate::field::Grid;
+use crate::frame::Pixel;
+use crate::render::colormap;
+use crate::render::params::{depth_range, steps_scale};
+use crate::scene::{Scene, Shading};
+
+const AMBIENT: f64 = 0.15;
+const CELL_BORDER: f64 = 0.03;
+
+/// What a ray found, in the form every method's reference returns.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayHit {
+    /// Distance along the unit ray.
+    pub t: f64,
+    pub position: DVec3,
+    /// Unit normal, inside to outside.
+    pub normal: DVec3,
+    /// Continuous grid coordinates of the hit.
+    pub grid_coords: DVec3,
+    pub cell: [usize; 3],
+}
+
+/// Shading inputs that do not change per pixel.
+pub struct Shader {
+    mode: Shading,
+    color: DVec3,
+    near: f64,
+    far: f64,
+    steps_scale: f64,
+    colormap: Vec<[f32; 4]>,
+}
+
+impl Shader {
+    pub fn new(scene: &Scene, grid: &Grid) -> Self {
+        let (near, far) = depth_range(scene.camera.eye, grid);
+        let c = scene.render.color;
+        Shader {
+            mode: scene.render.shading,
+            color: DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64),
+            near,
+            far,
+            steps_scale: steps_scale(scene, grid),
+            colormap: colormap(),
+        }
+    }
+
+    /// Colour of a hit seen along unit direction `dir` after visiting `steps` samples or cells.
+    pub fn shade(&self, hit: &RayHit, dir: DVec3, steps: f64) -> DVec3 {
+        let lambert = AMBIENT + (1.0 - AMBIENT) * hit.normal.dot(dir).abs();
+        match self.mode {
+            Shading::Normal => hit.normal * 0.5 + 0.5,
+            Shading::Depth => {
+                DVec3::splat(1.0 - ((hit.t - self.near) / (self.far - self.near)).clamp(0.0, 1.0))
+            }
+            Shading::Steps => {
+                let i = ((steps / self.steps_scale).clamp(0.0, 1.0) * 255.0 + 0.5) as usize;
+                let c = self.colormap[i];
+                DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)
+            }
+            Shading::Cells => {
+                let c = hit.cell;
+                let f = hit.grid_coords - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+                let edge = f.min(DVec3::ONE - f);
+                let mut tone = if (c[0] + c[1] + c[2]) % 2 == 0 { 1.0 } else { 0.6 };
+                if edge.min_element() < CELL_BORDER {
+                    tone *= 0.25;
+                }
+                self.color * tone * lambert
+            }
+            Shading::Solid => self.color,
+            Shading::Lambert => self.color * lambert,
+        }
+    }
+}
+
+/// Renders every pixel with `trace(origin, dir) -> (hit, steps, crossings)`.
+pub fn render_with<F>(scene: &Scene, grid: &Grid, mut trace: F) -> Vec<Pixel>
+where
+    F: FnMut(DVec3, DVec3) -> (Option<RayHit>, u32, i32),
+{
+    let cam = Camera::new(&scene.camera, &scene.image);
+    let shader = Shader::new(scene, grid);
+    let mut out = Vec::with_capacity((scene.image.width * scene.image.height) as usize);
+    for py in 0..scene.image.height {
+        for px in 0..scene.image.width {
+            let dir = cam.ray_dir(px, py);
+            let (hit, steps, crossings) = trace(cam.eye, dir);
+            let mut p = Pixel::miss(scene.render.background, steps as f32);
+            p.crossings = crossings;
+            if let Some(h) = hit {
+                let c = shader.shade(&h, dir, steps as f64);
+                p.rgba = [c.x as f32, c.y as f32, c.z as f32, 1.0];
+                p.normal = h.normal.as_vec3().to_array();
+                p.depth = h.t as f32;
+                p.position = h.position.as_vec3().to_array();
+                p.cell = h.cell.map(|c| c as i32);
+            }
+            out.push(p);
+        }
+    }
+    out
+}

@@ -1,0 +1,115 @@
+//! The per-render constants block shared with GLSL (`shaders/include/params.glsl`).
+
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+
+use crate::camera::Camera;
+use crate::field::Grid;
+use crate::scene::{Inside, Method, Scene, Shading};
+
+/// std140 mirror of `struct RenderParams` (vec4 members only, so std140 = C layout).
+/// Field meanings are documented on the GLSL side.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RenderParams {
+    pub eye: [f32; 4],
+    pub forward: [f32; 4],
+    pub right: [f32; 4],
+    pub up: [f32; 4],
+    pub box_min: [f32; 4],
+    pub box_max: [f32; 4],
+    pub inv_spacing: [f32; 4],
+    pub background: [f32; 4],
+    pub color: [f32; 4],
+    pub dims: [i32; 4],
+    pub image: [u32; 4],
+    pub method: [u32; 4],
+    pub surface: [f32; 4],
+    pub debug: [f32; 4],
+}
+
+const _: () = {
+    assert!(std::mem::size_of::<RenderParams>() == 14 * 16);
+    assert!(std::mem::offset_of!(RenderParams, dims) == 9 * 16);
+    assert!(std::mem::offset_of!(RenderParams, debug) == 13 * 16);
+};
+
+/// Push constants of the ray passes: the band of rows being rendered.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Band {
+    pub row_offset: u32,
+    pub rows: u32,
+}
+
+fn v4(v: DVec3, w: f32) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, w]
+}
+
+pub fn method_code(m: Method) -> u32 {
+    match m {
+        Method::FixedStep => 0,
+        Method::Analytic => 1,
+        Method::Mesh => 2,
+    }
+}
+
+pub fn shading_code(s: Shading) -> u32 {
+    match s {
+        Shading::Lambert => 0,
+        Shading::Normal => 1,
+        Shading::Depth => 2,
+        Shading::Steps => 3,
+        Shading::Cells => 4,
+        Shading::Solid => 5,
+    }
+}
+
+/// Distances from the eye that map to white and black in `depth` shading: the near and far
+/// side of the grid box's bounding sphere.
+pub fn depth_range(eye: DVec3, grid: &Grid) -> (f64, f64) {
+    let centre = 0.5 * (grid.min + grid.max);
+    let radius = 0.5 * (grid.max - grid.min).length();
+    let dist = (eye - centre).length();
+    ((dist - radius).max(0.0), dist + radius)
+}
+
+/// The step count shown at the top of the `steps` colormap: the sample count for fixed-step,
+/// the most cells a ray can cross (nx + ny + nz - 3 + 1) for analytic.
+pub fn steps_scale(scene: &Scene, grid: &Grid) -> f64 {
+    match scene.render.method {
+        Method::FixedStep => scene.render.steps as f64,
+        _ => (grid.cells().iter().sum::<usize>() + 1) as f64,
+    }
+}
+
+impl RenderParams {
+    pub fn new(scene: &Scene, grid: &Grid) -> Self {
+        let cam = Camera::new(&scene.camera, &scene.image);
+        let (near, far) = depth_range(cam.eye, grid);
+        let inv = DVec3::ONE / grid.spacing();
+        let r = &scene.render;
+        let [nx, ny, nz] = grid.dims;
+        RenderParams {
+            eye: v4(cam.eye, 1.0),
+            forward: v4(cam.forward, 0.0),
+            right: v4(cam.right_scaled, 0.0),
+            up: v4(cam.up_scaled, 0.0),
+            box_min: v4(grid.min, 0.0),
+            box_max: v4(grid.max, 0.0),
+            inv_spacing: v4(inv, 0.0),
+            background: r.background,
+            color: [r.color[0], r.color[1], r.color[2], 1.0],
+            dims: [nx as i32, ny as i32, nz as i32, 0],
+            image: [scene.image.width, scene.image.height, 0, 0],
+            method: [method_code(r.method), shading_code(r.shading), r.steps, r.newton_steps],
+            surface: [
+                scene.surface.isovalue as f32,
+                if scene.surface.inside == Inside::Below { 1.0 } else { -1.0 },
+                near as f32,
+                far as f32,
+            ],
+            debug: [steps_scale(scene, grid) as f32, 0.0, 0.0, 0.0],
+        }
+    }
+}

@@ -1,0 +1,113 @@
+//! Shared test helpers: a seeded RNG, grids and scenes built in code, the GPU context.
+
+use std::sync::Arc;
+
+use glam::DVec3;
+use isoview::field::{FieldSource, FieldSpec, Grid};
+use isoview::gpu::{Context, ContextOptions};
+use isoview::scene::*;
+
+/// xorshift64*: deterministic, seeded per test.
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+    }
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    /// Uniform in [lo, hi).
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    pub fn unit_vector(&mut self) -> DVec3 {
+        loop {
+            let v = DVec3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0));
+            let l = v.length();
+            if l > 0.1 && l <= 1.0 {
+                return v / l;
+            }
+        }
+    }
+}
+
+/// The GPU context for a test, or None when `ISOVIEW_SKIP_GPU_TESTS=1`. Panics (fails the
+/// test) when no Vulkan device is found.
+pub fn gpu() -> Option<Arc<Context>> {
+    if std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() == Ok("1") {
+        eprintln!("ISOVIEW_SKIP_GPU_TESTS=1: skipping a GPU test");
+        return None;
+    }
+    let validation = std::env::var("ISOVIEW_VALIDATION").as_deref() == Ok("1");
+    match Context::new(&ContextOptions { device: None, validation }) {
+        Ok(ctx) => Some(ctx),
+        Err(e) => panic!("GPU test needs a Vulkan device: {e}"),
+    }
+}
+
+/// A grid of random values in [-1, 1] over a random box.
+pub fn random_grid(rng: &mut Rng, dims: [usize; 3]) -> Grid {
+    let min = DVec3::new(rng.range(-1.5, -0.5), rng.range(-1.5, -0.5), rng.range(-1.5, -0.5));
+    let max = DVec3::new(rng.range(0.5, 1.5), rng.range(0.5, 1.5), rng.range(0.5, 1.5));
+    let n = dims.iter().product();
+    let values = (0..n).map(|_| rng.range(-1.0, 1.0) as f32).collect();
+    Grid { dims, min, max, values }
+}
+
+/// A grid sampled from `f(world point)`.
+pub fn grid_from(dims: [usize; 3], min: DVec3, max: DVec3, f: impl Fn(DVec3) -> f64) -> Grid {
+    let mut g = Grid { dims, min, max, values: Vec::new() };
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let v = f(g.point(i, j, k)) as f32;
+                g.values.push(v);
+            }
+        }
+    }
+    g
+}
+
+/// A scene around `grid` (its field spec is a placeholder: renders take the grid directly).
+pub fn scene_for(grid: &Grid, eye: DVec3, size: u32, method: Method) -> Scene {
+    Scene {
+        path: None,
+        image: ImageSettings { width: size, height: size },
+        camera: CameraSettings {
+            eye,
+            target: 0.5 * (grid.min + grid.max),
+            up: DVec3::Y,
+            fov_y_deg: 40.0,
+        },
+        field: FieldSpec {
+            source: FieldSource::Corners([0.0; 8]),
+            resolution: grid.dims,
+            bounds: Bounds { min: grid.min, max: grid.max },
+        },
+        surface: SurfaceSettings { isovalue: 0.0, inside: Inside::Below },
+        render: RenderSettings {
+            method,
+            steps: 64,
+            newton_steps: 10,
+            mesh: MeshAlgorithm::MarchingCubes,
+            shading: Shading::Lambert,
+            background: [0.0, 0.0, 0.0, 0.0],
+            color: [0.85, 0.65, 0.45],
+        },
+    }
+}
+
+/// A random camera position looking at the box from outside (or, with `inside`, from within).
+pub fn random_eye(rng: &mut Rng, grid: &Grid, inside: bool) -> DVec3 {
+    let c = 0.5 * (grid.min + grid.max);
+    let r = 0.5 * (grid.max - grid.min).length();
+    if inside {
+        c + rng.unit_vector() * r * 0.3
+    } else {
+        c + rng.unit_vector() * r * rng.range(1.6, 3.0)
+    }
+}

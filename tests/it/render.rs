@@ -1,0 +1,193 @@
+//! The fixed-step GPU pass against its f64 reference, and renders with known answers.
+
+use glam::DVec3;
+use isoview::field::Grid;
+use isoview::frame::Pixel;
+use isoview::reference::{field, fixed_step};
+use isoview::render::Renderer;
+use isoview::scene::{Inside, Method, Scene, Shading};
+
+use crate::common::*;
+
+/// Tolerances of GPU (f32) against the reference (f64), relative to the box diagonal.
+const DEPTH_TOL: f64 = 2e-5;
+/// Normals: largest allowed |n_gpu - n_ref| (about 0.06 degrees).
+const NORMAL_TOL: f64 = 1e-3;
+/// Hit/miss and step counts may differ only where some sample's value is this close to the
+/// isovalue, relative to the grid's value range (f32 rounding of sample positions).
+const MARGIN_TOL: f64 = 1e-4;
+
+struct Agreement {
+    rays: usize,
+    hits: usize,
+    excused: usize,
+}
+
+fn compare_with_reference(scene: &Scene, grid: &Grid, gpu: &[Pixel]) -> Agreement {
+    let cam = isoview::camera::Camera::new(&scene.camera, &scene.image);
+    let (lo, hi) = grid.range();
+    let margin_tol = MARGIN_TOL * (hi - lo) as f64;
+    let diag = (grid.max - grid.min).length();
+    let reference = fixed_step::render(scene, grid);
+    let mut agreement = Agreement { rays: 0, hits: 0, excused: 0 };
+    for py in 0..scene.image.height {
+        for px in 0..scene.image.width {
+            let i = (py * scene.image.width + px) as usize;
+            let (g, r) = (&gpu[i], &reference[i]);
+            let m = fixed_step::march(
+                grid,
+                scene.surface.isovalue,
+                scene.surface.inside,
+                cam.eye,
+                cam.ray_dir(px, py),
+                scene.render.steps,
+            );
+            agreement.rays += 1;
+            if g.is_hit() != r.is_hit() || g.steps != r.steps {
+                assert!(
+                    m.margin < margin_tol,
+                    "pixel ({px},{py}): GPU {g:?} vs reference {r:?}, margin {}",
+                    m.margin
+                );
+                agreement.excused += 1;
+                continue;
+            }
+            if !r.is_hit() {
+                assert_eq!(g.rgba, r.rgba, "pixel ({px},{py}) background");
+                continue;
+            }
+            agreement.hits += 1;
+            let dz = (g.depth as f64 - r.depth as f64).abs();
+            if dz > DEPTH_TOL * diag {
+                // A different bracket (two crossings in one step) is a tie, like hit/miss.
+                assert!(m.margin < margin_tol, "pixel ({px},{py}): depth {} vs {}", g.depth, r.depth);
+                agreement.excused += 1;
+                continue;
+            }
+            let dn = (DVec3::from(g.normal.map(f64::from)) - DVec3::from(r.normal.map(f64::from)))
+                .length();
+            assert!(dn < NORMAL_TOL, "pixel ({px},{py}): normal {:?} vs {:?}", g.normal, r.normal);
+            for a in 0..3 {
+                assert!((g.position[a] - r.position[a]).abs() as f64 <= DEPTH_TOL * diag * 2.0);
+            }
+            if g.cell != r.cell {
+                // Only on a cell face: the hit's grid coordinate is within rounding of an integer.
+                let u = field::to_grid(grid, DVec3::from(r.position.map(f64::from)));
+                let on_face = (0..3).any(|a| (u[a] - u[a].round()).abs() < 1e-4);
+                assert!(on_face, "pixel ({px},{py}): cell {:?} vs {:?}", g.cell, r.cell);
+            }
+            for c in 0..4 {
+                assert!((g.rgba[c] - r.rgba[c]).abs() < 2e-3, "pixel ({px},{py}) colour");
+            }
+        }
+    }
+    agreement
+}
+
+#[test]
+fn fixed_step_matches_reference_on_random_grids_and_cameras() {
+    let Some(ctx) = gpu() else { return };
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let mut rng = Rng::new(7);
+    let (mut rays, mut hits, mut excused) = (0, 0, 0);
+    for case in 0..12 {
+        let dims = [
+            2 + (rng.next_u64() % 7) as usize,
+            2 + (rng.next_u64() % 7) as usize,
+            2 + (rng.next_u64() % 7) as usize,
+        ];
+        let grid = random_grid(&mut rng, dims);
+        let eye = random_eye(&mut rng, &grid, case % 4 == 3);
+        let mut scene = scene_for(&grid, eye, 40, Method::FixedStep);
+        scene.render.steps = 16 + (rng.next_u64() % 100) as u32;
+        scene.surface.isovalue = rng.range(-0.3, 0.3);
+        scene.surface.inside = if case % 2 == 0 { Inside::Below } else { Inside::Above };
+        scene.render.shading = [Shading::Lambert, Shading::Normal, Shading::Cells][case % 3];
+        let frame = renderer.render(&scene, &grid, 0.0).unwrap();
+        let a = compare_with_reference(&scene, &grid, &frame.pixels);
+        rays += a.rays;
+        hits += a.hits;
+        excused += a.excused;
+    }
+    eprintln!("fixed-step vs reference: {rays} rays, {hits} hits compared, {excused} ties");
+    assert!(hits > rays / 10, "too few hits to mean anything: {hits} of {rays}");
+    assert!(excused * 1000 < rays, "too many ties: {excused} of {rays}");
+}
+
+#[test]
+fn linear_field_renders_an_exact_plane() {
+    let Some(ctx) = gpu() else { return };
+    // f = x + 2y - z: the surface f = 0.1 is a plane with normal (1, 2, -1)/sqrt(6).
+    let grid = grid_from([6, 5, 7], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.x + 2.0 * p.y - p.z);
+    let mut scene = scene_for(&grid, DVec3::new(2.5, 1.0, 3.0), 48, Method::FixedStep);
+    scene.surface.isovalue = 0.1;
+    let frame = Renderer::new(&ctx).unwrap().render(&scene, &grid, 0.0).unwrap();
+    let n = DVec3::new(1.0, 2.0, -1.0).normalize();
+    let mut hits = 0;
+    for p in frame.pixels.iter().filter(|p| p.is_hit()) {
+        hits += 1;
+        let pos = DVec3::from(p.position.map(f64::from));
+        assert!((pos.dot(DVec3::new(1.0, 2.0, -1.0)) - 0.1).abs() < 1e-5, "{pos} off the plane");
+        assert!((DVec3::from(p.normal.map(f64::from)) - n).length() < 1e-5);
+        let eye_dist = (pos - scene.camera.eye).length();
+        assert!((eye_dist - p.depth as f64).abs() < 1e-5);
+    }
+    assert!(hits > 150, "the plane covers part of the image: {hits}");
+}
+
+#[test]
+fn sphere_sdf_grid_renders_a_sphere() {
+    let Some(ctx) = gpu() else { return };
+    let grid = grid_from([33, 33, 33], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.6);
+    let scene = scene_for(&grid, DVec3::new(0.0, 0.0, 3.0), 64, Method::FixedStep);
+    let frame = Renderer::new(&ctx).unwrap().render(&scene, &grid, 0.0).unwrap();
+    let cam = isoview::camera::Camera::new(&scene.camera, &scene.image);
+    for py in 0..64 {
+        for px in 0..64 {
+            let p = frame.pixel(px, py);
+            let d = cam.ray_dir(px, py);
+            // Distance of the ray from the centre decides hit or miss, away from the silhouette.
+            let closest = (cam.eye - d * cam.eye.dot(d)).length();
+            if closest < 0.58 {
+                assert!(p.is_hit(), "({px},{py}) should hit");
+                let pos = DVec3::from(p.position.map(f64::from));
+                // Trilinear surface of a 33^3 SDF grid: within 2e-3 of the true sphere (h = 1/16).
+                assert!((pos.length() - 0.6).abs() < 2e-3, "|{pos}| = {}", pos.length());
+                let nrm = DVec3::from(p.normal.map(f64::from));
+                assert!(nrm.dot(pos.normalize()) > 0.995, "normal {nrm} at {pos}");
+            } else if closest > 0.62 {
+                assert!(!p.is_hit(), "({px},{py}) should miss");
+                assert_eq!(p.depth, f32::INFINITY);
+                assert_eq!(p.cell, [-1; 3]);
+            }
+        }
+    }
+}
+
+#[test]
+fn tall_images_render_in_bands_identically() {
+    let Some(ctx) = gpu() else { return };
+    let grid = grid_from([9, 9, 9], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.7);
+    // 4096 wide: MAX_BAND_PIXELS (2^20) / 4096 = 256 rows per band, so 600 rows take 3 bands.
+    let mut scene = scene_for(&grid, DVec3::new(0.3, 0.2, 3.0), 16, Method::FixedStep);
+    scene.image.width = 4096;
+    scene.image.height = 600;
+    scene.camera.fov_y_deg = 50.0;
+    let frame = Renderer::new(&ctx).unwrap().render(&scene, &grid, 0.0).unwrap();
+    assert_eq!(frame.pixels.len(), 4096 * 600);
+    let reference = fixed_step::render(&scene, &grid);
+    let mismatched = frame
+        .pixels
+        .iter()
+        .zip(&reference)
+        .filter(|(g, r)| g.is_hit() != r.is_hit())
+        .count();
+    assert!(mismatched < 10, "{mismatched} hit/miss mismatches across bands");
+    // Every band wrote its rows: rows near the top and bottom of each band hit where expected.
+    for row in [0u32, 255, 256, 511, 512, 599] {
+        let p = frame.pixel(2048, row);
+        let r = &reference[(row * 4096 + 2048) as usize];
+        assert_eq!(p.is_hit(), r.is_hit(), "row {row}");
+        assert_eq!(p.steps, r.steps, "row {row}");
+    }
+}

@@ -55,6 +55,15 @@ fn source_keys(source: &str) -> &'static [&'static str] {
     }
 }
 
+/// Position of a key in the listing of every `[field]` key (first mention wins).
+fn all_keys_order(key: &str) -> usize {
+    COMMON
+        .iter()
+        .chain(SOURCES.iter().flat_map(|s| source_keys(s)))
+        .position(|k| *k == key)
+        .unwrap_or(usize::MAX)
+}
+
 /// Parameters of each shape.
 fn shape_params(shape: &str) -> &'static [&'static str] {
     match shape {
@@ -77,20 +86,25 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
             "missing table; add [field] with source = \"sdf\", \"corners\", \"npy\", \"raw\" or \"expr\"",
         ));
     }
-    let all: Vec<&str> = COMMON.iter().chain(SOURCES.iter().flat_map(|s| source_keys(s))).copied().collect();
-    t.check_keys(&all)?;
+    let mut all: Vec<&str> = COMMON.iter().chain(SOURCES.iter().flat_map(|s| source_keys(s))).copied().collect();
+    all.sort_by_key(|k| all_keys_order(k));
+    all.dedup();
     let sources = SOURCES.map(|s| (s, s));
-    let source = t.required("source", "one of \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\"", |s, k, n| {
-        choice(s, k, n, &sources)
-    })?;
+    let Some(source_node) = t.get("source") else {
+        t.check_keys(&all)?;
+        return Err(t.missing("source", "one of \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\""));
+    };
+    let source = choice(t.src, "field.source", source_node, &sources)?;
     let allowed: Vec<&str> = COMMON.iter().chain(source_keys(source)).copied().collect();
     t.check_keys_with(&allowed, |key| {
         let owners: Vec<&str> = SOURCES.iter().filter(|s| source_keys(s).contains(&key)).copied().collect();
-        Some(format!(
-            "not a key of source \"{source}\" (it belongs to {}; \"{source}\" takes {})",
-            owners.iter().map(|o| format!("\"{o}\"")).collect::<Vec<_>>().join(", "),
-            allowed.join(", ")
-        ))
+        (!owners.is_empty()).then(|| {
+            format!(
+                "not a key of source \"{source}\" (it belongs to {}; \"{source}\" takes {})",
+                owners.iter().map(|o| format!("\"{o}\"")).collect::<Vec<_>>().join(", "),
+                allowed.join(", ")
+            )
+        })
     })?;
 
     let (source_value, resolution) = match source {

@@ -307,6 +307,8 @@ pub(crate) fn show_float(f: f64) -> String {
         if f > 0.0 { "inf" } else { "-inf" }.into()
     } else if f == f.trunc() && f.abs() < 1e15 {
         format!("{f:.1}")
+    } else if f.abs() >= 1e15 || f.abs() < 1e-5 {
+        format!("{f:e}")
     } else {
         f.to_string()
     }

@@ -70,6 +70,8 @@ fn mib(bytes: u128) -> String {
     };
     if bytes % unit == 0 {
         format!("{} {name}", bytes / unit)
+    } else if bytes / unit >= 100 {
+        format!("{:.0} {name}", bytes as f64 / unit as f64)
     } else {
         format!("{:.1} {name}", bytes as f64 / unit as f64)
     }

@@ -62,7 +62,11 @@ fn absent_keys_take_the_contract_defaults() {
 
 #[test]
 fn bounds_default_to_the_index_space() {
-    let s = parse("[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 2\nresolution = [5, 6, 7]", &[]).unwrap();
+    let s = parse(
+        "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 2\nresolution = [5, 6, 7]",
+        &[],
+    )
+    .unwrap();
     assert_eq!(s.field.bounds.min, DVec3::ZERO);
     assert_eq!(s.field.bounds.max, DVec3::new(4.0, 5.0, 6.0));
     let FieldSource::Sdf { shape, center } = s.field.source else { panic!() };
@@ -115,14 +119,19 @@ color = [1, 0.5, 0]
     assert_eq!((r.mesh, r.shading), (MeshAlgorithm::SurfaceNets, Shading::Cells));
     assert_eq!(r.background, [0.1, 0.2, 0.3, 1.0]);
     assert_eq!(r.color, [1.0, 0.5, 0.0]);
-    for (name, m) in [("analytic", Method::Analytic), ("fixed-step", Method::FixedStep), ("mesh", Method::Mesh)] {
+    for (name, m) in
+        [("analytic", Method::Analytic), ("fixed-step", Method::FixedStep), ("mesh", Method::Mesh)]
+    {
         assert_eq!(parse(CELL, &[&format!("render.method=\"{name}\"")]).unwrap().render.method, m);
     }
     for m in MeshAlgorithm::ALL {
         assert_eq!(parse(CELL, &[&format!("render.mesh={}", m.name())]).unwrap().render.mesh, m);
     }
     for sh in Shading::ALL {
-        assert_eq!(parse(CELL, &[&format!("render.shading={}", sh.name())]).unwrap().render.shading, sh);
+        assert_eq!(
+            parse(CELL, &[&format!("render.shading={}", sh.name())]).unwrap().render.shading,
+            sh
+        );
     }
 }
 
@@ -143,7 +152,10 @@ fn unknown_keys_are_errors_naming_key_and_line() {
     let e = error(&format!("{CELL}[render]\nmethod = \"analytic\"\nstepz = 3\n"), &[]);
     assert_eq!(e, "t.toml:6:1: render.stepz: unknown key (did you mean \"steps\"?)");
     let e = error(&format!("{CELL}[camera]\nposition = [1, 2, 3]\n"), &[]);
-    assert_eq!(e, "t.toml:5:1: camera.position: unknown key ([camera] has eye, target, up, fov_y_deg)");
+    assert_eq!(
+        e,
+        "t.toml:5:1: camera.position: unknown key ([camera] has eye, target, up, fov_y_deg)"
+    );
     let e = error(&format!("[imag]\nwidth = 4\n{CELL}"), &[]);
     assert_eq!(e, "t.toml:1:2: imag: unknown table or key (did you mean \"image\"?)");
     let e = error(&format!("{CELL}colour = 3\n"), &[]);
@@ -152,7 +164,8 @@ fn unknown_keys_are_errors_naming_key_and_line() {
     assert_eq!(e, "t.toml:4:1: field.radus: unknown key (did you mean \"radius\"?)");
     let e = error("[field]\nradius = 1\nvalue = 3\n", &[]);
     assert_eq!(e, "t.toml:3:1: field.value: unknown key (did you mean \"values\"?)");
-    let e = error(&format!("{CELL}bounds = {{ min = [0, 0, 0], max = [1, 1, 1], center = 3 }}\n"), &[]);
+    let e =
+        error(&format!("{CELL}bounds = {{ min = [0, 0, 0], max = [1, 1, 1], center = 3 }}\n"), &[]);
     assert_eq!(e, "t.toml:4:46: field.bounds.center: unknown key ([field.bounds] has min, max)");
     // Dotted keys inside a table are keys of that table.
     let e = error(&format!("{CELL}[surface]\ninside.x = 1\n"), &[]);
@@ -174,7 +187,12 @@ fn keys_of_other_sources_and_shapes_are_errors() {
     let e = error(&format!("{CELL}resolution = [2, 2, 2]\n"), &[]);
     assert!(e.starts_with("t.toml:4:1: field.resolution: not a key of source \"corners\" (it belongs to \"sdf\", \"expr\""), "{e}");
     let e = error("[field]\nsource = \"npy\"\npath = \"a.npy\"\ndims = [2, 2, 2]\n", &[]);
-    assert!(e.starts_with("t.toml:4:1: field.dims: not a key of source \"npy\" (it belongs to \"raw\";"), "{e}");
+    assert!(
+        e.starts_with(
+            "t.toml:4:1: field.dims: not a key of source \"npy\" (it belongs to \"raw\";"
+        ),
+        "{e}"
+    );
 }
 
 #[test]
@@ -202,7 +220,10 @@ fn wrong_types_say_what_was_expected_and_found() {
     let e = error(&format!("{CELL}[render]\nmethod = 1\n"), &[]);
     assert_eq!(e, "t.toml:5:10: render.method: expected one of \"analytic\", \"fixed-step\" or \"mesh\", got an integer 1");
     let e = error(&format!("{CELL}[surface]\ninside = \"outside\"\n"), &[]);
-    assert_eq!(e, "t.toml:5:10: surface.inside: unknown value \"outside\" (expected \"below\" or \"above\")");
+    assert_eq!(
+        e,
+        "t.toml:5:10: surface.inside: unknown value \"outside\" (expected \"below\" or \"above\")"
+    );
     let e = error("[field]\nsource = \"corners\"\nvalues = [1, 2, 3]\n", &[]);
     assert_eq!(e, "t.toml:3:10: field.values: expected an array of 8 numbers, got 3 ([1, 2, 3])");
     let e = error(&format!("{CELL}[image]\nwidth = 99999999999999999999\n"), &[]);
@@ -250,21 +271,33 @@ fn camera_must_have_a_direction_and_a_usable_up() {
     let e = error(&format!("{CELL}[camera]\nup = [0, 0, 0]\n"), &[]);
     assert_eq!(e, "t.toml:5:6: camera.up: must not be the zero vector");
     let e = error(&format!("{CELL}[camera]\neye = [2, 2, 2]\nup = [-1, -1, -1]\n"), &[]);
-    assert!(e.starts_with("t.toml:6:6: camera.up: camera.up [-1.0, -1.0, -1.0] is parallel"), "{e}");
+    assert!(
+        e.starts_with("t.toml:6:6: camera.up: camera.up [-1.0, -1.0, -1.0] is parallel"),
+        "{e}"
+    );
 }
 
 #[test]
 fn grid_errors_name_the_resolution_or_bounds() {
     let sdf = "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 0.5\n";
     let e = error(&format!("{sdf}\n\n\n\n\n\n\nresolution = [1, 48, 48]\n"), &[]);
-    assert_eq!(e, "t.toml:12:14: field.resolution: every axis needs at least 2 points, got [1, 48, 48]");
+    assert_eq!(
+        e,
+        "t.toml:12:14: field.resolution: every axis needs at least 2 points, got [1, 48, 48]"
+    );
     let e = error(&format!("{sdf}resolution = [4, 4.5, 4]\n"), &[]);
     assert_eq!(e, "t.toml:5:18: field.resolution: expected an integer at index 1, got a float 4.5");
     let e = error(&format!("{sdf}resolution = [4, 4]\n"), &[]);
     assert_eq!(e, "t.toml:5:14: field.resolution: expected an array of 3 integers, got 2 ([4, 4])");
     let e = error(sdf, &[]);
-    assert_eq!(e, "t.toml:1:1: field.resolution: missing (grid points along x, y, z, e.g. [48, 48, 48])");
-    let e = error(&format!("{sdf}resolution = [4, 4, 4]\nbounds = {{ min = [0, 0, 1], max = [1, 1, 1] }}\n"), &[]);
+    assert_eq!(
+        e,
+        "t.toml:1:1: field.resolution: missing (grid points along x, y, z, e.g. [48, 48, 48])"
+    );
+    let e = error(
+        &format!("{sdf}resolution = [4, 4, 4]\nbounds = {{ min = [0, 0, 1], max = [1, 1, 1] }}\n"),
+        &[],
+    );
     assert_eq!(
         e,
         "t.toml:6:10: field.bounds: min must be below max on every axis, got min = [0.0, 0.0, 1.0], \
@@ -286,17 +319,32 @@ fn field_table_source_and_shape_are_checked() {
     let e = error("[field]\nvalues = [1, 2, 3, 4, 5, 6, 7, 8]\n", &[]);
     assert_eq!(e, "t.toml:1:1: field.source: missing (one of \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\")");
     let e = error("[field]\nsource = \"volume\"\n", &[]);
-    assert!(e.starts_with("t.toml:2:10: field.source: unknown value \"volume\" (expected \"sdf\""), "{e}");
+    assert!(
+        e.starts_with("t.toml:2:10: field.source: unknown value \"volume\" (expected \"sdf\""),
+        "{e}"
+    );
     let e = error("[field]\nsource = \"sdf\"\nresolution = [4, 4, 4]\n", &[]);
-    assert_eq!(e, "t.toml:1:1: field.shape: missing (\"sphere\", \"box\", \"torus\" or \"gyroid\")");
+    assert_eq!(
+        e,
+        "t.toml:1:1: field.shape: missing (\"sphere\", \"box\", \"torus\" or \"gyroid\")"
+    );
     let e = error("[field]\nsource = \"sdf\"\nshape = \"cone\"\nresolution = [4, 4, 4]\n", &[]);
     assert!(e.starts_with("t.toml:3:9: field.shape: unknown value \"cone\""), "{e}");
-    let e = error("[field]\nsource = \"sdf\"\nshape = \"torus\"\nmajor_radius = 1\nresolution = [4, 4, 4]\n", &[]);
+    let e = error(
+        "[field]\nsource = \"sdf\"\nshape = \"torus\"\nmajor_radius = 1\nresolution = [4, 4, 4]\n",
+        &[],
+    );
     assert_eq!(e, "t.toml:1:1: field.minor_radius: missing (shape \"torus\" needs minor_radius)");
-    let e = error("[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = -1\nresolution = [4, 4, 4]\n", &[]);
+    let e = error(
+        "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = -1\nresolution = [4, 4, 4]\n",
+        &[],
+    );
     assert_eq!(e, "t.toml:4:10: field.radius: must be positive, got -1");
     let e = error("[field]\nsource = \"sdf\"\nshape = \"box\"\nhalf_extents = [1, 0, 1]\nresolution = [4, 4, 4]\n", &[]);
-    assert_eq!(e, "t.toml:4:16: field.half_extents: every half extent must be positive, got [1.0, 0.0, 1.0]");
+    assert_eq!(
+        e,
+        "t.toml:4:16: field.half_extents: every half extent must be positive, got [1.0, 0.0, 1.0]"
+    );
     let e = error("[field]\nsource = \"sdf\"\nshape = \"gyroid\"\nscale = 3\nthickness = -0.1\nresolution = [4, 4, 4]\n", &[]);
     assert_eq!(e, "t.toml:5:13: field.thickness: must not be negative, got -0.1");
     let e = error("[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 1\ncenter = [0, 0]\nresolution = [4, 4, 4]\n", &[]);
@@ -324,7 +372,10 @@ fn sdf_shapes_and_centre_are_read() {
         shape("shape = \"gyroid\"\nscale = 6\nthickness = 0"),
         (SdfShape::Gyroid { scale: 6.0, thickness: 0.0 }, DVec3::ZERO)
     );
-    assert_eq!(shape("shape = \"sphere\"\nradius = 1\ncenter = [1, 2, 3]").1, DVec3::new(1.0, 2.0, 3.0));
+    assert_eq!(
+        shape("shape = \"sphere\"\nradius = 1\ncenter = [1, 2, 3]").1,
+        DVec3::new(1.0, 2.0, 3.0)
+    );
 }
 
 #[test]
@@ -337,7 +388,10 @@ fn expression_errors_point_at_the_expression() {
          constants are PI, E and TAU)"
     );
     let e = error(&format!("{base}expression = \"sinus(x)\"\n"), &[]);
-    assert!(e.starts_with("t.toml:4:14: field.expression: unknown function \"sinus\" (functions: "), "{e}");
+    assert!(
+        e.starts_with("t.toml:4:14: field.expression: unknown function \"sinus\" (functions: "),
+        "{e}"
+    );
     let e = error(&format!("{base}expression = \"(x + 1\"\n"), &[]);
     assert!(e.starts_with("t.toml:4:14: field.expression: cannot parse: "), "{e}");
     let e = error(&format!("{base}expression = \"\"\n"), &[]);
@@ -359,7 +413,8 @@ fn memory_cap_is_checked_at_load() {
          GridLimits::max_bytes)"
     );
     let small = GridLimits { max_bytes: 4 * 10 * 10 * 10 };
-    let ok = "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 1\nresolution = [10, 10, 10]\n";
+    let ok =
+        "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 1\nresolution = [10, 10, 10]\n";
     assert!(scene::from_str_with(ok, "t.toml", Path::new("."), &[], &small).is_ok());
     let over = ok.replace("[10, 10, 10]", "[10, 10, 11]");
     let e = scene::from_str_with(&over, "t.toml", Path::new("."), &[], &small).unwrap_err();
@@ -378,7 +433,8 @@ fn memory_cap_is_checked_at_load() {
 #[test]
 fn env_cap_child() {
     let Ok(cap) = std::env::var("ISOVIEW_MAX_GRID_MIB") else { return };
-    let text = "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 1\nresolution = [64, 64, 65]\n";
+    let text =
+        "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 1\nresolution = [64, 64, 65]\n";
     let r = scene::from_str(text, "t.toml", Path::new("."), &[]);
     match cap.as_str() {
         "1" => assert!(r.unwrap_err().to_string().contains("over the cap of 1 MiB"), "cap 1"),
@@ -425,7 +481,9 @@ fn overrides_replace_and_add_keys() {
     assert_eq!(s.camera.eye, DVec3::new(1.0, 2.0, 3.0));
     assert_eq!(s.image.width, 100);
     // A plain word is a string; later overrides win; nested tables are created.
-    let s = parse(CELL, &["render.method=fixed-step", "render.shading=normal", "render.shading=depth"]).unwrap();
+    let s =
+        parse(CELL, &["render.method=fixed-step", "render.shading=normal", "render.shading=depth"])
+            .unwrap();
     assert_eq!((s.render.method, s.render.shading), (Method::FixedStep, Shading::Depth));
     let s = parse(CELL, &["field.bounds.min=[-1,-1,-1]", "field.bounds.max=[1,1,1]"]).unwrap();
     assert_eq!(s.field.bounds, Bounds { min: DVec3::splat(-1.0), max: DVec3::ONE });
@@ -435,7 +493,11 @@ fn overrides_replace_and_add_keys() {
     let FieldSource::Corners(v) = s.field.source else { panic!() };
     assert_eq!(v[7], -1.0);
     // An override can switch the source, as long as the remaining keys fit it.
-    let s = parse("[field]\nsource = \"expr\"\nexpression = \"x\"\nresolution = [3, 3, 3]\n", &["field.expression=\"y + t\""]).unwrap();
+    let s = parse(
+        "[field]\nsource = \"expr\"\nexpression = \"x\"\nresolution = [3, 3, 3]\n",
+        &["field.expression=\"y + t\""],
+    )
+    .unwrap();
     assert!(s.field.is_time_varying());
 }
 
@@ -445,7 +507,10 @@ fn override_errors_name_the_override() {
         error(CELL, &["render.steps=abc"]),
         "--set render.steps=abc: render.steps: expected an integer, got a string \"abc\""
     );
-    assert_eq!(error(CELL, &["render.steps=1"]), "--set render.steps=1: render.steps: must be at least 2, got 1");
+    assert_eq!(
+        error(CELL, &["render.steps=1"]),
+        "--set render.steps=1: render.steps: must be at least 2, got 1"
+    );
     assert_eq!(
         error(CELL, &["render.stpes=64"]),
         "--set render.stpes=64: render.stpes: unknown key (did you mean \"steps\"?)"
@@ -455,7 +520,10 @@ fn override_errors_name_the_override() {
         "--set colour=1: colour: unknown table or key (a scene has the tables [image], [camera], \
          [field], [surface], [render])"
     );
-    assert_eq!(error(CELL, &["render.steps"]), "--set render.steps: expected KEY=VALUE, e.g. --set render.steps=64");
+    assert_eq!(
+        error(CELL, &["render.steps"]),
+        "--set render.steps: expected KEY=VALUE, e.g. --set render.steps=64"
+    );
     assert_eq!(
         error(CELL, &["render..steps=3"]),
         "--set render..steps=3: \"render..steps\" is not a key path like render.steps or field.bounds.min"
@@ -524,8 +592,16 @@ fn every_shipped_scene_loads_and_samples() {
         .collect();
     names.sort();
     let expected = [
-        "box", "cell-face-ambiguous", "cell-oscillating", "cell-tunnel", "expr-waves", "gyroid",
-        "raw", "sphere", "torus", "volume-npy",
+        "box",
+        "cell-face-ambiguous",
+        "cell-oscillating",
+        "cell-tunnel",
+        "expr-waves",
+        "gyroid",
+        "raw",
+        "sphere",
+        "torus",
+        "volume-npy",
     ];
     for want in expected {
         assert!(names.iter().any(|p| p.file_stem().unwrap() == want), "scenes/{want}.toml missing");
@@ -539,7 +615,11 @@ fn every_shipped_scene_loads_and_samples() {
         assert!(s.image.width <= 256 && s.image.height <= 256, "{}", path.display());
         // Every scene shows a surface: the grid has values on both sides of the isovalue.
         let (lo, hi) = grid.range();
-        assert!((lo as f64) < s.surface.isovalue && (hi as f64) > s.surface.isovalue, "{}", path.display());
+        assert!(
+            (lo as f64) < s.surface.isovalue && (hi as f64) > s.surface.isovalue,
+            "{}",
+            path.display()
+        );
         assert!(!s.field.describe().contains('\n'));
         let stem = path.file_stem().unwrap().to_string_lossy();
         let varying = stem == "expr-waves" || stem == "cell-oscillating";
@@ -559,11 +639,7 @@ fn ambiguous_cells_are_what_they_claim() {
     };
     let trilinear = |v: &[f64; 8], x: f64, y: f64, z: f64| {
         let l = |a: f64, b: f64, s: f64| a + (b - a) * s;
-        l(
-            l(l(v[0], v[1], x), l(v[2], v[3], x), y),
-            l(l(v[4], v[5], x), l(v[6], v[7], x), y),
-            z,
-        )
+        l(l(l(v[0], v[1], x), l(v[2], v[3], x), y), l(l(v[4], v[5], x), l(v[6], v[7], x), y), z)
     };
     // Face z = 0: diagonal corners inside, saddle value above the isovalue (separated).
     let v = corners("cell-face-ambiguous");
@@ -574,5 +650,6 @@ fn ambiguous_cells_are_what_they_claim() {
     // Tunnel: v000 and v111 inside, no face ambiguous, the diagonal stays inside.
     let v = corners("cell-tunnel");
     assert!(v[0] < 0.0 && v[7] < 0.0 && v[1..7].iter().all(|&x| x > 0.0));
-    assert!((0..=100).all(|s| trilinear(&v, s as f64 / 100.0, s as f64 / 100.0, s as f64 / 100.0) < 0.0));
+    assert!((0..=100)
+        .all(|s| trilinear(&v, s as f64 / 100.0, s as f64 / 100.0, s as f64 / 100.0) < 0.0));
 }

@@ -59,12 +59,21 @@ pub enum FieldError {
     BadLimit { value: String },
 }
 
-/// `bytes` as MiB, whole when exact, one decimal otherwise.
+/// A byte count for messages: `32768 MiB`, `4.3 KiB`, `12 bytes`.
 fn mib(bytes: u128) -> String {
-    if bytes % (1 << 20) == 0 {
-        format!("{} MiB", bytes >> 20)
+    let (unit, name) = if bytes >= 1 << 20 {
+        (1u128 << 20, "MiB")
+    } else if bytes >= 1 << 10 {
+        (1 << 10, "KiB")
     } else {
-        format!("{:.1} MiB", bytes as f64 / (1u64 << 20) as f64)
+        return format!("{bytes} bytes");
+    };
+    if bytes % unit == 0 {
+        format!("{} {name}", bytes / unit)
+    } else if bytes / unit >= 100 {
+        format!("{:.0} {name}", bytes as f64 / unit as f64)
+    } else {
+        format!("{:.1} {name}", bytes as f64 / unit as f64)
     }
 }
 

@@ -20,7 +20,8 @@ const VARIABLES: [&str; 4] = ["x", "y", "z", "t"];
 pub struct ExprSource {
     /// The expression as written.
     pub text: String,
-    expr: FlatEx<f64>,
+    /// Boxed: exmex keeps its operators inline, some 20 KB.
+    expr: Box<FlatEx<f64>>,
     /// For each of exmex's variables (alphabetical), its index in `VARIABLES`.
     slots: Vec<usize>,
 }
@@ -53,7 +54,7 @@ impl ExprSource {
                 }
             }
         }
-        Ok(ExprSource { text: text.to_string(), expr, slots })
+        Ok(ExprSource { text: text.to_string(), expr: Box::new(expr), slots })
     }
 
     /// Whether the expression uses `t`.
@@ -76,7 +77,9 @@ impl ExprSource {
 fn function_names() -> Vec<&'static str> {
     FloatOpsFactory::<f64>::make()
         .iter()
-        .filter(|op| (op.has_unary() || op.has_bin()) && op.repr().chars().all(char::is_alphanumeric))
+        .filter(|op| {
+            (op.has_unary() || op.has_bin()) && op.repr().chars().all(char::is_alphanumeric)
+        })
         .map(|op| op.repr())
         .collect()
 }

@@ -51,8 +51,8 @@ impl GridLimits {
     /// Checks that a grid of `dims` points fits under the cap; returns its number of points.
     /// `what` names the grid in the error (a file path, or "field.resolution").
     pub fn check(&self, dims: [u64; 3], what: &str) -> Result<usize, FieldError> {
-        let points = dims.iter().map(|&d| d as u128).product::<u128>();
-        let bytes = points * 4;
+        let points = dims.iter().fold(1u128, |n, &d| n.saturating_mul(d as u128));
+        let bytes = points.saturating_mul(4);
         if bytes > self.max_bytes as u128 {
             return Err(FieldError::TooLarge {
                 what: what.to_string(),

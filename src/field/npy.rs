@@ -59,7 +59,8 @@ impl NpySource {
         let (header_len, prefix) = match pre[6] {
             1 => (u16::from_le_bytes([pre[8], pre[9]]) as usize, 10),
             2 | 3 => {
-                file.read_exact(&mut pre[10..12]).map_err(|_| not_npy("the header is cut short"))?;
+                file.read_exact(&mut pre[10..12])
+                    .map_err(|_| not_npy("the header is cut short"))?;
                 (u32::from_le_bytes([pre[8], pre[9], pre[10], pre[11]]) as usize, 12)
             }
             v => return Err(not_npy(&format!("unsupported format version {v}.{}", pre[7]))),
@@ -78,7 +79,8 @@ impl NpySource {
         // shape in u64, which a hostile header could overflow).
         if let Some(shape) = shape_of(&bytes[prefix..]) {
             if shape.len() == 3 && shape.iter().all(|&d| d <= u64::MAX as u128) {
-                limits.check([shape[0] as u64, shape[1] as u64, shape[2] as u64], &path_str(path))?;
+                limits
+                    .check([shape[0] as u64, shape[1] as u64, shape[2] as u64], &path_str(path))?;
             }
         }
         let header = NpyHeader::from_reader(bytes.as_slice())
@@ -120,7 +122,7 @@ impl NpySource {
             dtype: ty,
             endian,
             order,
-            descr: dtype.descr(),
+            descr: descr(&dtype),
             data_offset,
         })
     }
@@ -175,11 +177,16 @@ fn shape_of(header: &[u8]) -> Option<Vec<u128>> {
         .collect()
 }
 
+/// NumPy's spelling of a dtype, without the quotes of a plain one (`<f4`).
+fn descr(dtype: &DType) -> String {
+    dtype.descr().trim_matches('\'').to_string()
+}
+
 /// Maps a NumPy dtype onto a sample type and byte order, or says why it cannot be read.
 fn sample_type(path: &Path, dtype: &DType) -> Result<(SampleType, Endian), FieldError> {
     let unsupported = |hint: &str| FieldError::UnsupportedDtype {
         path: path.to_path_buf(),
-        dtype: dtype.descr(),
+        dtype: descr(dtype),
         hint: hint.to_string(),
     };
     let DType::Plain(ts) = dtype else {
@@ -222,7 +229,8 @@ mod tests {
 
     #[test]
     fn shape_is_found_without_overflow() {
-        let h = b"{'descr': '<f4', 'fortran_order': False, 'shape': (18446744073709551615, 3, 4), }";
+        let h =
+            b"{'descr': '<f4', 'fortran_order': False, 'shape': (18446744073709551615, 3, 4), }";
         assert_eq!(shape_of(h), Some(vec![u64::MAX as u128, 3, 4]));
         assert_eq!(shape_of(b"{'shape': (), 'descr': '<f4'}"), Some(vec![]));
         assert_eq!(shape_of(b"{'descr': '<f4'}"), None);

@@ -59,7 +59,5 @@ impl RawSource {
 
 /// The last component of `path` (the whole path if it has none).
 pub(crate) fn file_name(path: &Path) -> String {
-    path.file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| path_str(path))
+    path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| path_str(path))
 }

@@ -248,7 +248,8 @@ pub(crate) fn check_file_size(
     dims: [usize; 3],
     ty: SampleType,
 ) -> Result<(), FieldError> {
-    let expected = dims.iter().map(|&d| d as u64).product::<u64>() * ty.size() as u64;
+    // Saturating: callers check the memory cap first, but a hostile header must not panic.
+    let expected = dims.iter().fold(ty.size() as u64, |n, &d| n.saturating_mul(d as u64));
     let actual = file_len.saturating_sub(header);
     if actual < expected {
         Err(FieldError::Truncated {

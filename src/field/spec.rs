@@ -41,12 +41,21 @@ impl FieldSpec {
     }
 
     /// A signed-distance shape centred at `center`, sampled at `resolution` points over `bounds`.
-    pub fn sdf(shape: SdfShape, center: DVec3, resolution: [usize; 3], bounds: Bounds) -> FieldSpec {
+    pub fn sdf(
+        shape: SdfShape,
+        center: DVec3,
+        resolution: [usize; 3],
+        bounds: Bounds,
+    ) -> FieldSpec {
         FieldSpec { source: FieldSource::Sdf { shape, center }, resolution, bounds }
     }
 
     /// An expression field; fails if the expression does not compile.
-    pub fn expr(text: &str, resolution: [usize; 3], bounds: Bounds) -> Result<FieldSpec, FieldError> {
+    pub fn expr(
+        text: &str,
+        resolution: [usize; 3],
+        bounds: Bounds,
+    ) -> Result<FieldSpec, FieldError> {
         Ok(FieldSpec { source: FieldSource::Expr(ExprSource::parse(text)?), resolution, bounds })
     }
 
@@ -76,7 +85,12 @@ impl FieldSpec {
         };
         limits.check(dims, &what)?;
 
-        let mut grid = Grid { dims: self.resolution, min: self.bounds.min, max: self.bounds.max, values: Vec::new() };
+        let mut grid = Grid {
+            dims: self.resolution,
+            min: self.bounds.min,
+            max: self.bounds.max,
+            values: Vec::new(),
+        };
         grid.values = match &self.source {
             FieldSource::Sdf { shape, center } => fill(&grid, |p| shape.distance(p - *center)),
             FieldSource::Corners(v) => {
@@ -105,7 +119,9 @@ impl FieldSpec {
                     format!(" (x = {}, y = {}, z = {})", p.x, p.y, p.z)
                 },
             )?,
-            _ => samples::check_finite(&grid.values, grid.dims, || what.clone(), |_| String::new())?,
+            _ => {
+                samples::check_finite(&grid.values, grid.dims, || what.clone(), |_| String::new())?
+            }
         }
         Ok(grid)
     }
@@ -155,11 +171,7 @@ impl FieldSpec {
             }
             FieldSource::Expr(e) => format!("expr \"{}\"", e.text),
         };
-        format!(
-            "{what} {nx}x{ny}x{nz} in {}..{}",
-            vec3(self.bounds.min),
-            vec3(self.bounds.max)
-        )
+        format!("{what} {nx}x{ny}x{nz} in {}..{}", vec3(self.bounds.min), vec3(self.bounds.max))
     }
 }
 
@@ -270,7 +282,8 @@ mod tests {
     #[test]
     fn corners_resampled_finer_reproduce_the_cell() {
         let v = [0.1, -0.4, 0.3, 0.9, -0.7, 0.2, 0.5, -0.3];
-        let coarse = FieldSpec::corners(v, unit()).sample_with(0.0, &GridLimits::default()).unwrap();
+        let coarse =
+            FieldSpec::corners(v, unit()).sample_with(0.0, &GridLimits::default()).unwrap();
         assert_eq!(coarse.corners(0, 0, 0), v.map(|x| x as f32));
         let mut fine = FieldSpec::corners(v, unit());
         fine.resolution = [3, 5, 2];
@@ -293,7 +306,8 @@ mod tests {
     #[test]
     fn cap_refuses_before_sampling() {
         let cap = GridLimits { max_bytes: 1 << 20 };
-        let sphere = |res| FieldSpec::sdf(SdfShape::Sphere { radius: 1.0 }, DVec3::ZERO, res, unit());
+        let sphere =
+            |res| FieldSpec::sdf(SdfShape::Sphere { radius: 1.0 }, DVec3::ZERO, res, unit());
         // 64^3 f32 samples are exactly 1 MiB: allowed; one more slab is over.
         assert!(sphere([64, 64, 64]).sample_with(0.0, &cap).is_ok());
         let e = sphere([64, 64, 65]).sample_with(0.0, &cap).err();

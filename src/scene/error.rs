@@ -38,7 +38,7 @@ pub struct SceneError {
     pub message: String,
     pub kind: SceneErrorKind,
     /// The underlying data error, for `SceneErrorKind::Data`.
-    pub field_error: Option<FieldError>,
+    pub field_error: Option<Box<FieldError>>,
 }
 
 impl SceneError {

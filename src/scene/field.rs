@@ -55,6 +55,15 @@ fn source_keys(source: &str) -> &'static [&'static str] {
     }
 }
 
+/// Position of a key in the listing of every `[field]` key (first mention wins).
+fn all_keys_order(key: &str) -> usize {
+    COMMON
+        .iter()
+        .chain(SOURCES.iter().flat_map(|s| source_keys(s)))
+        .position(|k| *k == key)
+        .unwrap_or(usize::MAX)
+}
+
 /// Parameters of each shape.
 fn shape_params(shape: &str) -> &'static [&'static str] {
     match shape {
@@ -77,20 +86,27 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
             "missing table; add [field] with source = \"sdf\", \"corners\", \"npy\", \"raw\" or \"expr\"",
         ));
     }
-    let all: Vec<&str> = COMMON.iter().chain(SOURCES.iter().flat_map(|s| source_keys(s))).copied().collect();
-    t.check_keys(&all)?;
+    let mut all: Vec<&str> =
+        COMMON.iter().chain(SOURCES.iter().flat_map(|s| source_keys(s))).copied().collect();
+    all.sort_by_key(|k| all_keys_order(k));
+    all.dedup();
     let sources = SOURCES.map(|s| (s, s));
-    let source = t.required("source", "one of \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\"", |s, k, n| {
-        choice(s, k, n, &sources)
-    })?;
+    let Some(source_node) = t.get("source") else {
+        t.check_keys(&all)?;
+        return Err(t.missing("source", "one of \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\""));
+    };
+    let source = choice(t.src, "field.source", source_node, &sources)?;
     let allowed: Vec<&str> = COMMON.iter().chain(source_keys(source)).copied().collect();
     t.check_keys_with(&allowed, |key| {
-        let owners: Vec<&str> = SOURCES.iter().filter(|s| source_keys(s).contains(&key)).copied().collect();
-        Some(format!(
-            "not a key of source \"{source}\" (it belongs to {}; \"{source}\" takes {})",
-            owners.iter().map(|o| format!("\"{o}\"")).collect::<Vec<_>>().join(", "),
-            allowed.join(", ")
-        ))
+        let owners: Vec<&str> =
+            SOURCES.iter().filter(|s| source_keys(s).contains(&key)).copied().collect();
+        (!owners.is_empty()).then(|| {
+            format!(
+                "not a key of source \"{source}\" (it belongs to {}; \"{source}\" takes {})",
+                owners.iter().map(|o| format!("\"{o}\"")).collect::<Vec<_>>().join(", "),
+                allowed.join(", ")
+            )
+        })
     })?;
 
     let (source_value, resolution) = match source {
@@ -101,22 +117,29 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
             (FieldSource::Sdf { shape, center }, res)
         }
         "corners" => {
-            let v = t.required("values", "8 corner values v000, v100, v010, v110, v001, v101, v011, v111", read::numbers::<8>)?;
+            let v = t.required(
+                "values",
+                "8 corner values v000, v100, v010, v110, v001, v101, v011, v111",
+                read::numbers::<8>,
+            )?;
             (FieldSource::Corners(v), [2, 2, 2])
         }
         "npy" => {
             let (node, path) = data_path(&t, base_dir)?;
-            let npy = NpySource::open(&path, limits).map_err(|e| data_error(t.src, "field.path", node, e))?;
+            let npy = NpySource::open(&path, limits)
+                .map_err(|e| data_error(t.src, "field.path", node, e))?;
             let dims = npy.dims;
             (FieldSource::Npy(npy), dims)
         }
         "raw" => {
             let (path_node, path) = data_path(&t, base_dir)?;
-            let dims = t.required("dims", "grid points along x, y, z, e.g. [64, 64, 64]", points3)?;
+            let dims =
+                t.required("dims", "grid points along x, y, z, e.g. [64, 64, 64]", points3)?;
             let types = SampleType::ALL.map(|ty| (ty.name(), ty));
-            let dtype = t.required("dtype", "\"u8\", \"u16\", \"i16\", \"f32\" or \"f64\"", |s, k, n| {
-                choice(s, k, n, &types)
-            })?;
+            let dtype =
+                t.required("dtype", "\"u8\", \"u16\", \"i16\", \"f32\" or \"f64\"", |s, k, n| {
+                    choice(s, k, n, &types)
+                })?;
             let endians = [("little", Endian::Little), ("big", Endian::Big)];
             let endian = t.or("endian", Endian::Little, |s, k, n| choice(s, k, n, &endians))?;
             let raw = RawSource { path, dims, dtype, endian };
@@ -128,9 +151,9 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
             (FieldSource::Raw(raw), dims)
         }
         _ => {
-            let node = t.get("expression").ok_or_else(|| {
-                t.missing("expression", "e.g. \"sin(3*x)*cos(3*y) + z - 0.2*t\"")
-            })?;
+            let node = t
+                .get("expression")
+                .ok_or_else(|| t.missing("expression", "e.g. \"sin(3*x)*cos(3*y) + z - 0.2*t\""))?;
             let text = string(t.src, "field.expression", node)?;
             let expr = ExprSource::parse(text).map_err(|e| match e {
                 FieldError::Expr { message, .. } => {
@@ -162,9 +185,10 @@ fn resolution(t: &View, limits: &GridLimits) -> Result<[usize; 3]> {
 /// The shape and its parameters; parameters of other shapes are errors.
 fn sdf_shape(t: &View) -> Result<SdfShape> {
     let shapes = SHAPES.map(|s| (s, s));
-    let shape = t.required("shape", "\"sphere\", \"box\", \"torus\" or \"gyroid\"", |s, k, n| {
-        choice(s, k, n, &shapes)
-    })?;
+    let shape =
+        t.required("shape", "\"sphere\", \"box\", \"torus\" or \"gyroid\"", |s, k, n| {
+            choice(s, k, n, &shapes)
+        })?;
     let params = shape_params(shape);
     let allowed: Vec<&str> = ["source", "bounds", "shape", "center", "resolution"]
         .into_iter()
@@ -177,24 +201,30 @@ fn sdf_shape(t: &View) -> Result<SdfShape> {
     })?;
     let hint = |key: &str| format!("shape \"{shape}\" needs {key}");
     let positive = |key: &str| {
-        t.required(key, &hint(key), |s, k, n| number_where(s, k, n, |x| x > 0.0, "must be positive"))
+        t.required(key, &hint(key), |s, k, n| {
+            number_where(s, k, n, |x| x > 0.0, "must be positive")
+        })
     };
     Ok(match shape {
         "sphere" => SdfShape::Sphere { radius: positive("radius")? },
         "box" => SdfShape::Box {
-            half_extents: t.required("half_extents", &hint("half_extents = [bx, by, bz]"), |s, k, n| {
-                let v = vec3(s, k, n)?;
-                if v.min_element() > 0.0 {
-                    Ok(v)
-                } else {
-                    Err(s.err(
-                        SceneErrorKind::Value,
-                        n.at,
-                        k,
-                        format!("every half extent must be positive, got {}", show_vec(v)),
-                    ))
-                }
-            })?,
+            half_extents: t.required(
+                "half_extents",
+                &hint("half_extents = [bx, by, bz]"),
+                |s, k, n| {
+                    let v = vec3(s, k, n)?;
+                    if v.min_element() > 0.0 {
+                        Ok(v)
+                    } else {
+                        Err(s.err(
+                            SceneErrorKind::Value,
+                            n.at,
+                            k,
+                            format!("every half extent must be positive, got {}", show_vec(v)),
+                        ))
+                    }
+                },
+            )?,
         },
         "torus" => SdfShape::Torus {
             major_radius: positive("major_radius")?,
@@ -232,7 +262,9 @@ fn bounds(t: &View) -> Result<Bounds> {
 
 /// `path`, resolved against the scene file's folder.
 fn data_path<'n>(t: &View<'n>, base_dir: &Path) -> Result<(&'n Node, std::path::PathBuf)> {
-    let node = t.get("path").ok_or_else(|| t.missing("path", "the data file, relative to the scene file"))?;
+    let node = t
+        .get("path")
+        .ok_or_else(|| t.missing("path", "the data file, relative to the scene file"))?;
     let p = string(t.src, "field.path", node)?;
     if p.is_empty() {
         return Err(t.src.err(SceneErrorKind::Value, node.at, "field.path", "must not be empty"));
@@ -245,6 +277,6 @@ fn data_error(src: &Source, key: &str, node: &Node, e: FieldError) -> SceneError
     let text = e.to_string();
     let text = text.strip_prefix(&format!("{key}: ")).unwrap_or(&text).to_string();
     let mut err = src.err(SceneErrorKind::Data, node.at, key, text);
-    err.field_error = Some(e);
+    err.field_error = Some(Box::new(e));
     err
 }

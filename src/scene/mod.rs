@@ -43,7 +43,11 @@ pub fn load(path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
 }
 
 /// [`load`] under an explicit memory cap.
-pub fn load_with(path: &Path, overrides: &[String], limits: &GridLimits) -> Result<Scene, SceneError> {
+pub fn load_with(
+    path: &Path,
+    overrides: &[String],
+    limits: &GridLimits,
+) -> Result<Scene, SceneError> {
     let name = path.display().to_string();
     let text = std::fs::read(path).map_err(|e| {
         let what = match e.kind() {
@@ -52,7 +56,12 @@ pub fn load_with(path: &Path, overrides: &[String], limits: &GridLimits) -> Resu
             std::io::ErrorKind::IsADirectory => "is a directory, not a scene file".to_string(),
             _ => e.to_string(),
         };
-        SceneError::new(SceneErrorKind::Io, name.clone(), None, format!("cannot read scene: {what}"))
+        SceneError::new(
+            SceneErrorKind::Io,
+            name.clone(),
+            None,
+            format!("cannot read scene: {what}"),
+        )
     })?;
     let text = String::from_utf8(text).map_err(|e| {
         let at = Source::new(&name, "", &[]).location(tree::Origin::START);
@@ -105,8 +114,9 @@ fn env_limits(origin: &str) -> Result<GridLimits, SceneError> {
         let _ = origin;
         let mut err = SceneError::new(SceneErrorKind::Data, crate::field::GRID_CAP_ENV, None, "");
         err.message = e.to_string().split_once(": ").map_or(e.to_string(), |(_, m)| m.to_string());
-        err.location = e.to_string().split_once(": ").map_or(err.location.clone(), |(l, _)| l.to_string());
-        err.field_error = Some(e);
+        err.location =
+            e.to_string().split_once(": ").map_or(err.location.clone(), |(l, _)| l.to_string());
+        err.field_error = Some(Box::new(e));
         err
     })
 }

@@ -75,7 +75,12 @@ impl<'a> View<'a> {
     }
 
     /// An error about `key` of this table, at the value if present, else at the table.
-    pub(crate) fn err(&self, kind: SceneErrorKind, key: &str, message: impl AsRef<str>) -> SceneError {
+    pub(crate) fn err(
+        &self,
+        kind: SceneErrorKind,
+        key: &str,
+        message: impl AsRef<str>,
+    ) -> SceneError {
         let at = self.get(key).map_or(self.at, |n| n.at);
         self.src.err(kind, at, &self.key(key), message)
     }
@@ -133,7 +138,12 @@ pub(crate) fn number(src: &Source, key: &str, node: &Node) -> Result<f64> {
     if x.is_finite() {
         Ok(x)
     } else {
-        Err(src.err(SceneErrorKind::Value, node.at, key, format!("must be a finite number, got {}", show(node))))
+        Err(src.err(
+            SceneErrorKind::Value,
+            node.at,
+            key,
+            format!("must be a finite number, got {}", show(node)),
+        ))
     }
 }
 
@@ -182,7 +192,11 @@ pub(crate) fn numbers<const N: usize>(src: &Source, key: &str, node: &Node) -> R
                     SceneErrorKind::Type,
                     item.at,
                     key,
-                    format!("expected a number at index {n}, got {} {ty} {}", article(ty), show(item)),
+                    format!(
+                        "expected a number at index {n}, got {} {ty} {}",
+                        article(ty),
+                        show(item)
+                    ),
                 ));
             }
         };
@@ -234,7 +248,11 @@ pub(crate) fn points3(src: &Source, key: &str, node: &Node) -> Result<[usize; 3]
                 SceneErrorKind::Type,
                 item.at,
                 key,
-                format!("expected an integer at index {n}, got {} {ty} {}", article(ty), show(item)),
+                format!(
+                    "expected an integer at index {n}, got {} {ty} {}",
+                    article(ty),
+                    show(item)
+                ),
             ));
         };
         if i < 2 {
@@ -261,7 +279,12 @@ pub(crate) fn string<'n>(src: &Source, key: &str, node: &'n Node) -> Result<&'n 
 }
 
 /// One of a fixed set of names.
-pub(crate) fn choice<T: Copy>(src: &Source, key: &str, node: &Node, options: &[(&str, T)]) -> Result<T> {
+pub(crate) fn choice<T: Copy>(
+    src: &Source,
+    key: &str,
+    node: &Node,
+    options: &[(&str, T)],
+) -> Result<T> {
     let names = || {
         let quoted: Vec<String> = options.iter().map(|(n, _)| format!("\"{n}\"")).collect();
         match quoted.split_last() {

@@ -168,8 +168,9 @@ impl<'a> Source<'a> {
             Some(i) => Origin::Override(i),
             None => self.origin(v.span().start),
         };
-        let out_of_range =
-            |what: &str| self.err(SceneErrorKind::Value, at, path, format!("{what} is out of range"));
+        let out_of_range = |what: &str| {
+            self.err(SceneErrorKind::Value, at, path, format!("{what} is out of range"))
+        };
         let value = match v.get_ref() {
             DeValue::String(s) => Value::String(s.to_string()),
             DeValue::Integer(i) => Value::Integer(
@@ -177,10 +178,7 @@ impl<'a> Source<'a> {
                     .map_err(|_| out_of_range(&format!("integer {i}")))?,
             ),
             DeValue::Float(f) => {
-                let x: f64 = f
-                    .as_str()
-                    .parse()
-                    .map_err(|_| out_of_range(&format!("float {f}")))?;
+                let x: f64 = f.as_str().parse().map_err(|_| out_of_range(&format!("float {f}")))?;
                 if x.is_infinite() && !f.as_str().contains("inf") {
                     return Err(out_of_range(&format!("float {f}")));
                 }
@@ -307,6 +305,8 @@ pub(crate) fn show_float(f: f64) -> String {
         if f > 0.0 { "inf" } else { "-inf" }.into()
     } else if f == f.trunc() && f.abs() < 1e15 {
         format!("{f:.1}")
+    } else if f.abs() >= 1e15 || f.abs() < 1e-5 {
+        format!("{f:e}")
     } else {
         f.to_string()
     }

@@ -7,8 +7,8 @@ use super::error::SceneErrorKind;
 use super::read::{self, choice, integer, number_where, numbers, vec3, Result, View};
 use super::tree::{Node, Source, Value};
 use super::{
-    CameraSettings, ImageSettings, Inside, MeshAlgorithm, Method, RenderSettings, Scene,
-    Shading, SurfaceSettings,
+    CameraSettings, ImageSettings, Inside, MeshAlgorithm, Method, RenderSettings, Scene, Shading,
+    SurfaceSettings,
 };
 use crate::field::GridLimits;
 
@@ -63,11 +63,18 @@ fn camera(t: &View) -> Result<CameraSettings> {
         target: t.or("target", d.target, vec3)?,
         up: t.or("up", d.up, vec3)?,
         fov_y_deg: t.or("fov_y_deg", d.fov_y_deg, |s, k, n| {
-            number_where(s, k, n, |f| f > 0.0 && f < 180.0, "must be between 0 and 180 degrees (exclusive)")
+            number_where(
+                s,
+                k,
+                n,
+                |f| f > 0.0 && f < 180.0,
+                "must be between 0 and 180 degrees (exclusive)",
+            )
         })?,
     };
     // Point at whichever of the keys involved was written (the later one first).
-    let blame = |keys: &[&'static str]| *keys.iter().find(|k| t.get(k).is_some()).unwrap_or(&keys[0]);
+    let blame =
+        |keys: &[&'static str]| *keys.iter().find(|k| t.get(k).is_some()).unwrap_or(&keys[0]);
     let forward = c.target - c.eye;
     if forward.length() <= 1e-12 * c.eye.length().max(1.0) {
         return Err(t.err(

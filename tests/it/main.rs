@@ -5,3 +5,5 @@
 mod common;
 mod layout;
 mod render;
+mod scene;
+mod sources;

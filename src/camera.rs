@@ -65,10 +65,7 @@ mod tests {
                 up: DVec3::Y,
                 fov_y_deg: 90.0,
             },
-            &ImageSettings {
-                width: 3,
-                height: 3,
-            },
+            &ImageSettings { width: 3, height: 3 },
         );
         assert!((cam.ray_dir(1, 1) - DVec3::new(0.0, 0.0, -1.0)).length() < 1e-12);
         // fov 90: the top edge is at 45 degrees; the top row's centre at 2/3 of that tangent.

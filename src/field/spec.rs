@@ -57,17 +57,11 @@ impl SdfShape {
                 let q = p.abs() - half_extents;
                 q.max(DVec3::ZERO).length() + q.max_element().min(0.0)
             }
-            SdfShape::Torus {
-                major_radius,
-                minor_radius,
-            } => {
+            SdfShape::Torus { major_radius, minor_radius } => {
                 let ring = (p.x * p.x + p.z * p.z).sqrt() - major_radius;
                 (ring * ring + p.y * p.y).sqrt() - minor_radius
             }
-            SdfShape::Gyroid {
-                scale: s,
-                thickness: w,
-            } => {
+            SdfShape::Gyroid { scale: s, thickness: w } => {
                 let g = (s * p.x).sin() * (s * p.y).cos()
                     + (s * p.y).sin() * (s * p.z).cos()
                     + (s * p.z).sin() * (s * p.x).cos();

@@ -146,18 +146,8 @@ pub struct Bounds {
 /// Signed-distance shapes of `source = "sdf"`; `center` is subtracted before evaluation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SdfShape {
-    Sphere {
-        radius: f64,
-    },
-    Box {
-        half_extents: DVec3,
-    },
-    Torus {
-        major_radius: f64,
-        minor_radius: f64,
-    },
-    Gyroid {
-        scale: f64,
-        thickness: f64,
-    },
+    Sphere { radius: f64 },
+    Box { half_extents: DVec3 },
+    Torus { major_radius: f64, minor_radius: f64 },
+    Gyroid { scale: f64, thickness: f64 },
 }

@@ -97,11 +97,13 @@ pub enum CompareError {
     Output(#[from] OutputError),
 }
 
+/// Names for a one-line message: at most 12, then how many more.
 fn list_or_none(names: &[String]) -> String {
-    if names.is_empty() {
-        "(none)".into()
-    } else {
-        names.join(", ")
+    const SHOWN: usize = 12;
+    match names.len() {
+        0 => "(none)".into(),
+        n if n <= SHOWN => names.join(", "),
+        n => format!("{} and {} more", names[..SHOWN].join(", "), n - SHOWN),
     }
 }
 
@@ -877,6 +879,14 @@ mod tests {
         t.fail_class = vec![(ChannelClass::Depth, 1e-3), (ChannelClass::Depth, 2e-3)];
         assert_eq!(t.fail_for(ChannelClass::Depth), 2e-3);
         assert_eq!(t.fail_for(ChannelClass::Colour), DEFAULT_FAIL);
+    }
+
+    #[test]
+    fn long_name_lists_are_cut() {
+        let names: Vec<String> = (0..15).map(|i| format!("c{i}")).collect();
+        assert_eq!(list_or_none(&names[..2]), "c0, c1");
+        assert!(list_or_none(&names).ends_with("c11 and 3 more"));
+        assert_eq!(list_or_none(&[]), "(none)");
     }
 
     #[test]

@@ -575,3 +575,30 @@ fn compares_isoview_output_with_a_half_float_piz_copy() {
     .unwrap();
     assert!(r.pixels.contains(&PixelState::Fail));
 }
+
+#[test]
+fn tiny_and_thin_images_compare() {
+    for (w, h) in [(1, 1), (1, 7), (9, 1), (2, 2)] {
+        let n = w * h;
+        let rgb = |v: f32| {
+            image(
+                "x",
+                w,
+                h,
+                &[
+                    ("R", vec![v; n]),
+                    ("G", vec![v; n]),
+                    ("B", vec![v; n]),
+                    ("Z", vec![1.0; n]),
+                ],
+            )
+        };
+        let shift = Thresholds {
+            shift: true,
+            ..Thresholds::default()
+        };
+        let r = compare(&rgb(0.2), &rgb(0.3), &shift).unwrap();
+        assert_eq!(r.verdict, Verdict::Fail, "{w}x{h}");
+        assert!(r.flip.is_some(), "{w}x{h}");
+    }
+}

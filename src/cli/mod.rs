@@ -3,6 +3,7 @@
 //! 0 success, 1 `compare` found a difference, 2 bad input, 3 no usable Vulkan device or a GPU
 //! failure. Errors are one line on stderr, never a panic.
 
+pub mod compare;
 pub mod render;
 
 use std::sync::Arc;
@@ -56,6 +57,8 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene to a float EXR with AOVs (and optionally a PNG preview).
     Render(render::RenderArgs),
+    /// Compare two float EXRs channel by channel (exit 1 on a difference over the thresholds).
+    Compare(compare::CompareArgs),
     /// Print the Vulkan device, driver and the limits isoview relies on.
     Info,
 }
@@ -74,6 +77,9 @@ pub fn main() -> i32 {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Render(args) => render::run(&cli, args),
+        Command::Compare(args) => {
+            Ok(compare::run_with(args, &mut std::io::stdout().lock(), &mut std::io::stderr().lock()))
+        }
         Command::Info => info(&cli),
     };
     match result {

@@ -112,10 +112,8 @@ mod tests {
     use super::*;
 
     fn scratch(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!(
-            "isoview-atomic-{name}-{}",
-            std::process::id()
-        ));
+        let dir =
+            std::env::temp_dir().join(format!("isoview-atomic-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         dir
@@ -151,7 +149,10 @@ mod tests {
         })
         .unwrap_err();
         let msg = err.to_string();
-        assert!(msg.contains("a.txt") && msg.contains("encoder gave up"), "{msg}");
+        assert!(
+            msg.contains("a.txt") && msg.contains("encoder gave up"),
+            "{msg}"
+        );
         assert_eq!(std::fs::read(&p).unwrap(), b"previous");
         assert_eq!(entries(&dir), vec!["a.txt"]);
     }

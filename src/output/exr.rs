@@ -164,15 +164,94 @@ pub fn encode_frame(path: &Path, frame: &Frame) -> Result<Vec<u8>, OutputError> 
         .zip(planes)
         .map(|(name, plane)| AnyChannel::new(*name, FlatSamples::F32(plane)))
         .collect();
-    let channels = AnyChannels::sort(SmallVec::from_vec(channels));
-
     let attributes = layer_attributes(path, &frame.info, w, h)?;
+    encode(path, w, h, channels, attributes)
+}
+
+/// Writes arbitrary 32-bit float channels (each `width * height` values, row 0 at the top)
+/// with text attributes, atomically, encoded like [`write_frame`] (one part, ZIP, sorted
+/// header). Used for `compare --diff` and by other modules that need an EXR.
+pub fn write_channels(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: Vec<(String, Vec<f32>)>,
+    text_attributes: &[(String, String)],
+) -> Result<(), OutputError> {
+    if width == 0 || height == 0 || channels.is_empty() {
+        return Err(OutputError::invalid(
+            path,
+            format!(
+                "cannot write an empty {width}x{height} image with {} channels",
+                channels.len()
+            ),
+        ));
+    }
+    let mut list = Vec::with_capacity(channels.len());
+    for (name, values) in channels {
+        if values.len() != width * height {
+            return Err(OutputError::invalid(
+                path,
+                format!(
+                    "channel {name:?} has {} values, expected {width}x{height}",
+                    values.len()
+                ),
+            ));
+        }
+        check_name(path, &name)?;
+        list.push(AnyChannel::new(text(&name), FlatSamples::F32(values)));
+    }
+    let mut attributes = LayerAttributes {
+        software_name: Some(text(&format!("isoview {}", crate::VERSION))),
+        ..LayerAttributes::default()
+    };
+    for (name, value) in text_attributes {
+        check_name(path, name)?;
+        attributes
+            .other
+            .insert(text(name), AttributeValue::Text(text(value)));
+    }
+    let bytes = encode(path, width, height, list, attributes)?;
+    atomic::write_bytes(path, &bytes)
+}
+
+/// Rejects a channel or attribute name OpenEXR cannot store.
+fn check_name(path: &Path, name: &str) -> Result<(), OutputError> {
+    if name.is_empty() || name.contains('\0') || name.len() > 255 {
+        return Err(OutputError::invalid(
+            path,
+            format!("name {name:?} is empty, longer than 255 bytes or has a NUL"),
+        ));
+    }
+    Ok(())
+}
+
+/// One part, ZIP16 scan lines in increasing order, Rec.709 chromaticities, header sorted.
+fn encode(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: Vec<AnyChannel<FlatSamples>>,
+    attributes: LayerAttributes,
+) -> Result<Vec<u8>, OutputError> {
+    let mut sorted: Vec<&str> = Vec::new();
+    for c in &channels {
+        let name = std::str::from_utf8(c.name.bytes()).unwrap_or("");
+        if sorted.contains(&name) {
+            return Err(OutputError::invalid(
+                path,
+                format!("channel {name:?} given twice"),
+            ));
+        }
+        sorted.push(name);
+    }
+    let channels = AnyChannels::sort(SmallVec::from_vec(channels));
     let encoding = Encoding {
         compression: Compression::ZIP16,
         blocks: Blocks::ScanLines,
         line_order: LineOrder::Increasing,
     };
-    let mut image = Image::from_layer(Layer::new((w, h), attributes, encoding, channels));
+    let mut image = Image::from_layer(Layer::new((width, height), attributes, encoding, channels));
     image.attributes.chromaticities = Some(rec709());
 
     let mut bytes = Vec::new();
@@ -239,12 +318,13 @@ fn layer_attributes(
     put(attr::DRIVER, AttributeValue::Text(text(&info.driver)));
     for (key, value) in &info.extra {
         let name = format!("{}{key}", attr::EXTRA_PREFIX);
-        if key.is_empty() || key.contains('\0') || name.len() > 255 {
+        if key.is_empty() {
             return Err(OutputError::invalid(
                 path,
-                format!("header attribute name {name:?} is empty, too long or has a NUL"),
+                "an extra header attribute has no key",
             ));
         }
+        check_name(path, &name)?;
         put(&name, AttributeValue::Text(text(value)));
     }
     Ok(a)
@@ -529,7 +609,10 @@ pub fn attribute_text(value: &AttributeValue) -> String {
     use AttributeValue as V;
     match value {
         V::Text(t) => String::from_utf8_lossy(t.bytes()).into_owned(),
-        V::TextVector(v) => list(v.iter().map(|t| String::from_utf8_lossy(t.bytes()).into_owned())),
+        V::TextVector(v) => list(
+            v.iter()
+                .map(|t| String::from_utf8_lossy(t.bytes()).into_owned()),
+        ),
         V::F32(x) => x.to_string(),
         V::F64(x) => x.to_string(),
         V::I32(x) => x.to_string(),
@@ -572,6 +655,12 @@ pub fn attribute_text(value: &AttributeValue) -> String {
             c.white.x(),
             c.white.y()
         ),
+        V::Compression(c) => format!("{c:?}"),
+        V::LineOrder(o) => format!("{o:?}"),
+        V::BlockType(t) => format!("{t:?}"),
+        V::TileDescription(t) => format!("{t:?}"),
+        V::TimeCode(t) => format!("{t:?}"),
+        V::Rational(r) => format!("{}/{}", r.0, r.1),
         other => format!("{other:?}"),
     }
 }
@@ -643,7 +732,9 @@ mod tests {
     fn rejects_a_frame_whose_pixel_count_is_wrong() {
         let mut f = frame(3, 2);
         f.pixels.pop();
-        let msg = encode_frame(Path::new("bad.exr"), &f).unwrap_err().to_string();
+        let msg = encode_frame(Path::new("bad.exr"), &f)
+            .unwrap_err()
+            .to_string();
         assert!(msg.contains("bad.exr") && msg.contains("5 pixels"), "{msg}");
     }
 

@@ -55,11 +55,7 @@ pub fn write_preview(path: &Path, frame: &Frame) -> Result<(), OutputError> {
             ),
         ));
     }
-    let rgba: Vec<u8> = frame
-        .pixels
-        .iter()
-        .flat_map(|p| to_srgb8(p.rgba))
-        .collect();
+    let rgba: Vec<u8> = frame.pixels.iter().flat_map(|p| to_srgb8(p.rgba)).collect();
     write_rgba8(path, frame.width, frame.height, &rgba)
 }
 
@@ -91,7 +87,10 @@ mod tests {
     #[test]
     fn transfer_function_endpoints_and_midpoint() {
         assert_eq!(to_srgb8([0.0, 1.0, 2.0, 0.5]), [0, 255, 255, 128]);
-        assert_eq!(to_srgb8([-1.0, f32::NAN, f32::INFINITY, f32::NAN]), [0, 0, 255, 0]);
+        assert_eq!(
+            to_srgb8([-1.0, f32::NAN, f32::INFINITY, f32::NAN]),
+            [0, 0, 255, 0]
+        );
         // Linear 0.2159 is sRGB 0.5004 (128 of 255).
         assert_eq!(to_srgb8([0.2159, 0.0, 0.0, 1.0])[0], 128);
         assert!((linear_to_srgb(0.0031308) - 0.040_449_9).abs() < 1e-4);

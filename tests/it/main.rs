@@ -3,7 +3,9 @@
 //! `ISOVIEW_SKIP_GPU_TESTS=1` to skip them on a machine without Vulkan (CI never does).
 
 mod common;
+mod compare;
 mod layout;
+mod output;
 mod render;
 mod scene;
 mod sources;

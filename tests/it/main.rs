@@ -1,0 +1,3 @@
+//! isoview's integration tests: one binary, topics as modules.
+
+mod mesh;

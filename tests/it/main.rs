@@ -5,6 +5,7 @@
 mod common;
 mod compare;
 mod layout;
+mod mesh;
 mod output;
 mod render;
 mod scene;

@@ -75,9 +75,7 @@ fn non_negative(s: &str) -> Result<f64, String> {
 }
 
 fn class_threshold(s: &str) -> Result<(ChannelClass, f64), String> {
-    let (class, value) = s
-        .split_once('=')
-        .ok_or_else(|| format!("{s:?} is not CLASS=T"))?;
+    let (class, value) = s.split_once('=').ok_or_else(|| format!("{s:?} is not CLASS=T"))?;
     let class = ChannelClass::parse(class.trim()).ok_or_else(|| {
         format!("unknown channel class {class:?} (colour, depth, normal, position, integer, other)")
     })?;

@@ -40,7 +40,11 @@ impl From<GpuError> for Failure {
 }
 
 #[derive(Parser, Debug)]
-#[command(name = "isoview", version, about = "Isosurfaces of trilinearly interpolated scalar fields, rendered with Vulkan compute")]
+#[command(
+    name = "isoview",
+    version,
+    about = "Isosurfaces of trilinearly interpolated scalar fields, rendered with Vulkan compute"
+)]
 pub struct Cli {
     /// Vulkan device to use: a case-insensitive part of its name (default: a discrete GPU, else
     /// an integrated one, else lavapipe). Also read from ISOVIEW_DEVICE.
@@ -77,9 +81,11 @@ pub fn main() -> i32 {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Render(args) => render::run(&cli, args),
-        Command::Compare(args) => {
-            Ok(compare::run_with(args, &mut std::io::stdout().lock(), &mut std::io::stderr().lock()))
-        }
+        Command::Compare(args) => Ok(compare::run_with(
+            args,
+            &mut std::io::stdout().lock(),
+            &mut std::io::stderr().lock(),
+        )),
         Command::Info => info(&cli),
     };
     match result {
@@ -113,7 +119,11 @@ fn info(cli: &Cli) -> Result<i32, Failure> {
     println!("push constants         {} bytes", i.max_push_constants_size);
     println!(
         "timestamps             {}",
-        if i.timestamps { format!("yes, {} ns per tick", i.timestamp_period_ns) } else { "no".into() }
+        if i.timestamps {
+            format!("yes, {} ns per tick", i.timestamp_period_ns)
+        } else {
+            "no".into()
+        }
     );
     println!("validation             {}", if cli.validation { "on" } else { "off" });
     Ok(0)

@@ -31,12 +31,7 @@ fn srgb8(image: &ExrImage) -> Result<Vec<u8>, String> {
         image
             .channel(name)
             .map(|c| c.values.as_slice())
-            .ok_or_else(|| {
-                format!(
-                    "not computed: {} has no {name} channel",
-                    image.path.display()
-                )
-            })
+            .ok_or_else(|| format!("not computed: {} has no {name} channel", image.path.display()))
     };
     let (r, g, b) = (channel("R")?, channel("G")?, channel("B")?);
     Ok((0..image.width * image.height)

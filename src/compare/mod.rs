@@ -74,25 +74,11 @@ pub const DEFAULT_WARN: f64 = 1e-6;
 #[derive(Debug, thiserror::Error)]
 pub enum CompareError {
     #[error("size mismatch: {} is {}x{}, {} is {}x{}", a.display(), a_size.0, a_size.1, b.display(), b_size.0, b_size.1)]
-    SizeMismatch {
-        a: PathBuf,
-        a_size: (usize, usize),
-        b: PathBuf,
-        b_size: (usize, usize),
-    },
+    SizeMismatch { a: PathBuf, a_size: (usize, usize), b: PathBuf, b_size: (usize, usize) },
     #[error("channel mismatch: only in {}: {}; only in {}: {}", a.display(), list_or_none(only_a), b.display(), list_or_none(only_b))]
-    ChannelMismatch {
-        a: PathBuf,
-        only_a: Vec<String>,
-        b: PathBuf,
-        only_b: Vec<String>,
-    },
+    ChannelMismatch { a: PathBuf, only_a: Vec<String>, b: PathBuf, only_b: Vec<String> },
     #[error("{}: no channel {channel:?} (it has {})", path.display(), list_or_none(available))]
-    MissingChannel {
-        path: PathBuf,
-        channel: String,
-        available: Vec<String>,
-    },
+    MissingChannel { path: PathBuf, channel: String, available: Vec<String> },
     #[error("{0}")]
     Output(#[from] OutputError),
 }
@@ -236,11 +222,7 @@ impl Thresholds {
             ChannelClass::Integer => 0.0,
             _ => self.fail,
         };
-        self.fail_class
-            .iter()
-            .rev()
-            .find(|(c, _)| *c == class)
-            .map_or(base, |(_, t)| *t)
+        self.fail_class.iter().rev().find(|(c, _)| *c == class).map_or(base, |(_, t)| *t)
     }
 
     /// The absolute warn threshold of a class.
@@ -430,13 +412,7 @@ impl fmt::Display for Report {
             self.height,
             self.channels.len()
         )?;
-        let w = self
-            .channels
-            .iter()
-            .map(|c| c.name.len())
-            .max()
-            .unwrap_or(0)
-            .max(7);
+        let w = self.channels.iter().map(|c| c.name.len()).max().unwrap_or(0).max(7);
         writeln!(
             f,
             "{:<w$}  {:<8}  {:>9}  {:>9}  {:>11}  {:>9}  {:>9}  {:>9}  {:>9}  {:>9}",
@@ -545,14 +521,10 @@ fn select_channels(
             Ok(v)
         }
         None => {
-            let only_a: Vec<String> = names(a)
-                .into_iter()
-                .filter(|n| b.channel(n).is_none())
-                .collect();
-            let only_b: Vec<String> = names(b)
-                .into_iter()
-                .filter(|n| a.channel(n).is_none())
-                .collect();
+            let only_a: Vec<String> =
+                names(a).into_iter().filter(|n| b.channel(n).is_none()).collect();
+            let only_b: Vec<String> =
+                names(b).into_iter().filter(|n| a.channel(n).is_none()).collect();
             if !only_a.is_empty() || !only_b.is_empty() {
                 return Err(CompareError::ChannelMismatch {
                     a: a.path.clone(),
@@ -701,10 +673,7 @@ pub fn compare(a: &ExrImage, b: &ExrImage, t: &Thresholds) -> Result<Report, Com
             PixelState::Forgiven => forgiven += 1,
             _ => {}
         }
-        if matches!(
-            state,
-            PixelState::Fail | PixelState::Forgiven | PixelState::Warn
-        ) {
+        if matches!(state, PixelState::Fail | PixelState::Forgiven | PixelState::Warn) {
             warning += 1;
         }
         if hard[i] && state != PixelState::Forgiven {
@@ -818,11 +787,7 @@ fn shift_forgives(
     // (b) Each image's pixel is found in the other's window.
     let matches = |from_a: bool, j: usize| {
         planes.iter().all(|p| {
-            let (v, u) = if from_a {
-                (p.a[i], p.b[j])
-            } else {
-                (p.b[i], p.a[j])
-            };
+            let (v, u) = if from_a { (p.a[i], p.b[j]) } else { (p.b[i], p.a[j]) };
             within(v, u, p.fail, rel)
         })
     };

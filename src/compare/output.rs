@@ -48,20 +48,11 @@ pub fn write_diff_exr(
                 format!("channel {:?} is not in both images of the report", s.name),
             ));
         };
-        let d = ca
-            .values
-            .iter()
-            .zip(&cb.values)
-            .map(|(&x, &y)| signed_difference(x, y))
-            .collect();
+        let d = ca.values.iter().zip(&cb.values).map(|(&x, &y)| signed_difference(x, y)).collect();
         channels.push((format!("diff.{}", s.name), d));
     }
     let mask = |want: PixelState| {
-        report
-            .pixels
-            .iter()
-            .map(|&p| if p == want { 1.0 } else { 0.0 })
-            .collect::<Vec<f32>>()
+        report.pixels.iter().map(|&p| if p == want { 1.0 } else { 0.0 }).collect::<Vec<f32>>()
     };
     channels.push(("fail".to_string(), mask(PixelState::Fail)));
     if report.thresholds.shift {
@@ -72,14 +63,8 @@ pub fn write_diff_exr(
         channels.push(("flip".to_string(), flip.clone()));
     }
     let attributes = [
-        (
-            "isoview/compare/a".to_string(),
-            report.a.display().to_string(),
-        ),
-        (
-            "isoview/compare/b".to_string(),
-            report.b.display().to_string(),
-        ),
+        ("isoview/compare/a".to_string(), report.a.display().to_string()),
+        ("isoview/compare/b".to_string(), report.b.display().to_string()),
         ("isoview/compare/verdict".to_string(), report.verdict_line()),
         ("isoview/version".to_string(), crate::VERSION.to_string()),
     ];

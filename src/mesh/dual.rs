@@ -76,8 +76,7 @@ impl Padded<'_, '_> {
     }
 
     fn inside(&self, q: [usize; 3]) -> bool {
-        self.real(q)
-            .is_some_and(|p| self.f.is_inside(p[0], p[1], p[2]))
+        self.real(q).is_some_and(|p| self.f.is_inside(p[0], p[1], p[2]))
     }
 
     /// Crossing point (grid index space) of the edge from padded point `q` along `axis`, and

@@ -32,11 +32,7 @@ impl Vertices {
 
 /// Offset of an edge family given as corner bits (x = 1, y = 2, z = 4).
 pub(crate) fn offset(bits: u8) -> [usize; 3] {
-    [
-        usize::from(bits & 1),
-        usize::from((bits >> 1) & 1),
-        usize::from((bits >> 2) & 1),
-    ]
+    [usize::from(bits & 1), usize::from((bits >> 1) & 1), usize::from((bits >> 2) & 1)]
 }
 
 pub(crate) struct EdgeLayers<'f, 'g> {
@@ -51,11 +47,7 @@ pub(crate) struct EdgeLayers<'f, 'g> {
 impl<'f, 'g> EdgeLayers<'f, 'g> {
     pub fn new(f: &'f Field<'g>, families: &'static [u8]) -> Self {
         let n = f.dims[0] * f.dims[1] * families.len();
-        EdgeLayers {
-            f,
-            families,
-            ids: [vec![u32::MAX; n], vec![u32::MAX; n]],
-        }
+        EdgeLayers { f, families, ids: [vec![u32::MAX; n], vec![u32::MAX; n]] }
     }
 
     /// Creates the vertices of the crossed edges that start in point layer `k`, in edge-id
@@ -97,11 +89,7 @@ impl<'f, 'g> EdgeLayers<'f, 'g> {
     pub fn id(&self, i: usize, j: usize, k: usize, fam: usize) -> u32 {
         let nf = self.families.len();
         let id = self.ids[k % 2][nf * (i + self.f.dims[0] * j) + fam];
-        debug_assert_ne!(
-            id,
-            u32::MAX,
-            "edge ({i},{j},{k}) family {fam} is not crossed"
-        );
+        debug_assert_ne!(id, u32::MAX, "edge ({i},{j},{k}) family {fam} is not crossed");
         id
     }
 
@@ -109,17 +97,9 @@ impl<'f, 'g> EdgeLayers<'f, 'g> {
     /// `b`'s offset bits include `a`'s (the edge runs from `a` in a positive direction).
     pub fn corner_edge(&self, cell: [usize; 3], a: u8, b: u8) -> u32 {
         let (lo, hi) = if a & b == a { (a, b) } else { (b, a) };
-        debug_assert_eq!(
-            lo & hi,
-            lo,
-            "corners {a} and {b} are not on a positive lattice edge"
-        );
+        debug_assert_eq!(lo & hi, lo, "corners {a} and {b} are not on a positive lattice edge");
         let bits = lo ^ hi;
-        let fam = self
-            .families
-            .iter()
-            .position(|&x| x == bits)
-            .expect("edge family in use");
+        let fam = self.families.iter().position(|&x| x == bits).expect("edge family in use");
         let o = offset(lo);
         self.id(cell[0] + o[0], cell[1] + o[1], cell[2] + o[2], fam)
     }

@@ -85,12 +85,7 @@ pub fn write_obj<W: Write>(mesh: &Mesh, w: W) -> io::Result<()> {
     let mut w = BufWriter::new(w);
     let (faces, n) = faces(mesh);
     writeln!(w, "# isoview {}", crate::VERSION)?;
-    writeln!(
-        w,
-        "# {} vertices, {} faces",
-        mesh.positions.len(),
-        faces.len() / n
-    )?;
+    writeln!(w, "# {} vertices, {} faces", mesh.positions.len(), faces.len() / n)?;
     for p in &mesh.positions {
         writeln!(w, "v {} {} {}", p[0], p[1], p[2])?;
     }
@@ -121,9 +116,7 @@ pub fn write_stl<W: Write>(mesh: &Mesh, w: W) -> io::Result<()> {
         .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "too many triangles for STL"))?;
     w.write_all(&count.to_le_bytes())?;
     for t in 0..mesh.triangle_count() {
-        let [a, b, c] = mesh
-            .triangle(t)
-            .map(|v| Vec3::from(mesh.positions[v as usize]));
+        let [a, b, c] = mesh.triangle(t).map(|v| Vec3::from(mesh.positions[v as usize]));
         let n = (b - a).cross(c - a).normalize_or_zero();
         for v in [n, a, b, c] {
             for x in v.to_array() {

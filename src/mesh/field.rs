@@ -57,13 +57,7 @@ pub(crate) fn trilinear(v: &[f64; 8], x: f64, y: f64, z: f64) -> f64 {
 
 impl<'a> Field<'a> {
     pub fn new(grid: &'a Grid, iso: f64, inside: Inside) -> Self {
-        Field {
-            grid,
-            iso,
-            inside,
-            dims: grid.dims,
-            spacing: grid.spacing(),
-        }
+        Field { grid, iso, inside, dims: grid.dims, spacing: grid.spacing() }
     }
 
     /// Linear index of point `(i, j, k)`.

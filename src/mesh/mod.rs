@@ -97,11 +97,7 @@ impl Mesh {
 
     /// Triangle `t` as three vertex indices.
     pub fn triangle(&self, t: usize) -> [u32; 3] {
-        [
-            self.indices[3 * t],
-            self.indices[3 * t + 1],
-            self.indices[3 * t + 2],
-        ]
+        [self.indices[3 * t], self.indices[3 * t + 1], self.indices[3 * t + 2]]
     }
 }
 
@@ -132,11 +128,7 @@ pub enum MeshError {
     #[error("isovalue {0} is not a finite number")]
     BadIsovalue(f64),
     #[error("grid has {got} samples, but its dimensions {dims:?} need {want}")]
-    BadGrid {
-        dims: [usize; 3],
-        got: usize,
-        want: usize,
-    },
+    BadGrid { dims: [usize; 3], got: usize, want: usize },
     #[error("mesh algorithm \"{0}\" is not available in this build")]
     Unsupported(&'static str),
     #[error("the mesh would have more than 2^32 - 1 {what}; use a coarser grid")]
@@ -157,11 +149,7 @@ pub fn extract(
     }
     let want = grid.dims.iter().product::<usize>();
     if grid.dims.iter().any(|&n| n < 2) || grid.values.len() != want {
-        return Err(MeshError::BadGrid {
-            dims: grid.dims,
-            got: grid.values.len(),
-            want,
-        });
+        return Err(MeshError::BadGrid { dims: grid.dims, got: grid.values.len(), want });
     }
     let f = field::Field::new(grid, iso, inside);
     match algo {
@@ -175,8 +163,5 @@ pub fn extract(
 
 /// Converts a vertex or index count to `u32`, or fails.
 fn to_u32(n: usize, what: &'static str) -> Result<u32, MeshError> {
-    u32::try_from(n)
-        .ok()
-        .filter(|&v| v != u32::MAX)
-        .ok_or(MeshError::TooLarge { what })
+    u32::try_from(n).ok().filter(|&v| v != u32::MAX).ok_or(MeshError::TooLarge { what })
 }

@@ -61,10 +61,5 @@ pub(crate) fn extract(f: &Field) -> Result<Mesh, MeshError> {
         }
     }
     super::to_u32(indices.len(), "indices")?;
-    Ok(Mesh {
-        positions: verts.positions,
-        normals: verts.normals,
-        indices,
-        quads: None,
-    })
+    Ok(Mesh { positions: verts.positions, normals: verts.normals, indices, quads: None })
 }

@@ -81,17 +81,11 @@ pub fn compute(mesh: &Mesh) -> MeshStats {
     // Undirected edge (lo, hi) -> (uses, uses in the lo -> hi direction).
     let mut edges: HashMap<(u32, u32), (u32, u32)> = HashMap::with_capacity(mesh.indices.len());
     let (lo, hi) =
-        mesh.positions
-            .iter()
-            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
-                let p = DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
-                (lo.min(p), hi.max(p))
-            });
-    let origin = if lo.is_finite() {
-        0.5 * (lo + hi)
-    } else {
-        DVec3::ZERO
-    };
+        mesh.positions.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+            let p = DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
+            (lo.min(p), hi.max(p))
+        });
+    let origin = if lo.is_finite() { 0.5 * (lo + hi) } else { DVec3::ZERO };
     for t in 0..mesh.triangle_count() {
         let tri = mesh.triangle(t);
         for &v in &tri {
@@ -146,11 +140,7 @@ impl fmt::Display for MeshStats {
         writeln!(f, "volume: {}", self.volume)?;
         writeln!(f, "boundary edges: {}", self.boundary_edges)?;
         writeln!(f, "non-manifold edges: {}", self.non_manifold_edges)?;
-        writeln!(
-            f,
-            "orientation-inconsistent edges: {}",
-            self.inconsistent_edges
-        )?;
+        writeln!(f, "orientation-inconsistent edges: {}", self.inconsistent_edges)?;
         writeln!(f, "zero-area triangles: {}", self.zero_area_triangles)?;
         writeln!(f, "euler characteristic: {}", self.euler_characteristic)?;
         write!(f, "min-angle histogram:")?;

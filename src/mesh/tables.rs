@@ -309,14 +309,8 @@ pub const fn mc_triangle_count(case: usize) -> usize {
 /// lexicographic order (xyz, xzy, yxz, yzx, zxy, zyx); odd permutations have corners 1 and 2
 /// swapped. All six share the main diagonal 0–7, and every cell face is split along its diagonal
 /// from the face's lowest corner to its highest, so neighbouring cells' faces match.
-pub const MT_TETS: [[u8; 4]; 6] = [
-    [0, 1, 3, 7],
-    [0, 5, 1, 7],
-    [0, 3, 2, 7],
-    [0, 2, 6, 7],
-    [0, 4, 5, 7],
-    [0, 6, 4, 7],
-];
+pub const MT_TETS: [[u8; 4]; 6] =
+    [[0, 1, 3, 7], [0, 5, 1, 7], [0, 3, 2, 7], [0, 2, 6, 7], [0, 4, 5, 7], [0, 6, 4, 7]];
 
 /// The 6 edges of a tetrahedron as pairs of its local corners 0–3.
 pub const MT_TET_EDGES: [(u8, u8); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];

@@ -12,17 +12,8 @@ use crate::scene::{Inside, MeshAlgorithm};
 
 /// A grid over its own index space.
 fn grid(dims: [usize; 3], values: Vec<f32>) -> Grid {
-    let max = DVec3::new(
-        dims[0] as f64 - 1.0,
-        dims[1] as f64 - 1.0,
-        dims[2] as f64 - 1.0,
-    );
-    Grid {
-        dims,
-        min: DVec3::ZERO,
-        max,
-        values,
-    }
+    let max = DVec3::new(dims[0] as f64 - 1.0, dims[1] as f64 - 1.0, dims[2] as f64 - 1.0);
+    Grid { dims, min: DVec3::ZERO, max, values }
 }
 
 /// Deterministic pseudo-random numbers in [0, 1) (SplitMix64).
@@ -90,10 +81,8 @@ fn orientation_ok(m: &Mesh, mask: u32, hi: DVec3) -> bool {
     for t in 0..m.triangle_count() {
         let tri = m.triangle(t);
         for e in 0..3 {
-            let (a, b) = (
-                find(&mut parent, tri[e] as usize),
-                find(&mut parent, tri[(e + 1) % 3] as usize),
-            );
+            let (a, b) =
+                (find(&mut parent, tri[e] as usize), find(&mut parent, tri[(e + 1) % 3] as usize));
             parent[a] = b;
         }
     }
@@ -212,10 +201,7 @@ fn single_cell_exhaustive(algo: MeshAlgorithm) {
                 let u = p64(&m, p as u32);
                 let on_edge = (0..3).filter(|&a| u[a] == 0.0 || u[a] == 1.0).count() >= 2;
                 if on_edge {
-                    assert!(
-                        trilinear(&v, u.x, u.y, u.z).abs() < 1e-6,
-                        "mask {mask} vertex {u}"
-                    );
+                    assert!(trilinear(&v, u.x, u.y, u.z).abs() < 1e-6, "mask {mask} vertex {u}");
                 }
                 let n = DVec3::from(m.normals[p].map(f64::from));
                 assert!((n.length() - 1.0).abs() < 1e-6);
@@ -231,11 +217,7 @@ fn single_cell_exhaustive(algo: MeshAlgorithm) {
                 // Nearest corner on each side along the normal is not guaranteed; check that
                 // the mean inside corner lies behind the triangle for 1-corner cases.
                 if mask.count_ones() == 1 || mask.count_ones() == 7 {
-                    let lone = if mask.count_ones() == 1 {
-                        mask
-                    } else {
-                        !mask & 0xff
-                    };
+                    let lone = if mask.count_ones() == 1 { mask } else { !mask & 0xff };
                     let c = lone.trailing_zeros() as u8;
                     let pc =
                         DVec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, ((c >> 2) & 1) as f64);
@@ -265,19 +247,12 @@ fn two_cells_exhaustive(algo: MeshAlgorithm) {
     for axis in 0..3 {
         let mut dims = [2, 2, 2];
         dims[axis] = 3;
-        let hi = DVec3::new(
-            dims[0] as f64 - 1.0,
-            dims[1] as f64 - 1.0,
-            dims[2] as f64 - 1.0,
-        );
+        let hi = DVec3::new(dims[0] as f64 - 1.0, dims[1] as f64 - 1.0, dims[2] as f64 - 1.0);
         for mask in 0..4096u32 {
             let g = grid(dims, values_for(mask, 12, &mut rng));
             let m = extract(&g, 0.0, Inside::Below, algo, ExtractOptions::default()).unwrap();
             let s = compute(&m);
-            assert!(
-                boundary_edges_on_box(&m, hi),
-                "{algo:?} axis {axis} mask {mask}: crack"
-            );
+            assert!(boundary_edges_on_box(&m, hi), "{algo:?} axis {axis} mask {mask}: crack");
             assert_eq!(s.inconsistent_edges, 0, "{algo:?} axis {axis} mask {mask}");
             assert_eq!(s.non_manifold_edges, 0, "{algo:?} axis {axis} mask {mask}");
         }
@@ -333,10 +308,7 @@ fn equal_to_isovalue_is_outside() {
     let mut values = vec![0.0f32; 8];
     values[0] = -1.0;
     let g = grid([2, 2, 2], values);
-    for algo in [
-        MeshAlgorithm::MarchingCubes,
-        MeshAlgorithm::MarchingTetrahedra,
-    ] {
+    for algo in [MeshAlgorithm::MarchingCubes, MeshAlgorithm::MarchingTetrahedra] {
         let m = extract(&g, 0.0, Inside::Below, algo, ExtractOptions::default()).unwrap();
         assert!(m.triangle_count() >= 1, "{algo:?}");
         let [a, b, c] = m.triangle(0).map(|v| p64(&m, v));
@@ -344,13 +316,8 @@ fn equal_to_isovalue_is_outside() {
     }
     // Everything at the isovalue: nothing inside, no surface.
     let g = grid([2, 2, 2], vec![0.0; 8]);
-    let m = extract(
-        &g,
-        0.0,
-        Inside::Below,
-        MeshAlgorithm::MarchingCubes,
-        ExtractOptions::default(),
-    )
-    .unwrap();
+    let m =
+        extract(&g, 0.0, Inside::Below, MeshAlgorithm::MarchingCubes, ExtractOptions::default())
+            .unwrap();
     assert_eq!(m.triangle_count(), 0);
 }

@@ -116,19 +116,12 @@ pub fn write_frame(path: &Path, frame: &Frame) -> Result<(), OutputError> {
 pub fn encode_frame(path: &Path, frame: &Frame) -> Result<Vec<u8>, OutputError> {
     let (w, h) = (frame.width as usize, frame.height as usize);
     if w == 0 || h == 0 {
-        return Err(OutputError::invalid(
-            path,
-            format!("cannot write an empty {w}x{h} image"),
-        ));
+        return Err(OutputError::invalid(path, format!("cannot write an empty {w}x{h} image")));
     }
     if frame.pixels.len() != w * h {
         return Err(OutputError::invalid(
             path,
-            format!(
-                "frame has {} pixels, expected {w}x{h} = {}",
-                frame.pixels.len(),
-                w * h
-            ),
+            format!("frame has {} pixels, expected {w}x{h} = {}", frame.pixels.len(), w * h),
         ));
     }
 
@@ -192,10 +185,7 @@ pub fn write_channels(
         if values.len() != width * height {
             return Err(OutputError::invalid(
                 path,
-                format!(
-                    "channel {name:?} has {} values, expected {width}x{height}",
-                    values.len()
-                ),
+                format!("channel {name:?} has {} values, expected {width}x{height}", values.len()),
             ));
         }
         check_name(path, &name)?;
@@ -207,9 +197,7 @@ pub fn write_channels(
     };
     for (name, value) in text_attributes {
         check_name(path, name)?;
-        attributes
-            .other
-            .insert(text(name), AttributeValue::Text(text(value)));
+        attributes.other.insert(text(name), AttributeValue::Text(text(value)));
     }
     let bytes = encode(path, width, height, list, attributes)?;
     atomic::write_bytes(path, &bytes)
@@ -238,10 +226,7 @@ fn encode(
     for c in &channels {
         let name = std::str::from_utf8(c.name.bytes()).unwrap_or("");
         if sorted.contains(&name) {
-            return Err(OutputError::invalid(
-                path,
-                format!("channel {name:?} given twice"),
-            ));
+            return Err(OutputError::invalid(path, format!("channel {name:?} given twice")));
         }
         sorted.push(name);
     }
@@ -255,15 +240,9 @@ fn encode(
     image.attributes.chromaticities = Some(rec709());
 
     let mut bytes = Vec::new();
-    image
-        .write()
-        .non_parallel()
-        .to_buffered(Cursor::new(&mut bytes))
-        .map_err(|source| OutputError::Exr {
-            path: path.to_path_buf(),
-            action: "cannot encode EXR",
-            source,
-        })?;
+    image.write().non_parallel().to_buffered(Cursor::new(&mut bytes)).map_err(|source| {
+        OutputError::Exr { path: path.to_path_buf(), action: "cannot encode EXR", source }
+    })?;
     sort_header_attributes(&mut bytes)
         .map_err(|reason| OutputError::invalid(path, format!("internal: {reason}")))?;
     Ok(bytes)
@@ -319,10 +298,7 @@ fn layer_attributes(
     for (key, value) in &info.extra {
         let name = format!("{}{key}", attr::EXTRA_PREFIX);
         if key.is_empty() {
-            return Err(OutputError::invalid(
-                path,
-                "an extra header attribute has no key",
-            ));
+            return Err(OutputError::invalid(path, "an extra header attribute has no key"));
         }
         check_name(path, &name)?;
         put(&name, AttributeValue::Text(text(value)));
@@ -358,12 +334,8 @@ pub fn camera_matrices(
         [-right.dot(e), -up.dot(e), -forward.dot(e), 1.0],
     ];
     let (sx, sy) = (0.5 / (h * aspect), 0.5 / h);
-    let proj = [
-        [sx, 0.0, 0.0, 0.0],
-        [0.0, -sy, 0.0, 0.0],
-        [0.5, 0.5, 0.0, 1.0],
-        [0.0, 0.0, 1.0, 0.0],
-    ];
+    let proj =
+        [[sx, 0.0, 0.0, 0.0], [0.0, -sy, 0.0, 0.0], [0.5, 0.5, 0.0, 1.0], [0.0, 0.0, 1.0, 0.0]];
     let mut to_camera = [0f32; 16];
     let mut to_ndc = [0f32; 16];
     for i in 0..4 {
@@ -471,10 +443,7 @@ impl ExrImage {
 
     /// The value of the header attribute `name`, as text.
     pub fn attribute(&self, name: &str) -> Option<&str> {
-        self.attributes
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, v)| v.as_str())
+        self.attributes.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_str())
     }
 
     /// Channel names, in file order.
@@ -552,23 +521,13 @@ pub fn read(path: &Path) -> Result<ExrImage, OutputError> {
         .map(|h| {
             h.all_named_attributes()
                 .map(|(name, value)| {
-                    (
-                        String::from_utf8_lossy(name).into_owned(),
-                        attribute_text(&value),
-                    )
+                    (String::from_utf8_lossy(name).into_owned(), attribute_text(&value))
                 })
                 .collect()
         })
         .unwrap_or_default();
 
-    Ok(ExrImage {
-        path: path.to_path_buf(),
-        width,
-        height,
-        channels,
-        attributes,
-        parts,
-    })
+    Ok(ExrImage { path: path.to_path_buf(), width, height, channels, attributes, parts })
 }
 
 /// Places a data window's samples into the display window; uncovered pixels are 0.
@@ -609,10 +568,7 @@ pub fn attribute_text(value: &AttributeValue) -> String {
     use AttributeValue as V;
     match value {
         V::Text(t) => String::from_utf8_lossy(t.bytes()).into_owned(),
-        V::TextVector(v) => list(
-            v.iter()
-                .map(|t| String::from_utf8_lossy(t.bytes()).into_owned()),
-        ),
+        V::TextVector(v) => list(v.iter().map(|t| String::from_utf8_lossy(t.bytes()).into_owned())),
         V::F32(x) => x.to_string(),
         V::F64(x) => x.to_string(),
         V::I32(x) => x.to_string(),
@@ -624,26 +580,12 @@ pub fn attribute_text(value: &AttributeValue) -> String {
         V::Matrix4x4(m) => list(m.iter()),
         V::IntegerBounds(b) => {
             let max = b.max();
-            format!(
-                "({} {}) - ({} {})",
-                b.position.x(),
-                b.position.y(),
-                max.x(),
-                max.y()
-            )
+            format!("({} {}) - ({} {})", b.position.x(), b.position.y(), max.x(), max.y())
         }
-        V::FloatRect(r) => format!(
-            "({} {}) - ({} {})",
-            r.min.x(),
-            r.min.y(),
-            r.max.x(),
-            r.max.y()
-        ),
-        V::ChannelList(c) => list(
-            c.list
-                .iter()
-                .map(|d| String::from_utf8_lossy(d.name.bytes()).into_owned()),
-        ),
+        V::FloatRect(r) => format!("({} {}) - ({} {})", r.min.x(), r.min.y(), r.max.x(), r.max.y()),
+        V::ChannelList(c) => {
+            list(c.list.iter().map(|d| String::from_utf8_lossy(d.name.bytes()).into_owned()))
+        }
         V::Chromaticities(c) => format!(
             "red [{}, {}] green [{}, {}] blue [{}, {}] white [{}, {}]",
             c.red.x(),
@@ -698,12 +640,7 @@ mod tests {
                 crossings: -1,
             })
             .collect();
-        Frame {
-            width: w,
-            height: h,
-            pixels,
-            info: info(),
-        }
+        Frame { width: w, height: h, pixels, info: info() }
     }
 
     #[test]
@@ -732,9 +669,7 @@ mod tests {
     fn rejects_a_frame_whose_pixel_count_is_wrong() {
         let mut f = frame(3, 2);
         f.pixels.pop();
-        let msg = encode_frame(Path::new("bad.exr"), &f)
-            .unwrap_err()
-            .to_string();
+        let msg = encode_frame(Path::new("bad.exr"), &f).unwrap_err().to_string();
         assert!(msg.contains("bad.exr") && msg.contains("5 pixels"), "{msg}");
     }
 

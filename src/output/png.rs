@@ -48,11 +48,7 @@ pub fn write_preview(path: &Path, frame: &Frame) -> Result<(), OutputError> {
     if frame.pixels.len() != w * h {
         return Err(OutputError::invalid(
             path,
-            format!(
-                "frame has {} pixels, expected {w}x{h} = {}",
-                frame.pixels.len(),
-                w * h
-            ),
+            format!("frame has {} pixels, expected {w}x{h} = {}", frame.pixels.len(), w * h),
         ));
     }
     let rgba: Vec<u8> = frame.pixels.iter().flat_map(|p| to_srgb8(p.rgba)).collect();
@@ -64,19 +60,13 @@ pub fn write_rgba8(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<
     if width == 0 || height == 0 || rgba.len() != width as usize * height as usize * 4 {
         return Err(OutputError::invalid(
             path,
-            format!(
-                "{} bytes do not make a non-empty {width}x{height} RGBA8 image",
-                rgba.len()
-            ),
+            format!("{} bytes do not make a non-empty {width}x{height} RGBA8 image", rgba.len()),
         ));
     }
     let mut bytes = Vec::new();
     PngEncoder::new(&mut bytes)
         .write_image(rgba, width, height, ExtendedColorType::Rgba8)
-        .map_err(|source| OutputError::Png {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        .map_err(|source| OutputError::Png { path: path.to_path_buf(), source })?;
     atomic::write_bytes(path, &bytes)
 }
 
@@ -87,10 +77,7 @@ mod tests {
     #[test]
     fn transfer_function_endpoints_and_midpoint() {
         assert_eq!(to_srgb8([0.0, 1.0, 2.0, 0.5]), [0, 255, 255, 128]);
-        assert_eq!(
-            to_srgb8([-1.0, f32::NAN, f32::INFINITY, f32::NAN]),
-            [0, 0, 255, 0]
-        );
+        assert_eq!(to_srgb8([-1.0, f32::NAN, f32::INFINITY, f32::NAN]), [0, 0, 255, 0]);
         // Linear 0.2159 is sRGB 0.5004 (128 of 255).
         assert_eq!(to_srgb8([0.2159, 0.0, 0.0, 1.0])[0], 128);
         assert!((linear_to_srgb(0.0031308) - 0.040_449_9).abs() < 1e-4);

@@ -219,9 +219,7 @@ mod tests {
             dims: [4, 4, 4],
             min: DVec3::ZERO,
             max: DVec3::splat(3.0),
-            values: (0..64)
-                .map(|_| (xorshift(&mut s) * 2.0 - 1.0) as f32)
-                .collect(),
+            values: (0..64).map(|_| (xorshift(&mut s) * 2.0 - 1.0) as f32).collect(),
         };
         for _ in 0..500 {
             let u = xorshift(&mut s);
@@ -264,10 +262,7 @@ mod tests {
         assert!((f - (1.25 + 0.5 * 2.6 - 1.0)).abs() < 1e-12);
         let g = gradient_at(&grid, p).unwrap();
         assert!((g - DVec3::new(1.0, 1.0, -2.0)).abs().max_element() < 1e-12);
-        assert_eq!(
-            locate(&grid, DVec3::new(1.0, 2.0, 3.0)).unwrap().0,
-            [1, 3, 0]
-        );
+        assert_eq!(locate(&grid, DVec3::new(1.0, 2.0, 3.0)).unwrap().0, [1, 3, 0]);
         assert!(locate(&grid, DVec3::new(1.0 + 1e-9, 1.0, 2.5)).is_none());
     }
 }

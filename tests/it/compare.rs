@@ -19,11 +19,7 @@ fn image(path: &str, w: usize, h: usize, channels: &[(&str, Vec<f32>)]) -> ExrIm
             .iter()
             .map(|(name, values)| {
                 assert_eq!(values.len(), w * h);
-                ExrChannel {
-                    name: name.to_string(),
-                    kind: SampleKind::F32,
-                    values: values.clone(),
-                }
+                ExrChannel { name: name.to_string(), kind: SampleKind::F32, values: values.clone() }
             })
             .collect(),
         attributes: Vec::new(),
@@ -37,10 +33,7 @@ fn one(path: &str, name: &str, values: Vec<f32>) -> ExrImage {
 }
 
 fn no_flip() -> Thresholds {
-    Thresholds {
-        flip: false,
-        ..Thresholds::default()
-    }
+    Thresholds { flip: false, ..Thresholds::default() }
 }
 
 /// Parses `isoview compare ARGS...` the way the binary will.
@@ -59,11 +52,7 @@ fn args(list: &[&str]) -> CompareArgs {
 fn run(list: &[&str]) -> (i32, String, String) {
     let (mut out, mut err) = (Vec::new(), Vec::new());
     let code = run_with(&args(list), &mut out, &mut err);
-    (
-        code,
-        String::from_utf8(out).unwrap(),
-        String::from_utf8(err).unwrap(),
-    )
+    (code, String::from_utf8(out).unwrap(), String::from_utf8(err).unwrap())
 }
 
 fn s(p: &Path) -> &str {
@@ -80,10 +69,7 @@ fn identical_files_pass_with_exit_0() {
     assert_eq!(code, 0, "{out}{err}");
     assert!(out.contains("PASS: identical"), "{out}");
     for name in ["R", "N.X", "cell.Z", "crossings", "steps", "Z"] {
-        assert!(
-            out.lines().any(|l| l.starts_with(name)),
-            "{name} row in\n{out}"
-        );
+        assert!(out.lines().any(|l| l.starts_with(name)), "{name} row in\n{out}");
     }
     assert!(out.contains("FLIP"), "{out}");
     assert!(err.is_empty());
@@ -91,16 +77,8 @@ fn identical_files_pass_with_exit_0() {
 
 #[test]
 fn infinities_and_nans_equal_themselves() {
-    let a = one(
-        "a",
-        "Z",
-        vec![f32::INFINITY, f32::NAN, f32::NEG_INFINITY, 1.0],
-    );
-    let b = one(
-        "b",
-        "Z",
-        vec![f32::INFINITY, f32::NAN, f32::NEG_INFINITY, 1.0],
-    );
+    let a = one("a", "Z", vec![f32::INFINITY, f32::NAN, f32::NEG_INFINITY, 1.0]);
+    let b = one("b", "Z", vec![f32::INFINITY, f32::NAN, f32::NEG_INFINITY, 1.0]);
     let r = compare(&a, &b, &no_flip()).unwrap();
     assert_eq!(r.verdict, Verdict::Identical);
     assert!(r.channels[0].identical);
@@ -163,40 +141,20 @@ fn fail_threshold_and_percentage() {
     bv[10] = 0.5 + 5e-5;
     let b = one("b", "G", bv.clone());
     assert_eq!(compare(&a, &b, &no_flip()).unwrap().verdict, Verdict::Warn);
-    let strict = Thresholds {
-        fail: 1e-5,
-        ..no_flip()
-    };
+    let strict = Thresholds { fail: 1e-5, ..no_flip() };
     assert_eq!(compare(&a, &b, &strict).unwrap().verdict, Verdict::Fail);
 
     bv[20] = 1.0;
     let b = one("b", "G", bv);
     let r = compare(&a, &b, &no_flip()).unwrap();
     assert_eq!((r.verdict, r.failing_pixels), (Verdict::Fail, 1));
-    let one_percent = Thresholds {
-        fail_percent: 1.0,
-        warn_percent: 2.0,
-        ..no_flip()
-    };
-    assert_eq!(
-        compare(&a, &b, &one_percent).unwrap().verdict,
-        Verdict::Pass
-    );
-    let half_percent = Thresholds {
-        fail_percent: 0.5,
-        ..no_flip()
-    };
-    assert_eq!(
-        compare(&a, &b, &half_percent).unwrap().verdict,
-        Verdict::Fail
-    );
+    let one_percent = Thresholds { fail_percent: 1.0, warn_percent: 2.0, ..no_flip() };
+    assert_eq!(compare(&a, &b, &one_percent).unwrap().verdict, Verdict::Pass);
+    let half_percent = Thresholds { fail_percent: 0.5, ..no_flip() };
+    assert_eq!(compare(&a, &b, &half_percent).unwrap().verdict, Verdict::Fail);
     // A hard-fail limit fails it whatever the percentage.
-    let hard = Thresholds {
-        fail_percent: 50.0,
-        warn_percent: 50.0,
-        hard_fail: Some(0.1),
-        ..no_flip()
-    };
+    let hard =
+        Thresholds { fail_percent: 50.0, warn_percent: 50.0, hard_fail: Some(0.1), ..no_flip() };
     let r = compare(&a, &b, &hard).unwrap();
     assert_eq!((r.verdict, r.hard_failing_pixels), (Verdict::Fail, 1));
 }
@@ -206,11 +164,7 @@ fn relative_threshold_loosens_large_values() {
     let a = one("a", "Z", vec![1000.0, 1.0]);
     let b = one("b", "Z", vec![1000.01, 1.0]);
     assert_eq!(compare(&a, &b, &no_flip()).unwrap().verdict, Verdict::Fail);
-    let rel = Thresholds {
-        fail_relative: 1e-4,
-        warn: 1.0,
-        ..no_flip()
-    };
+    let rel = Thresholds { fail_relative: 1e-4, warn: 1.0, ..no_flip() };
     assert_eq!(compare(&a, &b, &rel).unwrap().verdict, Verdict::Pass);
 }
 
@@ -218,23 +172,12 @@ fn relative_threshold_loosens_large_values() {
 fn integer_channels_are_exact_unless_overridden() {
     let a = one("a", "steps", vec![10.0, 20.0]);
     let b = one("b", "steps", vec![10.0, 21.0]);
-    let loose = Thresholds {
-        fail: 10.0,
-        warn: 10.0,
-        ..no_flip()
-    };
+    let loose = Thresholds { fail: 10.0, warn: 10.0, ..no_flip() };
     let r = compare(&a, &b, &loose).unwrap();
     assert_eq!(r.channels[0].class, ChannelClass::Integer);
-    assert_eq!(
-        r.verdict,
-        Verdict::Fail,
-        "--fail does not loosen integer channels"
-    );
-    let per_class = Thresholds {
-        fail_class: vec![(ChannelClass::Integer, 1.0)],
-        warn: 10.0,
-        ..no_flip()
-    };
+    assert_eq!(r.verdict, Verdict::Fail, "--fail does not loosen integer channels");
+    let per_class =
+        Thresholds { fail_class: vec![(ChannelClass::Integer, 1.0)], warn: 10.0, ..no_flip() };
     assert_eq!(compare(&a, &b, &per_class).unwrap().verdict, Verdict::Pass);
 }
 
@@ -253,10 +196,7 @@ fn cli_thresholds_and_exit_codes() {
     assert_eq!(code, 1, "{out}");
     assert!(out.contains("FAIL: 2 of 100 pixels"), "{out}");
     let row = |out: &str, name: &str| {
-        out.lines()
-            .find(|l| l.split_whitespace().next() == Some(name))
-            .unwrap()
-            .to_string()
+        out.lines().find(|l| l.split_whitespace().next() == Some(name)).unwrap().to_string()
     };
     // Over-threshold counts per channel, last column but one.
     let r = row(&out, "R");
@@ -268,15 +208,7 @@ fn cli_thresholds_and_exit_codes() {
     assert_eq!(run(&[s(&a), s(&b), "--fail-percent", "2"]).0, 0);
     assert_eq!(run(&[s(&a), s(&b), "--fail-percent", "1.5"]).0, 1);
     assert_eq!(
-        run(&[
-            s(&a),
-            s(&b),
-            "--fail-class",
-            "colour=0.02",
-            "--fail-class",
-            "depth=0.01"
-        ])
-        .0,
+        run(&[s(&a), s(&b), "--fail-class", "colour=0.02", "--fail-class", "depth=0.01"]).0,
         0
     );
     assert_eq!(run(&[s(&a), s(&b), "--fail-class", "colour=0.02"]).0, 1);
@@ -296,10 +228,7 @@ fn bad_input_exits_2_naming_the_problem() {
     out_exr::write_frame(&a, &test_frame(8, 6)).unwrap();
     out_exr::write_frame(&b, &test_frame(8, 8)).unwrap();
     let mut no_crossings = test_frame(8, 6);
-    no_crossings
-        .pixels
-        .iter_mut()
-        .for_each(|p| p.crossings = -1);
+    no_crossings.pixels.iter_mut().for_each(|p| p.crossings = -1);
     out_exr::write_frame(&c, &no_crossings).unwrap();
 
     let (code, out, err) = run(&[s(&a), s(&b)]);
@@ -324,10 +253,7 @@ fn bad_input_exits_2_naming_the_problem() {
     assert_eq!(run(&[s(&a), s(&c), "--channels", "R,G,B,A,Z"]).0, 0);
     let (code, _, err) = run(&[s(&a), s(&c), "--channels", "R,crossings"]);
     assert_eq!(code, 2);
-    assert!(
-        err.contains("c.exr") && err.contains("\"crossings\""),
-        "{err}"
-    );
+    assert!(err.contains("c.exr") && err.contains("\"crossings\""), "{err}");
 
     let missing = dir.join("missing.exr");
     let (code, _, err) = run(&[s(&a), s(&missing)]);
@@ -384,10 +310,7 @@ fn shift_window_forgives_a_one_pixel_silhouette_shift_only_when_enabled() {
     assert!(ring > 10, "{ring}");
     assert_eq!(r.coverage.as_ref().unwrap().only_b, ring);
 
-    let shift = Thresholds {
-        shift: true,
-        ..no_flip()
-    };
+    let shift = Thresholds { shift: true, ..no_flip() };
     let r = compare(&a, &b, &shift).unwrap();
     assert_eq!(r.forgiven_pixels, ring);
     assert_eq!(r.failing_pixels, 0);
@@ -400,27 +323,19 @@ fn shift_window_forgives_a_one_pixel_silhouette_shift_only_when_enabled() {
 
     // Nor is a blob far from the silhouette.
     let r = compare(&a, &disk("b", 32, 10.0, Some((2, 2))), &shift).unwrap();
-    assert_eq!(
-        (r.verdict, r.failing_pixels, r.forgiven_pixels),
-        (Verdict::Fail, 1, 0)
-    );
+    assert_eq!((r.verdict, r.failing_pixels, r.forgiven_pixels), (Verdict::Fail, 1, 0));
 
     // Value-matching rule (no coverage channel): an edge between two constant regions that
     // moved by one pixel.
-    let edge = |at: usize| -> Vec<f32> {
-        (0..64)
-            .map(|i| if i % 8 < at { 1.0 } else { 0.0 })
-            .collect()
-    };
+    let edge =
+        |at: usize| -> Vec<f32> { (0..64).map(|i| if i % 8 < at { 1.0 } else { 0.0 }).collect() };
     let a = image("a", 8, 8, &[("Y", edge(4))]);
     let b = image("b", 8, 8, &[("Y", edge(5))]);
     assert_eq!(compare(&a, &b, &no_flip()).unwrap().failing_pixels, 8);
     let r = compare(&a, &b, &shift).unwrap();
     assert_eq!((r.failing_pixels, r.forgiven_pixels), (0, 8), "{r}");
     assert_eq!(
-        compare(&a, &image("b", 8, 8, &[("Y", edge(6))]), &shift)
-            .unwrap()
-            .verdict,
+        compare(&a, &image("b", 8, 8, &[("Y", edge(6))]), &shift).unwrap().verdict,
         Verdict::Fail
     );
 }
@@ -441,28 +356,17 @@ fn flip_is_reported_and_gates_only_when_asked() {
         )
     };
     let (a, b) = (grey(0.5), grey(0.52));
-    let t = Thresholds {
-        fail: 0.1,
-        warn: 0.1,
-        ..Thresholds::default()
-    };
+    let t = Thresholds { fail: 0.1, warn: 0.1, ..Thresholds::default() };
     let r = compare(&a, &a, &t).unwrap();
     assert_eq!(r.flip.unwrap().mean, 0.0);
     let r = compare(&a, &b, &t).unwrap();
     let f = r.flip.unwrap();
     assert!(f.mean > 0.0 && f.max >= f.p99 && f.p99 >= f.p50, "{f:?}");
     assert_eq!(r.verdict, Verdict::Pass);
-    let gated = Thresholds {
-        flip_fail: Some(f64::from(f.mean) / 2.0),
-        ..t.clone()
-    };
+    let gated = Thresholds { flip_fail: Some(f64::from(f.mean) / 2.0), ..t.clone() };
     let r = compare(&a, &b, &gated).unwrap();
     assert_eq!(r.verdict, Verdict::Fail);
-    assert!(
-        r.verdict_line().contains("FLIP mean"),
-        "{}",
-        r.verdict_line()
-    );
+    assert!(r.verdict_line().contains("FLIP mean"), "{}", r.verdict_line());
 
     // No beauty: FLIP is skipped with a note, and gating on it fails.
     let z = one("z", "Z", vec![1.0; 4]);
@@ -485,15 +389,7 @@ fn diff_exr_and_heat_map_png_are_written() {
     out_exr::write_frame(&a, &frame).unwrap();
     out_exr::write_frame(&b, &other).unwrap();
     let (diff, png) = (dir.join("d.exr"), dir.join("d.png"));
-    let (code, out, err) = run(&[
-        s(&a),
-        s(&b),
-        "--diff",
-        s(&diff),
-        "--png",
-        s(&png),
-        "--shift",
-    ]);
+    let (code, out, err) = run(&[s(&a), s(&b), "--diff", s(&diff), "--png", s(&png), "--shift"]);
     assert_eq!(code, 1, "{out}{err}");
 
     let d = out_exr::read(&diff).unwrap();
@@ -508,26 +404,16 @@ fn diff_exr_and_heat_map_png_are_written() {
     assert_eq!(fail[9], 0.0);
     assert!(d.channel("forgiven").is_some() && d.channel("ratio").is_some());
     assert!(d.channel("flip").is_some());
-    assert!(d
-        .attribute("isoview/compare/verdict")
-        .unwrap()
-        .starts_with("FAIL"));
+    assert!(d.attribute("isoview/compare/verdict").unwrap().starts_with("FAIL"));
     assert_eq!(d.channels.len(), 16 + 4);
 
     let heat = image::open(&png).unwrap().to_rgba8();
     assert_eq!(heat.dimensions(), (6, 5));
-    assert_eq!(
-        heat.get_pixel(5, 4).0,
-        [0, 0, 0, 255],
-        "equal pixel is black"
-    );
+    assert_eq!(heat.get_pixel(5, 4).0, [0, 0, 0, 255], "equal pixel is black");
     let failing = heat.get_pixel(2, 1).0;
     let warning = heat.get_pixel(3, 1).0;
     assert_ne!(failing, warning);
-    assert!(
-        failing[0] > 200 && failing[1] > 200,
-        "failing is pale yellow: {failing:?}"
-    );
+    assert!(failing[0] > 200 && failing[1] > 200, "failing is pale yellow: {failing:?}");
     assert!(warning[..3].iter().any(|&c| c > 0), "{warning:?}");
 }
 
@@ -567,12 +453,9 @@ fn compares_isoview_output_with_a_half_float_piz_copy() {
     let (code, out, _) = run(&[s(&a), s(&b), "--fail-relative", "1e-3", "--warn", "1"]);
     assert_eq!(code, 0, "{out}");
     // The state of every pixel is available for tools.
-    let r = compare(
-        &out_exr::read(&a).unwrap(),
-        &out_exr::read(&b).unwrap(),
-        &Thresholds::default(),
-    )
-    .unwrap();
+    let r =
+        compare(&out_exr::read(&a).unwrap(), &out_exr::read(&b).unwrap(), &Thresholds::default())
+            .unwrap();
     assert!(r.pixels.contains(&PixelState::Fail));
 }
 
@@ -585,18 +468,10 @@ fn tiny_and_thin_images_compare() {
                 "x",
                 w,
                 h,
-                &[
-                    ("R", vec![v; n]),
-                    ("G", vec![v; n]),
-                    ("B", vec![v; n]),
-                    ("Z", vec![1.0; n]),
-                ],
+                &[("R", vec![v; n]), ("G", vec![v; n]), ("B", vec![v; n]), ("Z", vec![1.0; n])],
             )
         };
-        let shift = Thresholds {
-            shift: true,
-            ..Thresholds::default()
-        };
+        let shift = Thresholds { shift: true, ..Thresholds::default() };
         let r = compare(&rgb(0.2), &rgb(0.3), &shift).unwrap();
         assert_eq!(r.verdict, Verdict::Fail, "{w}x{h}");
         assert!(r.flip.is_some(), "{w}x{h}");

@@ -32,12 +32,7 @@ impl Rng {
 
 /// A grid over `[min, max]` sampling `f` at its points.
 fn sample(dims: [usize; 3], min: DVec3, max: DVec3, f: impl Fn(DVec3) -> f64) -> Grid {
-    let mut g = Grid {
-        dims,
-        min,
-        max,
-        values: Vec::with_capacity(dims.iter().product()),
-    };
+    let mut g = Grid { dims, min, max, values: Vec::with_capacity(dims.iter().product()) };
     for k in 0..dims[2] {
         for j in 0..dims[1] {
             for i in 0..dims[0] {
@@ -60,10 +55,7 @@ fn blobs(seed: u64, n: usize) -> Grid {
         })
         .collect();
     let g = sample([n, n, n], DVec3::ZERO, DVec3::ONE, |p| {
-        blobs
-            .iter()
-            .map(|&(c, s, a)| a * (-(p - c).length_squared() / (2.0 * s * s)).exp())
-            .sum()
+        blobs.iter().map(|&(c, s, a)| a * (-(p - c).length_squared() / (2.0 * s * s)).exp()).sum()
     });
     assert!(boundary_outside(&g, 0.5, Inside::Above));
     g
@@ -79,11 +71,7 @@ fn noise(seed: u64, n: usize) -> Grid {
             for i in 0..n {
                 let edge = [i, j, k].iter().any(|&c| c == 0 || c == n - 1);
                 let idx = g.index(i, j, k);
-                g.values[idx] = if edge {
-                    1.0
-                } else {
-                    (2.0 * rng.next() - 1.0) as f32
-                };
+                g.values[idx] = if edge { 1.0 } else { (2.0 * rng.next() - 1.0) as f32 };
             }
         }
     }
@@ -159,21 +147,14 @@ fn ambiguous_noise_fields() {
 fn sphere_volume_area_and_normals() {
     let r = 0.7;
     let n = 41;
-    let g = sample([n, n, n], DVec3::splat(-1.0), DVec3::ONE, |p| {
-        p.length() - r
-    });
+    let g = sample([n, n, n], DVec3::splat(-1.0), DVec3::ONE, |p| p.length() - r);
     let (v_exact, a_exact) = (4.0 / 3.0 * PI * r * r * r, 4.0 * PI * r * r);
     for algo in ALL {
         let (m, s) = run(&g, 0.0, Inside::Below, algo);
         let what = format!("{}: {s}", algo.name());
         let dv = (s.volume - v_exact) / v_exact;
         let da = (s.area - a_exact) / a_exact;
-        eprintln!(
-            "sphere {}: volume error {:+.4}, area error {:+.4}",
-            algo.name(),
-            dv,
-            da
-        );
+        eprintln!("sphere {}: volume error {:+.4}, area error {:+.4}", algo.name(), dv, da);
         assert!(dv.abs() < 0.01, "volume error {dv}: {what}");
         assert!(da.abs() < 0.01, "area error {da}: {what}");
         assert_eq!(s.boundary_edges, 0, "{what}");
@@ -182,11 +163,7 @@ fn sphere_volume_area_and_normals() {
         for (p, q) in m.positions.iter().zip(&m.normals) {
             let (p, q) = (DVec3::from(p.map(f64::from)), DVec3::from(q.map(f64::from)));
             assert!((q.length() - 1.0).abs() < 1e-6);
-            assert!(
-                q.dot(p.normalize()) > 0.99,
-                "{}: normal {q} at {p}",
-                algo.name()
-            );
+            assert!(q.dot(p.normalize()) > 0.99, "{}: normal {q} at {p}", algo.name());
         }
     }
 }
@@ -195,9 +172,7 @@ fn sphere_volume_area_and_normals() {
 fn plane_from_linear_field_is_exact() {
     // f = x + 2y + 3z, level 0.37 over [-1, 1]³, anisotropic grid: every edge crossing lies on
     // the plane, and the gradient is constant.
-    let g = sample([9, 11, 7], DVec3::splat(-1.0), DVec3::ONE, |p| {
-        p.x + 2.0 * p.y + 3.0 * p.z
-    });
+    let g = sample([9, 11, 7], DVec3::splat(-1.0), DVec3::ONE, |p| p.x + 2.0 * p.y + 3.0 * p.z);
     let n_exact = DVec3::new(1.0, 2.0, 3.0).normalize();
     for algo in ALL {
         for inside in [Inside::Below, Inside::Above] {
@@ -219,25 +194,16 @@ fn plane_from_linear_field_is_exact() {
                     algo.name()
                 );
                 if !dc_cap {
-                    assert!(
-                        (q - sign * n_exact).length() < 1e-6,
-                        "{}: normal {q}",
-                        algo.name()
-                    );
+                    assert!((q - sign * n_exact).length() < 1e-6, "{}: normal {q}", algo.name());
                 }
             }
             assert!(on_plane > 0);
             // Every triangle faces along the normal (caps of dual contouring excepted).
             if !dc_cap {
                 for t in 0..m.triangle_count() {
-                    let [a, b, c] = m
-                        .triangle(t)
-                        .map(|v| DVec3::from(m.positions[v as usize].map(f64::from)));
-                    assert!(
-                        (b - a).cross(c - a).dot(sign * n_exact) > 0.0,
-                        "{}",
-                        algo.name()
-                    );
+                    let [a, b, c] =
+                        m.triangle(t).map(|v| DVec3::from(m.positions[v as usize].map(f64::from)));
+                    assert!((b - a).cross(c - a).dot(sign * n_exact) > 0.0, "{}", algo.name());
                 }
             }
         }
@@ -264,10 +230,7 @@ fn quads_and_split_rules() {
     let g = blobs(9, 20);
     for algo in [MeshAlgorithm::SurfaceNets, MeshAlgorithm::DualContouring] {
         for split in [QuadSplit::Shorter, QuadSplit::Fixed] {
-            let opts = ExtractOptions {
-                split,
-                keep_quads: true,
-            };
+            let opts = ExtractOptions { split, keep_quads: true };
             let m = extract(&g, 0.5, Inside::Above, algo, opts).unwrap();
             let quads = m.quads.as_ref().unwrap();
             assert_eq!(quads.len() / 4 * 2, m.triangle_count());
@@ -293,9 +256,7 @@ fn quads_and_split_rules() {
 fn surface_nets_open_and_dual_contouring_closed_at_the_boundary() {
     // A slab crossing the whole box: surface nets leaves it open at the box, GEL-style dual
     // contouring caps it.
-    let g = sample([10, 10, 10], DVec3::ZERO, DVec3::ONE, |p| {
-        (p.z - 0.5).abs() - 0.2
-    });
+    let g = sample([10, 10, 10], DVec3::ZERO, DVec3::ONE, |p| (p.z - 0.5).abs() - 0.2);
     let (_, sn) = run(&g, 0.0, Inside::Below, MeshAlgorithm::SurfaceNets);
     assert!(sn.boundary_edges > 0, "{sn}");
     let (_, dc) = run(&g, 0.0, Inside::Below, MeshAlgorithm::DualContouring);
@@ -327,33 +288,16 @@ fn values_equal_to_the_isovalue() {
 #[test]
 fn stats_of_a_known_cube() {
     // The unit cube as 12 triangles, wound outward.
-    let positions: Vec<[f32; 3]> = (0..8u32)
-        .map(|c| [(c & 1) as f32, ((c >> 1) & 1) as f32, ((c >> 2) & 1) as f32])
-        .collect();
-    let quads = [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ];
-    let indices: Vec<u32> = quads
-        .iter()
-        .flat_map(|q| [q[0], q[1], q[2], q[0], q[2], q[3]])
-        .collect();
-    let mut m = Mesh {
-        positions,
-        normals: vec![[0.0, 0.0, 1.0]; 8],
-        indices,
-        quads: None,
-    };
+    let positions: Vec<[f32; 3]> =
+        (0..8u32).map(|c| [(c & 1) as f32, ((c >> 1) & 1) as f32, ((c >> 2) & 1) as f32]).collect();
+    let quads =
+        [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    let indices: Vec<u32> =
+        quads.iter().flat_map(|q| [q[0], q[1], q[2], q[0], q[2], q[3]]).collect();
+    let mut m = Mesh { positions, normals: vec![[0.0, 0.0, 1.0]; 8], indices, quads: None };
     let s = stats::compute(&m);
     assert!(s.is_closed_manifold(), "{s}");
-    assert!(
-        (s.area - 6.0).abs() < 1e-12 && (s.volume - 1.0).abs() < 1e-12,
-        "{s}"
-    );
+    assert!((s.area - 6.0).abs() < 1e-12 && (s.volume - 1.0).abs() < 1e-12, "{s}");
     assert_eq!((s.edges, s.euler_characteristic), (18, 2));
     assert_eq!(s.min_angle_histogram, [0, 0, 0, 0, 12, 0]); // all 45°
                                                             // Flip one triangle: three edges become inconsistent.
@@ -398,41 +342,25 @@ fn marching_cubes_matches_scikit_image() {
     let max = DVec3::splat(n as f64 - 1.0);
     let g = sample([n, n, n], DVec3::ZERO, max, |p| sq(p, c1) * sq(p, c2));
     let sum: f64 = g.values.iter().map(|&v| f64::from(v)).sum();
-    assert!(
-        (sum - value_sum).abs() < 1e-9 * value_sum,
-        "samples differ from the script's"
-    );
+    assert!((sum - value_sum).abs() < 1e-9 * value_sum, "samples differ from the script's");
     // skimage's default treats values above the level as the object; the vertex set does not
     // depend on the rule.
     let (m, s) = run(&g, level, Inside::Below, MeshAlgorithm::MarchingCubes);
     assert_eq!((m.vertex_count(), m.triangle_count()), lorensen, "{s}");
-    let mut ours: Vec<DVec3> = m
-        .positions
-        .iter()
-        .map(|p| DVec3::from(p.map(f64::from)))
-        .collect();
+    let mut ours: Vec<DVec3> = m.positions.iter().map(|p| DVec3::from(p.map(f64::from))).collect();
     let key = |p: &DVec3| (p.x, p.y, p.z);
     ours.sort_by(|a, b| key(a).partial_cmp(&key(b)).unwrap());
     verts.sort_by(|a, b| key(a).partial_cmp(&key(b)).unwrap());
     for (a, b) in ours.iter().zip(&verts) {
-        assert!(
-            (*a - *b).abs().max_element() < 2e-4,
-            "{a} vs scikit-image {b}"
-        );
+        assert!((*a - *b).abs().max_element() < 2e-4, "{a} vs scikit-image {b}");
     }
     assert!(s.is_closed_manifold() && s.euler_characteristic == 2, "{s}");
 }
 
 fn round_trip_mesh() -> Mesh {
     let g = blobs(3, 16);
-    extract(
-        &g,
-        0.5,
-        Inside::Above,
-        MeshAlgorithm::MarchingTetrahedra,
-        ExtractOptions::default(),
-    )
-    .unwrap()
+    extract(&g, 0.5, Inside::Above, MeshAlgorithm::MarchingTetrahedra, ExtractOptions::default())
+        .unwrap()
 }
 
 #[test]
@@ -442,9 +370,7 @@ fn ply_round_trip() {
     let m = round_trip_mesh();
     let mut bytes = Vec::new();
     export::write(&m, Format::Ply, &mut bytes).unwrap();
-    let ply = Parser::<DefaultElement>::new()
-        .read_ply(&mut bytes.as_slice())
-        .unwrap();
+    let ply = Parser::<DefaultElement>::new().read_ply(&mut bytes.as_slice()).unwrap();
     let float = |e: &DefaultElement, k: &str| match e[k] {
         Property::Float(v) => v,
         ref p => panic!("{k}: {p:?}"),
@@ -452,14 +378,8 @@ fn ply_round_trip() {
     let verts = &ply.payload["vertex"];
     assert_eq!(verts.len(), m.vertex_count());
     for (i, v) in verts.iter().enumerate() {
-        assert_eq!(
-            [float(v, "x"), float(v, "y"), float(v, "z")],
-            m.positions[i]
-        );
-        assert_eq!(
-            [float(v, "nx"), float(v, "ny"), float(v, "nz")],
-            m.normals[i]
-        );
+        assert_eq!([float(v, "x"), float(v, "y"), float(v, "z")], m.positions[i]);
+        assert_eq!([float(v, "nx"), float(v, "ny"), float(v, "nz")], m.normals[i]);
     }
     let faces: Vec<u32> = ply.payload["face"]
         .iter()
@@ -474,10 +394,7 @@ fn ply_round_trip() {
 #[test]
 fn ply_and_obj_write_quads() {
     let g = blobs(3, 12);
-    let opts = ExtractOptions {
-        keep_quads: true,
-        ..Default::default()
-    };
+    let opts = ExtractOptions { keep_quads: true, ..Default::default() };
     let m = extract(&g, 0.5, Inside::Above, MeshAlgorithm::DualContouring, opts).unwrap();
     let mut bytes = Vec::new();
     export::write(&m, Format::Obj, &mut bytes).unwrap();
@@ -492,22 +409,13 @@ fn obj_round_trip() {
     let m = round_trip_mesh();
     let mut bytes = Vec::new();
     export::write(&m, Format::Obj, &mut bytes).unwrap();
-    let opts = tobj::LoadOptions {
-        single_index: true,
-        ..Default::default()
-    };
+    let opts = tobj::LoadOptions { single_index: true, ..Default::default() };
     let (models, _) = tobj::load_obj_buf(&mut bytes.as_slice(), &opts, |_| unreachable!()).unwrap();
     assert_eq!(models.len(), 1);
     // tobj renumbers vertices in order of first use; compare corner by corner.
     let t = &models[0].mesh;
     assert_eq!(t.indices.len(), m.indices.len());
-    let at = |v: &[f32], i: u32| {
-        [
-            v[3 * i as usize],
-            v[3 * i as usize + 1],
-            v[3 * i as usize + 2],
-        ]
-    };
+    let at = |v: &[f32], i: u32| [v[3 * i as usize], v[3 * i as usize + 1], v[3 * i as usize + 2]];
     for (&a, &b) in t.indices.iter().zip(&m.indices) {
         assert_eq!(at(&t.positions, a), m.positions[b as usize]);
         assert_eq!(at(&t.normals, a), m.normals[b as usize]);

@@ -66,12 +66,7 @@ pub fn test_frame(w: u32, h: u32) -> Frame {
             });
         }
     }
-    Frame {
-        width: w,
-        height: h,
-        pixels,
-        info: info(),
-    }
+    Frame { width: w, height: h, pixels, info: info() }
 }
 
 fn channel_of(p: &Pixel, name: &str) -> f32 {
@@ -166,9 +161,7 @@ fn exr_bytes_are_deterministic() {
     let dir = scratch("determinism");
     let mut frame = test_frame(33, 21);
     // Many custom attributes: their HashMap order differs between map instances.
-    frame.info.extra = (0..12)
-        .map(|i| (format!("k{i}"), format!("v{i}")))
-        .collect();
+    frame.info.extra = (0..12).map(|i| (format!("k{i}"), format!("v{i}"))).collect();
     let first = dir.join("a.exr");
     out_exr::write_frame(&first, &frame).unwrap();
     let reference = std::fs::read(&first).unwrap();
@@ -269,11 +262,7 @@ fn reads_half_channels_layer_names_and_every_compression() {
                 AnyChannel::new("depth.Z", FlatSamples::F32(ramp.clone())),
                 AnyChannel::new("id", FlatSamples::U32(ids.clone())),
             ]);
-            let encoding = Encoding {
-                compression,
-                blocks,
-                line_order: LineOrder::Increasing,
-            };
+            let encoding = Encoding { compression, blocks, line_order: LineOrder::Increasing };
             let mut attrs = LayerAttributes::default();
             attrs.other.insert(
                 Text::from("note"),
@@ -294,15 +283,8 @@ fn reads_half_channels_layer_names_and_every_compression() {
                 assert_eq!(r.values[k], half[k].to_f32(), "{compression:?} R[{k}]");
                 assert_eq!(id.values[k], k as f32);
                 // PXR24 keeps 24 bits of a float.
-                let tol = if compression == Compression::PXR24 {
-                    1e-4 * ramp[k]
-                } else {
-                    0.0
-                };
-                assert!(
-                    (z.values[k] - ramp[k]).abs() <= tol,
-                    "{compression:?} Z[{k}]"
-                );
+                let tol = if compression == Compression::PXR24 { 1e-4 * ramp[k] } else { 0.0 };
+                assert!((z.values[k] - ramp[k]).abs() <= tol, "{compression:?} Z[{k}]");
             }
             assert_eq!(img.attribute("note"), Some("from another writer"));
         }
@@ -314,23 +296,14 @@ fn data_window_is_placed_in_the_display_window() {
     let dir = scratch("windows");
     let path = dir.join("w.exr");
     // 2x2 data at (1, 1) in a 4x3 display window at (0, 0).
-    let attrs = LayerAttributes {
-        layer_position: Vec2(1, 1),
-        ..LayerAttributes::default()
-    };
+    let attrs = LayerAttributes { layer_position: Vec2(1, 1), ..LayerAttributes::default() };
     let layer = Layer::new(
         (2, 2),
         attrs,
         Encoding::UNCOMPRESSED,
-        channels(vec![AnyChannel::new(
-            "Y",
-            FlatSamples::F32(vec![1.0, 2.0, 3.0, 4.0]),
-        )]),
+        channels(vec![AnyChannel::new("Y", FlatSamples::F32(vec![1.0, 2.0, 3.0, 4.0]))]),
     );
-    let image = Image::new(
-        ImageAttributes::new(IntegerBounds::new(Vec2(0, 0), Vec2(4, 3))),
-        layer,
-    );
+    let image = Image::new(ImageAttributes::new(IntegerBounds::new(Vec2(0, 0), Vec2(4, 3))), layer);
     image.write().to_file(&path).unwrap();
     let img = out_exr::read(&path).unwrap();
     assert_eq!((img.width, img.height), (4, 3));
@@ -387,10 +360,7 @@ fn read_errors_name_the_file() {
     let garbage = dir.join("garbage.exr");
     std::fs::write(&garbage, b"this is not an exr file at all").unwrap();
     let msg = out_exr::read(&garbage).unwrap_err().to_string();
-    assert!(
-        msg.contains("garbage.exr") && msg.contains("OpenEXR"),
-        "{msg}"
-    );
+    assert!(msg.contains("garbage.exr") && msg.contains("OpenEXR"), "{msg}");
     assert_eq!(msg.lines().count(), 1);
 
     // A valid file cut short.

@@ -205,99 +205,44 @@ mod tests {
     #[test]
     fn derivative_roots_cases() {
         // g = (u - 0.25)(u - 0.5)(u - 0.75) -> g' roots at 0.5 +- 1/sqrt(48).
-        let g = Cubic {
-            c: [-0.09375, 0.6875, -1.5, 1.0],
-        };
+        let g = Cubic { c: [-0.09375, 0.6875, -1.5, 1.0] };
         let (r, n) = g.derivative_roots();
         assert_eq!(n, 2);
         let s = (1.0f64 / 48.0).sqrt();
         assert!((r[0] - (0.5 - s)).abs() < 1e-15 && (r[1] - (0.5 + s)).abs() < 1e-15);
         // Quadratic g = (u - 0.4)^2: g' root at 0.4.
-        let (r, n) = Cubic {
-            c: [0.16, -0.8, 1.0, 0.0],
-        }
-        .derivative_roots();
+        let (r, n) = Cubic { c: [0.16, -0.8, 1.0, 0.0] }.derivative_roots();
         assert_eq!((n, r[0]), (1, 0.4));
         // Linear and constant: none.
-        assert_eq!(
-            Cubic {
-                c: [1.0, 2.0, 0.0, 0.0]
-            }
-            .derivative_roots()
-            .1,
-            0
-        );
-        assert_eq!(
-            Cubic {
-                c: [1.0, 0.0, 0.0, 0.0]
-            }
-            .derivative_roots()
-            .1,
-            0
-        );
+        assert_eq!(Cubic { c: [1.0, 2.0, 0.0, 0.0] }.derivative_roots().1, 0);
+        assert_eq!(Cubic { c: [1.0, 0.0, 0.0, 0.0] }.derivative_roots().1, 0);
         // Flat inflection: g = (u - 0.5)^3, disc = 0.
-        let (r, n) = Cubic {
-            c: [-0.125, 0.75, -1.5, 1.0],
-        }
-        .derivative_roots();
+        let (r, n) = Cubic { c: [-0.125, 0.75, -1.5, 1.0] }.derivative_roots();
         assert_eq!((n, r[0]), (1, 0.5));
         // No real roots: g' = 3u^2 + 1.
-        assert_eq!(
-            Cubic {
-                c: [0.0, 1.0, 0.0, 1.0]
-            }
-            .derivative_roots()
-            .1,
-            0
-        );
+        assert_eq!(Cubic { c: [0.0, 1.0, 0.0, 1.0] }.derivative_roots().1, 0);
         // Tiny leading coefficient: the far root leaves [0, 1], the near one stays accurate.
-        let (r, n) = Cubic {
-            c: [0.0, -0.3, 0.5, 1e-300],
-        }
-        .derivative_roots();
+        let (r, n) = Cubic { c: [0.0, -0.3, 0.5, 1e-300] }.derivative_roots();
         assert_eq!(n, 1);
         assert!((r[0] - 0.3).abs() < 1e-15);
     }
 
     #[test]
     fn refine_converges_and_stays_in_bracket() {
-        let g = Cubic {
-            c: [-0.09375, 0.6875, -1.5, 1.0],
-        };
+        let g = Cubic { c: [-0.09375, 0.6875, -1.5, 1.0] };
         for inside in [Inside::Below, Inside::Above] {
             let mut it = Vec::new();
-            let u = refine(
-                &g,
-                inside,
-                (0.0, 0.5),
-                (g.eval(0.0), g.eval(0.5)),
-                50,
-                Some(&mut it),
-            );
+            let u = refine(&g, inside, (0.0, 0.5), (g.eval(0.0), g.eval(0.5)), 50, Some(&mut it));
             assert!((u - 0.25).abs() < 1e-15, "{u}");
             assert!(it.iter().all(|&x| (0.0..=0.5).contains(&x)));
         }
         // A double root nearby: Newton slows down but the bracket keeps it honest.
-        let g = Cubic {
-            c: [1e-12 - 0.25, 1.0, -1.0, 0.0],
-        }; // -(u - 0.5)^2 + 1e-12
-        let u = refine(
-            &g,
-            Inside::Below,
-            (0.0, 0.5),
-            (g.eval(0.0), g.eval(0.5)),
-            100,
-            None,
-        );
+        let g = Cubic { c: [1e-12 - 0.25, 1.0, -1.0, 0.0] }; // -(u - 0.5)^2 + 1e-12
+        let u = refine(&g, Inside::Below, (0.0, 0.5), (g.eval(0.0), g.eval(0.5)), 100, None);
         // Conditioning: |g'| = 2e-6 at the root, so rounding in g (~1e-17) moves it ~1e-11.
         assert!((u - (0.5 - 1e-6)).abs() < 1e-10, "{u}");
         // Zero steps: the secant guess.
-        let g = Cubic {
-            c: [-1.0, 2.0, 0.0, 0.0],
-        };
-        assert_eq!(
-            refine(&g, Inside::Below, (0.0, 1.0), (-1.0, 1.0), 0, None),
-            0.5
-        );
+        let g = Cubic { c: [-1.0, 2.0, 0.0, 0.0] };
+        assert_eq!(refine(&g, Inside::Below, (0.0, 1.0), (-1.0, 1.0), 0, None), 0.5);
     }
 }

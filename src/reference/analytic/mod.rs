@@ -161,10 +161,7 @@ pub struct AnalyticOptions {
 
 impl Default for AnalyticOptions {
     fn default() -> Self {
-        AnalyticOptions {
-            newton_steps: 10,
-            crossing: 1,
-        }
+        AnalyticOptions { newton_steps: 10, crossing: 1 }
     }
 }
 
@@ -366,11 +363,7 @@ fn walk(
     let mut cell = [0i64; 3];
     let mut q_in = DVec3::ZERO;
     for a in 0..3 {
-        let c = if d[a] < 0.0 {
-            p[a].ceil() - 1.0
-        } else {
-            p[a].floor()
-        };
+        let c = if d[a] < 0.0 { p[a].ceil() - 1.0 } else { p[a].floor() };
         let c = c.clamp(0.0, n[a] - 1.0);
         cell[a] = c as i64;
         q_in[a] = (p[a] - c).clamp(0.0, 1.0);
@@ -389,11 +382,7 @@ fn walk(
             f64::INFINITY
         }
     };
-    let mut tmax = DVec3::new(
-        tmax_of(0, cell[0]),
-        tmax_of(1, cell[1]),
-        tmax_of(2, cell[2]),
-    );
+    let mut tmax = DVec3::new(tmax_of(0, cell[0]), tmax_of(1, cell[1]), tmax_of(2, cell[2]));
     let mut t_in = t_lo;
 
     // 6. Loop.
@@ -421,33 +410,17 @@ fn walk(
                 (o[a] + t_out * d[a] - cell[a] as f64).clamp(0.0, 1.0)
             };
         }
-        let g_out = if t_out == t_in {
-            g_in
-        } else {
-            trilerp(&corners, q_out) - iso
-        };
+        let g_out = if t_out == t_in { g_in } else { trilerp(&corners, q_out) - iso };
 
         // 6.3 Cubic; 6.4 split points.
         let cubic = Cubic::along_segment(&corners, q_in, q_out, g_in);
         let (droots, nd) = cubic.derivative_roots();
-        let mut splits = [SplitPoint {
-            u: 0.0,
-            g: g_in,
-            inside: inside_g(inside, g_in),
-        }; 4];
+        let mut splits = [SplitPoint { u: 0.0, g: g_in, inside: inside_g(inside, g_in) }; 4];
         for (s, &r) in droots[..nd].iter().enumerate() {
             let g = cubic.eval(r);
-            splits[s + 1] = SplitPoint {
-                u: r,
-                g,
-                inside: inside_g(inside, g),
-            };
+            splits[s + 1] = SplitPoint { u: r, g, inside: inside_g(inside, g) };
         }
-        splits[nd + 1] = SplitPoint {
-            u: 1.0,
-            g: g_out,
-            inside: inside_g(inside, g_out),
-        };
+        splits[nd + 1] = SplitPoint { u: 1.0, g: g_out, inside: inside_g(inside, g_out) };
 
         let mut visit = trace.as_ref().map(|_| CellVisit {
             cell: cell.map(|c| c as i32),
@@ -507,11 +480,8 @@ fn walk(
                     Inside::Above => -grad,
                 };
                 let len = oriented.length();
-                let normal = if len > 0.0 && len.is_finite() {
-                    oriented / len
-                } else {
-                    -dir.normalize()
-                };
+                let normal =
+                    if len > 0.0 && len.is_finite() { oriented / len } else { -dir.normalize() };
                 result.hit = Some(Hit {
                     t,
                     position: origin + dir * t,

@@ -45,12 +45,7 @@ impl Rng {
 }
 
 fn grid_from_fn(dims: [usize; 3], min: DVec3, max: DVec3, f: impl Fn(DVec3) -> f64) -> Grid {
-    let mut grid = Grid {
-        dims,
-        min,
-        max,
-        values: vec![0.0; dims[0] * dims[1] * dims[2]],
-    };
+    let mut grid = Grid { dims, min, max, values: vec![0.0; dims[0] * dims[1] * dims[2]] };
     for k in 0..dims[2] {
         for j in 0..dims[1] {
             for i in 0..dims[0] {
@@ -72,12 +67,7 @@ fn random_grid(rng: &mut Rng, max_points: usize) -> Grid {
     let max = min + rng.vec(0.5, 3.0);
     let count = dims[0] * dims[1] * dims[2];
     let values = (0..count).map(|_| rng.range(-1.0, 1.0) as f32).collect();
-    Grid {
-        dims,
-        min,
-        max,
-        values,
-    }
+    Grid { dims, min, max, values }
 }
 
 fn diagonal(grid: &Grid) -> f64 {
@@ -85,10 +75,7 @@ fn diagonal(grid: &Grid) -> f64 {
 }
 
 fn opts(newton_steps: u32) -> AnalyticOptions {
-    AnalyticOptions {
-        newton_steps,
-        crossing: 1,
-    }
+    AnalyticOptions { newton_steps, crossing: 1 }
 }
 
 /// Brute force: the span by its own slab test, the predicate sampled at `samples` evenly spaced
@@ -126,16 +113,12 @@ fn brute(
     let eval = |t: f64| -> bool {
         let q = (o + d * t).clamp(DVec3::ZERO, n);
         let cell = [0, 1, 2].map(|a| q[a].floor().min(n[a] - 1.0).max(0.0));
-        let f = trilerp(
-            &cell_corners(grid, cell.map(|x| x as usize)),
-            q - DVec3::from_array(cell),
-        );
+        let f = trilerp(&cell_corners(grid, cell.map(|x| x as usize)), q - DVec3::from_array(cell));
         inside.contains(f, iso)
     };
     let mut roots = Vec::new();
-    let ts: Vec<f64> = (0..samples)
-        .map(|i| lo + (hi - lo) * i as f64 / (samples - 1) as f64)
-        .collect();
+    let ts: Vec<f64> =
+        (0..samples).map(|i| lo + (hi - lo) * i as f64 / (samples - 1) as f64).collect();
     let mut prev = eval(ts[0]);
     for w in ts.windows(2) {
         let p = eval(w[1]);
@@ -161,12 +144,7 @@ fn brute(
 
 /// The `t` of every counted crossing, from the detailed trace.
 fn crossing_ts(visits: &[CellVisit]) -> Vec<f64> {
-    visits
-        .iter()
-        .flat_map(|v| v.roots.iter())
-        .filter(|r| r.crossing > 0)
-        .map(|r| r.t)
-        .collect()
+    visits.iter().flat_map(|v| v.roots.iter()).filter(|r| r.crossing > 0).map(|r| r.t).collect()
 }
 
 /// Checks the structural invariants of a detailed trace against its result.
@@ -180,31 +158,18 @@ fn check_trace(res: &AnalyticHit, visits: &[CellVisit], label: &str) {
     for w in visits.windows(2) {
         assert_eq!(w[0].t_out, w[1].t_in, "{label}: segments do not chain");
         let (a, b) = (w[0].splits.last().unwrap(), &w[1].splits[0]);
-        assert_eq!(
-            a.g.to_bits(),
-            b.g.to_bits(),
-            "{label}: face value not carried"
-        );
+        assert_eq!(a.g.to_bits(), b.g.to_bits(), "{label}: face value not carried");
     }
     for v in visits {
         assert!(v.t_in <= v.t_out, "{label}");
         for q in [v.q_in, v.q_out] {
-            assert!(
-                q.min_element() >= 0.0 && q.max_element() <= 1.0,
-                "{label}: {q}"
-            );
+            assert!(q.min_element() >= 0.0 && q.max_element() <= 1.0, "{label}: {q}");
         }
         let g0 = v.splits[0].g;
         assert_eq!(v.coefficients[0], g0, "{label}");
         for r in &v.roots {
-            assert!(
-                r.bracket.0 <= r.u && r.u <= r.bracket.1,
-                "{label}: root left its bracket"
-            );
-            assert!(
-                v.t_in <= r.t && r.t <= v.t_out,
-                "{label}: root left its segment"
-            );
+            assert!(r.bracket.0 <= r.u && r.u <= r.bracket.1, "{label}: root left its bracket");
+            assert!(v.t_in <= r.t && r.t <= v.t_out, "{label}: root left its segment");
         }
     }
 }
@@ -237,10 +202,7 @@ fn compare_with_brute_n(
     let plain = trace(grid, iso, inside, origin, dir, &opts(64));
     assert_eq!(plain, res, "{label}: trace and trace_detailed differ");
     let Some(((lo, hi), expected)) = brute(grid, iso, inside, origin, dir, samples) else {
-        assert!(
-            res.span.is_none() || res.crossings == 0,
-            "{label}: brute force missed the box"
-        );
+        assert!(res.span.is_none() || res.crossings == 0, "{label}: brute force missed the box");
         return 0;
     };
     let got = crossing_ts(&visits);
@@ -293,21 +255,14 @@ fn random_grids_match_brute_force() {
         let lo = grid.min - (grid.max - grid.min) * 0.5;
         let hi = grid.max + (grid.max - grid.min) * 0.5;
         for r in 0..8 {
-            let origin = DVec3::new(
-                rng.range(lo.x, hi.x),
-                rng.range(lo.y, hi.y),
-                rng.range(lo.z, hi.z),
-            );
+            let origin =
+                DVec3::new(rng.range(lo.x, hi.x), rng.range(lo.y, hi.y), rng.range(lo.z, hi.z));
             let target = DVec3::new(
                 rng.range(grid.min.x, grid.max.x),
                 rng.range(grid.min.y, grid.max.y),
                 rng.range(grid.min.z, grid.max.z),
             );
-            let dir = if r == 7 {
-                rng.direction()
-            } else {
-                (target - origin).normalize()
-            };
+            let dir = if r == 7 { rng.direction() } else { (target - origin).normalize() };
             for inside in [Inside::Below, Inside::Above] {
                 let label = format!("grid {g} ray {r} {inside:?}");
                 invisible += compare_with_brute(&grid, iso, inside, origin, dir, &label);
@@ -316,14 +271,8 @@ fn random_grids_match_brute_force() {
             }
         }
     }
-    assert!(
-        crossings as usize > rays / 2,
-        "too few crossings to mean anything: {crossings}"
-    );
-    assert!(
-        invisible * 50 < crossings as usize,
-        "too many near-tangent pairs: {invisible}"
-    );
+    assert!(crossings as usize > rays / 2, "too few crossings to mean anything: {crossings}");
+    assert!(invisible * 50 < crossings as usize, "too many near-tangent pairs: {invisible}");
 }
 
 #[test]
@@ -345,10 +294,7 @@ fn kth_crossing_matches_the_list() {
                 }
                 let mut entering = None;
                 for k in 1..=ts.len() as u32 + 1 {
-                    let o = AnalyticOptions {
-                        newton_steps: 64,
-                        crossing: k,
-                    };
+                    let o = AnalyticOptions { newton_steps: 64, crossing: k };
                     let res = trace(&grid, iso, inside, origin, dir, &o);
                     assert_eq!(res.crossings, all.crossings, "grid {g}");
                     assert_eq!(res.cells_total, all.cells_total, "grid {g}");
@@ -398,12 +344,7 @@ fn default_newton_steps_are_converged_on_simple_roots() {
                 for (r, s) in v.roots.iter().zip(&w.roots) {
                     let (_, slope) = cubic.eval_with_derivative(s.u);
                     if slope.abs() > 1e-2 * scale {
-                        assert!(
-                            (r.t - s.t).abs() <= 1e-12 * diagonal(&grid),
-                            "{} vs {}",
-                            r.t,
-                            s.t
-                        );
+                        assert!((r.t - s.t).abs() <= 1e-12 * diagonal(&grid), "{} vs {}", r.t, s.t);
                         checked += 1;
                     }
                 }
@@ -417,22 +358,16 @@ fn default_newton_steps_are_converged_on_simple_roots() {
 fn linear_field_gives_the_exact_plane() {
     // f = x + 2y - 0.5z is trilinear and its grid values are exact in f32 (dyadic points).
     let a = DVec3::new(1.0, 2.0, -0.5);
-    let grid = grid_from_fn(
-        [5, 5, 5],
-        DVec3::new(-1.0, 0.0, 2.0),
-        DVec3::new(1.0, 4.0, 10.0),
-        |p| a.dot(p),
-    );
+    let grid =
+        grid_from_fn([5, 5, 5], DVec3::new(-1.0, 0.0, 2.0), DVec3::new(1.0, 4.0, 10.0), |p| {
+            a.dot(p)
+        });
     let mut rng = Rng::new(4);
     let mut hits = 0;
     for n in 0..400 {
         let iso = rng.range(-2.0, 8.0);
         let origin = rng.vec(-4.0, 14.0);
-        let target = DVec3::new(
-            rng.range(-1.0, 1.0),
-            rng.range(0.0, 4.0),
-            rng.range(2.0, 10.0),
-        );
+        let target = DVec3::new(rng.range(-1.0, 1.0), rng.range(0.0, 4.0), rng.range(2.0, 10.0));
         let dir = (target - origin).normalize();
         for inside in [Inside::Below, Inside::Above] {
             let res = trace(&grid, iso, inside, origin, dir, &opts(10));
@@ -446,21 +381,13 @@ fn linear_field_gives_the_exact_plane() {
                         expect_hit || (t - lo).abs() < 1e-9 || (t - hi).abs() < 1e-9,
                         "ray {n}"
                     );
-                    assert!(
-                        (h.t - t).abs() < 1e-12 * diagonal(&grid),
-                        "ray {n}: {} vs {t}",
-                        h.t
-                    );
+                    assert!((h.t - t).abs() < 1e-12 * diagonal(&grid), "ray {n}: {} vs {t}", h.t);
                     assert!((h.position - (origin + dir * t)).length() < 1e-11);
                     let normal = match inside {
                         Inside::Below => a.normalize(),
                         Inside::Above => -a.normalize(),
                     };
-                    assert!(
-                        (h.normal - normal).length() < 1e-12,
-                        "ray {n}: {}",
-                        h.normal
-                    );
+                    assert!((h.normal - normal).length() < 1e-12, "ray {n}: {}", h.normal);
                     // Entering exactly when the ray runs against the normal.
                     assert_eq!(h.entering, dir.dot(normal) < 0.0, "ray {n}");
                     hits += 1;
@@ -475,9 +402,8 @@ fn linear_field_gives_the_exact_plane() {
 #[test]
 fn sphere_sdf_grid() {
     let radius = 0.6;
-    let grid = grid_from_fn([33, 33, 33], DVec3::splat(-1.0), DVec3::splat(1.0), |p| {
-        p.length() - radius
-    });
+    let grid =
+        grid_from_fn([33, 33, 33], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - radius);
     let h = 2.0 / 32.0;
     let mut rng = Rng::new(5);
     for n in 0..200 {
@@ -497,14 +423,7 @@ fn sphere_sdf_grid() {
         assert!(hit.normal.dot(hit.position.normalize()) > 0.995, "ray {n}");
         assert!(hit.normal.dot(dir) < 0.0);
         if n % 10 == 0 {
-            compare_with_brute(
-                &grid,
-                0.0,
-                Inside::Below,
-                origin,
-                dir,
-                &format!("sphere ray {n}"),
-            );
+            compare_with_brute(&grid, 0.0, Inside::Below, origin, dir, &format!("sphere ray {n}"));
             compare_with_brute(
                 &grid,
                 0.0,
@@ -515,9 +434,7 @@ fn sphere_sdf_grid() {
             );
         }
         // The same ray with the inside flipped: same place, reversed normal.
-        let above = trace(&grid, 0.0, Inside::Above, origin, dir, &opts(10))
-            .hit
-            .unwrap();
+        let above = trace(&grid, 0.0, Inside::Above, origin, dir, &opts(10)).hit.unwrap();
         assert_eq!(above.t, hit.t);
         assert_eq!(above.normal, -hit.normal);
         assert!(!above.entering);
@@ -528,21 +445,11 @@ fn sphere_sdf_grid() {
         let origin = rng.vec(-0.05, 0.05);
         let res = trace(&grid, 0.0, Inside::Below, origin, dir, &opts(10));
         let hit = res.hit.unwrap();
-        assert!(
-            res.inside_at_start && !hit.entering && res.crossings == 1,
-            "ray {n}"
-        );
+        assert!(res.inside_at_start && !hit.entering && res.crossings == 1, "ray {n}");
         assert_eq!(res.span.unwrap().0, 0.0);
         assert!((hit.position.length() - radius).abs() < 0.5 * h * h);
         assert!(hit.normal.dot(dir) > 0.9, "ray {n}");
-        compare_with_brute(
-            &grid,
-            0.0,
-            Inside::Below,
-            origin,
-            dir,
-            &format!("inner ray {n}"),
-        );
+        compare_with_brute(&grid, 0.0, Inside::Below, origin, dir, &format!("inner ray {n}"));
     }
     // Rays that pass the sphere by.
     for n in 0..50 {
@@ -550,10 +457,7 @@ fn sphere_sdf_grid() {
         let dir = side.any_orthonormal_vector();
         let origin = side * rng.range(0.75, 0.95) - dir * 3.0;
         let res = trace(&grid, 0.0, Inside::Below, origin, dir, &opts(10));
-        assert!(
-            res.hit.is_none() && res.crossings == 0 && res.span.is_some(),
-            "ray {n}"
-        );
+        assert!(res.hit.is_none() && res.crossings == 0 && res.span.is_some(), "ray {n}");
         assert_eq!(res.cells_visited, res.cells_total);
     }
 }
@@ -586,11 +490,7 @@ fn every_single_cell_sign_configuration() {
             for r in 0..6 {
                 let origin = rng.direction() * 2.0 + DVec3::splat(0.5);
                 let dir = (rng.vec(0.1, 0.9) - origin).normalize();
-                let inside = if r % 2 == 0 {
-                    Inside::Below
-                } else {
-                    Inside::Above
-                };
+                let inside = if r % 2 == 0 { Inside::Below } else { Inside::Above };
                 let label = format!("pattern {pattern:08b} m {m} ray {r}");
                 // One cell: 5000 samples are as dense per cell as 20000 over a larger grid.
                 compare_with_brute_n(&grid, 0.0, inside, origin, dir, &label, 5_000);
@@ -610,10 +510,7 @@ fn saddle_face_two_sheets_and_touch() {
     let s = 0.1f64.sqrt() / 2.0;
     let ts = crossing_ts(&visits);
     assert_eq!(ts.len(), 2);
-    assert!(
-        (ts[0] - (1.5 - s)).abs() < 1e-15 && (ts[1] - (1.5 + s)).abs() < 1e-15,
-        "{ts:?}"
-    );
+    assert!((ts[0] - (1.5 - s)).abs() < 1e-15 && (ts[1] - (1.5 + s)).abs() < 1e-15, "{ts:?}");
     assert!(res.hit.unwrap().entering);
     // The other diagonal stays inside the whole way.
     let res = trace(
@@ -645,10 +542,7 @@ fn saddle_face_two_sheets_and_touch() {
         Inside::Above,
         origin,
         dir,
-        &AnalyticOptions {
-            newton_steps: 10,
-            crossing: 2,
-        },
+        &AnalyticOptions { newton_steps: 10, crossing: 2 },
     );
     assert_eq!(second.hit.map(|h| (h.t, h.entering)), Some((1.5, true)));
 }
@@ -667,33 +561,16 @@ fn diagonal_corners_separated_or_tunnel() {
     let ts = crossing_ts(&visits);
     let r = 3f64.sqrt() / 6.0;
     assert_eq!(ts.len(), 2);
-    assert!(
-        (ts[0] - (1.0 - r)).abs() < 1e-15 && (ts[1] - (1.0 + r)).abs() < 1e-15,
-        "{ts:?}"
-    );
+    assert!((ts[0] - (1.0 - r)).abs() < 1e-15 && (ts[1] - (1.0 + r)).abs() < 1e-15, "{ts:?}");
     // Others = -0.25: f = 1 - 3.75u + 3.75u^2 >= 1/16 > 0: a tunnel joins the two corners.
     let grid = single_cell([1.0, -0.25, -0.25, -0.25, -0.25, -0.25, -0.25, 1.0]);
     let res = trace(&grid, 0.0, Inside::Above, origin, dir, &opts(10));
     assert!(res.inside_at_start && res.crossings == 0);
     // The centre line x = y = 1/2 runs through the tunnel at f = 1/16 all the way.
-    let res = trace(
-        &grid,
-        0.0,
-        Inside::Above,
-        DVec3::new(0.5, 0.5, -1.0),
-        DVec3::Z,
-        &opts(10),
-    );
+    let res = trace(&grid, 0.0, Inside::Above, DVec3::new(0.5, 0.5, -1.0), DVec3::Z, &opts(10));
     assert!(res.inside_at_start && res.crossings == 0);
     // With iso above 1/16 the tunnel closes and that line crosses nothing either (outside).
-    let res = trace(
-        &grid,
-        0.07,
-        Inside::Above,
-        DVec3::new(0.5, 0.5, -1.0),
-        DVec3::Z,
-        &opts(10),
-    );
+    let res = trace(&grid, 0.07, Inside::Above, DVec3::new(0.5, 0.5, -1.0), DVec3::Z, &opts(10));
     assert!(!res.inside_at_start && res.crossings == 0);
     compare_with_brute(
         &grid,
@@ -712,32 +589,17 @@ fn dyadic_grid(rng: &mut Rng, dims: [usize; 3]) -> Grid {
     let spacing = DVec3::new(0.25, 0.5, 0.125);
     let min = DVec3::new(-1.0, 0.5, 2.0);
     let max = min
-        + spacing
-            * DVec3::new(
-                (dims[0] - 1) as f64,
-                (dims[1] - 1) as f64,
-                (dims[2] - 1) as f64,
-            );
-    let values = (0..dims[0] * dims[1] * dims[2])
-        .map(|_| rng.range(-1.0, 1.0) as f32)
-        .collect();
-    Grid {
-        dims,
-        min,
-        max,
-        values,
-    }
+        + spacing * DVec3::new((dims[0] - 1) as f64, (dims[1] - 1) as f64, (dims[2] - 1) as f64);
+    let values = (0..dims[0] * dims[1] * dims[2]).map(|_| rng.range(-1.0, 1.0) as f32).collect();
+    Grid { dims, min, max, values }
 }
 
 #[test]
 fn axis_parallel_rays() {
     let mut rng = Rng::new(7);
     for g in 0..20 {
-        let grid = if g % 2 == 0 {
-            random_grid(&mut rng, 8)
-        } else {
-            dyadic_grid(&mut rng, [6, 5, 7])
-        };
+        let grid =
+            if g % 2 == 0 { random_grid(&mut rng, 8) } else { dyadic_grid(&mut rng, [6, 5, 7]) };
         let iso = rng.range(-0.3, 0.3);
         for r in 0..12 {
             let axis = r % 3;
@@ -745,11 +607,8 @@ fn axis_parallel_rays() {
             let mut dir = DVec3::ZERO;
             dir[axis] = sign;
             // The other two coordinates: inside a cell, on a grid plane, or on a grid line.
-            let mut idx = DVec3::new(
-                rng.range(0.0, 1.0),
-                rng.range(0.0, 1.0),
-                rng.range(0.0, 1.0),
-            ) * DVec3::from_array(grid.cells().map(|c| c as f64));
+            let mut idx = DVec3::new(rng.range(0.0, 1.0), rng.range(0.0, 1.0), rng.range(0.0, 1.0))
+                * DVec3::from_array(grid.cells().map(|c| c as f64));
             for a in 0..3 {
                 if a != axis && (r / 3 + a) % 3 != 0 {
                     // On a grid plane; the max face only where it is exact (dyadic spacing).
@@ -757,11 +616,7 @@ fn axis_parallel_rays() {
                     idx[a] = idx[a].round().min(top);
                 }
             }
-            idx[axis] = if sign > 0.0 {
-                -0.5
-            } else {
-                grid.cells()[axis] as f64 + 0.5
-            };
+            idx[axis] = if sign > 0.0 { -0.5 } else { grid.cells()[axis] as f64 + 0.5 };
             let origin = grid.min + idx * grid.spacing();
             for inside in [Inside::Below, Inside::Above] {
                 let label = format!("grid {g} axis ray {r} {inside:?}");
@@ -858,9 +713,7 @@ fn rays_starting_inside_the_box() {
 fn surface_on_a_grid_plane() {
     // f = x - 2 on integer points: the surface is the grid plane x = 2, every crossing lands
     // exactly on a cell face, at the face's t, in the cell on the inside side.
-    let grid = grid_from_fn([5, 3, 3], DVec3::ZERO, DVec3::new(4.0, 2.0, 2.0), |p| {
-        p.x - 2.0
-    });
+    let grid = grid_from_fn([5, 3, 3], DVec3::ZERO, DVec3::new(4.0, 2.0, 2.0), |p| p.x - 2.0);
     for (origin, dir) in [
         (DVec3::new(-0.5, 0.3, 0.7), DVec3::X),
         (DVec3::new(4.5, 0.3, 0.7), -DVec3::X),
@@ -880,23 +733,14 @@ fn surface_on_a_grid_plane() {
             assert_eq!(hit.cell[0], inside_cell, "{origin} {inside:?}");
             let root = visits.iter().flat_map(|v| &v.roots).next().unwrap();
             assert!(root.exact && root.iterates.is_empty());
-            let normal = if inside == Inside::Below {
-                DVec3::X
-            } else {
-                -DVec3::X
-            };
+            let normal = if inside == Inside::Below { DVec3::X } else { -DVec3::X };
             assert_eq!(hit.normal, normal);
             assert_eq!(hit.entering, dir.dot(normal) < 0.0);
         }
     }
     // Starting on the surface: the change at t = 0 is not a crossing.
     let on = DVec3::new(2.0, 0.5, 0.5);
-    for dir in [
-        DVec3::X,
-        -DVec3::X,
-        DVec3::new(-1.0, 0.3, 0.2),
-        DVec3::new(1.0, -0.3, 0.2),
-    ] {
+    for dir in [DVec3::X, -DVec3::X, DVec3::new(-1.0, 0.3, 0.2), DVec3::new(1.0, -0.3, 0.2)] {
         for inside in [Inside::Below, Inside::Above] {
             let (res, visits) = trace_detailed(&grid, 0.0, inside, on, dir, &opts(10));
             assert_eq!((res.crossings, res.hit), (0, None), "{dir} {inside:?}");
@@ -906,47 +750,18 @@ fn surface_on_a_grid_plane() {
                 Inside::Below => dir.x < 0.0,
                 Inside::Above => dir.x > 0.0,
             };
-            let roots: Vec<u32> = visits
-                .iter()
-                .flat_map(|v| &v.roots)
-                .map(|r| r.crossing)
-                .collect();
-            assert_eq!(
-                roots,
-                if heads_inside { vec![0] } else { vec![] },
-                "{dir} {inside:?}"
-            );
+            let roots: Vec<u32> =
+                visits.iter().flat_map(|v| &v.roots).map(|r| r.crossing).collect();
+            assert_eq!(roots, if heads_inside { vec![0] } else { vec![] }, "{dir} {inside:?}");
         }
     }
     // A box face on the surface: f = x - 4 is zero on the face x = 4 and inside (Below)
     // everywhere else. Entering through that face, or leaving through it, is a crossing there.
-    let grid = grid_from_fn([5, 3, 3], DVec3::ZERO, DVec3::new(4.0, 2.0, 2.0), |p| {
-        p.x - 4.0
-    });
-    let res = trace(
-        &grid,
-        0.0,
-        Inside::Below,
-        DVec3::new(5.0, 1.0, 1.0),
-        -DVec3::X,
-        &opts(10),
-    );
-    assert_eq!(
-        res.hit.map(|h| (h.t, h.entering, h.cell[0])),
-        Some((1.0, true, 3))
-    );
-    let res = trace(
-        &grid,
-        0.0,
-        Inside::Below,
-        DVec3::new(-1.0, 1.0, 1.0),
-        DVec3::X,
-        &opts(10),
-    );
-    assert_eq!(
-        res.hit.map(|h| (h.t, h.entering, h.cell[0])),
-        Some((5.0, false, 3))
-    );
+    let grid = grid_from_fn([5, 3, 3], DVec3::ZERO, DVec3::new(4.0, 2.0, 2.0), |p| p.x - 4.0);
+    let res = trace(&grid, 0.0, Inside::Below, DVec3::new(5.0, 1.0, 1.0), -DVec3::X, &opts(10));
+    assert_eq!(res.hit.map(|h| (h.t, h.entering, h.cell[0])), Some((1.0, true, 3)));
+    let res = trace(&grid, 0.0, Inside::Below, DVec3::new(-1.0, 1.0, 1.0), DVec3::X, &opts(10));
+    assert_eq!(res.hit.map(|h| (h.t, h.entering, h.cell[0])), Some((5.0, false, 3)));
     assert!(res.inside_at_start);
     // The opposite face is not surface: entering inside there is no crossing.
     // (this ray leaves through the face y = 2, also inside).
@@ -967,12 +782,8 @@ fn corner_equal_to_the_isovalue() {
     // centre, inside all around it.
     let mut values = [-1.0f32; 27];
     values[13] = 0.0;
-    let grid = Grid {
-        dims: [3, 3, 3],
-        min: DVec3::ZERO,
-        max: DVec3::splat(2.0),
-        values: values.to_vec(),
-    };
+    let grid =
+        Grid { dims: [3, 3, 3], min: DVec3::ZERO, max: DVec3::splat(2.0), values: values.to_vec() };
     let dir = DVec3::new(0.5, 0.25, 0.75);
     let origin = DVec3::ONE - dir * 2.0; // through the centre at t = 2, an exact tie of 3 planes
     let (res, visits) = trace_detailed(&grid, 0.0, Inside::Below, origin, dir, &opts(10));
@@ -988,36 +799,19 @@ fn corner_equal_to_the_isovalue() {
         Inside::Below,
         origin,
         dir,
-        &AnalyticOptions {
-            newton_steps: 10,
-            crossing: 2,
-        },
+        &AnalyticOptions { newton_steps: 10, crossing: 2 },
     );
     let h2 = second.hit.unwrap();
     assert_eq!((h2.t, h2.entering, h2.cell), (2.0, true, [1, 1, 1]));
     assert!((h2.normal + DVec3::ONE.normalize()).length() < 1e-15);
     // A ray that misses the point by a little sees nothing.
-    let res = trace(
-        &grid,
-        0.0,
-        Inside::Below,
-        origin + DVec3::new(1e-3, 0.0, 0.0),
-        dir,
-        &opts(10),
-    );
+    let res = trace(&grid, 0.0, Inside::Below, origin + DVec3::new(1e-3, 0.0, 0.0), dir, &opts(10));
     assert_eq!((res.crossings, res.inside_at_start), (0, true));
     // With Above nothing is inside: the centre is a touch from outside.
     let res = trace(&grid, 0.0, Inside::Above, origin, dir, &opts(10));
     assert_eq!((res.crossings, res.inside_at_start), (0, false));
     // Along a grid line through the centre (an axis ray through corners).
-    let res = trace(
-        &grid,
-        0.0,
-        Inside::Below,
-        DVec3::new(-1.0, 1.0, 1.0),
-        DVec3::X,
-        &opts(10),
-    );
+    let res = trace(&grid, 0.0, Inside::Below, DVec3::new(-1.0, 1.0, 1.0), DVec3::X, &opts(10));
     assert_eq!(res.crossings, 2);
     assert_eq!(res.hit.map(|h| (h.t, h.cell)), Some((2.0, [0, 1, 1])));
 
@@ -1029,21 +823,12 @@ fn corner_equal_to_the_isovalue() {
             -1.0
         }
     });
-    let (res, visits) = trace_detailed(
-        &grid,
-        0.0,
-        Inside::Below,
-        DVec3::new(-1.0, 0.5, 0.5),
-        DVec3::X,
-        &opts(10),
-    );
+    let (res, visits) =
+        trace_detailed(&grid, 0.0, Inside::Below, DVec3::new(-1.0, 0.5, 0.5), DVec3::X, &opts(10));
     let ts = crossing_ts(&visits);
     assert_eq!(ts, vec![2.0, 3.0]);
     assert_eq!(res.hit.map(|h| (h.cell[0], h.entering)), Some((0, false)));
-    assert!(
-        visits[1].roots.is_empty(),
-        "the plateau cell has no crossing"
-    );
+    assert!(visits[1].roots.is_empty(), "the plateau cell has no crossing");
     assert!(visits[2].roots[0].entering);
 }
 
@@ -1055,11 +840,8 @@ fn no_slip_through_faces_near_the_surface() {
     let mut rng = Rng::new(10);
     let mut found = 0;
     for g in 0..30 {
-        let grid = if g % 2 == 0 {
-            random_grid(&mut rng, 5)
-        } else {
-            dyadic_grid(&mut rng, [4, 5, 4])
-        };
+        let grid =
+            if g % 2 == 0 { random_grid(&mut rng, 5) } else { dyadic_grid(&mut rng, [4, 5, 4]) };
         let cells = grid.cells();
         for r in 0..12 {
             let axis = r % 3;
@@ -1079,10 +861,8 @@ fn no_slip_through_faces_near_the_surface() {
                     let label = format!("grid {g} ray {r} ulps {ulps} {inside:?}");
                     compare_with_brute(&grid, iso, inside, origin, dir, &label);
                     let (_, visits) = trace_detailed(&grid, iso, inside, origin, dir, &opts(64));
-                    let near = crossing_ts(&visits)
-                        .iter()
-                        .filter(|&&t| (t - 3.0).abs() < 1e-6)
-                        .count();
+                    let near =
+                        crossing_ts(&visits).iter().filter(|&&t| (t - 3.0).abs() < 1e-6).count();
                     // A transversal crossing at the face point is found exactly once. The
                     // field is only C0 across the face, so transversal means the same clear
                     // slope along the ray in both cells (opposite slopes make a kink that
@@ -1154,11 +934,7 @@ fn coefficients_follow_the_field_along_each_segment() {
             for i in 0..=8 {
                 let u = i as f64 / 8.0;
                 let f = trilerp(&v.corners, lerp3(v.q_in, v.q_out, u)) + 0.2;
-                assert!(
-                    (cubic.eval(u) - f).abs() < 1e-13,
-                    "{} vs {f}",
-                    cubic.eval(u)
-                );
+                assert!((cubic.eval(u) - f).abs() < 1e-13, "{} vs {f}", cubic.eval(u));
             }
             for s in &v.splits[1..v.splits.len() - 1] {
                 assert!(v.derivative_roots.contains(&s.u));
@@ -1174,68 +950,18 @@ fn misses_and_degenerate_rays() {
     let o = AnalyticOptions::default();
     let miss = AnalyticHit::default();
     // Pointing away, passing by, zero or non-finite direction, non-finite origin.
+    assert_eq!(trace(&grid, 0.0, Inside::Below, grid.max + DVec3::ONE, DVec3::ONE, &o), miss);
+    assert_eq!(trace(&grid, 0.0, Inside::Below, grid.max + DVec3::ONE, DVec3::X, &o), miss);
+    assert_eq!(trace(&grid, 0.0, Inside::Below, grid.min, DVec3::ZERO, &o), miss);
     assert_eq!(
-        trace(
-            &grid,
-            0.0,
-            Inside::Below,
-            grid.max + DVec3::ONE,
-            DVec3::ONE,
-            &o
-        ),
+        trace(&grid, 0.0, Inside::Below, grid.min, DVec3::new(f64::NAN, 1.0, 0.0), &o),
         miss
     );
-    assert_eq!(
-        trace(
-            &grid,
-            0.0,
-            Inside::Below,
-            grid.max + DVec3::ONE,
-            DVec3::X,
-            &o
-        ),
-        miss
-    );
-    assert_eq!(
-        trace(&grid, 0.0, Inside::Below, grid.min, DVec3::ZERO, &o),
-        miss
-    );
-    assert_eq!(
-        trace(
-            &grid,
-            0.0,
-            Inside::Below,
-            grid.min,
-            DVec3::new(f64::NAN, 1.0, 0.0),
-            &o
-        ),
-        miss
-    );
-    assert_eq!(
-        trace(
-            &grid,
-            0.0,
-            Inside::Below,
-            DVec3::splat(f64::INFINITY),
-            DVec3::X,
-            &o
-        ),
-        miss
-    );
+    assert_eq!(trace(&grid, 0.0, Inside::Below, DVec3::splat(f64::INFINITY), DVec3::X, &o), miss);
     // A flat box (min == max on one axis) has no cells.
     let mut flat = grid.clone();
     flat.max.z = flat.min.z;
-    assert_eq!(
-        trace(
-            &flat,
-            0.0,
-            Inside::Below,
-            flat.min - DVec3::ONE,
-            DVec3::ONE,
-            &o
-        ),
-        miss
-    );
+    assert_eq!(trace(&flat, 0.0, Inside::Below, flat.min - DVec3::ONE, DVec3::ONE, &o), miss);
     // Grazing a box edge: a one-point span, visited but no crossing possible.
     let edge = DVec3::new(grid.min.x, grid.min.y, 0.5 * (grid.min.z + grid.max.z));
     let dir = DVec3::new(1.0, -1.0, 0.0);
@@ -1258,10 +984,7 @@ fn misses_and_degenerate_rays() {
     // crossing = 0 reads as 1.
     let origin = grid.min - DVec3::ONE;
     let dir = (grid.max - origin).normalize();
-    let zero = AnalyticOptions {
-        newton_steps: 10,
-        crossing: 0,
-    };
+    let zero = AnalyticOptions { newton_steps: 10, crossing: 0 };
     assert_eq!(
         trace(&grid, 0.0, Inside::Below, origin, dir, &zero),
         trace(&grid, 0.0, Inside::Below, origin, dir, &o)

@@ -68,7 +68,8 @@
 //!    `0 <= o[a] <= N[a]` (a ray in a face plane is in the box), and the slab adds no bound;
 //!    else `t0 = (0 - o[a]) / d[a]`, `t1 = (N[a] - o[a]) / d[a]`, near/far by the sign of `d[a]`.
 //!    `t_enter` = max of the nears (remember its axis), `t_exit` = min of the fars. Miss unless
-//!    `t_enter <= t_exit` and `t_exit > 0`. `t_lo = max(t_enter, 0)`, `t_hi = t_exit`.
+//!    `t_enter <= t_exit` and `0 < t_exit < inf` (the last rules out a direction that
+//!    underflowed to 0 in index space). `t_lo = max(t_enter, 0)`, `t_hi = t_exit`.
 //! 3. **Entry point.** `p = o + t_lo d`; if `t_lo == t_enter`, set the entry axis coordinate
 //!    to exactly `0` (d > 0) or `N` (d < 0); clamp `p` to `[0, N]`.
 //! 4. **First cell.** Per axis: `floor(p)` if `d >= 0`, `ceil(p) - 1` if `d < 0` (a ray starting
@@ -95,8 +96,10 @@
 //!       if `pa == pb`, no crossing. Else one crossing, at
 //!       `ua` if `ga == 0`, at `ub` if `gb == 0` (a point exactly on the surface: exact, no
 //!       refinement), otherwise at the root refined in `[ua, ub]` by [`cubic::refine`]
-//!       (secant start, `newton_steps` Newton steps, each replaced by a bisection when it
-//!       leaves the bracket, the bracket updated by the inside predicate).
+//!       (secant start; up to `newton_steps` Newton steps, the bracket shrunk by the inside
+//!       predicate at each iterate, a step that leaves the bracket replaced by a bisection, or
+//!       ending the refinement when it is no longer than [`cubic::CONVERGED`]; stop on `g == 0`
+//!       or a step that changes nothing).
 //!       `t = t_in + u (t_out - t_in)`, capped at `t_out` and exactly `t_out` at `u = 1` (so `t`
 //!       never decreases along the ray). A crossing at exactly `t = 0` (ray starting on the
 //!       surface) is dropped. Otherwise count it; if it is the k-th, it is the hit (a shader
@@ -127,8 +130,23 @@
 //!
 //! Interior points (derivative roots, refinement iterates) are evaluated with the cell's cubic.
 //! Rounding can move them, which only matters at near-tangencies: two crossings a rounding error
-//! apart may appear or vanish together. Counts therefore agree with exact arithmetic except near
-//! tangencies, and the first hit agrees except where a near-tangency comes first.
+//! apart may appear or vanish together. That includes kinks: the field is only C0 across cell
+//! faces, so its slope along the ray can change sign at a face, and a face value within
+//! rounding of the isovalue there is a near-touch too. Counts therefore agree with exact
+//! arithmetic except near tangencies, and the first hit agrees except where a near-tangency
+//! comes first.
+//!
+//! # Notes for the `f32` port
+//!
+//! - Decide the predicate on `g = f - iso` exactly as here (`g < 0` for `Below`, `g > 0` for
+//!   `Above`); in `f64` that equals `Inside::contains(f, iso)` because IEEE subtraction keeps
+//!   the sign and gives 0 only for equal operands. A GPU that flushes denormals can turn a tiny
+//!   difference into 0 (outside): harmless, but it is a difference from this reference at the
+//!   level of rounding.
+//! - `CONVERGED` becomes `4 * FLT_EPSILON`; everything else is free of tolerances.
+//! - Ties in step 6.1 need exact float equality of `tmax` values; they happen for rays through
+//!   grid edges and corners with exactly representable directions, and a near-tie only costs
+//!   a zero- or tiny-length segment, never a crack.
 //!
 //! # Cost figures
 //!
@@ -343,7 +361,7 @@ fn walk(
             t_exit = far;
         }
     }
-    if !(t_enter <= t_exit && t_exit > 0.0) {
+    if !(t_enter <= t_exit && t_exit > 0.0 && t_exit < f64::INFINITY) {
         return result;
     }
     let t_lo = t_enter.max(0.0);

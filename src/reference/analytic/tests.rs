@@ -958,6 +958,10 @@ fn misses_and_degenerate_rays() {
         miss
     );
     assert_eq!(trace(&grid, 0.0, Inside::Below, DVec3::splat(f64::INFINITY), DVec3::X, &o), miss);
+    // A direction that underflows to zero in index space.
+    let mut huge = grid.clone();
+    huge.max = huge.min + DVec3::splat(1e300);
+    assert_eq!(trace(&huge, 0.0, Inside::Below, huge.min, DVec3::splat(1e-300), &o), miss);
     // A flat box (min == max on one axis) has no cells.
     let mut flat = grid.clone();
     flat.max.z = flat.min.z;

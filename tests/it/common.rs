@@ -111,3 +111,11 @@ pub fn random_eye(rng: &mut Rng, grid: &Grid, inside: bool) -> DVec3 {
         c + rng.unit_vector() * r * rng.range(1.6, 3.0)
     }
 }
+
+/// A fresh scratch folder for one test.
+pub fn scratch(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("isoview-it-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}

@@ -1,6 +1,6 @@
 //! EXR and PNG output: round trips, determinism, atomicity, and reading EXRs from other writers.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use exr::prelude::*;
 use glam::DVec3;
@@ -8,13 +8,7 @@ use isoview::frame::{Frame, FrameInfo, Pixel};
 use isoview::output::exr::{self as out_exr, attr, SampleKind, CHANNELS};
 use isoview::output::{atomic, png};
 
-/// A fresh scratch folder for one test.
-pub fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("isoview-it-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+pub use crate::common::scratch;
 
 fn entries(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)

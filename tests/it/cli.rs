@@ -1,0 +1,205 @@
+//! The `isoview` binary as users and scripts see it: outputs, exit codes, one-line errors, and
+//! files that are never truncated or clobbered by a failed run.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use isoview::output::exr;
+
+use crate::common::scratch;
+
+const SPHERE: &str = r#"
+[image]
+width = 32
+height = 24
+
+[camera]
+eye = [0.0, 0.5, 3.0]
+
+[field]
+source = "sdf"
+shape = "sphere"
+radius = 0.6
+resolution = [12, 12, 12]
+bounds = { min = [-1.0, -1.0, -1.0], max = [1.0, 1.0, 1.0] }
+
+[render]
+method = "fixed-step"
+steps = 48
+"#;
+
+fn isoview(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_isoview"));
+    cmd.args(args);
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    cmd.output().expect("run isoview")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Exit status `code` with exactly one line on stderr containing every `needle`.
+fn assert_fails(o: &Output, code: i32, needles: &[&str]) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(code), "stderr: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line expected: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "`{n}` missing from: {err}");
+    }
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.display().to_string()
+}
+
+fn gpu_enabled() -> bool {
+    std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() != Ok("1")
+}
+
+#[test]
+fn render_writes_every_channel_and_a_preview() {
+    if !gpu_enabled() {
+        return;
+    }
+    let dir = scratch("cli-render");
+    let scene = write(&dir, "sphere.toml", SPHERE);
+    let out = dir.join("out.exr").display().to_string();
+    let png = dir.join("out.png").display().to_string();
+    let o = isoview(&["render", &scene, "-o", &out, "--png", &png], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = exr::read(Path::new(&out)).unwrap();
+    assert_eq!((img.width, img.height), (32, 24));
+    let mut names: Vec<&str> = img.channel_names().collect();
+    names.sort();
+    let mut want = vec![
+        "R", "G", "B", "A", "Z", "N.X", "N.Y", "N.Z", "P.X", "P.Y", "P.Z", "steps", "cell.X",
+        "cell.Y", "cell.Z",
+    ];
+    want.sort();
+    assert_eq!(names, want);
+    let a = &img.channel("A").unwrap().values;
+    assert!(a.iter().any(|&v| v == 1.0) && a.iter().any(|&v| v == 0.0), "hits and misses");
+    let text = format!("{:?}", img.attributes);
+    for needle in ["fixed-step", "sphere.toml", isoview::VERSION] {
+        assert!(text.contains(needle), "{needle} missing from the header: {text}");
+    }
+    let preview = image::open(&png).unwrap();
+    assert_eq!((preview.width(), preview.height()), (32, 24));
+}
+
+#[test]
+fn set_overrides_change_the_render() {
+    if !gpu_enabled() {
+        return;
+    }
+    let dir = scratch("cli-set");
+    let scene = write(&dir, "sphere.toml", SPHERE);
+    let a = dir.join("a.exr").display().to_string();
+    let b = dir.join("b.exr").display().to_string();
+    assert!(isoview(&["render", &scene, "-o", &a], &[]).status.success());
+    let o = isoview(&["render", &scene, "-o", &b, "--set", "surface.isovalue=-0.2"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let cover =
+        |p: &str| exr::read(Path::new(p)).unwrap().channel("A").unwrap().values.iter().sum::<f32>();
+    assert!(cover(&b) < cover(&a), "a lower isovalue gives a smaller sphere");
+    // compare: identical files pass, different ones fail with status 1.
+    assert_eq!(isoview(&["compare", &a, &a], &[]).status.code(), Some(0));
+    assert_eq!(isoview(&["compare", &a, &b], &[]).status.code(), Some(1));
+}
+
+#[test]
+fn bad_scenes_fail_with_one_line_naming_file_line_and_key() {
+    let dir = scratch("cli-bad");
+    let scene = write(&dir, "typo.toml", &SPHERE.replace("steps = 48", "stepz = 48"));
+    let out = dir.join("out.exr").display().to_string();
+    let o = isoview(&["render", &scene, "-o", &out], &[]);
+    assert_fails(&o, 2, &["typo.toml:", "stepz"]);
+    let o = isoview(&["render", &dir.join("missing.toml").display().to_string(), "-o", &out], &[]);
+    assert_fails(&o, 2, &["missing.toml"]);
+    let good = write(&dir, "good.toml", SPHERE);
+    let o = isoview(&["render", &good, "-o", &out, "--set", "render.steps=[1]"], &[]);
+    assert_fails(&o, 2, &["--set render.steps=[1]"]);
+    let o = isoview(&["render", &good, "-o", &dir.join("out.png").display().to_string()], &[]);
+    assert_fails(&o, 2, &[".exr"]);
+    let o = isoview(&["render", &good, "-o", &out, "--frames", "3..1"], &[]);
+    assert_fails(&o, 2, &["--frames"]);
+    assert!(!Path::new(&out).exists(), "no output from failed runs");
+    let o = isoview(&["render", &good], &[]);
+    assert_eq!(o.status.code(), Some(2), "missing -o is a usage error");
+}
+
+#[test]
+fn failed_runs_leave_existing_outputs_untouched() {
+    let dir = scratch("cli-clobber");
+    let good = write(&dir, "good.toml", SPHERE);
+    let out = dir.join("out.exr");
+    std::fs::write(&out, b"previous render").unwrap();
+    let o = isoview(
+        &["render", &good, "-o", &out.display().to_string(), "--set", "field.radius=-1"],
+        &[],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let o = isoview(
+        &["render", &good, "-o", &out.display().to_string()],
+        &[("VK_DRIVER_FILES", "/nonexistent/icd.json"), ("VK_ICD_FILENAMES", "")],
+    );
+    assert_fails(&o, 3, &["Vulkan", "apt-get install"]);
+    assert_eq!(std::fs::read(&out).unwrap(), b"previous render");
+    let leftovers = std::fs::read_dir(&dir).unwrap().count();
+    assert_eq!(leftovers, 2, "no temporary files left behind");
+}
+
+#[test]
+fn missing_output_folder_is_bad_input() {
+    if !gpu_enabled() {
+        return;
+    }
+    let dir = scratch("cli-nodir");
+    let good = write(&dir, "good.toml", SPHERE);
+    let out = dir.join("no/such/dir/out.exr").display().to_string();
+    assert_fails(&isoview(&["render", &good, "-o", &out], &[]), 2, &["no/such/dir"]);
+}
+
+#[test]
+fn frames_render_a_time_varying_field() {
+    if !gpu_enabled() {
+        return;
+    }
+    let dir = scratch("cli-frames");
+    let scene = write(
+        &dir,
+        "waves.toml",
+        &SPHERE.replace(
+            "source = \"sdf\"\nshape = \"sphere\"\nradius = 0.6",
+            "source = \"expr\"\nexpression = \"x*x + y*y + z*z - 0.3 - 0.1*t\"",
+        ),
+    );
+    let pattern = dir.join("f.####.exr").display().to_string();
+    let o = isoview(&["render", &scene, "-o", &pattern, "--frames", "0..2", "--fps", "1"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let cover = |n: u32| {
+        let p = dir.join(format!("f.{n:04}.exr"));
+        exr::read(&p).unwrap().channel("A").unwrap().values.iter().sum::<f32>()
+    };
+    let (c0, c1, c2) = (cover(0), cover(1), cover(2));
+    assert!(c0 < c1 && c1 < c2, "the sphere grows with t: {c0} {c1} {c2}");
+    let t = exr::read(&dir.join("f.0002.exr")).unwrap();
+    assert!(format!("{:?}", t.attributes).contains('2'), "time recorded");
+}
+
+#[test]
+fn info_names_the_device() {
+    if !gpu_enabled() {
+        return;
+    }
+    let o = isoview(&["info"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("device") && text.contains("max storage buffer"), "{text}");
+}

@@ -4,6 +4,7 @@
 //! failure. Errors are one line on stderr, never a panic.
 
 pub mod compare;
+pub mod probe;
 pub mod render;
 
 use std::sync::Arc;
@@ -63,6 +64,9 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Compare two float EXRs channel by channel (exit 1 on a difference over the thresholds).
     Compare(compare::CompareArgs),
+    /// Print what the ray through one pixel meets: cells, cubics, roots, Newton iterates, and
+    /// where fixed-step finds its crossing.
+    Probe(probe::ProbeArgs),
     /// Print the Vulkan device, driver and the limits isoview relies on.
     Info,
 }
@@ -86,6 +90,7 @@ pub fn main() -> i32 {
             &mut std::io::stdout().lock(),
             &mut std::io::stderr().lock(),
         )),
+        Command::Probe(args) => probe::run(&cli, args),
         Command::Info => info(&cli),
     };
     match result {

@@ -33,9 +33,19 @@ impl<'a> View<'a> {
     pub(crate) fn table(&self, key: &str) -> Result<View<'a>> {
         let path = self.key(key);
         match self.get(key) {
-            None => Ok(View { src: self.src, path, table: None, at: self.at }),
+            None => Ok(View {
+                src: self.src,
+                path,
+                table: None,
+                at: self.at,
+            }),
             Some(node) => match &node.value {
-                Value::Table(t) => Ok(View { src: self.src, path, table: Some(t), at: node.at }),
+                Value::Table(t) => Ok(View {
+                    src: self.src,
+                    path,
+                    table: Some(t),
+                    at: node.at,
+                }),
                 _ => Err(type_error(self.src, &path, node, "a table")),
             },
         }
@@ -53,25 +63,42 @@ impl<'a> View<'a> {
         allowed: &[&str],
         explain: impl Fn(&str) -> Option<String>,
     ) -> Result<()> {
-        let Some(table) = self.table else { return Ok(()) };
+        let Some(table) = self.table else {
+            return Ok(());
+        };
         let first_bad = table
             .entries
             .iter()
             .filter(|(k, _)| !allowed.contains(&k.as_str()))
             .min_by_key(|(_, e)| e.key_at);
-        let Some((key, entry)) = first_bad else { return Ok(()) };
+        let Some((key, entry)) = first_bad else {
+            return Ok(());
+        };
         let message = explain(key).unwrap_or_else(|| {
-            let what = if self.path.is_empty() { "unknown table or key" } else { "unknown key" };
+            let what = if self.path.is_empty() {
+                "unknown table or key"
+            } else {
+                "unknown key"
+            };
             match suggest(key, allowed) {
                 Some(s) => format!("{what} (did you mean \"{s}\"?)"),
                 None if self.path.is_empty() => format!(
                     "{what} (a scene has the tables {})",
-                    allowed.iter().map(|k| format!("[{k}]")).collect::<Vec<_>>().join(", ")
+                    allowed
+                        .iter()
+                        .map(|k| format!("[{k}]"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 ),
                 None => format!("{what} ([{}] has {})", self.path, allowed.join(", ")),
             }
         });
-        Err(self.src.err(SceneErrorKind::UnknownKey, entry.key_at, &self.key(key), message))
+        Err(self.src.err(
+            SceneErrorKind::UnknownKey,
+            entry.key_at,
+            &self.key(key),
+            message,
+        ))
     }
 
     /// An error about `key` of this table, at the value if present, else at the table.
@@ -87,7 +114,12 @@ impl<'a> View<'a> {
 
     /// The "missing key" error.
     pub(crate) fn missing(&self, key: &str, hint: &str) -> SceneError {
-        self.src.err(SceneErrorKind::Missing, self.at, &self.key(key), format!("missing ({hint})"))
+        self.src.err(
+            SceneErrorKind::Missing,
+            self.at,
+            &self.key(key),
+            format!("missing ({hint})"),
+        )
     }
 
     /// Reads `key` with `read`, or returns `default` when it is absent.
@@ -124,7 +156,11 @@ pub(crate) fn type_error(src: &Source, key: &str, node: &Node, expected: &str) -
         SceneErrorKind::Type,
         node.at,
         key,
-        format!("expected {expected}, got {} {ty} {}", article(ty), show(node)),
+        format!(
+            "expected {expected}, got {} {ty} {}",
+            article(ty),
+            show(node)
+        ),
     )
 }
 
@@ -159,7 +195,12 @@ pub(crate) fn number_where(
     if ok(x) {
         Ok(x)
     } else {
-        Err(src.err(SceneErrorKind::Value, node.at, key, format!("{rule}, got {}", show(node))))
+        Err(src.err(
+            SceneErrorKind::Value,
+            node.at,
+            key,
+            format!("{rule}, got {}", show(node)),
+        ))
     }
 }
 
@@ -205,7 +246,10 @@ pub(crate) fn numbers<const N: usize>(src: &Source, key: &str, node: &Node) -> R
                 SceneErrorKind::Value,
                 item.at,
                 key,
-                format!("every number must be finite, got {} at index {n}", show(item)),
+                format!(
+                    "every number must be finite, got {} at index {n}",
+                    show(item)
+                ),
             ));
         }
     }
@@ -231,9 +275,18 @@ pub(crate) fn array_of<'n>(
             SceneErrorKind::Type,
             node.at,
             key,
-            format!("expected an array of {len} {what}, got {} ({})", items.len(), show(node)),
+            format!(
+                "expected an array of {len} {what}, got {} ({})",
+                items.len(),
+                show(node)
+            ),
         )),
-        _ => Err(type_error(src, key, node, &format!("an array of {len} {what}"))),
+        _ => Err(type_error(
+            src,
+            key,
+            node,
+            &format!("an array of {len} {what}"),
+        )),
     }
 }
 
@@ -264,7 +317,12 @@ pub(crate) fn points3(src: &Source, key: &str, node: &Node) -> Result<[usize; 3]
             ));
         }
         *o = usize::try_from(i).map_err(|_| {
-            src.err(SceneErrorKind::Value, node.at, key, format!("{i} points is too many"))
+            src.err(
+                SceneErrorKind::Value,
+                node.at,
+                key,
+                format!("{i} points is too many"),
+            )
         })?;
     }
     Ok(out)
@@ -328,7 +386,9 @@ fn edit_distance(a: &str, b: &str) -> usize {
     for (i, ca) in a.chars().enumerate() {
         let mut cur = vec![i + 1; b.len() + 1];
         for (j, &cb) in b.iter().enumerate() {
-            cur[j + 1] = (prev[j] + usize::from(ca != cb)).min(prev[j + 1] + 1).min(cur[j] + 1);
+            cur[j + 1] = (prev[j] + usize::from(ca != cb))
+                .min(prev[j + 1] + 1)
+                .min(cur[j] + 1);
         }
         prev = cur;
     }

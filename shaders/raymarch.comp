@@ -46,19 +46,20 @@ void main() {
     float t0, t1;
     if (clip_box(o, d, t0, t1)) {
         uint n = P.method.z;
+        CellCache cache = cache_empty();
         float ta = t0;
-        float fa = field_at(to_grid(o + d * t0));
+        float fa = field_cached(cache, to_grid(o + d * t0));
         bool ina = is_inside(fa);
         uint count = 1u;
         for (uint i = 1u; i < n; i++) {
             float tb = t0 + (t1 - t0) * (float(i) / float(n - 1u));
-            float fb = field_at(to_grid(o + d * tb));
+            float fb = field_cached(cache, to_grid(o + d * tb));
             count++;
             if (is_inside(fb) != ina) {
                 // Refine: keep [ta, tb] bracketing the change of the predicate.
                 for (int k = 0; k < REFINE_BISECTIONS; k++) {
                     float tm = 0.5 * (ta + tb);
-                    float fm = field_at(to_grid(o + d * tm));
+                    float fm = field_cached(cache, to_grid(o + d * tm));
                     if (is_inside(fm) == ina) { ta = tm; fa = fm; } else { tb = tm; fb = fm; }
                 }
                 float s = fb != fa ? clamp((P.surface.x - fa) / (fb - fa), 0.0, 1.0) : 0.5;

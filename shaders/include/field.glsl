@@ -23,45 +23,76 @@ ivec3 cell_of(vec3 u) {
     return clamp(ivec3(floor(u)), ivec3(0), P.dims.xyz - 2);
 }
 
-// Corner values of cell c: v[n] at corner (n & 1, (n >> 1) & 1, (n >> 2) & 1).
-void cell_corners(ivec3 c, out float v[8]) {
-    for (int n = 0; n < 8; n++) {
-        v[n] = grid_value(c + ivec3(n & 1, (n >> 1) & 1, (n >> 2) & 1));
-    }
+// The 8 corner values of one cell, as two vec4s: lo = (v000, v100, v010, v110) on the cell's
+// z = 0 face, hi = (v001, v101, v011, v111) on its z = 1 face (vXYZ: corner x+X, y+Y, z+Z).
+struct Corners {
+    vec4 lo;
+    vec4 hi;
+};
+
+Corners cell_corners(ivec3 c) {
+    Corners k;
+    k.lo = vec4(grid_value(c), grid_value(c + ivec3(1, 0, 0)),
+                grid_value(c + ivec3(0, 1, 0)), grid_value(c + ivec3(1, 1, 0)));
+    k.hi = vec4(grid_value(c + ivec3(0, 0, 1)), grid_value(c + ivec3(1, 0, 1)),
+                grid_value(c + ivec3(0, 1, 1)), grid_value(c + ivec3(1, 1, 1)));
+    return k;
 }
 
-// Trilinear interpolation of corner values at local coordinates f in [0,1]^3.
-float trilinear_local(float v[8], vec3 f) {
-    float x00 = mix(v[0], v[1], f.x);
-    float x10 = mix(v[2], v[3], f.x);
-    float x01 = mix(v[4], v[5], f.x);
-    float x11 = mix(v[6], v[7], f.x);
-    return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
+// Trilinear interpolation at local coordinates f in [0,1]^3.
+float trilinear_local(Corners k, vec3 f) {
+    vec4 x = mix(k.lo, k.hi, f.z);       // the 4 x-edges' ends on the plane z = f.z
+    vec2 y = mix(x.xy, x.zw, f.y);       // the x-edge at y = f.y
+    return mix(y.x, y.y, f.x);
 }
 
 // Gradient with respect to local coordinates.
-vec3 gradient_local(float v[8], vec3 f) {
-    float gx = mix(mix(v[1] - v[0], v[3] - v[2], f.y), mix(v[5] - v[4], v[7] - v[6], f.y), f.z);
-    float gy = mix(mix(v[2] - v[0], v[3] - v[1], f.x), mix(v[6] - v[4], v[7] - v[5], f.x), f.z);
-    float gz = mix(mix(v[4] - v[0], v[5] - v[1], f.x), mix(v[6] - v[2], v[7] - v[3], f.x), f.y);
+vec3 gradient_local(Corners k, vec3 f) {
+    vec4 x = mix(k.lo, k.hi, f.z);
+    vec2 y = mix(x.xy, x.zw, f.y);
+    float gx = y.y - y.x;
+    float gy = mix(x.z - x.x, x.w - x.y, f.x);
+    vec4 dz = k.hi - k.lo;
+    vec2 dzy = mix(dz.xy, dz.zw, f.y);
+    float gz = mix(dzy.x, dzy.y, f.x);
     return vec3(gx, gy, gz);
+}
+
+// A cell whose corners were fetched last; marching reuses it while samples stay in the cell.
+struct CellCache {
+    ivec3 cell;
+    Corners k;
+};
+
+CellCache cache_empty() {
+    CellCache c;
+    c.cell = ivec3(-1);
+    c.k.lo = vec4(0.0);
+    c.k.hi = vec4(0.0);
+    return c;
+}
+
+// Field value at grid coordinates u (already inside the box), through the cache.
+float field_cached(inout CellCache cache, vec3 u) {
+    ivec3 c = cell_of(u);
+    if (c != cache.cell) {
+        cache.cell = c;
+        cache.k = cell_corners(c);
+    }
+    return trilinear_local(cache.k, u - vec3(c));
 }
 
 // Field value at grid coordinates u (already inside the box).
 float field_at(vec3 u) {
     ivec3 c = cell_of(u);
-    float v[8];
-    cell_corners(c, v);
-    return trilinear_local(v, u - vec3(c));
+    return trilinear_local(cell_corners(c), u - vec3(c));
 }
 
 // Unit world-space normal at grid coordinates u, pointing from inside to outside; `fallback`
 // where the gradient vanishes.
 vec3 normal_at(vec3 u, vec3 fallback) {
     ivec3 c = cell_of(u);
-    float v[8];
-    cell_corners(c, v);
-    vec3 g = gradient_local(v, u - vec3(c)) * P.inv_spacing.xyz * P.surface.y;
+    vec3 g = gradient_local(cell_corners(c), u - vec3(c)) * P.inv_spacing.xyz * P.surface.y;
     float len = length(g);
     return len > 0.0 ? g / len : fallback;
 }

@@ -3,6 +3,7 @@
 //! 0 success, 1 `compare` found a difference, 2 bad input, 3 no usable Vulkan device or a GPU
 //! failure. Errors are one line on stderr, never a panic.
 
+pub mod compare;
 pub mod render;
 
 use std::sync::Arc;
@@ -39,7 +40,11 @@ impl From<GpuError> for Failure {
 }
 
 #[derive(Parser, Debug)]
-#[command(name = "isoview", version, about = "Isosurfaces of trilinearly interpolated scalar fields, rendered with Vulkan compute")]
+#[command(
+    name = "isoview",
+    version,
+    about = "Isosurfaces of trilinearly interpolated scalar fields, rendered with Vulkan compute"
+)]
 pub struct Cli {
     /// Vulkan device to use: a case-insensitive part of its name (default: a discrete GPU, else
     /// an integrated one, else lavapipe). Also read from ISOVIEW_DEVICE.
@@ -56,6 +61,8 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene to a float EXR with AOVs (and optionally a PNG preview).
     Render(render::RenderArgs),
+    /// Compare two float EXRs channel by channel (exit 1 on a difference over the thresholds).
+    Compare(compare::CompareArgs),
     /// Print the Vulkan device, driver and the limits isoview relies on.
     Info,
 }
@@ -74,6 +81,11 @@ pub fn main() -> i32 {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Render(args) => render::run(&cli, args),
+        Command::Compare(args) => Ok(compare::run_with(
+            args,
+            &mut std::io::stdout().lock(),
+            &mut std::io::stderr().lock(),
+        )),
         Command::Info => info(&cli),
     };
     match result {
@@ -107,7 +119,11 @@ fn info(cli: &Cli) -> Result<i32, Failure> {
     println!("push constants         {} bytes", i.max_push_constants_size);
     println!(
         "timestamps             {}",
-        if i.timestamps { format!("yes, {} ns per tick", i.timestamp_period_ns) } else { "no".into() }
+        if i.timestamps {
+            format!("yes, {} ns per tick", i.timestamp_period_ns)
+        } else {
+            "no".into()
+        }
     );
     println!("validation             {}", if cli.validation { "on" } else { "off" });
     Ok(0)

@@ -116,9 +116,8 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
             cached = Some((grid, uploaded));
         }
         let (grid, gpu_grid) = cached.as_ref().expect("sampled above");
-        let frame = renderer
-            .render_uploaded(&scene, grid, gpu_grid, *time)
-            .map_err(render_failure)?;
+        let frame =
+            renderer.render_uploaded(&scene, grid, gpu_grid, *time).map_err(render_failure)?;
         write_outputs(&scene, &frame, exr, png.as_deref())?;
         match &progress {
             Some(bar) => bar.inc(1),
@@ -170,7 +169,10 @@ mod tests {
         assert_eq!(parse_frames("3..=3"), Ok((3, 3)));
         assert!(parse_frames("5..2").is_err());
         assert!(parse_frames("a..2").is_err());
-        assert_eq!(frame_path(Path::new("out.####.exr"), 7).unwrap(), PathBuf::from("out.0007.exr"));
+        assert_eq!(
+            frame_path(Path::new("out.####.exr"), 7).unwrap(),
+            PathBuf::from("out.0007.exr")
+        );
         assert_eq!(frame_path(Path::new("f#.exr"), 12).unwrap(), PathBuf::from("f12.exr"));
         assert!(frame_path(Path::new("out.exr"), 1).is_err());
     }

@@ -35,17 +35,15 @@ impl Buffer {
         // SAFETY: valid device; the buffer is destroyed in Drop (or below on failure).
         let raw = unsafe { device.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
         let requirements = unsafe { device.get_buffer_memory_requirements(raw) };
-        let allocation = ctx
-            .allocator
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .allocate(&AllocationCreateDesc {
+        let allocation = ctx.allocator.lock().unwrap_or_else(|p| p.into_inner()).allocate(
+            &AllocationCreateDesc {
                 name,
                 requirements,
                 location,
                 linear: true,
                 allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-            });
+            },
+        );
         let allocation = match allocation {
             Ok(a) => a,
             Err(source) => {
@@ -58,7 +56,13 @@ impl Buffer {
         unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }
             .vk("vkBindBufferMemory")?;
         ctx.set_name(raw, name);
-        Ok(Buffer { raw, size, name: name.to_string(), allocation: Some(allocation), ctx: ctx.clone() })
+        Ok(Buffer {
+            raw,
+            size,
+            name: name.to_string(),
+            allocation: Some(allocation),
+            ctx: ctx.clone(),
+        })
     }
 
     fn mapped(&self) -> Result<&[u8], GpuError> {

@@ -1,5 +1,6 @@
 use std::ffi::c_void;
 use std::mem::ManuallyDrop;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use ash::{ext, vk};
@@ -51,12 +52,21 @@ pub struct Context {
     pub info: DeviceInfo,
 }
 
+/// Warnings and errors reported by the validation layer in this process (tests assert 0).
+static VALIDATION_MESSAGES: AtomicUsize = AtomicUsize::new(0);
+
+/// Number of validation warnings and errors reported so far in this process.
+pub fn validation_messages() -> usize {
+    VALIDATION_MESSAGES.load(Ordering::SeqCst)
+}
+
 unsafe extern "system" fn debug_callback(
     severity: vk::DebugUtilsMessageSeverityFlagsEXT,
     _types: vk::DebugUtilsMessageTypeFlagsEXT,
     data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
     _user: *mut c_void,
 ) -> vk::Bool32 {
+    VALIDATION_MESSAGES.fetch_add(1, Ordering::SeqCst);
     // SAFETY: the loader passes a valid callback-data pointer whose message is a C string.
     let message = unsafe { (*data).message_as_c_str() }
         .map(|m| m.to_string_lossy().into_owned())
@@ -108,9 +118,8 @@ impl Context {
             // SAFETY: plain enumeration call on a loaded entry.
             let available = unsafe { entry.enumerate_instance_layer_properties() }
                 .vk("vkEnumerateInstanceLayerProperties")?;
-            let found = available
-                .iter()
-                .any(|l| l.layer_name_as_c_str().ok() == Some(validation_name));
+            let found =
+                available.iter().any(|l| l.layer_name_as_c_str().ok() == Some(validation_name));
             if !found {
                 return Err(GpuError::NoValidationLayer);
             }
@@ -166,9 +175,8 @@ impl Context {
                 .map_err(|source| GpuError::Alloc { name: "allocator".into(), source })?;
                 // SAFETY: queue family and index 0 were requested at device creation.
                 let queue = unsafe { device.get_device_queue(queue_family, 0) };
-                let debug_device = options
-                    .validation
-                    .then(|| ext::debug_utils::Device::new(&instance, &device));
+                let debug_device =
+                    options.validation.then(|| ext::debug_utils::Device::new(&instance, &device));
                 Ok(std::sync::Arc::new(Context {
                     _entry: entry,
                     instance,
@@ -206,9 +214,8 @@ impl Context {
             // SAFETY: pd comes from this instance.
             let props = unsafe { instance.get_physical_device_properties(pd) };
             let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
-            let Some(family) = families
-                .iter()
-                .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+            let Some(family) =
+                families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
             else {
                 continue;
             };
@@ -216,7 +223,13 @@ impl Context {
                 .device_name_as_c_str()
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default();
-            candidates.push((pd, props, family as u32, name, families[family].timestamp_valid_bits));
+            candidates.push((
+                pd,
+                props,
+                family as u32,
+                name,
+                families[family].timestamp_valid_bits,
+            ));
         }
         if candidates.is_empty() {
             return Err(GpuError::NoDevice);
@@ -224,17 +237,16 @@ impl Context {
         let chosen = match &options.device {
             Some(wanted) => {
                 let w = wanted.to_lowercase();
-                candidates
-                    .iter()
-                    .find(|c| c.3.to_lowercase().contains(&w))
-                    .ok_or_else(|| GpuError::DeviceNotFound {
+                candidates.iter().find(|c| c.3.to_lowercase().contains(&w)).ok_or_else(|| {
+                    GpuError::DeviceNotFound {
                         wanted: wanted.clone(),
                         available: candidates
                             .iter()
                             .map(|c| c.3.clone())
                             .collect::<Vec<_>>()
                             .join(", "),
-                    })?
+                    }
+                })?
             }
             None => candidates
                 .iter()
@@ -292,8 +304,7 @@ impl Context {
             .queue_priorities(&priorities)];
         let create = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
         // SAFETY: pd is valid and the create info outlives the call.
-        let device =
-            unsafe { instance.create_device(pd, &create, None) }.vk("vkCreateDevice")?;
+        let device = unsafe { instance.create_device(pd, &create, None) }.vk("vkCreateDevice")?;
         Ok((pd, device, family, info))
     }
 
@@ -348,7 +359,9 @@ impl Context {
                 let cmds = [cmd];
                 let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
                 let lost = |result| match result {
-                    vk::Result::ERROR_DEVICE_LOST => GpuError::DeviceLost { pass: pass.to_string() },
+                    vk::Result::ERROR_DEVICE_LOST => {
+                        GpuError::DeviceLost { pass: pass.to_string() }
+                    }
                     result => GpuError::Vk { call: "vkQueueSubmit", result },
                 };
                 let submitted = {

@@ -86,8 +86,7 @@ impl Image3d {
         };
         let a = image.allocation.as_ref().expect("allocation set above");
         // SAFETY: memory from the allocation made for this image.
-        unsafe { device.bind_image_memory(raw, a.memory(), a.offset()) }
-            .vk("vkBindImageMemory")?;
+        unsafe { device.bind_image_memory(raw, a.memory(), a.offset()) }.vk("vkBindImageMemory")?;
         ctx.set_name(raw, name);
 
         let range = vk::ImageSubresourceRange::default()
@@ -100,7 +99,8 @@ impl Image3d {
             .format(vk::Format::R32_SFLOAT)
             .subresource_range(range);
         // SAFETY: image is valid; the view is destroyed in Drop.
-        image.view = unsafe { device.create_image_view(&view_info, None) }.vk("vkCreateImageView")?;
+        image.view =
+            unsafe { device.create_image_view(&view_info, None) }.vk("vkCreateImageView")?;
         let sampler_info = vk::SamplerCreateInfo::default()
             .mag_filter(vk::Filter::NEAREST)
             .min_filter(vk::Filter::NEAREST)
@@ -110,7 +110,8 @@ impl Image3d {
             .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
             .unnormalized_coordinates(false);
         // SAFETY: valid device; destroyed in Drop.
-        image.sampler = unsafe { device.create_sampler(&sampler_info, None) }.vk("vkCreateSampler")?;
+        image.sampler =
+            unsafe { device.create_sampler(&sampler_info, None) }.vk("vkCreateSampler")?;
 
         // Upload in z-slabs through one staging buffer.
         let slice_texels = extent[0] as u64 * extent[1] as u64;
@@ -170,7 +171,10 @@ impl Image3d {
                                 vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
                             ),
                             (vk::AccessFlags::TRANSFER_WRITE, vk::AccessFlags::SHADER_READ),
-                            (vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::COMPUTE_SHADER),
+                            (
+                                vk::PipelineStageFlags::TRANSFER,
+                                vk::PipelineStageFlags::COMPUTE_SHADER,
+                            ),
                         );
                     }
                 }

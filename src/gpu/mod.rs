@@ -14,7 +14,7 @@ mod image;
 mod pipeline;
 
 pub use buffer::Buffer;
-pub use context::{Context, ContextOptions, DeviceInfo};
+pub use context::{validation_messages, Context, ContextOptions, DeviceInfo};
 pub use error::GpuError;
 pub use gpu_allocator::MemoryLocation;
 pub use image::Image3d;

@@ -74,9 +74,8 @@ impl ComputePipeline {
             if push_bytes > 0 {
                 layout_info = layout_info.push_constant_ranges(&ranges);
             }
-            let layout = device
-                .create_pipeline_layout(&layout_info, None)
-                .vk("vkCreatePipelineLayout")?;
+            let layout =
+                device.create_pipeline_layout(&layout_info, None).vk("vkCreatePipelineLayout")?;
             let stage = vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module)
@@ -246,8 +245,15 @@ pub fn memory_barrier(
     let b = [vk::MemoryBarrier::default().src_access_mask(src.1).dst_access_mask(dst.1)];
     // SAFETY: cmd is recording.
     unsafe {
-        ctx.device
-            .cmd_pipeline_barrier(cmd, src.0, dst.0, vk::DependencyFlags::empty(), &b, &[], &[])
+        ctx.device.cmd_pipeline_barrier(
+            cmd,
+            src.0,
+            dst.0,
+            vk::DependencyFlags::empty(),
+            &b,
+            &[],
+            &[],
+        )
     };
 }
 
@@ -277,9 +283,8 @@ impl Timer {
         if !ctx.info.timestamps {
             return Ok(None);
         }
-        let info = vk::QueryPoolCreateInfo::default()
-            .query_type(vk::QueryType::TIMESTAMP)
-            .query_count(2);
+        let info =
+            vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2);
         // SAFETY: valid device; destroyed in Drop.
         let pool = unsafe { ctx.device.create_query_pool(&info, None) }.vk("vkCreateQueryPool")?;
         Ok(Some(Timer { pool, ctx: ctx.clone() }))

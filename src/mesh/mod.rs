@@ -1,1 +1,167 @@
-//! (in progress)
+//! Isosurface meshes: CPU reference extraction (f64 arithmetic), statistics and export.
+//!
+//! Every algorithm here is the definition that the GPU extraction passes mirror: the same inside
+//! rule, the same edge and cell numbering, the same vertex order, the same winding. A GPU pass
+//! reproduces the output of [`extract`] index for index with the usual
+//! classify → prefix sum → emit pipeline, because every vertex is owned by one lattice edge (or
+//! one cell) and vertices are numbered in increasing edge (or cell) id.
+//!
+//! # Conventions
+//!
+//! Grid point `(i, j, k)` has linear index `p = i + nx * (j + ny * k)` (x fastest) and sits in
+//! *index space* at `u = (i, j, k)`; world space is `min + u * spacing` ([`Grid::point`]).
+//! Cell `(i, j, k)` spans `[i, i+1] × [j, j+1] × [k, k+1]` in index space and has the same linear
+//! numbering over `(nx-1, ny-1, nz-1)` cells. Its corners are numbered by their offset bits
+//! (`n = x + 2y + 4z`, the order of [`Grid::corners`]):
+//!
+//! ```text
+//!            6 ─────────── 7          z
+//!           ╱│            ╱│          │  y
+//!          ╱ │           ╱ │          │ ╱
+//!         4 ─────────── 5  │          │╱
+//!         │  2 ─────────│─ 3          └───── x
+//!         │ ╱           │ ╱
+//!         │╱            │╱
+//!         0 ─────────── 1
+//! ```
+//!
+//! * **Inside** is [`Inside::contains`]: strictly below (or above) the isovalue; a sample equal
+//!   to the isovalue is outside. A lattice edge is *crossed* iff the predicate differs at its two
+//!   ends.
+//! * **Crossing point**: on the edge from its start point `a` (the lower-index end) to its end
+//!   `b`, at `s = (iso - f(a)) / (f(b) - f(a))`, computed in f64 from the f32 samples and clamped
+//!   to `[0, 1]` (a NaN `s`, from NaN samples, becomes 0.5). With the strict rule, `s` can be
+//!   exactly 0 or 1 when an end equals the isovalue; the vertex then sits on a grid point and
+//!   zero-area triangles can appear ([`stats::MeshStats::zero_area_triangles`] counts them).
+//! * **Normals** point from inside to outside: the normalised gradient of the trilinear
+//!   interpolant at the vertex, negated for `inside = "above"`. Where the vertex lies on a cell
+//!   face, edge or corner (every edge vertex does), the gradient is the mean of the gradients of
+//!   all cells that contain it. Where that gradient vanishes the normal falls back to the
+//!   inside → outside direction of the crossed edge(s) (and to +z if those cancel too).
+//! * **Winding**: every triangle is counter-clockwise seen from outside, so its geometric normal
+//!   `(b - a) × (c - a)` points from inside to outside and the enclosed volume is positive.
+//!
+//! # Algorithms
+//!
+//! | name | vertices | faces | module |
+//! | --- | --- | --- | --- |
+//! | `marching-cubes` | one per crossed x/y/z lattice edge | Bourke's 256-case table | `mc` |
+//! | `marching-tetrahedra` | one per crossed edge of the 7 edge families | 6 tetrahedra per cell | `mt` |
+//! | `surface-nets` | one per active cell, mean of its crossings | one quad per crossed interior edge | `dual` |
+//! | `dual-contouring` | as surface nets, on a grid closed at its boundary (GEL) | one quad per crossed edge | `dual` |
+//!
+//! Each module's documentation states its exact rules.
+
+mod dual;
+mod edges;
+pub mod export;
+mod field;
+mod mc;
+mod mt;
+pub mod stats;
+pub mod tables;
+#[cfg(test)]
+mod tests;
+
+use crate::field::Grid;
+use crate::scene::{Inside, MeshAlgorithm};
+
+/// An indexed triangle mesh in world space.
+///
+/// Vertices are welded: each is owned by exactly one lattice edge or cell (see the module
+/// documentation), and no two vertices come from the same owner.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    /// World-space vertex positions.
+    pub positions: Vec<[f32; 3]>,
+    /// Unit normals, inside → outside, one per vertex.
+    pub normals: Vec<[f32; 3]>,
+    /// Triangles, three vertex indices each, counter-clockwise seen from outside.
+    pub indices: Vec<u32>,
+    /// The quads that `indices` triangulates, four vertex indices each, counter-clockwise seen
+    /// from outside; only for `surface-nets` and `dual-contouring` with
+    /// [`ExtractOptions::keep_quads`]. Quad `q` is triangles `2q` and `2q + 1`.
+    pub quads: Option<Vec<u32>>,
+}
+
+impl Mesh {
+    /// Number of vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// Triangle `t` as three vertex indices.
+    pub fn triangle(&self, t: usize) -> [u32; 3] {
+        [self.indices[3 * t], self.indices[3 * t + 1], self.indices[3 * t + 2]]
+    }
+}
+
+/// How the dual methods split a quad `(q0, q1, q2, q3)` into two triangles.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum QuadSplit {
+    /// Along the shorter diagonal (GEL's `SHORTEST_EDGE`, fast-surface-nets): `q0–q2` when
+    /// `|q2 - q0|² <= |q3 - q1|²` (squared lengths in f64 of the f32 positions), else `q1–q3`.
+    #[default]
+    Shorter,
+    /// Always along `q0–q2`: `(q0, q1, q2), (q0, q2, q3)`. Needs no arithmetic, so a GPU
+    /// reproduces it bit for bit.
+    Fixed,
+}
+
+/// Options of [`extract`]; `Default` gives what `isoview extract` uses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ExtractOptions {
+    /// Quad split of `surface-nets` and `dual-contouring`.
+    pub split: QuadSplit,
+    /// Also return the quads of `surface-nets` and `dual-contouring` in [`Mesh::quads`].
+    pub keep_quads: bool,
+}
+
+/// Why an extraction failed.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshError {
+    #[error("isovalue {0} is not a finite number")]
+    BadIsovalue(f64),
+    #[error("grid has {got} samples, but its dimensions {dims:?} need {want}")]
+    BadGrid { dims: [usize; 3], got: usize, want: usize },
+    #[error("mesh algorithm \"{0}\" is not available in this build")]
+    Unsupported(&'static str),
+    #[error("the mesh would have more than 2^32 - 1 {what}; use a coarser grid")]
+    TooLarge { what: &'static str },
+}
+
+/// Extracts the isosurface `{x : f(x) = iso}` of `grid`'s trilinear interpolant as an indexed
+/// triangle mesh, inside per `inside`, with algorithm `algo`.
+pub fn extract(
+    grid: &Grid,
+    iso: f64,
+    inside: Inside,
+    algo: MeshAlgorithm,
+    opts: ExtractOptions,
+) -> Result<Mesh, MeshError> {
+    if !iso.is_finite() {
+        return Err(MeshError::BadIsovalue(iso));
+    }
+    let want = grid.dims.iter().product::<usize>();
+    if grid.dims.iter().any(|&n| n < 2) || grid.values.len() != want {
+        return Err(MeshError::BadGrid { dims: grid.dims, got: grid.values.len(), want });
+    }
+    let f = field::Field::new(grid, iso, inside);
+    match algo {
+        MeshAlgorithm::MarchingCubes => mc::extract(&f),
+        MeshAlgorithm::MarchingTetrahedra => mt::extract(&f),
+        MeshAlgorithm::SurfaceNets => dual::extract(&f, dual::Boundary::Open, opts),
+        MeshAlgorithm::DualContouring => dual::extract(&f, dual::Boundary::Closed, opts),
+        MeshAlgorithm::Mc33 => Err(MeshError::Unsupported(algo.name())),
+    }
+}
+
+/// Converts a vertex or index count to `u32`, or fails.
+fn to_u32(n: usize, what: &'static str) -> Result<u32, MeshError> {
+    u32::try_from(n).ok().filter(|&v| v != u32::MAX).ok_or(MeshError::TooLarge { what })
+}

@@ -39,11 +39,8 @@ where
     let mut guard = TempGuard(Some(temp.clone()));
     let mut out = BufWriter::new(file);
     write(&mut out).map_err(|e| OutputError::io(path, "write", e))?;
-    let file = out
-        .into_inner()
-        .map_err(|e| OutputError::io(path, "write", e.into_error()))?;
-    file.sync_all()
-        .map_err(|e| OutputError::io(path, "sync", e))?;
+    let file = out.into_inner().map_err(|e| OutputError::io(path, "write", e.into_error()))?;
+    file.sync_all().map_err(|e| OutputError::io(path, "sync", e))?;
     drop(file);
     std::fs::rename(&temp, path).map_err(|e| OutputError::io(path, "rename into place", e))?;
     guard.0 = None;
@@ -66,9 +63,7 @@ fn parent_dir(path: &Path) -> &Path {
 
 /// Creates a fresh temporary file next to `path`.
 fn create_temp(path: &Path) -> Result<(File, PathBuf), OutputError> {
-    let name = path
-        .file_name()
-        .ok_or_else(|| OutputError::invalid(path, "not a file name"))?;
+    let name = path.file_name().ok_or_else(|| OutputError::invalid(path, "not a file name"))?;
     let dir = parent_dir(path);
     let pid = std::process::id();
     loop {
@@ -112,10 +107,8 @@ mod tests {
     use super::*;
 
     fn scratch(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!(
-            "isoview-atomic-{name}-{}",
-            std::process::id()
-        ));
+        let dir =
+            std::env::temp_dir().join(format!("isoview-atomic-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         dir

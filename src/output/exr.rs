@@ -116,19 +116,12 @@ pub fn write_frame(path: &Path, frame: &Frame) -> Result<(), OutputError> {
 pub fn encode_frame(path: &Path, frame: &Frame) -> Result<Vec<u8>, OutputError> {
     let (w, h) = (frame.width as usize, frame.height as usize);
     if w == 0 || h == 0 {
-        return Err(OutputError::invalid(
-            path,
-            format!("cannot write an empty {w}x{h} image"),
-        ));
+        return Err(OutputError::invalid(path, format!("cannot write an empty {w}x{h} image")));
     }
     if frame.pixels.len() != w * h {
         return Err(OutputError::invalid(
             path,
-            format!(
-                "frame has {} pixels, expected {w}x{h} = {}",
-                frame.pixels.len(),
-                w * h
-            ),
+            format!("frame has {} pixels, expected {w}x{h} = {}", frame.pixels.len(), w * h),
         ));
     }
 
@@ -164,27 +157,92 @@ pub fn encode_frame(path: &Path, frame: &Frame) -> Result<Vec<u8>, OutputError> 
         .zip(planes)
         .map(|(name, plane)| AnyChannel::new(*name, FlatSamples::F32(plane)))
         .collect();
-    let channels = AnyChannels::sort(SmallVec::from_vec(channels));
-
     let attributes = layer_attributes(path, &frame.info, w, h)?;
+    encode(path, w, h, channels, attributes)
+}
+
+/// Writes arbitrary 32-bit float channels (each `width * height` values, row 0 at the top)
+/// with text attributes, atomically, encoded like [`write_frame`] (one part, ZIP, sorted
+/// header). Used for `compare --diff` and by other modules that need an EXR.
+pub fn write_channels(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: Vec<(String, Vec<f32>)>,
+    text_attributes: &[(String, String)],
+) -> Result<(), OutputError> {
+    if width == 0 || height == 0 || channels.is_empty() {
+        return Err(OutputError::invalid(
+            path,
+            format!(
+                "cannot write an empty {width}x{height} image with {} channels",
+                channels.len()
+            ),
+        ));
+    }
+    let mut list = Vec::with_capacity(channels.len());
+    for (name, values) in channels {
+        if values.len() != width * height {
+            return Err(OutputError::invalid(
+                path,
+                format!("channel {name:?} has {} values, expected {width}x{height}", values.len()),
+            ));
+        }
+        check_name(path, &name)?;
+        list.push(AnyChannel::new(text(&name), FlatSamples::F32(values)));
+    }
+    let mut attributes = LayerAttributes {
+        software_name: Some(text(&format!("isoview {}", crate::VERSION))),
+        ..LayerAttributes::default()
+    };
+    for (name, value) in text_attributes {
+        check_name(path, name)?;
+        attributes.other.insert(text(name), AttributeValue::Text(text(value)));
+    }
+    let bytes = encode(path, width, height, list, attributes)?;
+    atomic::write_bytes(path, &bytes)
+}
+
+/// Rejects a channel or attribute name OpenEXR cannot store.
+fn check_name(path: &Path, name: &str) -> Result<(), OutputError> {
+    if name.is_empty() || name.contains('\0') || name.len() > 255 {
+        return Err(OutputError::invalid(
+            path,
+            format!("name {name:?} is empty, longer than 255 bytes or has a NUL"),
+        ));
+    }
+    Ok(())
+}
+
+/// One part, ZIP16 scan lines in increasing order, Rec.709 chromaticities, header sorted.
+fn encode(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: Vec<AnyChannel<FlatSamples>>,
+    attributes: LayerAttributes,
+) -> Result<Vec<u8>, OutputError> {
+    let mut sorted: Vec<&str> = Vec::new();
+    for c in &channels {
+        let name = std::str::from_utf8(c.name.bytes()).unwrap_or("");
+        if sorted.contains(&name) {
+            return Err(OutputError::invalid(path, format!("channel {name:?} given twice")));
+        }
+        sorted.push(name);
+    }
+    let channels = AnyChannels::sort(SmallVec::from_vec(channels));
     let encoding = Encoding {
         compression: Compression::ZIP16,
         blocks: Blocks::ScanLines,
         line_order: LineOrder::Increasing,
     };
-    let mut image = Image::from_layer(Layer::new((w, h), attributes, encoding, channels));
+    let mut image = Image::from_layer(Layer::new((width, height), attributes, encoding, channels));
     image.attributes.chromaticities = Some(rec709());
 
     let mut bytes = Vec::new();
-    image
-        .write()
-        .non_parallel()
-        .to_buffered(Cursor::new(&mut bytes))
-        .map_err(|source| OutputError::Exr {
-            path: path.to_path_buf(),
-            action: "cannot encode EXR",
-            source,
-        })?;
+    image.write().non_parallel().to_buffered(Cursor::new(&mut bytes)).map_err(|source| {
+        OutputError::Exr { path: path.to_path_buf(), action: "cannot encode EXR", source }
+    })?;
     sort_header_attributes(&mut bytes)
         .map_err(|reason| OutputError::invalid(path, format!("internal: {reason}")))?;
     Ok(bytes)
@@ -239,12 +297,10 @@ fn layer_attributes(
     put(attr::DRIVER, AttributeValue::Text(text(&info.driver)));
     for (key, value) in &info.extra {
         let name = format!("{}{key}", attr::EXTRA_PREFIX);
-        if key.is_empty() || key.contains('\0') || name.len() > 255 {
-            return Err(OutputError::invalid(
-                path,
-                format!("header attribute name {name:?} is empty, too long or has a NUL"),
-            ));
+        if key.is_empty() {
+            return Err(OutputError::invalid(path, "an extra header attribute has no key"));
         }
+        check_name(path, &name)?;
         put(&name, AttributeValue::Text(text(value)));
     }
     Ok(a)
@@ -278,12 +334,8 @@ pub fn camera_matrices(
         [-right.dot(e), -up.dot(e), -forward.dot(e), 1.0],
     ];
     let (sx, sy) = (0.5 / (h * aspect), 0.5 / h);
-    let proj = [
-        [sx, 0.0, 0.0, 0.0],
-        [0.0, -sy, 0.0, 0.0],
-        [0.5, 0.5, 0.0, 1.0],
-        [0.0, 0.0, 1.0, 0.0],
-    ];
+    let proj =
+        [[sx, 0.0, 0.0, 0.0], [0.0, -sy, 0.0, 0.0], [0.5, 0.5, 0.0, 1.0], [0.0, 0.0, 1.0, 0.0]];
     let mut to_camera = [0f32; 16];
     let mut to_ndc = [0f32; 16];
     for i in 0..4 {
@@ -391,10 +443,7 @@ impl ExrImage {
 
     /// The value of the header attribute `name`, as text.
     pub fn attribute(&self, name: &str) -> Option<&str> {
-        self.attributes
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, v)| v.as_str())
+        self.attributes.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_str())
     }
 
     /// Channel names, in file order.
@@ -472,23 +521,13 @@ pub fn read(path: &Path) -> Result<ExrImage, OutputError> {
         .map(|h| {
             h.all_named_attributes()
                 .map(|(name, value)| {
-                    (
-                        String::from_utf8_lossy(name).into_owned(),
-                        attribute_text(&value),
-                    )
+                    (String::from_utf8_lossy(name).into_owned(), attribute_text(&value))
                 })
                 .collect()
         })
         .unwrap_or_default();
 
-    Ok(ExrImage {
-        path: path.to_path_buf(),
-        width,
-        height,
-        channels,
-        attributes,
-        parts,
-    })
+    Ok(ExrImage { path: path.to_path_buf(), width, height, channels, attributes, parts })
 }
 
 /// Places a data window's samples into the display window; uncovered pixels are 0.
@@ -541,26 +580,12 @@ pub fn attribute_text(value: &AttributeValue) -> String {
         V::Matrix4x4(m) => list(m.iter()),
         V::IntegerBounds(b) => {
             let max = b.max();
-            format!(
-                "({} {}) - ({} {})",
-                b.position.x(),
-                b.position.y(),
-                max.x(),
-                max.y()
-            )
+            format!("({} {}) - ({} {})", b.position.x(), b.position.y(), max.x(), max.y())
         }
-        V::FloatRect(r) => format!(
-            "({} {}) - ({} {})",
-            r.min.x(),
-            r.min.y(),
-            r.max.x(),
-            r.max.y()
-        ),
-        V::ChannelList(c) => list(
-            c.list
-                .iter()
-                .map(|d| String::from_utf8_lossy(d.name.bytes()).into_owned()),
-        ),
+        V::FloatRect(r) => format!("({} {}) - ({} {})", r.min.x(), r.min.y(), r.max.x(), r.max.y()),
+        V::ChannelList(c) => {
+            list(c.list.iter().map(|d| String::from_utf8_lossy(d.name.bytes()).into_owned()))
+        }
         V::Chromaticities(c) => format!(
             "red [{}, {}] green [{}, {}] blue [{}, {}] white [{}, {}]",
             c.red.x(),
@@ -572,6 +597,12 @@ pub fn attribute_text(value: &AttributeValue) -> String {
             c.white.x(),
             c.white.y()
         ),
+        V::Compression(c) => format!("{c:?}"),
+        V::LineOrder(o) => format!("{o:?}"),
+        V::BlockType(t) => format!("{t:?}"),
+        V::TileDescription(t) => format!("{t:?}"),
+        V::TimeCode(t) => format!("{t:?}"),
+        V::Rational(r) => format!("{}/{}", r.0, r.1),
         other => format!("{other:?}"),
     }
 }
@@ -609,12 +640,7 @@ mod tests {
                 crossings: -1,
             })
             .collect();
-        Frame {
-            width: w,
-            height: h,
-            pixels,
-            info: info(),
-        }
+        Frame { width: w, height: h, pixels, info: info() }
     }
 
     #[test]

@@ -48,17 +48,10 @@ pub enum OutputError {
 
 impl OutputError {
     pub(crate) fn io(path: &Path, action: &'static str, source: std::io::Error) -> Self {
-        OutputError::Io {
-            path: path.to_path_buf(),
-            action,
-            source,
-        }
+        OutputError::Io { path: path.to_path_buf(), action, source }
     }
 
     pub(crate) fn invalid(path: &Path, reason: impl Into<String>) -> Self {
-        OutputError::Invalid {
-            path: path.to_path_buf(),
-            reason: reason.into(),
-        }
+        OutputError::Invalid { path: path.to_path_buf(), reason: reason.into() }
     }
 }

@@ -48,18 +48,10 @@ pub fn write_preview(path: &Path, frame: &Frame) -> Result<(), OutputError> {
     if frame.pixels.len() != w * h {
         return Err(OutputError::invalid(
             path,
-            format!(
-                "frame has {} pixels, expected {w}x{h} = {}",
-                frame.pixels.len(),
-                w * h
-            ),
+            format!("frame has {} pixels, expected {w}x{h} = {}", frame.pixels.len(), w * h),
         ));
     }
-    let rgba: Vec<u8> = frame
-        .pixels
-        .iter()
-        .flat_map(|p| to_srgb8(p.rgba))
-        .collect();
+    let rgba: Vec<u8> = frame.pixels.iter().flat_map(|p| to_srgb8(p.rgba)).collect();
     write_rgba8(path, frame.width, frame.height, &rgba)
 }
 
@@ -68,19 +60,13 @@ pub fn write_rgba8(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<
     if width == 0 || height == 0 || rgba.len() != width as usize * height as usize * 4 {
         return Err(OutputError::invalid(
             path,
-            format!(
-                "{} bytes do not make a non-empty {width}x{height} RGBA8 image",
-                rgba.len()
-            ),
+            format!("{} bytes do not make a non-empty {width}x{height} RGBA8 image", rgba.len()),
         ));
     }
     let mut bytes = Vec::new();
     PngEncoder::new(&mut bytes)
         .write_image(rgba, width, height, ExtendedColorType::Rgba8)
-        .map_err(|source| OutputError::Png {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        .map_err(|source| OutputError::Png { path: path.to_path_buf(), source })?;
     atomic::write_bytes(path, &bytes)
 }
 

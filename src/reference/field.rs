@@ -6,11 +6,8 @@ use crate::field::Grid;
 
 /// World position → continuous grid coordinates, clamped into the box.
 pub fn to_grid(grid: &Grid, pos: DVec3) -> DVec3 {
-    let last = DVec3::new(
-        (grid.dims[0] - 1) as f64,
-        (grid.dims[1] - 1) as f64,
-        (grid.dims[2] - 1) as f64,
-    );
+    let last =
+        DVec3::new((grid.dims[0] - 1) as f64, (grid.dims[1] - 1) as f64, (grid.dims[2] - 1) as f64);
     ((pos - grid.min) / grid.spacing()).clamp(DVec3::ZERO, last)
 }
 
@@ -95,8 +92,10 @@ mod tests {
             min: DVec3::ZERO,
             max: DVec3::new(2.0, 4.0, 8.0),
             values: (0..8)
-                .map(|n| (1.0 + 2.0 * (n & 1) as f64 + 3.0 * ((n >> 1) & 1) as f64
-                    - 4.0 * ((n >> 2) & 1) as f64) as f32)
+                .map(|n| {
+                    (1.0 + 2.0 * (n & 1) as f64 + 3.0 * ((n >> 1) & 1) as f64
+                        - 4.0 * ((n >> 2) & 1) as f64) as f32
+                })
                 .collect(),
         };
         let u = DVec3::new(0.25, 0.5, 0.75);
@@ -107,7 +106,8 @@ mod tests {
 
     #[test]
     fn clip_box_handles_axis_parallel_and_inside_rays() {
-        let grid = Grid { dims: [2, 2, 2], min: DVec3::ZERO, max: DVec3::ONE, values: vec![0.0; 8] };
+        let grid =
+            Grid { dims: [2, 2, 2], min: DVec3::ZERO, max: DVec3::ONE, values: vec![0.0; 8] };
         assert_eq!(clip_box(&grid, DVec3::new(0.5, 0.5, -1.0), DVec3::Z), Some((1.0, 2.0)));
         assert_eq!(clip_box(&grid, DVec3::new(1.5, 0.5, -1.0), DVec3::Z), None);
         assert_eq!(clip_box(&grid, DVec3::splat(0.5), DVec3::X), Some((0.0, 0.5)));

@@ -143,7 +143,8 @@ mod tests {
     #[test]
     fn eye_inside_the_box_marches_from_the_eye() {
         // From z = 0.9 looking down, the plane z = 0.25 is 0.65 away.
-        let m = march(&linear_grid(), 0.25, Inside::Below, DVec3::new(0.5, 0.5, 0.9), -DVec3::Z, 100);
+        let m =
+            march(&linear_grid(), 0.25, Inside::Below, DVec3::new(0.5, 0.5, 0.9), -DVec3::Z, 100);
         assert!((m.hit.unwrap().t - 0.65).abs() < 1e-12);
     }
 }

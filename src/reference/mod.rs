@@ -2,6 +2,8 @@
 //! and follow the same steps as the shaders, so tests can compare GPU output to them on random
 //! inputs with stated tolerances.
 
+pub mod analytic;
 pub mod field;
 pub mod fixed_step;
 pub mod shade;
+pub mod trilinear;

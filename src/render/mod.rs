@@ -222,10 +222,7 @@ impl Renderer {
         let mut extra = vec![
             ("shading".to_string(), r.shading.name().to_string()),
             ("inside".to_string(), format!("{:?}", scene.surface.inside).to_lowercase()),
-            (
-                "grid".to_string(),
-                format!("{}x{}x{}", grid.dims[0], grid.dims[1], grid.dims[2]),
-            ),
+            ("grid".to_string(), format!("{}x{}x{}", grid.dims[0], grid.dims[1], grid.dims[2])),
             ("steps_scale".to_string(), format!("{}", params::steps_scale(scene, grid))),
         ];
         match r.method {

@@ -21,8 +21,7 @@ fn shared_structs_have_the_same_layout_on_the_gpu() {
         *w = 0x4000_0000 + i as u32 * 7919;
     }
     let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_BUFFER;
-    let mut ubo =
-        Buffer::new(&ctx, "probe params", 224, usage, MemoryLocation::CpuToGpu).unwrap();
+    let mut ubo = Buffer::new(&ctx, "probe params", 224, usage, MemoryLocation::CpuToGpu).unwrap();
     ubo.write(std::slice::from_ref(&params)).unwrap();
     let mut bits = Buffer::new(&ctx, "probe bits", 224, usage, MemoryLocation::GpuToCpu).unwrap();
     bits.write(&[SENTINEL; 56]).unwrap();

@@ -3,7 +3,10 @@
 //! `ISOVIEW_SKIP_GPU_TESTS=1` to skip them on a machine without Vulkan (CI never does).
 
 mod common;
+mod compare;
 mod layout;
+mod mesh;
+mod output;
 mod render;
 mod scene;
 mod sources;

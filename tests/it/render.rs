@@ -60,7 +60,12 @@ fn compare_with_reference(scene: &Scene, grid: &Grid, gpu: &[Pixel]) -> Agreemen
             let dz = (g.depth as f64 - r.depth as f64).abs();
             if dz > DEPTH_TOL * diag {
                 // A different bracket (two crossings in one step) is a tie, like hit/miss.
-                assert!(m.margin < margin_tol, "pixel ({px},{py}): depth {} vs {}", g.depth, r.depth);
+                assert!(
+                    m.margin < margin_tol,
+                    "pixel ({px},{py}): depth {} vs {}",
+                    g.depth,
+                    r.depth
+                );
                 agreement.excused += 1;
                 continue;
             }
@@ -118,7 +123,8 @@ fn fixed_step_matches_reference_on_random_grids_and_cameras() {
 fn linear_field_renders_an_exact_plane() {
     let Some(ctx) = gpu() else { return };
     // f = x + 2y - z: the surface f = 0.1 is a plane with normal (1, 2, -1)/sqrt(6).
-    let grid = grid_from([6, 5, 7], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.x + 2.0 * p.y - p.z);
+    let grid =
+        grid_from([6, 5, 7], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.x + 2.0 * p.y - p.z);
     let mut scene = scene_for(&grid, DVec3::new(2.5, 1.0, 3.0), 48, Method::FixedStep);
     scene.surface.isovalue = 0.1;
     let frame = Renderer::new(&ctx).unwrap().render(&scene, &grid, 0.0).unwrap();
@@ -176,12 +182,8 @@ fn tall_images_render_in_bands_identically() {
     let frame = Renderer::new(&ctx).unwrap().render(&scene, &grid, 0.0).unwrap();
     assert_eq!(frame.pixels.len(), 4096 * 600);
     let reference = fixed_step::render(&scene, &grid);
-    let mismatched = frame
-        .pixels
-        .iter()
-        .zip(&reference)
-        .filter(|(g, r)| g.is_hit() != r.is_hit())
-        .count();
+    let mismatched =
+        frame.pixels.iter().zip(&reference).filter(|(g, r)| g.is_hit() != r.is_hit()).count();
     assert!(mismatched < 10, "{mismatched} hit/miss mismatches across bands");
     // Every band wrote its rows: rows near the top and bottom of each band hit where expected.
     for row in [0u32, 255, 256, 511, 512, 599] {
@@ -190,4 +192,22 @@ fn tall_images_render_in_bands_identically() {
         assert_eq!(p.is_hit(), r.is_hit(), "row {row}");
         assert_eq!(p.steps, r.steps, "row {row}");
     }
+}
+
+#[test]
+fn validation_layer_reports_nothing_for_a_render() {
+    if std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() == Ok("1") {
+        return;
+    }
+    use isoview::gpu::{validation_messages, Context, ContextOptions};
+    let ctx = Context::new(&ContextOptions { device: None, validation: true }).expect(
+        "Vulkan with VK_LAYER_KHRONOS_validation (apt-get install vulkan-validationlayers)",
+    );
+    let grid = grid_from([9, 8, 7], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.7);
+    let scene = scene_for(&grid, DVec3::new(0.3, 0.2, 3.0), 24, Method::FixedStep);
+    let before = validation_messages();
+    let frame = Renderer::new(&ctx).unwrap().render(&scene, &grid, 0.0).unwrap();
+    drop(ctx);
+    assert!(frame.pixels.iter().any(|p| p.is_hit()));
+    assert_eq!(validation_messages(), before, "validation warnings or errors (printed above)");
 }

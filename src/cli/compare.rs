@@ -1,0 +1,142 @@
+//! `isoview compare A.exr B.exr`: per-channel comparison of two float EXRs (A the reference,
+//! B under test), a table on stdout, optional difference EXR and heat-map PNG.
+//!
+//! Exit status: 0 pass (or warn), 1 a difference over the thresholds, 2 bad input (a missing
+//! or unreadable file, a size or channel mismatch, an output that cannot be written), with one
+//! line on stderr. The rules are in [`crate::compare`].
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use crate::compare::{
+    compare, write_diff_exr, write_heat_map_png, ChannelClass, Thresholds, DEFAULT_FAIL,
+    DEFAULT_WARN,
+};
+use crate::output::exr;
+
+/// Arguments of `isoview compare`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct CompareArgs {
+    /// The reference image.
+    #[arg(value_name = "A.exr")]
+    pub a: PathBuf,
+    /// The image compared with it.
+    #[arg(value_name = "B.exr")]
+    pub b: PathBuf,
+    /// Write B − A per channel, a fail mask and the error ratio to this EXR.
+    #[arg(long, value_name = "DIFF.exr")]
+    pub diff: Option<PathBuf>,
+    /// Write a heat map of the differences to this PNG.
+    #[arg(long, value_name = "DIFF.png")]
+    pub png: Option<PathBuf>,
+    /// Absolute difference over which a float value fails (integer channels: exact unless
+    /// --fail-class integer=T).
+    #[arg(long, value_name = "T", default_value_t = DEFAULT_FAIL, value_parser = non_negative)]
+    pub fail: f64,
+    /// Percentage of pixels allowed to fail.
+    #[arg(long, value_name = "P", default_value_t = 0.0, value_parser = non_negative)]
+    pub fail_percent: f64,
+    /// Relative threshold: a value fails only when its difference is also over
+    /// R * max(|a|, |b|).
+    #[arg(long, value_name = "R", default_value_t = 0.0, value_parser = non_negative)]
+    pub fail_relative: f64,
+    /// Fail if any value differs by more than H, whatever the percentage.
+    #[arg(long, value_name = "H", value_parser = non_negative)]
+    pub hard_fail: Option<f64>,
+    /// Fail threshold for one channel class: colour, depth, normal, position, integer, other
+    /// (repeatable).
+    #[arg(long, value_name = "CLASS=T", value_parser = class_threshold)]
+    pub fail_class: Vec<(ChannelClass, f64)>,
+    /// Absolute difference over which a value warns.
+    #[arg(long, value_name = "T", default_value_t = DEFAULT_WARN, value_parser = non_negative)]
+    pub warn: f64,
+    /// Percentage of pixels allowed over the warn threshold before the verdict is WARN.
+    #[arg(long, value_name = "P", default_value_t = 0.0, value_parser = non_negative)]
+    pub warn_percent: f64,
+    /// Forgive failing pixels where a silhouette moved by one pixel.
+    #[arg(long)]
+    pub shift: bool,
+    /// Do not compute the FLIP figure of the beauty.
+    #[arg(long, conflicts_with = "flip_fail")]
+    pub no_flip: bool,
+    /// Fail when the FLIP mean of the beauty is over this.
+    #[arg(long, value_name = "MEAN", value_parser = non_negative)]
+    pub flip_fail: Option<f64>,
+    /// Compare only these channels (comma-separated); others may differ between the files.
+    #[arg(long, value_name = "NAMES", value_delimiter = ',')]
+    pub channels: Vec<String>,
+}
+
+fn non_negative(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v >= 0.0 => Ok(v),
+        _ => Err(format!("{s:?} is not a number ≥ 0")),
+    }
+}
+
+fn class_threshold(s: &str) -> Result<(ChannelClass, f64), String> {
+    let (class, value) = s.split_once('=').ok_or_else(|| format!("{s:?} is not CLASS=T"))?;
+    let class = ChannelClass::parse(class.trim()).ok_or_else(|| {
+        format!("unknown channel class {class:?} (colour, depth, normal, position, integer, other)")
+    })?;
+    Ok((class, non_negative(value.trim())?))
+}
+
+impl CompareArgs {
+    /// The thresholds these arguments ask for.
+    pub fn thresholds(&self) -> Thresholds {
+        Thresholds {
+            fail: self.fail,
+            fail_class: self.fail_class.clone(),
+            fail_relative: self.fail_relative,
+            fail_percent: self.fail_percent,
+            hard_fail: self.hard_fail,
+            warn: self.warn,
+            warn_percent: self.warn_percent,
+            shift: self.shift,
+            flip: !self.no_flip,
+            flip_fail: self.flip_fail,
+            only: (!self.channels.is_empty()).then(|| self.channels.clone()),
+        }
+    }
+}
+
+/// Runs the command, printing to the process's stdout and stderr; returns the exit status.
+pub fn run(args: &CompareArgs) -> Result<i32, anyhow::Error> {
+    let stdout = std::io::stdout();
+    let stderr = std::io::stderr();
+    Ok(run_with(args, &mut stdout.lock(), &mut stderr.lock()))
+}
+
+/// [`run`] with its output streams given (for tests).
+pub fn run_with(args: &CompareArgs, out: &mut dyn Write, err: &mut dyn Write) -> i32 {
+    let fail = |err: &mut dyn Write, e: &dyn std::fmt::Display| {
+        // Nothing better to do when stderr itself is gone.
+        let _ = writeln!(err, "isoview: {e}");
+        2
+    };
+    let a = match exr::read(&args.a) {
+        Ok(a) => a,
+        Err(e) => return fail(err, &e),
+    };
+    let b = match exr::read(&args.b) {
+        Ok(b) => b,
+        Err(e) => return fail(err, &e),
+    };
+    let report = match compare(&a, &b, &args.thresholds()) {
+        Ok(r) => r,
+        Err(e) => return fail(err, &e),
+    };
+    let _ = write!(out, "{report}");
+    if let Some(path) = &args.diff {
+        if let Err(e) = write_diff_exr(path, &a, &b, &report) {
+            return fail(err, &e);
+        }
+    }
+    if let Some(path) = &args.png {
+        if let Err(e) = write_heat_map_png(path, &report) {
+            return fail(err, &e);
+        }
+    }
+    report.verdict.exit_code()
+}

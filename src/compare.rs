@@ -1,1 +1,0 @@
-//! Comparison of float EXR images (`isoview compare`).

@@ -1,0 +1,865 @@
+//! Comparison of float EXR images (`isoview compare A.exr B.exr`): A is the reference, B the
+//! image under test.
+//!
+//! # What is compared
+//!
+//! Both images must have the same size and the same channel names (or contain every channel
+//! of [`Thresholds::only`]). Each channel is compared value by value:
+//!
+//! - NaN equals NaN only; +inf equals +inf, -inf equals -inf. A non-finite value against
+//!   anything it does not equal (NaN vs 1, +inf vs 3.5) is a *non-finite mismatch*: it is over
+//!   every threshold and counted, but left out of the statistics (max, mean, RMSE, p99).
+//! - Otherwise `d = |a - b|` (in f64), and the value is *over* a threshold `T` when
+//!   `d > max(T, R * max(|a|, |b|))`, with `R` the relative threshold (`--fail-relative`,
+//!   default 0: absolute only).
+//!
+//! Thresholds come per channel class ([`ChannelClass`]): colour `R G B A`, depth `Z`, normal
+//! `N.*`, position `P.*`, integer-valued `steps`, `cell.*`, `crossings` and any UINT channel,
+//! and other. Defaults ([`Thresholds::default`]): fail 1e-4 absolute for every float class,
+//! 0 (exact) for integer channels; warn 1e-6; fail-percent and warn-percent 0.
+//!
+//! # Verdict (in the spirit of OpenImageIO's idiff)
+//!
+//! A pixel *fails* when any channel is over its fail threshold, and *warns* when any channel is
+//! over its warn threshold (never above the class's fail threshold). The comparison:
+//!
+//! - **fails** when the failing pixels are more than `fail_percent` % of all pixels, when any
+//!   pixel differs by more than `hard_fail` (if set; non-finite mismatches count), or when
+//!   the FLIP mean is over `flip_fail` (if set);
+//! - otherwise **warns** when the warning pixels are more than `warn_percent` %;
+//! - otherwise **passes** ("identical" when every value is equal).
+//!
+//! # Coverage and the shift window
+//!
+//! Coverage is a hit: finite `Z` when both images have `Z`, else `A > 0`. Pixels covered in
+//! only one image are counted. With [`Thresholds::shift`] a failing pixel is *forgiven*
+//! (counted separately, not failing, still warning) when the silhouette merely moved by one
+//! pixel around it:
+//!
+//! ```text
+//!   A  . . # #      B  . # # #     pixel p = the middle column: a hit in B, a miss in A.
+//!      . . # #         . # # #     Forgiven, because in the 3x3 window around p
+//!      . . # #         . # # #     both A and B have hits *and* misses.
+//! ```
+//!
+//! (a) its coverage differs and, in the 3x3 window around it, each image has both a hit and a
+//! miss; or (b) every channel of A at p matches B at some pixel of the window, and every
+//! channel of B at p matches A at some pixel of the window (Filament's `shiftRadius`).
+//!
+//! # Perceptual figure
+//!
+//! When both images have `R`, `G`, `B`, NVIDIA's FLIP (LDR, via the `nv-flip` crate) is
+//! computed on the beauty clamped to [0, 1], sRGB-encoded and quantised to 8 bits, at 67
+//! pixels per degree: mean, p50, p95, p99 and max of the per-pixel error map. It is reported,
+//! and gates the verdict only when `flip_fail` is set.
+
+mod flip;
+mod output;
+
+pub use flip::{flip_beauty, FlipStats, PIXELS_PER_DEGREE};
+pub use output::{heat_map_rgba8, write_diff_exr, write_heat_map_png};
+
+use std::fmt;
+use std::path::PathBuf;
+
+use crate::output::exr::{ExrImage, SampleKind};
+use crate::output::OutputError;
+
+/// Default absolute fail threshold of the float channel classes.
+pub const DEFAULT_FAIL: f64 = 1e-4;
+/// Default warn threshold.
+pub const DEFAULT_WARN: f64 = 1e-6;
+
+/// Why two images could not be compared.
+#[derive(Debug, thiserror::Error)]
+pub enum CompareError {
+    #[error("size mismatch: {} is {}x{}, {} is {}x{}", a.display(), a_size.0, a_size.1, b.display(), b_size.0, b_size.1)]
+    SizeMismatch { a: PathBuf, a_size: (usize, usize), b: PathBuf, b_size: (usize, usize) },
+    #[error("channel mismatch: only in {}: {}; only in {}: {}", a.display(), list_or_none(only_a), b.display(), list_or_none(only_b))]
+    ChannelMismatch { a: PathBuf, only_a: Vec<String>, b: PathBuf, only_b: Vec<String> },
+    #[error("{}: no channel {channel:?} (it has {})", path.display(), list_or_none(available))]
+    MissingChannel { path: PathBuf, channel: String, available: Vec<String> },
+    #[error("{0}")]
+    Output(#[from] OutputError),
+}
+
+/// Names for a one-line message: at most 12, then how many more.
+fn list_or_none(names: &[String]) -> String {
+    const SHOWN: usize = 12;
+    match names.len() {
+        0 => "(none)".into(),
+        n if n <= SHOWN => names.join(", "),
+        n => format!("{} and {} more", names[..SHOWN].join(", "), n - SHOWN),
+    }
+}
+
+/// The kind of quantity a channel holds, which picks its thresholds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ChannelClass {
+    /// `R`, `G`, `B`, `A` (also in a layer: `beauty.R`).
+    Colour,
+    /// `Z`, `ZBack` (also `depth.Z`).
+    Depth,
+    /// `N.*`, `normal.*`, `Normal.*`.
+    Normal,
+    /// `P.*`, `position.*`, `Position.*`.
+    Position,
+    /// `steps`, `crossings`, `cell.*`, and every UINT channel: exact by default.
+    Integer,
+    /// Anything else.
+    Other,
+}
+
+impl ChannelClass {
+    pub const ALL: [ChannelClass; 6] = [
+        ChannelClass::Colour,
+        ChannelClass::Depth,
+        ChannelClass::Normal,
+        ChannelClass::Position,
+        ChannelClass::Integer,
+        ChannelClass::Other,
+    ];
+
+    /// The class of a channel from its full name (split at the last `.` into layer and base)
+    /// and its sample type in the file.
+    pub fn of(name: &str, kind: SampleKind) -> ChannelClass {
+        if kind == SampleKind::U32 {
+            return ChannelClass::Integer;
+        }
+        let (layer, base) = match name.rfind('.') {
+            Some(i) => (&name[..i], &name[i + 1..]),
+            None => ("", name),
+        };
+        let group = layer.rsplit('.').next().unwrap_or("");
+        match (group, base) {
+            (_, "steps" | "crossings") | ("cell", _) => ChannelClass::Integer,
+            ("N" | "normal" | "Normal", _) => ChannelClass::Normal,
+            ("P" | "position" | "Position", _) => ChannelClass::Position,
+            (_, "Z" | "ZBack") => ChannelClass::Depth,
+            (_, "R" | "G" | "B" | "A") => ChannelClass::Colour,
+            _ => ChannelClass::Other,
+        }
+    }
+
+    /// The name used on the command line (`--fail-class depth=1e-3`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ChannelClass::Colour => "colour",
+            ChannelClass::Depth => "depth",
+            ChannelClass::Normal => "normal",
+            ChannelClass::Position => "position",
+            ChannelClass::Integer => "integer",
+            ChannelClass::Other => "other",
+        }
+    }
+
+    /// Parses a class name (`color` is accepted for `colour`).
+    pub fn parse(s: &str) -> Option<ChannelClass> {
+        match s {
+            "color" => Some(ChannelClass::Colour),
+            _ => ChannelClass::ALL.into_iter().find(|c| c.name() == s),
+        }
+    }
+}
+
+impl fmt::Display for ChannelClass {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// What counts as a difference (see the module docs for the rules).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Thresholds {
+    /// Absolute fail threshold for the float classes.
+    pub fail: f64,
+    /// Per-class overrides of the fail threshold (the last one given for a class wins).
+    /// The integer class is 0 unless overridden here.
+    pub fail_class: Vec<(ChannelClass, f64)>,
+    /// Relative fail threshold `R`: a value is over `T` only when `d > max(T, R * max(|a|, |b|))`.
+    pub fail_relative: f64,
+    /// The comparison fails when more than this percentage of pixels fail.
+    pub fail_percent: f64,
+    /// Any pixel with a difference over this fails the comparison, whatever the percentage.
+    pub hard_fail: Option<f64>,
+    /// Absolute warn threshold (capped at each class's fail threshold).
+    pub warn: f64,
+    /// The comparison warns when more than this percentage of pixels are over `warn`.
+    pub warn_percent: f64,
+    /// Forgive failing pixels where a silhouette moved by one pixel.
+    pub shift: bool,
+    /// Compute the FLIP figure for the beauty (when both images have R, G, B).
+    pub flip: bool,
+    /// Fail when the FLIP mean is over this (implies `flip`).
+    pub flip_fail: Option<f64>,
+    /// Compare only these channels (each must be in both images); `None`: all, and the
+    /// channel sets must be equal.
+    pub only: Option<Vec<String>>,
+}
+
+impl Default for Thresholds {
+    fn default() -> Self {
+        Thresholds {
+            fail: DEFAULT_FAIL,
+            fail_class: Vec::new(),
+            fail_relative: 0.0,
+            fail_percent: 0.0,
+            hard_fail: None,
+            warn: DEFAULT_WARN,
+            warn_percent: 0.0,
+            shift: false,
+            flip: true,
+            flip_fail: None,
+            only: None,
+        }
+    }
+}
+
+impl Thresholds {
+    /// The absolute fail threshold of a class.
+    pub fn fail_for(&self, class: ChannelClass) -> f64 {
+        let base = match class {
+            ChannelClass::Integer => 0.0,
+            _ => self.fail,
+        };
+        self.fail_class.iter().rev().find(|(c, _)| *c == class).map_or(base, |(_, t)| *t)
+    }
+
+    /// The absolute warn threshold of a class.
+    pub fn warn_for(&self, class: ChannelClass) -> f64 {
+        self.warn.min(self.fail_for(class))
+    }
+}
+
+/// Statistics of one channel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChannelStats {
+    pub name: String,
+    pub class: ChannelClass,
+    /// The absolute fail threshold applied.
+    pub fail: f64,
+    /// Largest `|a - b|` over pairs of finite values, and where (x, y) it is.
+    pub max_abs: f64,
+    pub max_at: Option<(usize, usize)>,
+    /// Mean and root mean square of `|a - b|` over pairs of finite values.
+    pub mean_abs: f64,
+    pub rmse: f64,
+    /// 99th percentile (nearest rank) of `|a - b| / max(|a|, |b|)` over finite pairs (0 for 0/0).
+    pub rel_p99: f64,
+    /// Pixels over the fail threshold (non-finite mismatches included).
+    pub over_fail: usize,
+    /// Pixels where a non-finite value met a value it does not equal.
+    pub nonfinite: usize,
+    /// Every value pair equal (NaN = NaN, inf = inf).
+    pub identical: bool,
+}
+
+/// Pixels covered (hit) in one image only.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Coverage {
+    /// The channel coverage was read from (`Z` or `A`).
+    pub channel: String,
+    pub only_a: usize,
+    pub only_b: usize,
+}
+
+/// The outcome of a comparison.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// Every value equal.
+    Identical,
+    /// Within the thresholds.
+    Pass,
+    /// Within the fail thresholds, but more pixels over the warn threshold than allowed.
+    Warn,
+    /// Over the thresholds.
+    Fail,
+}
+
+impl Verdict {
+    /// The exit status of `isoview compare`: 1 for a failure, else 0.
+    pub fn exit_code(self) -> i32 {
+        match self {
+            Verdict::Fail => 1,
+            _ => 0,
+        }
+    }
+}
+
+/// State of one pixel, for the diff outputs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PixelState {
+    /// Every channel equal.
+    Same,
+    /// Different, within the warn thresholds.
+    Close,
+    /// Over a warn threshold, within the fail thresholds.
+    Warn,
+    /// Over a fail threshold, forgiven by the shift window.
+    Forgiven,
+    /// Over a fail threshold.
+    Fail,
+}
+
+/// Everything a comparison found.
+#[derive(Clone, Debug)]
+pub struct Report {
+    pub a: PathBuf,
+    pub b: PathBuf,
+    pub width: usize,
+    pub height: usize,
+    pub thresholds: Thresholds,
+    /// One entry per compared channel, in A's order.
+    pub channels: Vec<ChannelStats>,
+    /// Coverage mismatches, where coverage could be determined.
+    pub coverage: Option<Coverage>,
+    pub failing_pixels: usize,
+    pub forgiven_pixels: usize,
+    pub warning_pixels: usize,
+    /// Pixels over the hard-fail threshold (0 when it is not set).
+    pub hard_failing_pixels: usize,
+    pub flip: Option<FlipStats>,
+    /// Why FLIP was not computed, when it was asked for and could not be.
+    pub flip_note: Option<String>,
+    pub verdict: Verdict,
+    /// Per pixel, row-major.
+    pub pixels: Vec<PixelState>,
+    /// Per pixel: the largest `d / tolerance` over the channels (inf for non-finite mismatches
+    /// and for any difference where the tolerance is 0).
+    pub ratio: Vec<f32>,
+    /// The FLIP error map, when computed.
+    pub flip_map: Option<Vec<f32>>,
+}
+
+impl Report {
+    /// Number of pixels.
+    pub fn pixel_count(&self) -> usize {
+        self.width * self.height
+    }
+
+    fn percent(&self, n: usize) -> f64 {
+        100.0 * n as f64 / self.pixel_count().max(1) as f64
+    }
+
+    /// The one-line verdict printed under the table.
+    pub fn verdict_line(&self) -> String {
+        let t = &self.thresholds;
+        let failing = format!(
+            "{} of {} pixels ({}) over the fail thresholds, limit {}%",
+            self.failing_pixels,
+            self.pixel_count(),
+            pct(self.percent(self.failing_pixels)),
+            t.fail_percent
+        );
+        match self.verdict {
+            Verdict::Identical => "PASS: identical".into(),
+            Verdict::Pass => format!("PASS: {failing}"),
+            Verdict::Warn => format!(
+                "WARN: {} pixels ({}) over the warn threshold, limit {}%; {failing}",
+                self.warning_pixels,
+                pct(self.percent(self.warning_pixels)),
+                t.warn_percent
+            ),
+            Verdict::Fail => {
+                let mut why = vec![failing];
+                if self.hard_failing_pixels > 0 {
+                    why.push(format!(
+                        "{} pixels over the hard-fail threshold {}",
+                        self.hard_failing_pixels,
+                        t.hard_fail.unwrap_or(f64::INFINITY)
+                    ));
+                }
+                if let (Some(limit), Some(f)) = (t.flip_fail, &self.flip) {
+                    if f64::from(f.mean) > limit {
+                        why.push(format!("FLIP mean {:.4} over {limit}", f.mean));
+                    }
+                }
+                format!("FAIL: {}", why.join("; "))
+            }
+        }
+    }
+}
+
+/// `12.5%` with few digits.
+fn pct(p: f64) -> String {
+    if p == 0.0 {
+        "0%".into()
+    } else if p < 0.01 {
+        format!("{p:.2e}%")
+    } else {
+        format!("{p:.2}%")
+    }
+}
+
+/// A statistic in the table: `0` for zero, else three significant digits.
+fn num(x: f64) -> String {
+    if x == 0.0 {
+        "0".into()
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
+impl fmt::Display for Report {
+    /// The per-channel table, coverage, shift, FLIP, and the verdict line.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "A: {}\nB: {}\n{}x{}, {} channels compared",
+            self.a.display(),
+            self.b.display(),
+            self.width,
+            self.height,
+            self.channels.len()
+        )?;
+        let w = self.channels.iter().map(|c| c.name.len()).max().unwrap_or(0).max(7);
+        writeln!(
+            f,
+            "{:<w$}  {:<8}  {:>9}  {:>9}  {:>11}  {:>9}  {:>9}  {:>9}  {:>9}  {:>9}",
+            "channel",
+            "class",
+            "fail at",
+            "max abs",
+            "at x,y",
+            "mean abs",
+            "RMSE",
+            "rel p99",
+            "over",
+            "nonfinite"
+        )?;
+        for c in &self.channels {
+            let at = c
+                .max_at
+                .filter(|_| c.max_abs > 0.0)
+                .map_or("-".to_string(), |(x, y)| format!("{x},{y}"));
+            writeln!(
+                f,
+                "{:<w$}  {:<8}  {:>9}  {:>9}  {:>11}  {:>9}  {:>9}  {:>9}  {:>9}  {:>9}",
+                c.name,
+                c.class.name(),
+                num(c.fail),
+                num(c.max_abs),
+                at,
+                num(c.mean_abs),
+                num(c.rmse),
+                num(c.rel_p99),
+                c.over_fail,
+                c.nonfinite
+            )?;
+        }
+        if let Some(cov) = &self.coverage {
+            writeln!(
+                f,
+                "coverage ({}): {} pixels hit only in A, {} only in B",
+                cov.channel, cov.only_a, cov.only_b
+            )?;
+        }
+        if self.thresholds.shift {
+            writeln!(
+                f,
+                "shift window: {} failing pixels forgiven (one-pixel silhouette shift)",
+                self.forgiven_pixels
+            )?;
+        }
+        match (&self.flip, &self.flip_note) {
+            (Some(s), _) => writeln!(
+                f,
+                "FLIP (R,G,B as sRGB8, {} ppd): mean {:.4}  p50 {:.4}  p95 {:.4}  p99 {:.4}  max {:.4}",
+                s.pixels_per_degree, s.mean, s.p50, s.p95, s.p99, s.max
+            )?,
+            (None, Some(note)) => writeln!(f, "FLIP: {note}")?,
+            (None, None) => {}
+        }
+        writeln!(f, "{}", self.verdict_line())
+    }
+}
+
+/// Equality of values under the NaN/inf rules, or `None` for a non-finite mismatch;
+/// `Some(d)` is `|a - b|` for finite pairs and 0 for equal non-finite pairs.
+fn difference(a: f32, b: f32) -> Option<f64> {
+    if a.is_nan() || b.is_nan() {
+        return (a.is_nan() && b.is_nan()).then_some(0.0);
+    }
+    if a.is_infinite() || b.is_infinite() {
+        return (a == b).then_some(0.0);
+    }
+    Some((f64::from(a) - f64::from(b)).abs())
+}
+
+/// Whether `a` and `b` are within `abs` (or `rel` relatively) of each other.
+fn within(a: f32, b: f32, abs: f64, rel: f64) -> bool {
+    match difference(a, b) {
+        None => false,
+        Some(d) => d <= tolerance(a, b, abs, rel),
+    }
+}
+
+fn tolerance(a: f32, b: f32, abs: f64, rel: f64) -> f64 {
+    abs.max(rel * f64::from(a.abs().max(b.abs())))
+}
+
+/// The channels to compare: names present in both (all of A's when the sets are equal).
+fn select_channels(
+    a: &ExrImage,
+    b: &ExrImage,
+    t: &Thresholds,
+) -> Result<Vec<String>, CompareError> {
+    let names = |img: &ExrImage| img.channel_names().map(str::to_string).collect::<Vec<_>>();
+    match &t.only {
+        Some(only) => {
+            for img in [a, b] {
+                if let Some(missing) = only.iter().find(|n| img.channel(n).is_none()) {
+                    return Err(CompareError::MissingChannel {
+                        path: img.path.clone(),
+                        channel: missing.clone(),
+                        available: names(img),
+                    });
+                }
+            }
+            let mut v = only.clone();
+            v.dedup();
+            Ok(v)
+        }
+        None => {
+            let only_a: Vec<String> =
+                names(a).into_iter().filter(|n| b.channel(n).is_none()).collect();
+            let only_b: Vec<String> =
+                names(b).into_iter().filter(|n| a.channel(n).is_none()).collect();
+            if !only_a.is_empty() || !only_b.is_empty() {
+                return Err(CompareError::ChannelMismatch {
+                    a: a.path.clone(),
+                    only_a,
+                    b: b.path.clone(),
+                    only_b,
+                });
+            }
+            Ok(names(a))
+        }
+    }
+}
+
+/// One compared channel: data of both images and its thresholds.
+struct Plane<'a> {
+    a: &'a [f32],
+    b: &'a [f32],
+    fail: f64,
+    warn: f64,
+}
+
+/// Compares `a` (reference) with `b` (under test); see the module docs.
+pub fn compare(a: &ExrImage, b: &ExrImage, t: &Thresholds) -> Result<Report, CompareError> {
+    if (a.width, a.height) != (b.width, b.height) {
+        return Err(CompareError::SizeMismatch {
+            a: a.path.clone(),
+            a_size: (a.width, a.height),
+            b: b.path.clone(),
+            b_size: (b.width, b.height),
+        });
+    }
+    let names = select_channels(a, b, t)?;
+    let (w, h) = (a.width, a.height);
+    let n = w * h;
+    let rel = t.fail_relative;
+
+    let mut planes = Vec::with_capacity(names.len());
+    let mut stats = Vec::with_capacity(names.len());
+    let mut ratio = vec![0f32; n];
+    let mut over_fail = vec![false; n];
+    let mut over_warn = vec![false; n];
+    let mut differs = vec![false; n];
+    let mut hard = vec![false; n];
+    let mut rel_errors: Vec<f64> = Vec::with_capacity(n);
+    for name in &names {
+        let (Some(ca), Some(cb)) = (a.channel(name), b.channel(name)) else {
+            continue; // select_channels checked both have it
+        };
+        let class = ChannelClass::of(name, ca.kind);
+        let plane = Plane {
+            a: &ca.values,
+            b: &cb.values,
+            fail: t.fail_for(class),
+            warn: t.warn_for(class),
+        };
+        let mut s = ChannelStats {
+            name: name.clone(),
+            class,
+            fail: plane.fail,
+            max_abs: 0.0,
+            max_at: None,
+            mean_abs: 0.0,
+            rmse: 0.0,
+            rel_p99: 0.0,
+            over_fail: 0,
+            nonfinite: 0,
+            identical: true,
+        };
+        let (mut sum, mut sum_sq, mut finite) = (0f64, 0f64, 0usize);
+        rel_errors.clear();
+        for i in 0..n {
+            let (x, y) = (plane.a[i], plane.b[i]);
+            let d = difference(x, y);
+            let (over, over_w, r) = match d {
+                None => {
+                    s.nonfinite += 1;
+                    (true, true, f32::INFINITY)
+                }
+                Some(d) => {
+                    let tol = tolerance(x, y, plane.fail, rel);
+                    let tol_w = tolerance(x, y, plane.warn, rel);
+                    let r = if d == 0.0 {
+                        0.0
+                    } else if tol > 0.0 {
+                        (d / tol) as f32
+                    } else {
+                        f32::INFINITY
+                    };
+                    (d > tol, d > tol_w, r)
+                }
+            };
+            if let Some(d) = d {
+                if x.is_finite() {
+                    finite += 1;
+                    sum += d;
+                    sum_sq += d * d;
+                    if d > s.max_abs || s.max_at.is_none() {
+                        s.max_abs = d;
+                        s.max_at = Some((i % w, i / w));
+                    }
+                    let m = f64::from(x.abs().max(y.abs()));
+                    rel_errors.push(if m > 0.0 { d / m } else { 0.0 });
+                }
+            }
+            let different = d != Some(0.0);
+            s.identical &= !different;
+            differs[i] |= different;
+            if over {
+                s.over_fail += 1;
+                over_fail[i] = true;
+            }
+            over_warn[i] |= over_w;
+            ratio[i] = ratio[i].max(r);
+            if let Some(limit) = t.hard_fail {
+                hard[i] |= d.map_or(true, |d| d > limit);
+            }
+        }
+        if finite > 0 {
+            s.mean_abs = sum / finite as f64;
+            s.rmse = (sum_sq / finite as f64).sqrt();
+            s.rel_p99 = percentile(&mut rel_errors, 0.99);
+        }
+        stats.push(s);
+        planes.push(plane);
+    }
+
+    let coverage = coverage_masks(a, b);
+    let mut pixels = vec![PixelState::Same; n];
+    let (mut failing, mut forgiven, mut warning, mut hard_failing) = (0, 0, 0, 0);
+    for i in 0..n {
+        let state = if over_fail[i] {
+            if t.shift && shift_forgives(i, w, h, &planes, rel, coverage.as_ref()) {
+                PixelState::Forgiven
+            } else {
+                PixelState::Fail
+            }
+        } else if over_warn[i] {
+            PixelState::Warn
+        } else if differs[i] {
+            PixelState::Close
+        } else {
+            PixelState::Same
+        };
+        match state {
+            PixelState::Fail => failing += 1,
+            PixelState::Forgiven => forgiven += 1,
+            _ => {}
+        }
+        if matches!(state, PixelState::Fail | PixelState::Forgiven | PixelState::Warn) {
+            warning += 1;
+        }
+        if hard[i] && state != PixelState::Forgiven {
+            hard_failing += 1;
+        }
+        pixels[i] = state;
+    }
+
+    let coverage_counts = coverage.as_ref().map(|(channel, ca, cb)| Coverage {
+        channel: channel.clone(),
+        only_a: ca.iter().zip(cb).filter(|(x, y)| **x && !**y).count(),
+        only_b: ca.iter().zip(cb).filter(|(x, y)| !**x && **y).count(),
+    });
+
+    let want_flip = t.flip || t.flip_fail.is_some();
+    let (flip, flip_map, flip_note) = if want_flip {
+        match flip_beauty(a, b) {
+            Ok((stats, map)) => (Some(stats), Some(map), None),
+            Err(note) => (None, None, Some(note)),
+        }
+    } else {
+        (None, None, None)
+    };
+
+    let percent = |k: usize| 100.0 * k as f64 / n.max(1) as f64;
+    let flip_over = match (t.flip_fail, &flip) {
+        (Some(limit), Some(f)) => f64::from(f.mean) > limit,
+        // Asked to gate on FLIP but it could not be computed: that is a failure to check.
+        (Some(_), None) => true,
+        _ => false,
+    };
+    let verdict = if percent(failing) > t.fail_percent || hard_failing > 0 || flip_over {
+        Verdict::Fail
+    } else if percent(warning) > t.warn_percent {
+        Verdict::Warn
+    } else if stats.iter().all(|s| s.identical) {
+        Verdict::Identical
+    } else {
+        Verdict::Pass
+    };
+
+    Ok(Report {
+        a: a.path.clone(),
+        b: b.path.clone(),
+        width: w,
+        height: h,
+        thresholds: t.clone(),
+        channels: stats,
+        coverage: coverage_counts,
+        failing_pixels: failing,
+        forgiven_pixels: forgiven,
+        warning_pixels: warning,
+        hard_failing_pixels: hard_failing,
+        flip,
+        flip_note,
+        verdict,
+        pixels,
+        ratio,
+        flip_map,
+    })
+}
+
+/// Nearest-rank percentile `p` in [0, 1] of `values` (reorders them); 0 when empty.
+fn percentile(values: &mut [f64], p: f64) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let rank = ((p * values.len() as f64).ceil() as usize).clamp(1, values.len()) - 1;
+    let (_, v, _) = values.select_nth_unstable_by(rank, |x, y| x.total_cmp(y));
+    *v
+}
+
+/// Per-pixel coverage of A and B and the channel it came from: finite `Z` where both have
+/// `Z`, else `A > 0` where both have `A`.
+fn coverage_masks(a: &ExrImage, b: &ExrImage) -> Option<(String, Vec<bool>, Vec<bool>)> {
+    let pick = |name: &str, hit: fn(f32) -> bool| {
+        let (ca, cb) = (a.channel(name)?, b.channel(name)?);
+        Some((
+            name.to_string(),
+            ca.values.iter().map(|&v| hit(v)).collect(),
+            cb.values.iter().map(|&v| hit(v)).collect(),
+        ))
+    };
+    pick("Z", f32::is_finite).or_else(|| pick("A", |v| v > 0.0))
+}
+
+/// The shift-window rule of the module docs for failing pixel `i`.
+fn shift_forgives(
+    i: usize,
+    w: usize,
+    h: usize,
+    planes: &[Plane<'_>],
+    rel: f64,
+    coverage: Option<&(String, Vec<bool>, Vec<bool>)>,
+) -> bool {
+    let (x, y) = ((i % w) as i64, (i / w) as i64);
+    let window = || {
+        (-1i64..=1)
+            .flat_map(move |dy| (-1i64..=1).map(move |dx| (x + dx, y + dy)))
+            .filter(|&(u, v)| u >= 0 && v >= 0 && u < w as i64 && v < h as i64)
+            .map(|(u, v)| v as usize * w + u as usize)
+    };
+    // (a) A silhouette that moved: coverage differs here, and both images have a hit and a
+    // miss in the window.
+    if let Some((_, ca, cb)) = coverage {
+        let edge = |c: &Vec<bool>| window().any(|j| c[j]) && window().any(|j| !c[j]);
+        if ca[i] != cb[i] && edge(ca) && edge(cb) {
+            return true;
+        }
+    }
+    // (b) Each image's pixel is found in the other's window.
+    let matches = |from_a: bool, j: usize| {
+        planes.iter().all(|p| {
+            let (v, u) = if from_a { (p.a[i], p.b[j]) } else { (p.b[i], p.a[j]) };
+            within(v, u, p.fail, rel)
+        })
+    };
+    window().any(|j| matches(true, j)) && window().any(|j| matches(false, j))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn difference_rules() {
+        assert_eq!(difference(f32::INFINITY, f32::INFINITY), Some(0.0));
+        assert_eq!(difference(f32::NAN, f32::NAN), Some(0.0));
+        assert_eq!(difference(f32::NAN, 1.0), None);
+        assert_eq!(difference(1.0, f32::NAN), None);
+        assert_eq!(difference(f32::INFINITY, 3.5), None);
+        assert_eq!(difference(f32::INFINITY, f32::NEG_INFINITY), None);
+        assert_eq!(difference(1.0, 1.5), Some(0.5));
+    }
+
+    #[test]
+    fn classes() {
+        use ChannelClass as C;
+        let f = SampleKind::F32;
+        for (name, class) in [
+            ("R", C::Colour),
+            ("A", C::Colour),
+            ("beauty.G", C::Colour),
+            ("Z", C::Depth),
+            ("depth.Z", C::Depth),
+            ("N.Z", C::Normal),
+            ("ViewLayer.Normal.X", C::Normal),
+            ("P.Z", C::Position),
+            ("steps", C::Integer),
+            ("crossings", C::Integer),
+            ("cell.X", C::Integer),
+            ("field.value", C::Other),
+        ] {
+            assert_eq!(C::of(name, f), class, "{name}");
+        }
+        assert_eq!(C::of("id", SampleKind::U32), C::Integer);
+        assert_eq!(C::parse("color"), Some(C::Colour));
+        assert_eq!(C::parse("depth"), Some(C::Depth));
+        assert_eq!(C::parse("nope"), None);
+    }
+
+    #[test]
+    fn thresholds_per_class() {
+        let mut t = Thresholds::default();
+        assert_eq!(t.fail_for(ChannelClass::Integer), 0.0);
+        assert_eq!(t.fail_for(ChannelClass::Depth), DEFAULT_FAIL);
+        assert_eq!(t.warn_for(ChannelClass::Integer), 0.0);
+        t.fail_class = vec![(ChannelClass::Depth, 1e-3), (ChannelClass::Depth, 2e-3)];
+        assert_eq!(t.fail_for(ChannelClass::Depth), 2e-3);
+        assert_eq!(t.fail_for(ChannelClass::Colour), DEFAULT_FAIL);
+    }
+
+    #[test]
+    fn long_name_lists_are_cut() {
+        let names: Vec<String> = (0..15).map(|i| format!("c{i}")).collect();
+        assert_eq!(list_or_none(&names[..2]), "c0, c1");
+        assert!(list_or_none(&names).ends_with("c11 and 3 more"));
+        assert_eq!(list_or_none(&[]), "(none)");
+    }
+
+    #[test]
+    fn percentile_nearest_rank() {
+        let mut v: Vec<f64> = (1..=100).map(f64::from).collect();
+        assert_eq!(percentile(&mut v, 0.99), 99.0);
+        assert_eq!(percentile(&mut v, 1.0), 100.0);
+        assert_eq!(percentile(&mut [], 0.5), 0.0);
+        assert_eq!(percentile(&mut [3.0], 0.99), 3.0);
+    }
+}

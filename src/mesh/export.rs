@@ -1,0 +1,129 @@
+//! Writing meshes: binary PLY (positions, normals, faces), Wavefront OBJ (`v`, `vn`, `f v//vn`)
+//! and binary STL (facet normals from the triangles' geometry).
+//!
+//! Writers take any [`std::io::Write`] and buffer internally; making the file appear whole or not
+//! at all (write a temporary, then rename) is the caller's job. PLY and OBJ write the quads of
+//! [`Mesh::quads`] when present, triangles otherwise; STL holds triangles only.
+
+use std::io::{self, BufWriter, Write};
+use std::path::Path;
+
+use glam::Vec3;
+
+use super::Mesh;
+
+/// A mesh file format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Ply,
+    Obj,
+    Stl,
+}
+
+impl Format {
+    /// The format named by a path's extension (`.ply`, `.obj`, `.stl`, any case).
+    pub fn from_path(path: &Path) -> Option<Format> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "ply" => Some(Format::Ply),
+            "obj" => Some(Format::Obj),
+            "stl" => Some(Format::Stl),
+            _ => None,
+        }
+    }
+}
+
+/// Writes `mesh` to `w` in `format`.
+pub fn write<W: Write>(mesh: &Mesh, format: Format, w: W) -> io::Result<()> {
+    match format {
+        Format::Ply => write_ply(mesh, w),
+        Format::Obj => write_obj(mesh, w),
+        Format::Stl => write_stl(mesh, w),
+    }
+}
+
+/// The faces to write: quads if the mesh has them, else triangles.
+fn faces(mesh: &Mesh) -> (&[u32], usize) {
+    match &mesh.quads {
+        Some(q) => (q.as_slice(), 4),
+        None => (mesh.indices.as_slice(), 3),
+    }
+}
+
+/// Binary little-endian PLY: `vertex` with float `x y z nx ny nz`, `face` with
+/// `list uchar uint vertex_indices`.
+pub fn write_ply<W: Write>(mesh: &Mesh, w: W) -> io::Result<()> {
+    let mut w = BufWriter::new(w);
+    let (faces, n) = faces(mesh);
+    write!(
+        w,
+        "ply\nformat binary_little_endian 1.0\ncomment isoview {}\n\
+         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+         property float nx\nproperty float ny\nproperty float nz\n\
+         element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+        crate::VERSION,
+        mesh.positions.len(),
+        faces.len() / n
+    )?;
+    for (p, q) in mesh.positions.iter().zip(&mesh.normals) {
+        for c in p.iter().chain(q) {
+            w.write_all(&c.to_le_bytes())?;
+        }
+    }
+    for f in faces.chunks_exact(n) {
+        w.write_all(&[n as u8])?;
+        for v in f {
+            w.write_all(&v.to_le_bytes())?;
+        }
+    }
+    w.flush()
+}
+
+/// Wavefront OBJ: `v x y z`, `vn nx ny nz` (vertex `i` uses normal `i`), `f a//a b//b c//c`
+/// (1-based). Numbers are written in the shortest form that reads back to the same f32.
+pub fn write_obj<W: Write>(mesh: &Mesh, w: W) -> io::Result<()> {
+    let mut w = BufWriter::new(w);
+    let (faces, n) = faces(mesh);
+    writeln!(w, "# isoview {}", crate::VERSION)?;
+    writeln!(w, "# {} vertices, {} faces", mesh.positions.len(), faces.len() / n)?;
+    for p in &mesh.positions {
+        writeln!(w, "v {} {} {}", p[0], p[1], p[2])?;
+    }
+    for q in &mesh.normals {
+        writeln!(w, "vn {} {} {}", q[0], q[1], q[2])?;
+    }
+    for f in faces.chunks_exact(n) {
+        write!(w, "f")?;
+        for v in f {
+            write!(w, " {0}//{0}", v + 1)?;
+        }
+        writeln!(w)?;
+    }
+    w.flush()
+}
+
+/// Binary STL: an 80-byte header (not starting with `solid`), the triangle count, and per
+/// triangle its unit geometric normal (zero for a degenerate one), three vertices and a zero
+/// attribute word.
+pub fn write_stl<W: Write>(mesh: &Mesh, w: W) -> io::Result<()> {
+    let mut w = BufWriter::new(w);
+    let mut header = [b' '; 80];
+    let text = format!("isoview {} binary STL", crate::VERSION);
+    let len = text.len().min(80);
+    header[..len].copy_from_slice(&text.as_bytes()[..len]);
+    w.write_all(&header)?;
+    let count = u32::try_from(mesh.triangle_count())
+        .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "too many triangles for STL"))?;
+    w.write_all(&count.to_le_bytes())?;
+    for t in 0..mesh.triangle_count() {
+        let [a, b, c] = mesh.triangle(t).map(|v| Vec3::from(mesh.positions[v as usize]));
+        let n = (b - a).cross(c - a).normalize_or_zero();
+        for v in [n, a, b, c] {
+            for x in v.to_array() {
+                w.write_all(&x.to_le_bytes())?;
+            }
+        }
+        w.write_all(&[0, 0])?;
+    }
+    w.flush()
+}

@@ -1,0 +1,161 @@
+//! The sampled field as the extractors see it: values in f64, the inside rule, crossing points,
+//! index-space → world-space mapping and trilinear gradients (all in index space unless named
+//! `world`).
+
+use glam::DVec3;
+
+use crate::field::Grid;
+use crate::scene::Inside;
+
+pub(crate) struct Field<'a> {
+    pub grid: &'a Grid,
+    pub iso: f64,
+    pub inside: Inside,
+    pub dims: [usize; 3],
+    /// World-space size of one cell.
+    spacing: DVec3,
+}
+
+/// The crossing parameter `s` on an edge from value `a` to value `b` (see the module docs of
+/// `mesh`): `(iso - a) / (b - a)` clamped to `[0, 1]`, 0.5 when that is NaN.
+pub(crate) fn crossing(a: f64, b: f64, iso: f64) -> f64 {
+    let s = (iso - a) / (b - a);
+    if s.is_nan() {
+        0.5
+    } else {
+        s.clamp(0.0, 1.0)
+    }
+}
+
+/// Gradient (index space) of the trilinear interpolant of corner values `v` (corner order of
+/// [`Grid::corners`]) at local coordinates `(x, y, z)` in `[0, 1]³`.
+pub(crate) fn trilinear_gradient(v: &[f64; 8], x: f64, y: f64, z: f64) -> DVec3 {
+    let (mx, my, mz) = (1.0 - x, 1.0 - y, 1.0 - z);
+    DVec3::new(
+        my * mz * (v[1] - v[0])
+            + y * mz * (v[3] - v[2])
+            + my * z * (v[5] - v[4])
+            + y * z * (v[7] - v[6]),
+        mx * mz * (v[2] - v[0])
+            + x * mz * (v[3] - v[1])
+            + mx * z * (v[6] - v[4])
+            + x * z * (v[7] - v[5]),
+        mx * my * (v[4] - v[0])
+            + x * my * (v[5] - v[1])
+            + mx * y * (v[6] - v[2])
+            + x * y * (v[7] - v[3]),
+    )
+}
+
+/// Value of the trilinear interpolant of corner values `v` at local `(x, y, z)`.
+#[cfg(test)]
+pub(crate) fn trilinear(v: &[f64; 8], x: f64, y: f64, z: f64) -> f64 {
+    let (mx, my, mz) = (1.0 - x, 1.0 - y, 1.0 - z);
+    mz * (my * (mx * v[0] + x * v[1]) + y * (mx * v[2] + x * v[3]))
+        + z * (my * (mx * v[4] + x * v[5]) + y * (mx * v[6] + x * v[7]))
+}
+
+impl<'a> Field<'a> {
+    pub fn new(grid: &'a Grid, iso: f64, inside: Inside) -> Self {
+        Field { grid, iso, inside, dims: grid.dims, spacing: grid.spacing() }
+    }
+
+    /// Linear index of point `(i, j, k)`.
+    pub fn index(&self, i: usize, j: usize, k: usize) -> usize {
+        i + self.dims[0] * (j + self.dims[1] * k)
+    }
+
+    /// Sample at point `(i, j, k)`, widened to f64.
+    pub fn value(&self, i: usize, j: usize, k: usize) -> f64 {
+        f64::from(self.grid.values[self.index(i, j, k)])
+    }
+
+    /// The inside rule at point `(i, j, k)`.
+    pub fn is_inside(&self, i: usize, j: usize, k: usize) -> bool {
+        self.inside.contains(self.value(i, j, k), self.iso)
+    }
+
+    /// Corner values of cell `(i, j, k)` in f64.
+    pub fn corners(&self, i: usize, j: usize, k: usize) -> [f64; 8] {
+        self.grid.corners(i, j, k).map(f64::from)
+    }
+
+    /// Bitmask of the inside corners of cell `(i, j, k)`: bit `n` for corner `n`.
+    pub fn corner_mask(&self, i: usize, j: usize, k: usize) -> u8 {
+        let mut mask = 0u8;
+        for (n, &v) in self.corners(i, j, k).iter().enumerate() {
+            if self.inside.contains(v, self.iso) {
+                mask |= 1 << n;
+            }
+        }
+        mask
+    }
+
+    /// The crossing parameter on the edge from value `a` to value `b`.
+    pub fn crossing(&self, a: f64, b: f64) -> f64 {
+        crossing(a, b, self.iso)
+    }
+
+    /// World-space position of index-space point `u`, rounded to f32.
+    pub fn world(&self, u: DVec3) -> [f32; 3] {
+        let p = self.grid.min + u * self.spacing;
+        [p.x as f32, p.y as f32, p.z as f32]
+    }
+
+    /// The unit normal (inside → outside, world space) at index-space point `u`: the mean of the
+    /// trilinear gradients of every cell that contains `u`, divided by the spacing, negated for
+    /// `inside = above`. `fallback` (an index-space direction, inside → outside) is used where
+    /// that gradient vanishes.
+    pub fn normal(&self, u: DVec3, fallback: DVec3) -> [f32; 3] {
+        let sign = match self.inside {
+            Inside::Below => 1.0,
+            Inside::Above => -1.0,
+        };
+        let g = sign * self.gradient(u) / self.spacing;
+        let n = if g.length_squared() > 0.0 && g.is_finite() {
+            g.normalize()
+        } else {
+            let f = fallback * self.spacing;
+            if f.length_squared() > 0.0 && f.is_finite() {
+                f.normalize()
+            } else {
+                DVec3::Z
+            }
+        };
+        [n.x as f32, n.y as f32, n.z as f32]
+    }
+
+    /// Index-space gradient at `u`, averaged over the cells containing `u`: along each axis, a
+    /// coordinate strictly between cells' integer boundaries selects one cell; an integer
+    /// coordinate inside the grid selects the two cells that share that plane.
+    pub fn gradient(&self, u: DVec3) -> DVec3 {
+        let mut choices = [[(0usize, 0.0f64); 2]; 3];
+        let mut counts = [0usize; 3];
+        for a in 0..3 {
+            let cells = self.dims[a] - 1;
+            let ua = u[a];
+            let fl = ua.floor();
+            if ua == fl && fl > 0.0 && (fl as usize) < cells {
+                let c = fl as usize;
+                choices[a] = [(c - 1, 1.0), (c, 0.0)];
+                counts[a] = 2;
+            } else {
+                let c = (fl.max(0.0) as usize).min(cells - 1);
+                choices[a][0] = (c, ua - c as f64);
+                counts[a] = 1;
+            }
+        }
+        let mut sum = DVec3::ZERO;
+        let mut n = 0.0;
+        for &(cz, lz) in &choices[2][..counts[2]] {
+            for &(cy, ly) in &choices[1][..counts[1]] {
+                for &(cx, lx) in &choices[0][..counts[0]] {
+                    let v = self.corners(cx, cy, cz);
+                    sum += trilinear_gradient(&v, lx, ly, lz);
+                    n += 1.0;
+                }
+            }
+        }
+        sum / n
+    }
+}

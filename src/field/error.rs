@@ -20,11 +20,7 @@ pub enum FieldError {
 
     /// The samples' type is not one isoview reads.
     #[error("{}: unsupported dtype {dtype} ({hint})", path.display())]
-    UnsupportedDtype {
-        path: PathBuf,
-        dtype: String,
-        hint: String,
-    },
+    UnsupportedDtype { path: PathBuf, dtype: String, hint: String },
 
     /// The array is not a 3-D grid of at least 2 points per axis.
     #[error("{}: {message}", path.display())]
@@ -35,24 +31,14 @@ pub enum FieldError {
         "{}: truncated data: expected {expected} bytes of samples ({layout}), found {actual}",
         path.display()
     )]
-    Truncated {
-        path: PathBuf,
-        expected: u64,
-        actual: u64,
-        layout: String,
-    },
+    Truncated { path: PathBuf, expected: u64, actual: u64, layout: String },
 
     /// The file holds more bytes than the declared dims and dtype account for.
     #[error(
         "{}: dims do not match the data: {layout} is {expected} bytes of samples, the file has {actual}",
         path.display()
     )]
-    SizeMismatch {
-        path: PathBuf,
-        expected: u64,
-        actual: u64,
-        layout: String,
-    },
+    SizeMismatch { path: PathBuf, expected: u64, actual: u64, layout: String },
 
     /// The grid's `f32` samples would exceed the memory cap; refused before any allocation.
     #[error(
@@ -60,21 +46,11 @@ pub enum FieldError {
          raise the cap with {GRID_CAP_ENV}={} (or GridLimits::max_bytes)",
         dims[0], dims[1], dims[2], mib(*bytes), mib(*cap as u128), bytes.div_ceil(1 << 20)
     )]
-    TooLarge {
-        what: String,
-        dims: [u64; 3],
-        bytes: u128,
-        cap: u64,
-    },
+    TooLarge { what: String, dims: [u64; 3], bytes: u128, cap: u64 },
 
     /// A sample is NaN or infinite; `index` is the first such grid point (x fastest).
     #[error("{what}: value {value} at grid point [{}, {}, {}]{detail} is not finite", index[0], index[1], index[2])]
-    NonFinite {
-        what: String,
-        index: [usize; 3],
-        value: f32,
-        detail: String,
-    },
+    NonFinite { what: String, index: [usize; 3], value: f32, detail: String },
 
     /// An expression that does not parse, or names something unknown.
     #[error("expression \"{text}\": {message}")]
@@ -113,10 +89,7 @@ impl FieldError {
             ErrorKind::IsADirectory => "is a directory, not a file".to_string(),
             _ => format!("cannot read: {}", one_line(&err.to_string())),
         };
-        FieldError::Io {
-            path: path.to_path_buf(),
-            message,
-        }
+        FieldError::Io { path: path.to_path_buf(), message }
     }
 }
 

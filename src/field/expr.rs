@@ -35,10 +35,7 @@ impl PartialEq for ExprSource {
 impl ExprSource {
     /// Compiles `text`; unknown functions and variables other than `x`, `y`, `z`, `t` are errors.
     pub fn parse(text: &str) -> Result<ExprSource, FieldError> {
-        let err = |message: String| FieldError::Expr {
-            text: text.to_string(),
-            message,
-        };
+        let err = |message: String| FieldError::Expr { text: text.to_string(), message };
         if text.trim().is_empty() {
             return Err(err("the expression is empty".into()));
         }
@@ -57,11 +54,7 @@ impl ExprSource {
                 }
             }
         }
-        Ok(ExprSource {
-            text: text.to_string(),
-            expr: Box::new(expr),
-            slots,
-        })
+        Ok(ExprSource { text: text.to_string(), expr: Box::new(expr), slots })
     }
 
     /// Whether the expression uses `t`.
@@ -76,9 +69,7 @@ impl ExprSource {
         for (v, &slot) in vars.iter_mut().zip(&self.slots) {
             *v = all[slot];
         }
-        self.expr
-            .eval(&vars[..self.slots.len()])
-            .unwrap_or(f64::NAN)
+        self.expr.eval(&vars[..self.slots.len()]).unwrap_or(f64::NAN)
     }
 }
 

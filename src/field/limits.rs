@@ -18,9 +18,7 @@ pub struct GridLimits {
 impl Default for GridLimits {
     /// 1024 MiB.
     fn default() -> Self {
-        GridLimits {
-            max_bytes: Self::DEFAULT_MAX_BYTES,
-        }
+        GridLimits { max_bytes: Self::DEFAULT_MAX_BYTES }
     }
 }
 
@@ -33,9 +31,9 @@ impl GridLimits {
     pub fn from_env() -> Result<GridLimits, FieldError> {
         match std::env::var(GRID_CAP_ENV) {
             Err(std::env::VarError::NotPresent) => Ok(GridLimits::default()),
-            Err(std::env::VarError::NotUnicode(v)) => Err(FieldError::BadLimit {
-                value: v.to_string_lossy().into_owned(),
-            }),
+            Err(std::env::VarError::NotUnicode(v)) => {
+                Err(FieldError::BadLimit { value: v.to_string_lossy().into_owned() })
+            }
             Ok(v) if v.trim().is_empty() => Ok(GridLimits::default()),
             Ok(v) => Self::from_mib_str(&v),
         }
@@ -49,9 +47,7 @@ impl GridLimits {
             .filter(|&m| m > 0)
             .and_then(|m| m.checked_mul(1 << 20))
             .map(|max_bytes| GridLimits { max_bytes })
-            .ok_or_else(|| FieldError::BadLimit {
-                value: text.to_string(),
-            })
+            .ok_or_else(|| FieldError::BadLimit { value: text.to_string() })
     }
 
     /// Checks that a grid of `dims` points fits under the cap; returns its number of points.

@@ -61,17 +61,9 @@ impl NpySource {
             2 | 3 => {
                 file.read_exact(&mut pre[10..12])
                     .map_err(|_| not_npy("the header is cut short"))?;
-                (
-                    u32::from_le_bytes([pre[8], pre[9], pre[10], pre[11]]) as usize,
-                    12,
-                )
+                (u32::from_le_bytes([pre[8], pre[9], pre[10], pre[11]]) as usize, 12)
             }
-            v => {
-                return Err(not_npy(&format!(
-                    "unsupported format version {v}.{}",
-                    pre[7]
-                )))
-            }
+            v => return Err(not_npy(&format!("unsupported format version {v}.{}", pre[7]))),
         };
         if header_len > MAX_HEADER_BYTES || (prefix + header_len) as u64 > file_len {
             return Err(not_npy(&format!(
@@ -80,18 +72,15 @@ impl NpySource {
         }
         let mut bytes = pre[..prefix].to_vec();
         bytes.resize(prefix + header_len, 0);
-        file.read_exact(&mut bytes[prefix..])
-            .map_err(|e| FieldError::io(path, &e))?;
+        file.read_exact(&mut bytes[prefix..]).map_err(|e| FieldError::io(path, &e))?;
         let data_offset = bytes.len() as u64;
 
         // The dims are checked against the cap before npyz sees the header (it multiplies the
         // shape in u64, which a hostile header could overflow).
         if let Some(shape) = shape_of(&bytes[prefix..]) {
             if shape.len() == 3 && shape.iter().all(|&d| d <= u64::MAX as u128) {
-                limits.check(
-                    [shape[0] as u64, shape[1] as u64, shape[2] as u64],
-                    &path_str(path),
-                )?;
+                limits
+                    .check([shape[0] as u64, shape[1] as u64, shape[2] as u64], &path_str(path))?;
             }
         }
         let header = NpyHeader::from_reader(bytes.as_slice())
@@ -103,11 +92,7 @@ impl NpySource {
                 path: path.to_path_buf(),
                 message: format!(
                     "expected a 3-D array of shape (nx, ny, nz), got shape ({})",
-                    shape
-                        .iter()
-                        .map(u64::to_string)
-                        .collect::<Vec<_>>()
-                        .join(", ")
+                    shape.iter().map(u64::to_string).collect::<Vec<_>>().join(", ")
                 ),
             });
         }
@@ -146,27 +131,13 @@ impl NpySource {
     /// may have changed since [`NpySource::open`].
     pub fn read(&self, limits: &GridLimits) -> Result<Vec<f32>, FieldError> {
         let d = self.dims;
-        limits.check(
-            [d[0] as u64, d[1] as u64, d[2] as u64],
-            &path_str(&self.path),
-        )?;
+        limits.check([d[0] as u64, d[1] as u64, d[2] as u64], &path_str(&self.path))?;
         let mut file = File::open(&self.path).map_err(|e| FieldError::io(&self.path, &e))?;
-        let len = file
-            .metadata()
-            .map_err(|e| FieldError::io(&self.path, &e))?
-            .len();
+        let len = file.metadata().map_err(|e| FieldError::io(&self.path, &e))?.len();
         samples::check_file_size(&self.path, len, self.data_offset, d, self.dtype)?;
-        file.seek(SeekFrom::Start(self.data_offset))
-            .map_err(|e| FieldError::io(&self.path, &e))?;
+        file.seek(SeekFrom::Start(self.data_offset)).map_err(|e| FieldError::io(&self.path, &e))?;
         let mut reader = BufReader::new(file);
-        samples::read_samples(
-            &mut reader,
-            &self.path,
-            self.dtype,
-            self.endian,
-            d,
-            self.order,
-        )
+        samples::read_samples(&mut reader, &self.path, self.dtype, self.endian, d, self.order)
     }
 }
 
@@ -219,9 +190,7 @@ fn sample_type(path: &Path, dtype: &DType) -> Result<(SampleType, Endian), Field
         hint: hint.to_string(),
     };
     let DType::Plain(ts) = dtype else {
-        return Err(unsupported(
-            "structured arrays are not supported; save one real field",
-        ));
+        return Err(unsupported("structured arrays are not supported; save one real field"));
     };
     let size = ts.size_field();
     let ty = match (ts.type_char(), size) {
@@ -238,9 +207,7 @@ fn sample_type(path: &Path, dtype: &DType) -> Result<(SampleType, Endian), Field
         (TypeChar::Float, 4) => SampleType::F32,
         (TypeChar::Float, 8) => SampleType::F64,
         (TypeChar::Float, _) => {
-            return Err(unsupported(
-                "extended-precision floats are not supported; use float64",
-            ))
+            return Err(unsupported("extended-precision floats are not supported; use float64"))
         }
         (TypeChar::Complex, _) => {
             return Err(unsupported(

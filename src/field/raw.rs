@@ -26,10 +26,7 @@ impl RawSource {
     /// (unless the file changes in between).
     pub fn check(&self, limits: &GridLimits) -> Result<(), FieldError> {
         let d = self.dims;
-        limits.check(
-            [d[0] as u64, d[1] as u64, d[2] as u64],
-            &path_str(&self.path),
-        )?;
+        limits.check([d[0] as u64, d[1] as u64, d[2] as u64], &path_str(&self.path))?;
         let len = std::fs::metadata(&self.path).map_err(|e| FieldError::io(&self.path, &e))?;
         if len.is_dir() {
             return Err(FieldError::Io {
@@ -62,7 +59,5 @@ impl RawSource {
 
 /// The last component of `path` (the whole path if it has none).
 pub(crate) fn file_name(path: &Path) -> String {
-    path.file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| path_str(path))
+    path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| path_str(path))
 }

@@ -229,11 +229,7 @@ pub(crate) fn check_finite(
     match values.iter().position(|v| !v.is_finite()) {
         None => Ok(()),
         Some(n) => {
-            let index = [
-                n % dims[0],
-                (n / dims[0]) % dims[1],
-                n / (dims[0] * dims[1]),
-            ];
+            let index = [n % dims[0], (n / dims[0]) % dims[1], n / (dims[0] * dims[1])];
             Err(FieldError::NonFinite {
                 what: what(),
                 index,
@@ -253,9 +249,7 @@ pub(crate) fn check_file_size(
     ty: SampleType,
 ) -> Result<(), FieldError> {
     // Saturating: callers check the memory cap first, but a hostile header must not panic.
-    let expected = dims
-        .iter()
-        .fold(ty.size() as u64, |n, &d| n.saturating_mul(d as u64));
+    let expected = dims.iter().fold(ty.size() as u64, |n, &d| n.saturating_mul(d as u64));
     let actual = file_len.saturating_sub(header);
     if actual < expected {
         Err(FieldError::Truncated {

@@ -40,11 +40,7 @@ pub struct FieldSpec {
 impl FieldSpec {
     /// One cell over `bounds` with the given corner values (`source = "corners"`).
     pub fn corners(values: [f64; 8], bounds: Bounds) -> FieldSpec {
-        FieldSpec {
-            source: FieldSource::Corners(values),
-            resolution: [2, 2, 2],
-            bounds,
-        }
+        FieldSpec { source: FieldSource::Corners(values), resolution: [2, 2, 2], bounds }
     }
 
     /// A signed-distance shape centred at `center`, sampled at `resolution` points over `bounds`.
@@ -54,11 +50,7 @@ impl FieldSpec {
         resolution: [usize; 3],
         bounds: Bounds,
     ) -> FieldSpec {
-        FieldSpec {
-            source: FieldSource::Sdf { shape, center },
-            resolution,
-            bounds,
-        }
+        FieldSpec { source: FieldSource::Sdf { shape, center }, resolution, bounds }
     }
 
     /// An expression field; fails if the expression does not compile.
@@ -67,11 +59,7 @@ impl FieldSpec {
         resolution: [usize; 3],
         bounds: Bounds,
     ) -> Result<FieldSpec, FieldError> {
-        Ok(FieldSpec {
-            source: FieldSource::Expr(ExprSource::parse(text)?),
-            resolution,
-            bounds,
-        })
+        Ok(FieldSpec { source: FieldSource::Expr(ExprSource::parse(text)?), resolution, bounds })
     }
 
     /// Samples the field at time `time` (only `expr` fields depend on it), under the memory
@@ -173,36 +161,20 @@ impl FieldSpec {
             }
             FieldSource::Corners(v) => format!(
                 "corners [{}]",
-                v.iter()
-                    .map(|x| x.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
+                v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", ")
             ),
             FieldSource::Npy(n) => format!(
                 "npy {} {} {}-order",
                 file_name(&n.path),
                 n.descr,
-                if n.order == StorageOrder::ZFastest {
-                    "C"
-                } else {
-                    "Fortran"
-                }
+                if n.order == StorageOrder::ZFastest { "C" } else { "Fortran" }
             ),
             FieldSource::Raw(r) => {
-                format!(
-                    "raw {} {} {}-endian",
-                    r.file_name(),
-                    r.dtype.name(),
-                    r.endian.name()
-                )
+                format!("raw {} {} {}-endian", r.file_name(), r.dtype.name(), r.endian.name())
             }
             FieldSource::Expr(e) => format!("expr \"{}\"", e.text),
         };
-        format!(
-            "{what} {nx}x{ny}x{nz} in {}..{}",
-            vec3(self.bounds.min),
-            vec3(self.bounds.max)
-        )
+        format!("{what} {nx}x{ny}x{nz} in {}..{}", vec3(self.bounds.min), vec3(self.bounds.max))
     }
 }
 
@@ -242,9 +214,7 @@ fn fill(grid: &Grid, f: impl Fn(DVec3) -> f64 + Sync) -> Vec<f32> {
             }
         }
     };
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(nz);
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(nz);
     if values.len() < PARALLEL_MIN_POINTS || threads < 2 {
         fill_slabs(0, &mut values);
     } else {
@@ -268,17 +238,11 @@ impl SdfShape {
                 let q = p.abs() - half_extents;
                 q.max(DVec3::ZERO).length() + q.max_element().min(0.0)
             }
-            SdfShape::Torus {
-                major_radius,
-                minor_radius,
-            } => {
+            SdfShape::Torus { major_radius, minor_radius } => {
                 let ring = (p.x * p.x + p.z * p.z).sqrt() - major_radius;
                 (ring * ring + p.y * p.y).sqrt() - minor_radius
             }
-            SdfShape::Gyroid {
-                scale: s,
-                thickness: w,
-            } => {
+            SdfShape::Gyroid { scale: s, thickness: w } => {
                 let g = (s * p.x).sin() * (s * p.y).cos()
                     + (s * p.y).sin() * (s * p.z).cos()
                     + (s * p.z).sin() * (s * p.x).cos();
@@ -302,10 +266,7 @@ impl SdfShape {
         match *self {
             SdfShape::Sphere { radius } => format!("sphere r={radius}"),
             SdfShape::Box { half_extents } => format!("box b={}", vec3(half_extents)),
-            SdfShape::Torus {
-                major_radius,
-                minor_radius,
-            } => {
+            SdfShape::Torus { major_radius, minor_radius } => {
                 format!("torus R={major_radius} r={minor_radius}")
             }
             SdfShape::Gyroid { scale, thickness } => format!("gyroid s={scale} w={thickness}"),
@@ -318,18 +279,14 @@ mod tests {
     use super::*;
 
     fn unit() -> Bounds {
-        Bounds {
-            min: DVec3::ZERO,
-            max: DVec3::ONE,
-        }
+        Bounds { min: DVec3::ZERO, max: DVec3::ONE }
     }
 
     #[test]
     fn corners_resampled_finer_reproduce_the_cell() {
         let v = [0.1, -0.4, 0.3, 0.9, -0.7, 0.2, 0.5, -0.3];
-        let coarse = FieldSpec::corners(v, unit())
-            .sample_with(0.0, &GridLimits::default())
-            .unwrap();
+        let coarse =
+            FieldSpec::corners(v, unit()).sample_with(0.0, &GridLimits::default()).unwrap();
         assert_eq!(coarse.corners(0, 0, 0), v.map(|x| x as f32));
         let mut fine = FieldSpec::corners(v, unit());
         fine.resolution = [3, 5, 2];
@@ -340,10 +297,7 @@ mod tests {
 
     #[test]
     fn parallel_fill_matches_serial_points() {
-        let b = Bounds {
-            min: DVec3::splat(-1.0),
-            max: DVec3::new(1.0, 2.0, 3.0),
-        };
+        let b = Bounds { min: DVec3::splat(-1.0), max: DVec3::new(1.0, 2.0, 3.0) };
         let spec = FieldSpec::expr("x + 10*y + 100*z", [40, 33, 37], b).unwrap();
         let g = spec.sample_with(0.0, &GridLimits::default()).unwrap();
         for (i, j, k) in [(0, 0, 0), (39, 32, 36), (7, 20, 30), (13, 1, 19)] {
@@ -360,9 +314,6 @@ mod tests {
         // 64^3 f32 samples are exactly 1 MiB: allowed; one more slab is over.
         assert!(sphere([64, 64, 64]).sample_with(0.0, &cap).is_ok());
         let e = sphere([64, 64, 65]).sample_with(0.0, &cap).err();
-        assert!(
-            matches!(e, Some(FieldError::TooLarge { bytes: 1064960, .. })),
-            "{e:?}"
-        );
+        assert!(matches!(e, Some(FieldError::TooLarge { bytes: 1064960, .. })), "{e:?}");
     }
 }

@@ -30,14 +30,8 @@ use crate::field::{
 const SOURCES: [&str; 5] = ["sdf", "corners", "npy", "raw", "expr"];
 const COMMON: [&str; 2] = ["source", "bounds"];
 const SHAPES: [&str; 4] = ["sphere", "box", "torus", "gyroid"];
-const SHAPE_PARAMS: [&str; 6] = [
-    "radius",
-    "half_extents",
-    "major_radius",
-    "minor_radius",
-    "scale",
-    "thickness",
-];
+const SHAPE_PARAMS: [&str; 6] =
+    ["radius", "half_extents", "major_radius", "minor_radius", "scale", "thickness"];
 
 /// Keys of each source, besides `source` and `bounds`.
 fn source_keys(source: &str) -> &'static [&'static str] {
@@ -92,37 +86,24 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
             "missing table; add [field] with source = \"sdf\", \"corners\", \"npy\", \"raw\" or \"expr\"",
         ));
     }
-    let mut all: Vec<&str> = COMMON
-        .iter()
-        .chain(SOURCES.iter().flat_map(|s| source_keys(s)))
-        .copied()
-        .collect();
+    let mut all: Vec<&str> =
+        COMMON.iter().chain(SOURCES.iter().flat_map(|s| source_keys(s))).copied().collect();
     all.sort_by_key(|k| all_keys_order(k));
     all.dedup();
     let sources = SOURCES.map(|s| (s, s));
     let Some(source_node) = t.get("source") else {
         t.check_keys(&all)?;
-        return Err(t.missing(
-            "source",
-            "one of \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\"",
-        ));
+        return Err(t.missing("source", "one of \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\""));
     };
     let source = choice(t.src, "field.source", source_node, &sources)?;
     let allowed: Vec<&str> = COMMON.iter().chain(source_keys(source)).copied().collect();
     t.check_keys_with(&allowed, |key| {
-        let owners: Vec<&str> = SOURCES
-            .iter()
-            .filter(|s| source_keys(s).contains(&key))
-            .copied()
-            .collect();
+        let owners: Vec<&str> =
+            SOURCES.iter().filter(|s| source_keys(s).contains(&key)).copied().collect();
         (!owners.is_empty()).then(|| {
             format!(
                 "not a key of source \"{source}\" (it belongs to {}; \"{source}\" takes {})",
-                owners
-                    .iter()
-                    .map(|o| format!("\"{o}\""))
-                    .collect::<Vec<_>>()
-                    .join(", "),
+                owners.iter().map(|o| format!("\"{o}\"")).collect::<Vec<_>>().join(", "),
                 allowed.join(", ")
             )
         })
@@ -152,27 +133,16 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
         }
         "raw" => {
             let (path_node, path) = data_path(&t, base_dir)?;
-            let dims = t.required(
-                "dims",
-                "grid points along x, y, z, e.g. [64, 64, 64]",
-                points3,
-            )?;
+            let dims =
+                t.required("dims", "grid points along x, y, z, e.g. [64, 64, 64]", points3)?;
             let types = SampleType::ALL.map(|ty| (ty.name(), ty));
-            let dtype = t.required(
-                "dtype",
-                "\"u8\", \"u16\", \"i16\", \"f32\" or \"f64\"",
-                |s, k, n| choice(s, k, n, &types),
-            )?;
+            let dtype =
+                t.required("dtype", "\"u8\", \"u16\", \"i16\", \"f32\" or \"f64\"", |s, k, n| {
+                    choice(s, k, n, &types)
+                })?;
             let endians = [("little", Endian::Little), ("big", Endian::Big)];
-            let endian = t.or("endian", Endian::Little, |s, k, n| {
-                choice(s, k, n, &endians)
-            })?;
-            let raw = RawSource {
-                path,
-                dims,
-                dtype,
-                endian,
-            };
+            let endian = t.or("endian", Endian::Little, |s, k, n| choice(s, k, n, &endians))?;
+            let raw = RawSource { path, dims, dtype, endian };
             raw.check(limits).map_err(|e| match e {
                 FieldError::Io { .. } => data_error(t.src, "field.path", path_node, e),
                 // Too large, truncated or too long: the dims are the likeliest mistake.
@@ -187,8 +157,7 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
             let text = string(t.src, "field.expression", node)?;
             let expr = ExprSource::parse(text).map_err(|e| match e {
                 FieldError::Expr { message, .. } => {
-                    t.src
-                        .err(SceneErrorKind::Value, node.at, "field.expression", message)
+                    t.src.err(SceneErrorKind::Value, node.at, "field.expression", message)
                 }
                 other => data_error(t.src, "field.expression", node, other),
             })?;
@@ -200,11 +169,7 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
         None => Bounds::index_space(resolution),
         Some(_) => bounds(&t.table("bounds")?)?,
     };
-    Ok(FieldSpec {
-        source: source_value,
-        resolution,
-        bounds,
-    })
+    Ok(FieldSpec { source: source_value, resolution, bounds })
 }
 
 /// `resolution`, required, checked against the memory cap.
@@ -222,11 +187,10 @@ fn resolution(t: &View, limits: &GridLimits) -> Result<[usize; 3]> {
 /// The shape and its parameters; parameters of other shapes are errors.
 fn sdf_shape(t: &View) -> Result<SdfShape> {
     let shapes = SHAPES.map(|s| (s, s));
-    let shape = t.required(
-        "shape",
-        "\"sphere\", \"box\", \"torus\" or \"gyroid\"",
-        |s, k, n| choice(s, k, n, &shapes),
-    )?;
+    let shape =
+        t.required("shape", "\"sphere\", \"box\", \"torus\" or \"gyroid\"", |s, k, n| {
+            choice(s, k, n, &shapes)
+        })?;
     let params = shape_params(shape);
     let allowed: Vec<&str> = ["source", "bounds", "shape", "center", "resolution"]
         .into_iter()
@@ -234,10 +198,7 @@ fn sdf_shape(t: &View) -> Result<SdfShape> {
         .collect();
     t.check_keys_with(&allowed, |key| {
         SHAPE_PARAMS.contains(&key).then(|| {
-            format!(
-                "not a parameter of shape \"{shape}\" ({shape} takes {})",
-                params.join(", ")
-            )
+            format!("not a parameter of shape \"{shape}\" ({shape} takes {})", params.join(", "))
         })
     })?;
     let hint = |key: &str| format!("shape \"{shape}\" needs {key}");
@@ -247,9 +208,7 @@ fn sdf_shape(t: &View) -> Result<SdfShape> {
         })
     };
     Ok(match shape {
-        "sphere" => SdfShape::Sphere {
-            radius: positive("radius")?,
-        },
+        "sphere" => SdfShape::Sphere { radius: positive("radius")? },
         "box" => SdfShape::Box {
             half_extents: t.required(
                 "half_extents",
@@ -317,12 +276,7 @@ fn data_path<'n>(t: &View<'n>, base_dir: &Path) -> Result<(&'n Node, std::path::
         .ok_or_else(|| t.missing("path", "the data file, relative to the scene file"))?;
     let p = string(t.src, "field.path", node)?;
     if p.is_empty() {
-        return Err(t.src.err(
-            SceneErrorKind::Value,
-            node.at,
-            "field.path",
-            "must not be empty",
-        ));
+        return Err(t.src.err(SceneErrorKind::Value, node.at, "field.path", "must not be empty"));
     }
     Ok((node, base_dir.join(p)))
 }
@@ -330,10 +284,7 @@ fn data_path<'n>(t: &View<'n>, base_dir: &Path) -> Result<(&'n Node, std::path::
 /// A data error at `key`. The message is the field error's own line (it names the file).
 fn data_error(src: &Source, key: &str, node: &Node, e: FieldError) -> SceneError {
     let text = e.to_string();
-    let text = text
-        .strip_prefix(&format!("{key}: "))
-        .unwrap_or(&text)
-        .to_string();
+    let text = text.strip_prefix(&format!("{key}: ")).unwrap_or(&text).to_string();
     let mut err = src.err(SceneErrorKind::Data, node.at, key, text);
     err.field_error = Some(Box::new(e));
     err

@@ -33,19 +33,9 @@ impl<'a> View<'a> {
     pub(crate) fn table(&self, key: &str) -> Result<View<'a>> {
         let path = self.key(key);
         match self.get(key) {
-            None => Ok(View {
-                src: self.src,
-                path,
-                table: None,
-                at: self.at,
-            }),
+            None => Ok(View { src: self.src, path, table: None, at: self.at }),
             Some(node) => match &node.value {
-                Value::Table(t) => Ok(View {
-                    src: self.src,
-                    path,
-                    table: Some(t),
-                    at: node.at,
-                }),
+                Value::Table(t) => Ok(View { src: self.src, path, table: Some(t), at: node.at }),
                 _ => Err(type_error(self.src, &path, node, "a table")),
             },
         }
@@ -75,30 +65,17 @@ impl<'a> View<'a> {
             return Ok(());
         };
         let message = explain(key).unwrap_or_else(|| {
-            let what = if self.path.is_empty() {
-                "unknown table or key"
-            } else {
-                "unknown key"
-            };
+            let what = if self.path.is_empty() { "unknown table or key" } else { "unknown key" };
             match suggest(key, allowed) {
                 Some(s) => format!("{what} (did you mean \"{s}\"?)"),
                 None if self.path.is_empty() => format!(
                     "{what} (a scene has the tables {})",
-                    allowed
-                        .iter()
-                        .map(|k| format!("[{k}]"))
-                        .collect::<Vec<_>>()
-                        .join(", ")
+                    allowed.iter().map(|k| format!("[{k}]")).collect::<Vec<_>>().join(", ")
                 ),
                 None => format!("{what} ([{}] has {})", self.path, allowed.join(", ")),
             }
         });
-        Err(self.src.err(
-            SceneErrorKind::UnknownKey,
-            entry.key_at,
-            &self.key(key),
-            message,
-        ))
+        Err(self.src.err(SceneErrorKind::UnknownKey, entry.key_at, &self.key(key), message))
     }
 
     /// An error about `key` of this table, at the value if present, else at the table.
@@ -114,12 +91,7 @@ impl<'a> View<'a> {
 
     /// The "missing key" error.
     pub(crate) fn missing(&self, key: &str, hint: &str) -> SceneError {
-        self.src.err(
-            SceneErrorKind::Missing,
-            self.at,
-            &self.key(key),
-            format!("missing ({hint})"),
-        )
+        self.src.err(SceneErrorKind::Missing, self.at, &self.key(key), format!("missing ({hint})"))
     }
 
     /// Reads `key` with `read`, or returns `default` when it is absent.
@@ -156,11 +128,7 @@ pub(crate) fn type_error(src: &Source, key: &str, node: &Node, expected: &str) -
         SceneErrorKind::Type,
         node.at,
         key,
-        format!(
-            "expected {expected}, got {} {ty} {}",
-            article(ty),
-            show(node)
-        ),
+        format!("expected {expected}, got {} {ty} {}", article(ty), show(node)),
     )
 }
 
@@ -195,12 +163,7 @@ pub(crate) fn number_where(
     if ok(x) {
         Ok(x)
     } else {
-        Err(src.err(
-            SceneErrorKind::Value,
-            node.at,
-            key,
-            format!("{rule}, got {}", show(node)),
-        ))
+        Err(src.err(SceneErrorKind::Value, node.at, key, format!("{rule}, got {}", show(node))))
     }
 }
 
@@ -246,10 +209,7 @@ pub(crate) fn numbers<const N: usize>(src: &Source, key: &str, node: &Node) -> R
                 SceneErrorKind::Value,
                 item.at,
                 key,
-                format!(
-                    "every number must be finite, got {} at index {n}",
-                    show(item)
-                ),
+                format!("every number must be finite, got {} at index {n}", show(item)),
             ));
         }
     }
@@ -275,18 +235,9 @@ pub(crate) fn array_of<'n>(
             SceneErrorKind::Type,
             node.at,
             key,
-            format!(
-                "expected an array of {len} {what}, got {} ({})",
-                items.len(),
-                show(node)
-            ),
+            format!("expected an array of {len} {what}, got {} ({})", items.len(), show(node)),
         )),
-        _ => Err(type_error(
-            src,
-            key,
-            node,
-            &format!("an array of {len} {what}"),
-        )),
+        _ => Err(type_error(src, key, node, &format!("an array of {len} {what}"))),
     }
 }
 
@@ -317,12 +268,7 @@ pub(crate) fn points3(src: &Source, key: &str, node: &Node) -> Result<[usize; 3]
             ));
         }
         *o = usize::try_from(i).map_err(|_| {
-            src.err(
-                SceneErrorKind::Value,
-                node.at,
-                key,
-                format!("{i} points is too many"),
-            )
+            src.err(SceneErrorKind::Value, node.at, key, format!("{i} points is too many"))
         })?;
     }
     Ok(out)
@@ -386,9 +332,7 @@ fn edit_distance(a: &str, b: &str) -> usize {
     for (i, ca) in a.chars().enumerate() {
         let mut cur = vec![i + 1; b.len() + 1];
         for (j, &cb) in b.iter().enumerate() {
-            cur[j + 1] = (prev[j] + usize::from(ca != cb))
-                .min(prev[j + 1] + 1)
-                .min(cur[j] + 1);
+            cur[j + 1] = (prev[j] + usize::from(ca != cb)).min(prev[j + 1] + 1).min(cur[j] + 1);
         }
         prev = cur;
     }

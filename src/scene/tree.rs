@@ -89,12 +89,7 @@ impl<'a> Source<'a> {
     pub(crate) fn new(name: &'a str, text: &'a str, overrides: &'a [String]) -> Source<'a> {
         let mut line_starts = vec![0];
         line_starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
-        Source {
-            name,
-            text,
-            line_starts,
-            overrides,
-        }
+        Source { name, text, line_starts, overrides }
     }
 
     /// The position of byte `offset` of the file.
@@ -102,11 +97,7 @@ impl<'a> Source<'a> {
         let offset = offset.min(self.text.len());
         let line = self.line_starts.partition_point(|&s| s <= offset);
         let start = self.line_starts[line - 1];
-        let col = self
-            .text
-            .get(start..offset)
-            .map_or(offset - start, |s| s.chars().count())
-            + 1;
+        let col = self.text.get(start..offset).map_or(offset - start, |s| s.chars().count()) + 1;
         Origin::File { line, col }
     }
 
@@ -115,10 +106,7 @@ impl<'a> Source<'a> {
         match at {
             Origin::File { line, col } => format!("{}:{line}:{col}", self.name),
             Origin::Override(i) => {
-                format!(
-                    "--set {}",
-                    self.overrides.get(i).map_or("?", String::as_str)
-                )
+                format!("--set {}", self.overrides.get(i).map_or("?", String::as_str))
             }
         }
     }
@@ -147,10 +135,7 @@ impl<'a> Source<'a> {
             )
         })?;
         let table = self.convert_table(doc.get_ref(), "", None)?;
-        Ok(Node {
-            value: Value::Table(table),
-            at: Origin::START,
-        })
+        Ok(Node { value: Value::Table(table), at: Origin::START })
     }
 
     fn convert_table(
@@ -184,12 +169,7 @@ impl<'a> Source<'a> {
             None => self.origin(v.span().start),
         };
         let out_of_range = |what: &str| {
-            self.err(
-                SceneErrorKind::Value,
-                at,
-                path,
-                format!("{what} is out of range"),
-            )
+            self.err(SceneErrorKind::Value, at, path, format!("{what} is out of range"))
         };
         let value = match v.get_ref() {
             DeValue::String(s) => Value::String(s.to_string()),
@@ -198,10 +178,7 @@ impl<'a> Source<'a> {
                     .map_err(|_| out_of_range(&format!("integer {i}")))?,
             ),
             DeValue::Float(f) => {
-                let x: f64 = f
-                    .as_str()
-                    .parse()
-                    .map_err(|_| out_of_range(&format!("float {f}")))?;
+                let x: f64 = f.as_str().parse().map_err(|_| out_of_range(&format!("float {f}")))?;
                 if x.is_infinite() && !f.as_str().contains("inf") {
                     return Err(out_of_range(&format!("float {f}")));
                 }
@@ -232,9 +209,7 @@ impl<'a> Source<'a> {
         let key = key.trim();
         let segments: Vec<&str> = key.split('.').map(str::trim).collect();
         let bare = |s: &str| {
-            !s.is_empty()
-                && s.chars()
-                    .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+            !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
         };
         if !segments.iter().all(|s| bare(s)) {
             return Err(syntax(&format!(
@@ -244,10 +219,7 @@ impl<'a> Source<'a> {
         let value = value.trim();
         let node = match DeValue::parse(value) {
             Ok(v) => self.convert(&v, key, Some(index))?,
-            Err(_) => Node {
-                value: Value::String(value.to_string()),
-                at,
-            },
+            Err(_) => Node { value: Value::String(value.to_string()), at },
         };
 
         let Value::Table(root_table) = &mut root.value else {
@@ -258,16 +230,10 @@ impl<'a> Source<'a> {
         let mut path = String::new();
         for seg in parents {
             path = join(&path, seg);
-            let entry = table
-                .entries
-                .entry(seg.to_string())
-                .or_insert_with(|| Entry {
-                    key_at: at,
-                    node: Node {
-                        value: Value::Table(Table::default()),
-                        at,
-                    },
-                });
+            let entry = table.entries.entry(seg.to_string()).or_insert_with(|| Entry {
+                key_at: at,
+                node: Node { value: Value::Table(Table::default()), at },
+            });
             match &mut entry.node.value {
                 Value::Table(t) => table = t,
                 other => {
@@ -281,9 +247,7 @@ impl<'a> Source<'a> {
                 }
             }
         }
-        table
-            .entries
-            .insert(last.to_string(), Entry { key_at: at, node });
+        table.entries.insert(last.to_string(), Entry { key_at: at, node });
         Ok(())
     }
 }
@@ -315,10 +279,7 @@ pub(crate) fn show(node: &Node) -> String {
         Value::Boolean(b) => b.to_string(),
         Value::Datetime(d) => d.clone(),
         Value::Array(items) => {
-            format!(
-                "[{}]",
-                items.iter().map(show).collect::<Vec<_>>().join(", ")
-            )
+            format!("[{}]", items.iter().map(show).collect::<Vec<_>>().join(", "))
         }
         Value::Table(t) => format!(
             "{{{}}}",

@@ -27,10 +27,7 @@ pub struct ImageSettings {
 impl Default for ImageSettings {
     /// 512 x 512.
     fn default() -> Self {
-        ImageSettings {
-            width: 512,
-            height: 512,
-        }
+        ImageSettings { width: 512, height: 512 }
     }
 }
 
@@ -96,10 +93,7 @@ pub struct SurfaceSettings {
 impl Default for SurfaceSettings {
     /// Isovalue 0, values below it inside (signed distance convention).
     fn default() -> Self {
-        SurfaceSettings {
-            isovalue: 0.0,
-            inside: Inside::Below,
-        }
+        SurfaceSettings { isovalue: 0.0, inside: Inside::Below }
     }
 }
 
@@ -229,37 +223,21 @@ pub struct Bounds {
 
 impl Bounds {
     /// The unit cube `[0, 1]^3`.
-    pub const UNIT: Bounds = Bounds {
-        min: DVec3::ZERO,
-        max: DVec3::ONE,
-    };
+    pub const UNIT: Bounds = Bounds { min: DVec3::ZERO, max: DVec3::ONE };
 
     /// The grid's own index space, `[0, 0, 0]..[nx - 1, ny - 1, nz - 1]`: the default when a
     /// scene gives no `bounds` (for one cell, the unit cube).
     pub fn index_space(resolution: [usize; 3]) -> Bounds {
         let [nx, ny, nz] = resolution.map(|n| n.saturating_sub(1) as f64);
-        Bounds {
-            min: DVec3::ZERO,
-            max: DVec3::new(nx, ny, nz),
-        }
+        Bounds { min: DVec3::ZERO, max: DVec3::new(nx, ny, nz) }
     }
 }
 
 /// Signed-distance shapes of `source = "sdf"`; `center` is subtracted before evaluation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SdfShape {
-    Sphere {
-        radius: f64,
-    },
-    Box {
-        half_extents: DVec3,
-    },
-    Torus {
-        major_radius: f64,
-        minor_radius: f64,
-    },
-    Gyroid {
-        scale: f64,
-        thickness: f64,
-    },
+    Sphere { radius: f64 },
+    Box { half_extents: DVec3 },
+    Torus { major_radius: f64, minor_radius: f64 },
+    Gyroid { scale: f64, thickness: f64 },
 }

@@ -29,19 +29,9 @@ pub(crate) fn scene(
     limits: &GridLimits,
 ) -> Result<Scene> {
     let Value::Table(t) = &root.value else {
-        return Err(src.err(
-            SceneErrorKind::Type,
-            root.at,
-            "",
-            "the scene must be a TOML table",
-        ));
+        return Err(src.err(SceneErrorKind::Type, root.at, "", "the scene must be a TOML table"));
     };
-    let root = View {
-        src,
-        path: String::new(),
-        table: Some(t),
-        at: root.at,
-    };
+    let root = View { src, path: String::new(), table: Some(t), at: root.at };
     root.check_keys(&TABLES)?;
     // [field] first: a scene without a field is the most basic mistake.
     let field = super::field::field(&root, base_dir, limits)?;
@@ -84,10 +74,7 @@ fn camera(t: &View) -> Result<CameraSettings> {
     };
     // Blame the last-written of the keys involved (a --set counts as written after the file).
     let blame = |keys: &[&'static str]| {
-        keys.iter()
-            .filter_map(|k| t.get(k).map(|n| (n.at, *k)))
-            .max()
-            .map_or(keys[0], |(_, k)| k)
+        keys.iter().filter_map(|k| t.get(k).map(|n| (n.at, *k))).max().map_or(keys[0], |(_, k)| k)
     };
     let forward = c.target - c.eye;
     if forward.length() <= 1e-12 * c.eye.length().max(1.0) {
@@ -129,24 +116,14 @@ fn surface(t: &View) -> Result<SurfaceSettings> {
 }
 
 fn render(t: &View) -> Result<RenderSettings> {
-    t.check_keys(&[
-        "method",
-        "steps",
-        "newton_steps",
-        "mesh",
-        "shading",
-        "background",
-        "color",
-    ])?;
+    t.check_keys(&["method", "steps", "newton_steps", "mesh", "shading", "background", "color"])?;
     let d = RenderSettings::default();
     let methods = Method::ALL.map(|m| (m.name(), m));
     let meshes = MeshAlgorithm::ALL.map(|m| (m.name(), m));
     let shadings = Shading::ALL.map(|m| (m.name(), m));
     Ok(RenderSettings {
         method: t.or("method", d.method, |s, k, n| choice(s, k, n, &methods))?,
-        steps: t.or("steps", d.steps as i64, |s, k, n| {
-            integer(s, k, n, 2, MAX_STEPS)
-        })? as u32,
+        steps: t.or("steps", d.steps as i64, |s, k, n| integer(s, k, n, 2, MAX_STEPS))? as u32,
         newton_steps: t.or("newton_steps", d.newton_steps as i64, |s, k, n| {
             integer(s, k, n, 0, MAX_NEWTON_STEPS)
         })? as u32,
@@ -165,10 +142,7 @@ fn colour<const N: usize>(src: &Source, key: &str, node: &Node) -> Result<[f32; 
             SceneErrorKind::Value,
             node.at,
             key,
-            format!(
-                "colour components must fit a 32-bit float, got {}",
-                super::tree::show(node)
-            ),
+            format!("colour components must fit a 32-bit float, got {}", super::tree::show(node)),
         ));
     }
     Ok(c.map(|x| x as f32))
@@ -176,10 +150,5 @@ fn colour<const N: usize>(src: &Source, key: &str, node: &Node) -> Result<[f32; 
 
 pub(crate) fn show_vec(v: glam::DVec3) -> String {
     use super::tree::show_float;
-    format!(
-        "[{}, {}, {}]",
-        show_float(v.x),
-        show_float(v.y),
-        show_float(v.z)
-    )
+    format!("[{}, {}, {}]", show_float(v.x), show_float(v.y), show_float(v.z))
 }

@@ -10,13 +10,7 @@ use isoview::scene::{self, *};
 /// Loads `text` as `t.toml` with `overrides`.
 fn parse(text: &str, overrides: &[&str]) -> Result<Scene, SceneError> {
     let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-    scene::from_str_with(
-        text,
-        "t.toml",
-        Path::new("."),
-        &overrides,
-        &GridLimits::default(),
-    )
+    scene::from_str_with(text, "t.toml", Path::new("."), &overrides, &GridLimits::default())
 }
 
 /// The error `text` (with `overrides`) gives, checked to be one line.
@@ -25,10 +19,7 @@ fn error(text: &str, overrides: &[&str]) -> String {
         Ok(_) => panic!("expected an error for:\n{text}\nwith {overrides:?}"),
         Err(e) => {
             let s = e.to_string();
-            assert!(
-                !s.contains('\n') && !s.contains('\r'),
-                "not one line: {s:?}"
-            );
+            assert!(!s.contains('\n') && !s.contains('\r'), "not one line: {s:?}");
             s
         }
     }
@@ -78,9 +69,7 @@ fn bounds_default_to_the_index_space() {
     .unwrap();
     assert_eq!(s.field.bounds.min, DVec3::ZERO);
     assert_eq!(s.field.bounds.max, DVec3::new(4.0, 5.0, 6.0));
-    let FieldSource::Sdf { shape, center } = s.field.source else {
-        panic!()
-    };
+    let FieldSource::Sdf { shape, center } = s.field.source else { panic!() };
     assert_eq!(shape, SdfShape::Sphere { radius: 2.0 });
     assert_eq!(center, DVec3::ZERO);
 }
@@ -124,49 +113,23 @@ color = [1, 0.5, 0]
     assert_eq!(s.field.resolution, [10, 11, 12]);
     assert_eq!(s.field.bounds.min, DVec3::new(-1.0, -2.0, -3.0));
     assert_eq!(s.field.bounds.max, DVec3::new(1.0, 2.0, 3.5));
-    assert_eq!(
-        s.surface,
-        SurfaceSettings {
-            isovalue: 0.25,
-            inside: Inside::Above
-        }
-    );
+    assert_eq!(s.surface, SurfaceSettings { isovalue: 0.25, inside: Inside::Above });
     let r = s.render;
     assert_eq!((r.method, r.steps, r.newton_steps), (Method::Mesh, 64, 0));
-    assert_eq!(
-        (r.mesh, r.shading),
-        (MeshAlgorithm::SurfaceNets, Shading::Cells)
-    );
+    assert_eq!((r.mesh, r.shading), (MeshAlgorithm::SurfaceNets, Shading::Cells));
     assert_eq!(r.background, [0.1, 0.2, 0.3, 1.0]);
     assert_eq!(r.color, [1.0, 0.5, 0.0]);
-    for (name, m) in [
-        ("analytic", Method::Analytic),
-        ("fixed-step", Method::FixedStep),
-        ("mesh", Method::Mesh),
-    ] {
-        assert_eq!(
-            parse(CELL, &[&format!("render.method=\"{name}\"")])
-                .unwrap()
-                .render
-                .method,
-            m
-        );
+    for (name, m) in
+        [("analytic", Method::Analytic), ("fixed-step", Method::FixedStep), ("mesh", Method::Mesh)]
+    {
+        assert_eq!(parse(CELL, &[&format!("render.method=\"{name}\"")]).unwrap().render.method, m);
     }
     for m in MeshAlgorithm::ALL {
-        assert_eq!(
-            parse(CELL, &[&format!("render.mesh={}", m.name())])
-                .unwrap()
-                .render
-                .mesh,
-            m
-        );
+        assert_eq!(parse(CELL, &[&format!("render.mesh={}", m.name())]).unwrap().render.mesh, m);
     }
     for sh in Shading::ALL {
         assert_eq!(
-            parse(CELL, &[&format!("render.shading={}", sh.name())])
-                .unwrap()
-                .render
-                .shading,
+            parse(CELL, &[&format!("render.shading={}", sh.name())]).unwrap().render.shading,
             sh
         );
     }
@@ -181,64 +144,32 @@ fn malformed_toml_names_line_and_column() {
     let e = error(&format!("{CELL}[render]\nsteps = 3\nsteps = 4\n"), &[]);
     assert_eq!(e, "t.toml:6:1: invalid TOML: duplicate key");
     let e = error("[camera]\neye = [1, 2,\n", &[]);
-    assert!(
-        e.starts_with("t.toml:2:13: invalid TOML: unclosed array"),
-        "{e}"
-    );
+    assert!(e.starts_with("t.toml:2:13: invalid TOML: unclosed array"), "{e}");
 }
 
 #[test]
 fn unknown_keys_are_errors_naming_key_and_line() {
-    let e = error(
-        &format!("{CELL}[render]\nmethod = \"analytic\"\nstepz = 3\n"),
-        &[],
-    );
-    assert_eq!(
-        e,
-        "t.toml:6:1: render.stepz: unknown key (did you mean \"steps\"?)"
-    );
+    let e = error(&format!("{CELL}[render]\nmethod = \"analytic\"\nstepz = 3\n"), &[]);
+    assert_eq!(e, "t.toml:6:1: render.stepz: unknown key (did you mean \"steps\"?)");
     let e = error(&format!("{CELL}[camera]\nposition = [1, 2, 3]\n"), &[]);
     assert_eq!(
         e,
         "t.toml:5:1: camera.position: unknown key ([camera] has eye, target, up, fov_y_deg)"
     );
     let e = error(&format!("[imag]\nwidth = 4\n{CELL}"), &[]);
-    assert_eq!(
-        e,
-        "t.toml:1:2: imag: unknown table or key (did you mean \"image\"?)"
-    );
+    assert_eq!(e, "t.toml:1:2: imag: unknown table or key (did you mean \"image\"?)");
     let e = error(&format!("{CELL}colour = 3\n"), &[]);
-    assert_eq!(
-        e,
-        "t.toml:4:1: field.colour: unknown key ([field] has source, bounds, values)"
-    );
-    let e = error(
-        "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradus = 1\n",
-        &[],
-    );
-    assert_eq!(
-        e,
-        "t.toml:4:1: field.radus: unknown key (did you mean \"radius\"?)"
-    );
+    assert_eq!(e, "t.toml:4:1: field.colour: unknown key ([field] has source, bounds, values)");
+    let e = error("[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradus = 1\n", &[]);
+    assert_eq!(e, "t.toml:4:1: field.radus: unknown key (did you mean \"radius\"?)");
     let e = error("[field]\nradius = 1\nvalue = 3\n", &[]);
-    assert_eq!(
-        e,
-        "t.toml:3:1: field.value: unknown key (did you mean \"values\"?)"
-    );
-    let e = error(
-        &format!("{CELL}bounds = {{ min = [0, 0, 0], max = [1, 1, 1], center = 3 }}\n"),
-        &[],
-    );
-    assert_eq!(
-        e,
-        "t.toml:4:46: field.bounds.center: unknown key ([field.bounds] has min, max)"
-    );
+    assert_eq!(e, "t.toml:3:1: field.value: unknown key (did you mean \"values\"?)");
+    let e =
+        error(&format!("{CELL}bounds = {{ min = [0, 0, 0], max = [1, 1, 1], center = 3 }}\n"), &[]);
+    assert_eq!(e, "t.toml:4:46: field.bounds.center: unknown key ([field.bounds] has min, max)");
     // Dotted keys inside a table are keys of that table.
     let e = error(&format!("{CELL}[surface]\ninside.x = 1\n"), &[]);
-    assert!(
-        e.starts_with("t.toml:5:1: surface.inside: expected one of"),
-        "{e}"
-    );
+    assert!(e.starts_with("t.toml:5:1: surface.inside: expected one of"), "{e}");
 }
 
 #[test]
@@ -255,10 +186,7 @@ fn keys_of_other_sources_and_shapes_are_errors() {
     assert_eq!(e, "t.toml:7:1: field.radius: not a parameter of shape \"torus\" (torus takes major_radius, minor_radius)");
     let e = error(&format!("{CELL}resolution = [2, 2, 2]\n"), &[]);
     assert!(e.starts_with("t.toml:4:1: field.resolution: not a key of source \"corners\" (it belongs to \"sdf\", \"expr\""), "{e}");
-    let e = error(
-        "[field]\nsource = \"npy\"\npath = \"a.npy\"\ndims = [2, 2, 2]\n",
-        &[],
-    );
+    let e = error("[field]\nsource = \"npy\"\npath = \"a.npy\"\ndims = [2, 2, 2]\n", &[]);
     assert!(
         e.starts_with(
             "t.toml:4:1: field.dims: not a key of source \"npy\" (it belongs to \"raw\";"
@@ -270,35 +198,17 @@ fn keys_of_other_sources_and_shapes_are_errors() {
 #[test]
 fn wrong_types_say_what_was_expected_and_found() {
     let e = error(&format!("{CELL}[image]\nwidth = \"512\"\n"), &[]);
-    assert_eq!(
-        e,
-        "t.toml:5:9: image.width: expected an integer, got a string \"512\""
-    );
+    assert_eq!(e, "t.toml:5:9: image.width: expected an integer, got a string \"512\"");
     let e = error(&format!("{CELL}[image]\nwidth = 512.0\n"), &[]);
-    assert_eq!(
-        e,
-        "t.toml:5:9: image.width: expected an integer, got a float 512.0"
-    );
+    assert_eq!(e, "t.toml:5:9: image.width: expected an integer, got a float 512.0");
     let e = error(&format!("{CELL}[camera]\neye = [1, 2]\n"), &[]);
-    assert_eq!(
-        e,
-        "t.toml:5:7: camera.eye: expected an array of 3 numbers, got 2 ([1, 2])"
-    );
+    assert_eq!(e, "t.toml:5:7: camera.eye: expected an array of 3 numbers, got 2 ([1, 2])");
     let e = error(&format!("{CELL}[camera]\neye = [1, \"2\", 3]\n"), &[]);
-    assert_eq!(
-        e,
-        "t.toml:5:11: camera.eye: expected a number at index 1, got a string \"2\""
-    );
+    assert_eq!(e, "t.toml:5:11: camera.eye: expected a number at index 1, got a string \"2\"");
     let e = error(&format!("{CELL}[camera]\neye = 3\n"), &[]);
-    assert_eq!(
-        e,
-        "t.toml:5:7: camera.eye: expected an array of 3 numbers, got an integer 3"
-    );
+    assert_eq!(e, "t.toml:5:7: camera.eye: expected an array of 3 numbers, got an integer 3");
     let e = error(&format!("{CELL}camera = 3\n"), &[]);
-    assert_eq!(
-        e,
-        "t.toml:4:1: field.camera: unknown key ([field] has source, bounds, values)"
-    );
+    assert_eq!(e, "t.toml:4:1: field.camera: unknown key ([field] has source, bounds, values)");
     let e = error(&format!("camera = 3\n{CELL}"), &[]);
     assert_eq!(e, "t.toml:1:10: camera: expected a table, got an integer 3");
     let e = error(&format!("{CELL}[render]\nmethod = \"fixed_step\"\n"), &[]);
@@ -315,18 +225,9 @@ fn wrong_types_say_what_was_expected_and_found() {
         "t.toml:5:10: surface.inside: unknown value \"outside\" (expected \"below\" or \"above\")"
     );
     let e = error("[field]\nsource = \"corners\"\nvalues = [1, 2, 3]\n", &[]);
-    assert_eq!(
-        e,
-        "t.toml:3:10: field.values: expected an array of 8 numbers, got 3 ([1, 2, 3])"
-    );
-    let e = error(
-        &format!("{CELL}[image]\nwidth = 99999999999999999999\n"),
-        &[],
-    );
-    assert_eq!(
-        e,
-        "t.toml:5:9: image.width: integer 99999999999999999999 is out of range"
-    );
+    assert_eq!(e, "t.toml:3:10: field.values: expected an array of 8 numbers, got 3 ([1, 2, 3])");
+    let e = error(&format!("{CELL}[image]\nwidth = 99999999999999999999\n"), &[]);
+    assert_eq!(e, "t.toml:5:9: image.width: integer 99999999999999999999 is out of range");
 }
 
 // ---- ranges -----------------------------------------------------------------------------------
@@ -355,10 +256,7 @@ fn out_of_range_values_are_errors() {
 
 #[test]
 fn camera_must_have_a_direction_and_a_usable_up() {
-    let e = error(
-        &format!("{CELL}[camera]\neye = [1, 1, 1]\ntarget = [1, 1, 1]\n"),
-        &[],
-    );
+    let e = error(&format!("{CELL}[camera]\neye = [1, 1, 1]\ntarget = [1, 1, 1]\n"), &[]);
     assert_eq!(
         e,
         "t.toml:6:10: camera.target: camera.eye and camera.target are the same point [1.0, 1.0, 1.0]; \
@@ -372,10 +270,7 @@ fn camera_must_have_a_direction_and_a_usable_up() {
     );
     let e = error(&format!("{CELL}[camera]\nup = [0, 0, 0]\n"), &[]);
     assert_eq!(e, "t.toml:5:6: camera.up: must not be the zero vector");
-    let e = error(
-        &format!("{CELL}[camera]\neye = [2, 2, 2]\nup = [-1, -1, -1]\n"),
-        &[],
-    );
+    let e = error(&format!("{CELL}[camera]\neye = [2, 2, 2]\nup = [-1, -1, -1]\n"), &[]);
     assert!(
         e.starts_with("t.toml:6:6: camera.up: camera.up [-1.0, -1.0, -1.0] is parallel"),
         "{e}"
@@ -385,24 +280,15 @@ fn camera_must_have_a_direction_and_a_usable_up() {
 #[test]
 fn grid_errors_name_the_resolution_or_bounds() {
     let sdf = "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 0.5\n";
-    let e = error(
-        &format!("{sdf}\n\n\n\n\n\n\nresolution = [1, 48, 48]\n"),
-        &[],
-    );
+    let e = error(&format!("{sdf}\n\n\n\n\n\n\nresolution = [1, 48, 48]\n"), &[]);
     assert_eq!(
         e,
         "t.toml:12:14: field.resolution: every axis needs at least 2 points, got [1, 48, 48]"
     );
     let e = error(&format!("{sdf}resolution = [4, 4.5, 4]\n"), &[]);
-    assert_eq!(
-        e,
-        "t.toml:5:18: field.resolution: expected an integer at index 1, got a float 4.5"
-    );
+    assert_eq!(e, "t.toml:5:18: field.resolution: expected an integer at index 1, got a float 4.5");
     let e = error(&format!("{sdf}resolution = [4, 4]\n"), &[]);
-    assert_eq!(
-        e,
-        "t.toml:5:14: field.resolution: expected an array of 3 integers, got 2 ([4, 4])"
-    );
+    assert_eq!(e, "t.toml:5:14: field.resolution: expected an array of 3 integers, got 2 ([4, 4])");
     let e = error(sdf, &[]);
     assert_eq!(
         e,
@@ -417,22 +303,10 @@ fn grid_errors_name_the_resolution_or_bounds() {
         "t.toml:6:10: field.bounds: min must be below max on every axis, got min = [0.0, 0.0, 1.0], \
          max = [1.0, 1.0, 1.0] (z axis)"
     );
-    let e = error(
-        &format!("{sdf}resolution = [4, 4, 4]\n[field.bounds]\nmin = [0, 0, 0]\n"),
-        &[],
-    );
-    assert_eq!(
-        e,
-        "t.toml:6:1: field.bounds.max: missing (the grid box's corner [x, y, z])"
-    );
-    let e = error(
-        &format!("{sdf}resolution = [4, 4, 4]\nbounds = [0, 1]\n"),
-        &[],
-    );
-    assert_eq!(
-        e,
-        "t.toml:6:10: field.bounds: expected a table, got an array [0, 1]"
-    );
+    let e = error(&format!("{sdf}resolution = [4, 4, 4]\n[field.bounds]\nmin = [0, 0, 0]\n"), &[]);
+    assert_eq!(e, "t.toml:6:1: field.bounds.max: missing (the grid box's corner [x, y, z])");
+    let e = error(&format!("{sdf}resolution = [4, 4, 4]\nbounds = [0, 1]\n"), &[]);
+    assert_eq!(e, "t.toml:6:10: field.bounds: expected a table, got an array [0, 1]");
 }
 
 #[test]
@@ -454,22 +328,13 @@ fn field_table_source_and_shape_are_checked() {
         e,
         "t.toml:1:1: field.shape: missing (\"sphere\", \"box\", \"torus\" or \"gyroid\")"
     );
-    let e = error(
-        "[field]\nsource = \"sdf\"\nshape = \"cone\"\nresolution = [4, 4, 4]\n",
-        &[],
-    );
-    assert!(
-        e.starts_with("t.toml:3:9: field.shape: unknown value \"cone\""),
-        "{e}"
-    );
+    let e = error("[field]\nsource = \"sdf\"\nshape = \"cone\"\nresolution = [4, 4, 4]\n", &[]);
+    assert!(e.starts_with("t.toml:3:9: field.shape: unknown value \"cone\""), "{e}");
     let e = error(
         "[field]\nsource = \"sdf\"\nshape = \"torus\"\nmajor_radius = 1\nresolution = [4, 4, 4]\n",
         &[],
     );
-    assert_eq!(
-        e,
-        "t.toml:1:1: field.minor_radius: missing (shape \"torus\" needs minor_radius)"
-    );
+    assert_eq!(e, "t.toml:1:1: field.minor_radius: missing (shape \"torus\" needs minor_radius)");
     let e = error(
         "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = -1\nresolution = [4, 4, 4]\n",
         &[],
@@ -481,15 +346,9 @@ fn field_table_source_and_shape_are_checked() {
         "t.toml:4:16: field.half_extents: every half extent must be positive, got [1.0, 0.0, 1.0]"
     );
     let e = error("[field]\nsource = \"sdf\"\nshape = \"gyroid\"\nscale = 3\nthickness = -0.1\nresolution = [4, 4, 4]\n", &[]);
-    assert_eq!(
-        e,
-        "t.toml:5:13: field.thickness: must not be negative, got -0.1"
-    );
+    assert_eq!(e, "t.toml:5:13: field.thickness: must not be negative, got -0.1");
     let e = error("[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 1\ncenter = [0, 0]\nresolution = [4, 4, 4]\n", &[]);
-    assert_eq!(
-        e,
-        "t.toml:5:10: field.center: expected an array of 3 numbers, got 2 ([0, 0])"
-    );
+    assert_eq!(e, "t.toml:5:10: field.center: expected an array of 3 numbers, got 2 ([0, 0])");
 }
 
 #[test]
@@ -497,37 +356,21 @@ fn sdf_shapes_and_centre_are_read() {
     let base = "[field]\nsource = \"sdf\"\nresolution = [4, 4, 4]\n";
     let shape = |extra: &str| {
         let s = parse(&format!("{base}{extra}"), &[]).unwrap();
-        let FieldSource::Sdf { shape, center } = s.field.source else {
-            panic!()
-        };
+        let FieldSource::Sdf { shape, center } = s.field.source else { panic!() };
         (shape, center)
     };
-    assert_eq!(
-        shape("shape = \"sphere\"\nradius = 0.5").0,
-        SdfShape::Sphere { radius: 0.5 }
-    );
+    assert_eq!(shape("shape = \"sphere\"\nradius = 0.5").0, SdfShape::Sphere { radius: 0.5 });
     assert_eq!(
         shape("shape = \"box\"\nhalf_extents = [0.5, 0.25, 1]").0,
-        SdfShape::Box {
-            half_extents: DVec3::new(0.5, 0.25, 1.0)
-        }
+        SdfShape::Box { half_extents: DVec3::new(0.5, 0.25, 1.0) }
     );
     assert_eq!(
         shape("shape = \"torus\"\nmajor_radius = 0.6\nminor_radius = 0.25").0,
-        SdfShape::Torus {
-            major_radius: 0.6,
-            minor_radius: 0.25
-        }
+        SdfShape::Torus { major_radius: 0.6, minor_radius: 0.25 }
     );
     assert_eq!(
         shape("shape = \"gyroid\"\nscale = 6\nthickness = 0"),
-        (
-            SdfShape::Gyroid {
-                scale: 6.0,
-                thickness: 0.0
-            },
-            DVec3::ZERO
-        )
+        (SdfShape::Gyroid { scale: 6.0, thickness: 0.0 }, DVec3::ZERO)
     );
     assert_eq!(
         shape("shape = \"sphere\"\nradius = 1\ncenter = [1, 2, 3]").1,
@@ -550,22 +393,13 @@ fn expression_errors_point_at_the_expression() {
         "{e}"
     );
     let e = error(&format!("{base}expression = \"(x + 1\"\n"), &[]);
-    assert!(
-        e.starts_with("t.toml:4:14: field.expression: cannot parse: "),
-        "{e}"
-    );
+    assert!(e.starts_with("t.toml:4:14: field.expression: cannot parse: "), "{e}");
     let e = error(&format!("{base}expression = \"\"\n"), &[]);
     assert_eq!(e, "t.toml:4:14: field.expression: the expression is empty");
     let e = error(&format!("{base}expression = 3\n"), &[]);
-    assert_eq!(
-        e,
-        "t.toml:4:14: field.expression: expected a string, got an integer 3"
-    );
+    assert_eq!(e, "t.toml:4:14: field.expression: expected a string, got an integer 3");
     let e = error(base, &[]);
-    assert_eq!(
-        e,
-        "t.toml:1:1: field.expression: missing (e.g. \"sin(3*x)*cos(3*y) + z - 0.2*t\")"
-    );
+    assert_eq!(e, "t.toml:1:1: field.expression: missing (e.g. \"sin(3*x)*cos(3*y) + z - 0.2*t\")");
 }
 
 #[test]
@@ -578,20 +412,14 @@ fn memory_cap_is_checked_at_load() {
          samples, over the cap of 1024 MiB; raise the cap with ISOVIEW_MAX_GRID_MIB=32768 (or \
          GridLimits::max_bytes)"
     );
-    let small = GridLimits {
-        max_bytes: 4 * 10 * 10 * 10,
-    };
+    let small = GridLimits { max_bytes: 4 * 10 * 10 * 10 };
     let ok =
         "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 1\nresolution = [10, 10, 10]\n";
     assert!(scene::from_str_with(ok, "t.toml", Path::new("."), &[], &small).is_ok());
     let over = ok.replace("[10, 10, 10]", "[10, 10, 11]");
     let e = scene::from_str_with(&over, "t.toml", Path::new("."), &[], &small).unwrap_err();
     assert_eq!(e.kind, SceneErrorKind::Data);
-    assert!(
-        e.to_string()
-            .contains("needs 4.3 KiB of f32 samples, over the cap of 3.9 KiB"),
-        "{e}"
-    );
+    assert!(e.to_string().contains("needs 4.3 KiB of f32 samples, over the cap of 3.9 KiB"), "{e}");
     assert_eq!(GridLimits::default().max_bytes, 1 << 30);
     assert_eq!(GridLimits::from_mib_str("16").unwrap().max_bytes, 16 << 20);
     assert!(GridLimits::from_mib_str("0").is_err());
@@ -611,10 +439,7 @@ fn env_cap_child() {
         "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 1\nresolution = [64, 64, 65]\n";
     let r = scene::from_str(text, "t.toml", Path::new("."), &[]);
     match cap.as_str() {
-        "1" => assert!(
-            r.unwrap_err().to_string().contains("over the cap of 1 MiB"),
-            "cap 1"
-        ),
+        "1" => assert!(r.unwrap_err().to_string().contains("over the cap of 1 MiB"), "cap 1"),
         "2" => assert!(r.is_ok()),
         _ => assert_eq!(
             r.unwrap_err().to_string(),
@@ -632,10 +457,7 @@ fn env_cap_is_read_by_load() {
             .output()
             .unwrap();
         let stdout = String::from_utf8_lossy(&out.stdout);
-        assert!(
-            out.status.success() && stdout.contains("1 passed"),
-            "cap {cap}: {stdout}"
-        );
+        assert!(out.status.success() && stdout.contains("1 passed"), "cap {cap}: {stdout}");
     }
 }
 
@@ -660,37 +482,16 @@ fn overrides_replace_and_add_keys() {
     assert_eq!(s.camera.eye, DVec3::new(1.0, 2.0, 3.0));
     assert_eq!(s.image.width, 100);
     // A plain word is a string; later overrides win; nested tables are created.
-    let s = parse(
-        CELL,
-        &[
-            "render.method=fixed-step",
-            "render.shading=normal",
-            "render.shading=depth",
-        ],
-    )
-    .unwrap();
-    assert_eq!(
-        (s.render.method, s.render.shading),
-        (Method::FixedStep, Shading::Depth)
-    );
-    let s = parse(
-        CELL,
-        &["field.bounds.min=[-1,-1,-1]", "field.bounds.max=[1,1,1]"],
-    )
-    .unwrap();
-    assert_eq!(
-        s.field.bounds,
-        Bounds {
-            min: DVec3::splat(-1.0),
-            max: DVec3::ONE
-        }
-    );
+    let s =
+        parse(CELL, &["render.method=fixed-step", "render.shading=normal", "render.shading=depth"])
+            .unwrap();
+    assert_eq!((s.render.method, s.render.shading), (Method::FixedStep, Shading::Depth));
+    let s = parse(CELL, &["field.bounds.min=[-1,-1,-1]", "field.bounds.max=[1,1,1]"]).unwrap();
+    assert_eq!(s.field.bounds, Bounds { min: DVec3::splat(-1.0), max: DVec3::ONE });
     let s = parse(CELL, &["field.bounds={min=[0,0,0], max=[2,2,2]}"]).unwrap();
     assert_eq!(s.field.bounds.max, DVec3::splat(2.0));
     let s = parse(CELL, &["field.values=[1,1,1,1,1,1,1,-1]"]).unwrap();
-    let FieldSource::Corners(v) = s.field.source else {
-        panic!()
-    };
+    let FieldSource::Corners(v) = s.field.source else { panic!() };
     assert_eq!(v[7], -1.0);
     // An override can switch the source, as long as the remaining keys fit it.
     let s = parse(
@@ -729,10 +530,7 @@ fn override_errors_name_the_override() {
         "--set render..steps=3: \"render..steps\" is not a key path like render.steps or field.bounds.min"
     );
     assert_eq!(
-        error(
-            &format!("{CELL}[render]\nsteps = 10\n"),
-            &["render.steps.max=3"]
-        ),
+        error(&format!("{CELL}[render]\nsteps = 10\n"), &["render.steps.max=3"]),
         "--set render.steps.max=3: render.steps: is an integer, not a table"
     );
     assert_eq!(
@@ -745,18 +543,12 @@ fn override_errors_name_the_override() {
          [0.0, 0.0, 0.0]; the camera needs a direction"
     );
     assert_eq!(
-        error(
-            &format!("{CELL}[camera]\neye = [1, 1, 1]\n"),
-            &["camera.target=[1,1,1]"]
-        ),
+        error(&format!("{CELL}[camera]\neye = [1, 1, 1]\n"), &["camera.target=[1,1,1]"]),
         "--set camera.target=[1,1,1]: camera.target: camera.eye and camera.target are the same \
          point [1.0, 1.0, 1.0]; the camera needs a direction"
     );
     assert_eq!(
-        error(
-            &format!("{CELL}[camera]\ntarget = [1, 1, 1]\n"),
-            &["camera.eye=[1,1,1]"]
-        ),
+        error(&format!("{CELL}[camera]\ntarget = [1, 1, 1]\n"), &["camera.eye=[1,1,1]"]),
         "--set camera.eye=[1,1,1]: camera.eye: camera.eye and camera.target are the same \
          point [1.0, 1.0, 1.0]; the camera needs a direction"
     );
@@ -782,15 +574,9 @@ fn override_errors_name_the_override() {
 #[test]
 fn load_reads_files_and_reports_io_errors() {
     let s = scene::load(&root().join("scenes/torus.toml"), &[]).unwrap();
-    assert_eq!(
-        s.path.as_deref(),
-        Some(root().join("scenes/torus.toml").as_path())
-    );
+    assert_eq!(s.path.as_deref(), Some(root().join("scenes/torus.toml").as_path()));
     let e = scene::load(Path::new("no/such/scene.toml"), &[]).unwrap_err();
-    assert_eq!(
-        e.to_string(),
-        "no/such/scene.toml: cannot read scene: file not found"
-    );
+    assert_eq!(e.to_string(), "no/such/scene.toml: cannot read scene: file not found");
     assert_eq!(e.kind, SceneErrorKind::Io);
 
     let dir = std::env::temp_dir().join(format!("isoview-scene-it-{}", std::process::id()));
@@ -798,10 +584,7 @@ fn load_reads_files_and_reports_io_errors() {
     let bad = dir.join("latin1.toml");
     std::fs::write(&bad, b"[image]\n# caf\xe9\n").unwrap();
     let e = scene::load(&bad, &[]).unwrap_err().to_string();
-    assert_eq!(
-        e,
-        format!("{}:2: invalid TOML: the file is not UTF-8", bad.display())
-    );
+    assert_eq!(e, format!("{}:2: invalid TOML: the file is not UTF-8", bad.display()));
     let unknown = dir.join("unknown.toml");
     std::fs::write(&unknown, format!("{CELL}[render]\nfoo = 1\n")).unwrap();
     let e = scene::load(&unknown, &[]).unwrap_err().to_string();
@@ -815,17 +598,8 @@ fn the_torus_scene_is_the_interface_example() {
     assert_eq!(s.surface, SurfaceSettings::default());
     assert_eq!(s.render, RenderSettings::default());
     assert_eq!(s.field.resolution, [48, 48, 48]);
-    assert_eq!(
-        s.field.bounds,
-        Bounds {
-            min: DVec3::splat(-1.0),
-            max: DVec3::ONE
-        }
-    );
-    assert_eq!(
-        s.field.describe(),
-        "sdf torus R=0.6 r=0.25 48x48x48 in [-1, -1, -1]..[1, 1, 1]"
-    );
+    assert_eq!(s.field.bounds, Bounds { min: DVec3::splat(-1.0), max: DVec3::ONE });
+    assert_eq!(s.field.describe(), "sdf torus R=0.6 r=0.25 48x48x48 in [-1, -1, -1]..[1, 1, 1]");
 }
 
 #[test]
@@ -849,29 +623,15 @@ fn every_shipped_scene_loads_and_samples() {
         "volume-npy",
     ];
     for want in expected {
-        assert!(
-            names.iter().any(|p| p.file_stem().unwrap() == want),
-            "scenes/{want}.toml missing"
-        );
+        assert!(names.iter().any(|p| p.file_stem().unwrap() == want), "scenes/{want}.toml missing");
     }
     for path in &names {
         let s = scene::load(path, &[]).unwrap_or_else(|e| panic!("{e}"));
-        let grid = s
-            .field
-            .sample(0.0)
-            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let grid = s.field.sample(0.0).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         assert_eq!(grid.dims, s.field.resolution);
         assert_eq!(grid.values.len(), grid.dims.iter().product::<usize>());
-        assert!(
-            s.field.resolution.iter().all(|&n| n <= 64),
-            "{}",
-            path.display()
-        );
-        assert!(
-            s.image.width <= 256 && s.image.height <= 256,
-            "{}",
-            path.display()
-        );
+        assert!(s.field.resolution.iter().all(|&n| n <= 64), "{}", path.display());
+        assert!(s.image.width <= 256 && s.image.height <= 256, "{}", path.display());
         // Every scene shows a surface: the grid has values on both sides of the isovalue.
         let (lo, hi) = grid.range();
         assert!(
@@ -893,18 +653,12 @@ fn every_shipped_scene_loads_and_samples() {
 fn ambiguous_cells_are_what_they_claim() {
     let corners = |name: &str| {
         let s = scene::load(&root().join(format!("scenes/{name}.toml")), &[]).unwrap();
-        let FieldSource::Corners(v) = s.field.source else {
-            panic!()
-        };
+        let FieldSource::Corners(v) = s.field.source else { panic!() };
         v
     };
     let trilinear = |v: &[f64; 8], x: f64, y: f64, z: f64| {
         let l = |a: f64, b: f64, s: f64| a + (b - a) * s;
-        l(
-            l(l(v[0], v[1], x), l(v[2], v[3], x), y),
-            l(l(v[4], v[5], x), l(v[6], v[7], x), y),
-            z,
-        )
+        l(l(l(v[0], v[1], x), l(v[2], v[3], x), y), l(l(v[4], v[5], x), l(v[6], v[7], x), y), z)
     };
     // Face z = 0: diagonal corners inside, saddle value above the isovalue (separated).
     let v = corners("cell-face-ambiguous");

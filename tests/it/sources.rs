@@ -25,9 +25,7 @@ fn load_capped(dir: &Path, field: &str, limits: GridLimits) -> Result<Scene, Sce
 }
 
 fn load_err(dir: &Path, field: &str) -> String {
-    let Err(e) = load(dir, field) else {
-        panic!("expected an error for {field}")
-    };
+    let Err(e) = load(dir, field) else { panic!("expected an error for {field}") };
     let e = e.to_string();
     assert!(!e.contains('\n'), "not one line: {e:?}");
     e
@@ -40,11 +38,7 @@ fn sample(s: &Scene) -> Result<Grid, FieldError> {
 /// An `.npy` version 1.0 file.
 fn npy(descr: &str, fortran: bool, shape: &[u64], payload: &[u8]) -> Vec<u8> {
     let dims: Vec<String> = shape.iter().map(u64::to_string).collect();
-    let shape = if dims.len() == 1 {
-        format!("{},", dims[0])
-    } else {
-        dims.join(", ")
-    };
+    let shape = if dims.len() == 1 { format!("{},", dims[0]) } else { dims.join(", ") };
     let fortran = if fortran { "True" } else { "False" };
     let mut header =
         format!("{{'descr': {descr}, 'fortran_order': {fortran}, 'shape': ({shape}), }}");
@@ -135,9 +129,7 @@ fn payload(
 fn npy_reads_every_real_and_integer_dtype_in_both_orders_and_byte_orders() {
     let d = dir("npy-dtypes");
     let dims = [2, 3, 4];
-    let types = [
-        "b1", "u1", "i1", "u2", "i2", "u4", "i4", "u8", "i8", "f2", "f4", "f8",
-    ];
+    let types = ["b1", "u1", "i1", "u2", "i2", "u4", "i4", "u8", "i8", "f2", "f4", "f8"];
     let mut n = 0;
     for ty in types {
         let one_byte = matches!(ty, "b1" | "u1" | "i1");
@@ -206,16 +198,11 @@ fn npy_path_is_relative_to_the_scene_file() {
         "'<f4'",
         false,
         &[2, 2, 2],
-        &payload("f4", false, false, [2, 2, 2], |i, j, k| {
-            value(i, j, k, true)
-        }),
+        &payload("f4", false, false, [2, 2, 2], |i, j, k| value(i, j, k, true)),
     );
     std::fs::write(d.join("data/v.npy"), bytes).unwrap();
-    std::fs::write(
-        d.join("scene.toml"),
-        "[field]\nsource = \"npy\"\npath = \"data/v.npy\"\n",
-    )
-    .unwrap();
+    std::fs::write(d.join("scene.toml"), "[field]\nsource = \"npy\"\npath = \"data/v.npy\"\n")
+        .unwrap();
     let s = scene::load(&d.join("scene.toml"), &[]).unwrap();
     assert_eq!(sample(&s).unwrap().at(1, 1, 1), value(1, 1, 1, true) as f32);
 }
@@ -230,10 +217,7 @@ fn npy_errors_name_the_file_and_what_is_wrong() {
 
     assert_eq!(
         load_err(&d, &field("missing.npy")),
-        format!(
-            "t.toml:3:8: field.path: {}: file not found",
-            p("missing.npy")
-        )
+        format!("t.toml:3:8: field.path: {}: file not found", p("missing.npy"))
     );
 
     write("text.npy", b"just some text, no magic".to_vec());
@@ -256,10 +240,7 @@ fn npy_errors_name_the_file_and_what_is_wrong() {
     write("str.npy", npy("'<U3'", false, &[2, 2, 2], &[0; 96]));
     assert!(load_err(&d, &field("str.npy"))
         .ends_with("unsupported dtype <U3 (expected a boolean, integer or real dtype)"));
-    write(
-        "rec.npy",
-        npy("[('a', '<f4'), ('b', '<f4')]", false, &[2, 2, 2], &f4(16)),
-    );
+    write("rec.npy", npy("[('a', '<f4'), ('b', '<f4')]", false, &[2, 2, 2], &f4(16)));
     assert!(load_err(&d, &field("rec.npy"))
         .contains("(structured arrays are not supported; save one real field)"));
     write("f16.npy", npy("'<f16'", false, &[2, 2, 2], &[0; 128]));
@@ -306,12 +287,7 @@ fn npy_non_finite_samples_are_reported_at_their_grid_point() {
     };
     std::fs::write(
         d.join("nan.npy"),
-        npy(
-            "'>f8'",
-            false,
-            &[2, 3, 4],
-            &payload("f8", true, false, [2, 3, 4], f),
-        ),
+        npy("'>f8'", false, &[2, 3, 4], &payload("f8", true, false, [2, 3, 4], f)),
     )
     .unwrap();
     let s = load(&d, "source = \"npy\"\npath = \"nan.npy\"\n").unwrap();
@@ -319,28 +295,14 @@ fn npy_non_finite_samples_are_reported_at_their_grid_point() {
     // The first bad point in x-fastest order: [1, 0, 2] comes before [0, 2, 3].
     assert_eq!(
         e.to_string(),
-        format!(
-            "{}: value NaN at grid point [1, 0, 2] is not finite",
-            d.join("nan.npy").display()
-        )
+        format!("{}: value NaN at grid point [1, 0, 2] is not finite", d.join("nan.npy").display())
     );
-    assert!(matches!(
-        e,
-        FieldError::NonFinite {
-            index: [1, 0, 2],
-            ..
-        }
-    ));
+    assert!(matches!(e, FieldError::NonFinite { index: [1, 0, 2], .. }));
     // A finite f64 beyond the f32 range is not finite either, once stored as f32.
     let g = |i, _, _| if i == 1 { 1e300 } else { 0.0 };
     std::fs::write(
         d.join("big.npy"),
-        npy(
-            "'<f8'",
-            true,
-            &[2, 2, 2],
-            &payload("f8", false, true, [2, 2, 2], g),
-        ),
+        npy("'<f8'", true, &[2, 2, 2], &payload("f8", false, true, [2, 2, 2], g)),
     )
     .unwrap();
     let s = load(&d, "source = \"npy\"\npath = \"big.npy\"\n").unwrap();
@@ -355,11 +317,8 @@ fn npy_over_the_memory_cap_is_refused_without_reading_the_data() {
     let d = dir("npy-cap");
     // A 128-byte file whose header claims 100000^3 float32 samples (4 PB): refused for its size,
     // not reported as truncated, so nothing past the header was considered.
-    std::fs::write(
-        d.join("huge.npy"),
-        npy("'<f4'", false, &[100000, 100000, 100000], &[]),
-    )
-    .unwrap();
+    std::fs::write(d.join("huge.npy"), npy("'<f4'", false, &[100000, 100000, 100000], &[]))
+        .unwrap();
     let e = load_err(&d, "source = \"npy\"\npath = \"huge.npy\"\n");
     assert_eq!(
         e,
@@ -372,11 +331,7 @@ fn npy_over_the_memory_cap_is_refused_without_reading_the_data() {
     );
     // Dims whose product overflows 64 bits are refused the same way, without a panic.
     let max = u64::MAX;
-    std::fs::write(
-        d.join("overflow.npy"),
-        npy("'<f4'", false, &[max, max, 4], &[]),
-    )
-    .unwrap();
+    std::fs::write(d.join("overflow.npy"), npy("'<f4'", false, &[max, max, 4], &[])).unwrap();
     assert!(load_err(&d, "source = \"npy\"\npath = \"overflow.npy\"\n")
         .contains("over the cap of 1024 MiB"));
     // A header length larger than the file.
@@ -387,37 +342,19 @@ fn npy_over_the_memory_cap_is_refused_without_reading_the_data() {
     assert!(load_err(&d, "source = \"npy\"\npath = \"header.npy\"\n")
         .contains("not a valid .npy file (the header claims 2147483647 bytes, the file has"));
     // The cap is settable in code: a real 2x3x4 file under a 64-byte cap.
-    std::fs::write(
-        d.join("small.npy"),
-        npy("'<f4'", false, &[2, 3, 4], &[0; 96]),
-    )
-    .unwrap();
-    let e = load_capped(
-        &d,
-        "source = \"npy\"\npath = \"small.npy\"\n",
-        GridLimits { max_bytes: 64 },
-    )
-    .unwrap_err();
+    std::fs::write(d.join("small.npy"), npy("'<f4'", false, &[2, 3, 4], &[0; 96])).unwrap();
+    let e =
+        load_capped(&d, "source = \"npy\"\npath = \"small.npy\"\n", GridLimits { max_bytes: 64 })
+            .unwrap_err();
     assert_eq!(e.kind, SceneErrorKind::Data);
     assert!(
-        matches!(
-            e.field_error.as_deref(),
-            Some(FieldError::TooLarge {
-                bytes: 96,
-                cap: 64,
-                ..
-            })
-        ),
+        matches!(e.field_error.as_deref(), Some(FieldError::TooLarge { bytes: 96, cap: 64, .. })),
         "{e}"
     );
     let s = load(&d, "source = \"npy\"\npath = \"small.npy\"\n").unwrap();
-    let e = s
-        .field
-        .sample_with(0.0, &GridLimits { max_bytes: 64 })
-        .unwrap_err();
+    let e = s.field.sample_with(0.0, &GridLimits { max_bytes: 64 }).unwrap_err();
     assert!(
-        e.to_string()
-            .contains("needs 96 bytes of f32 samples, over the cap of 64 bytes"),
+        e.to_string().contains("needs 96 bytes of f32 samples, over the cap of 64 bytes"),
         "{e}"
     );
 }
@@ -458,16 +395,10 @@ fn raw_reads_x_fastest_in_either_byte_order() {
         }
     }
     // endian defaults to little.
-    std::fs::write(
-        d.join("le.raw"),
-        payload("u2", false, true, dims, |i, _, _| 300.0 + i as f64),
-    )
-    .unwrap();
-    let s = load(
-        &d,
-        "source = \"raw\"\npath = \"le.raw\"\ndims = [3, 2, 4]\ndtype = \"u16\"\n",
-    )
-    .unwrap();
+    std::fs::write(d.join("le.raw"), payload("u2", false, true, dims, |i, _, _| 300.0 + i as f64))
+        .unwrap();
+    let s = load(&d, "source = \"raw\"\npath = \"le.raw\"\ndims = [3, 2, 4]\ndtype = \"u16\"\n")
+        .unwrap();
     assert_eq!(sample(&s).unwrap().at(2, 1, 3), 302.0);
 }
 
@@ -498,21 +429,12 @@ fn raw_errors_name_the_file_dims_and_sizes() {
         "t.toml:5:9: field.dtype: unknown value \"u24\" (expected \"u8\", \"i8\", \"u16\""
     ));
     assert_eq!(
-        load_err(
-            &d,
-            &format!("{}endian = \"middle\"\n", field("[3, 2, 4]", "u16"))
-        ),
+        load_err(&d, &format!("{}endian = \"middle\"\n", field("[3, 2, 4]", "u16"))),
         "t.toml:6:10: field.endian: unknown value \"middle\" (expected \"little\" or \"big\")"
     );
     assert_eq!(
-        load_err(
-            &d,
-            "source = \"raw\"\npath = \"nope.raw\"\ndims = [2, 2, 2]\ndtype = \"u8\"\n"
-        ),
-        format!(
-            "t.toml:3:8: field.path: {}: file not found",
-            d.join("nope.raw").display()
-        )
+        load_err(&d, "source = \"raw\"\npath = \"nope.raw\"\ndims = [2, 2, 2]\ndtype = \"u8\"\n"),
+        format!("t.toml:3:8: field.path: {}: file not found", d.join("nope.raw").display())
     );
     assert_eq!(
         load_err(&d, "source = \"raw\"\npath = \"v.raw\"\ndtype = \"u8\"\n"),
@@ -527,14 +449,8 @@ fn raw_errors_name_the_file_dims_and_sizes() {
         "t.toml:3:8: field.path: must not be empty"
     );
     assert_eq!(
-        load_err(
-            &d,
-            "source = \"raw\"\npath = \".\"\ndims = [2, 2, 2]\ndtype = \"u8\"\n"
-        ),
-        format!(
-            "t.toml:3:8: field.path: {}: is a directory, not a file",
-            d.join(".").display()
-        )
+        load_err(&d, "source = \"raw\"\npath = \".\"\ndims = [2, 2, 2]\ndtype = \"u8\"\n"),
+        format!("t.toml:3:8: field.path: {}: is a directory, not a file", d.join(".").display())
     );
 }
 
@@ -542,10 +458,7 @@ fn raw_errors_name_the_file_dims_and_sizes() {
 
 #[test]
 fn expressions_are_evaluated_at_world_points_and_time() {
-    let b = Bounds {
-        min: DVec3::new(-1.0, 0.0, 2.0),
-        max: DVec3::new(1.0, 3.0, 2.5),
-    };
+    let b = Bounds { min: DVec3::new(-1.0, 0.0, 2.0), max: DVec3::new(1.0, 3.0, 2.5) };
     let spec = FieldSpec::expr("sin(3*x)*cos(3*y) + z - 0.2*t", [5, 4, 3], b).unwrap();
     assert!(spec.is_time_varying());
     for t in [0.0, 1.5] {
@@ -560,9 +473,7 @@ fn expressions_are_evaluated_at_world_points_and_time() {
         spec.describe(),
         "expr \"sin(3*x)*cos(3*y) + z - 0.2*t\" 5x4x3 in [-1, 0, 2]..[1, 3, 2.5]"
     );
-    assert!(!FieldSpec::expr("x + y", [2, 2, 2], Bounds::UNIT)
-        .unwrap()
-        .is_time_varying());
+    assert!(!FieldSpec::expr("x + y", [2, 2, 2], Bounds::UNIT).unwrap().is_time_varying());
     // A 64^3 grid (sampled over several threads) agrees with the formula everywhere checked.
     let big = FieldSpec::expr("x*x - y + 0.5*z*t", [64, 64, 64], b).unwrap();
     let g = big.sample_with(2.0, &GridLimits::default()).unwrap();
@@ -575,10 +486,7 @@ fn expressions_are_evaluated_at_world_points_and_time() {
 
 #[test]
 fn non_finite_expression_values_name_the_point_and_time() {
-    let b = Bounds {
-        min: DVec3::splat(-1.0),
-        max: DVec3::ONE,
-    };
+    let b = Bounds { min: DVec3::splat(-1.0), max: DVec3::ONE };
     let spec = FieldSpec::expr("sqrt(x)", [3, 3, 3], b).unwrap();
     let e = spec.sample_with(0.0, &GridLimits::default()).unwrap_err();
     assert_eq!(
@@ -587,10 +495,7 @@ fn non_finite_expression_values_name_the_point_and_time() {
     );
     let spec = FieldSpec::expr("1/(t - 2) + x", [2, 2, 2], Bounds::UNIT).unwrap();
     assert!(spec.sample_with(0.0, &GridLimits::default()).is_ok());
-    let e = spec
-        .sample_with(2.0, &GridLimits::default())
-        .unwrap_err()
-        .to_string();
+    let e = spec.sample_with(2.0, &GridLimits::default()).unwrap_err().to_string();
     assert!(
         e.starts_with("expression \"1/(t - 2) + x\" at t = 2: value inf at grid point [0, 0, 0]"),
         "{e}"
@@ -599,45 +504,27 @@ fn non_finite_expression_values_name_the_point_and_time() {
 
 #[test]
 fn sdf_values_follow_the_contract_formulas() {
-    let b = Bounds {
-        min: DVec3::new(-1.0, -0.8, -1.2),
-        max: DVec3::new(1.1, 0.9, 1.0),
-    };
+    let b = Bounds { min: DVec3::new(-1.0, -0.8, -1.2), max: DVec3::new(1.1, 0.9, 1.0) };
     let c = DVec3::new(0.1, -0.05, 0.2);
     type Formula = fn(DVec3) -> f64;
     let shapes: [(SdfShape, Formula); 4] = [
         (SdfShape::Sphere { radius: 0.6 }, |p| p.length() - 0.6),
-        (
-            SdfShape::Box {
-                half_extents: DVec3::new(0.5, 0.3, 0.4),
-            },
-            |p| {
-                let q = p.abs() - DVec3::new(0.5, 0.3, 0.4);
-                q.max(DVec3::ZERO).length() + q.x.max(q.y).max(q.z).min(0.0)
-            },
-        ),
-        (
-            SdfShape::Torus {
-                major_radius: 0.6,
-                minor_radius: 0.25,
-            },
-            |p| DVec3::new((p.x * p.x + p.z * p.z).sqrt() - 0.6, p.y, 0.0).length() - 0.25,
-        ),
-        (
-            SdfShape::Gyroid {
-                scale: 5.0,
-                thickness: 0.1,
-            },
-            |p| {
-                let s = 5.0;
-                ((s * p.x).sin() * (s * p.y).cos()
-                    + (s * p.y).sin() * (s * p.z).cos()
-                    + (s * p.z).sin() * (s * p.x).cos())
-                .abs()
-                    / s
-                    - 0.1
-            },
-        ),
+        (SdfShape::Box { half_extents: DVec3::new(0.5, 0.3, 0.4) }, |p| {
+            let q = p.abs() - DVec3::new(0.5, 0.3, 0.4);
+            q.max(DVec3::ZERO).length() + q.x.max(q.y).max(q.z).min(0.0)
+        }),
+        (SdfShape::Torus { major_radius: 0.6, minor_radius: 0.25 }, |p| {
+            DVec3::new((p.x * p.x + p.z * p.z).sqrt() - 0.6, p.y, 0.0).length() - 0.25
+        }),
+        (SdfShape::Gyroid { scale: 5.0, thickness: 0.1 }, |p| {
+            let s = 5.0;
+            ((s * p.x).sin() * (s * p.y).cos()
+                + (s * p.y).sin() * (s * p.z).cos()
+                + (s * p.z).sin() * (s * p.x).cos())
+            .abs()
+                / s
+                - 0.1
+        }),
     ];
     for (shape, formula) in shapes {
         let g = FieldSpec::sdf(shape, c, [9, 8, 7], b)
@@ -656,14 +543,9 @@ fn sdf_values_follow_the_contract_formulas() {
         }
     }
     let d = FieldSpec::sdf(SdfShape::Sphere { radius: 0.5 }, c, [4, 4, 4], Bounds::UNIT).describe();
-    assert_eq!(
-        d,
-        "sdf sphere r=0.5 center=[0.1, -0.05, 0.2] 4x4x4 in [0, 0, 0]..[1, 1, 1]"
-    );
+    assert_eq!(d, "sdf sphere r=0.5 center=[0.1, -0.05, 0.2] 4x4x4 in [0, 0, 0]..[1, 1, 1]");
     let d = FieldSpec::sdf(
-        SdfShape::Box {
-            half_extents: DVec3::splat(0.5),
-        },
+        SdfShape::Box { half_extents: DVec3::splat(0.5) },
         DVec3::ZERO,
         [4, 4, 4],
         Bounds::UNIT,
@@ -671,10 +553,7 @@ fn sdf_values_follow_the_contract_formulas() {
     .describe();
     assert_eq!(d, "sdf box b=[0.5, 0.5, 0.5] 4x4x4 in [0, 0, 0]..[1, 1, 1]");
     let d = FieldSpec::sdf(
-        SdfShape::Gyroid {
-            scale: 6.0,
-            thickness: 0.08,
-        },
+        SdfShape::Gyroid { scale: 6.0, thickness: 0.08 },
         DVec3::ZERO,
         [4, 4, 4],
         Bounds::UNIT,
@@ -685,11 +564,8 @@ fn sdf_values_follow_the_contract_formulas() {
 
 #[test]
 fn corners_are_in_vxyz_order() {
-    let s = load(
-        Path::new("."),
-        "source = \"corners\"\nvalues = [0, 1, 2, 3, 4, 5, 6, 7]\n",
-    )
-    .unwrap();
+    let s =
+        load(Path::new("."), "source = \"corners\"\nvalues = [0, 1, 2, 3, 4, 5, 6, 7]\n").unwrap();
     let g = sample(&s).unwrap();
     assert_eq!(g.dims, [2, 2, 2]);
     assert_eq!((g.min, g.max), (DVec3::ZERO, DVec3::ONE));
@@ -705,9 +581,7 @@ fn corners_are_in_vxyz_order() {
         s.field.describe(),
         "corners [0, 1, 2, 3, 4, 5, 6, 7] 2x2x2 in [0, 0, 0]..[1, 1, 1]"
     );
-    let FieldSource::Corners(_) = s.field.source else {
-        panic!()
-    };
+    let FieldSource::Corners(_) = s.field.source else { panic!() };
 }
 
 // ---- the shipped volumes ----------------------------------------------------------------------
@@ -720,10 +594,7 @@ fn blobs(p: DVec3) -> f64 {
         (DVec3::new(0.00, 0.45, 0.35), 0.35),
         (DVec3::new(0.10, -0.45, -0.35), 0.30),
     ];
-    balls
-        .iter()
-        .map(|&(c, r)| r * r / (p - c).length_squared().max(1e-6))
-        .sum()
+    balls.iter().map(|&(c, r)| r * r / (p - c).length_squared().max(1e-6)).sum()
 }
 
 #[test]
@@ -735,10 +606,7 @@ fn shipped_volumes_hold_the_generator_s_field_at_each_grid_point() {
     assert_eq!(g.dims, [32, 32, 32]);
     for (i, j, k) in [(5, 9, 20), (20, 12, 3), (16, 16, 16), (31, 0, 7)] {
         let want = (50.0 * blobs(g.point(i, j, k))).round().min(255.0);
-        assert!(
-            (g.at(i, j, k) as f64 - want).abs() <= 1.0,
-            "npy [{i}, {j}, {k}]"
-        );
+        assert!((g.at(i, j, k) as f64 - want).abs() <= 1.0, "npy [{i}, {j}, {k}]");
     }
     // raw: index-space bounds; the generator's world box is [-1, 1] x [-1.2, 1.2] x [-1.4, 1.4].
     let s = scene::load(&root.join("raw.toml"), &[]).unwrap();
@@ -752,15 +620,9 @@ fn shipped_volumes_hold_the_generator_s_field_at_each_grid_point() {
             -1.4 + k as f64 * 2.8 / 27.0,
         );
         let want = (5000.0 * blobs(p)).round().min(65535.0);
-        assert!(
-            (g.at(i, j, k) as f64 - want).abs() <= 1.0,
-            "raw [{i}, {j}, {k}]"
-        );
+        assert!((g.at(i, j, k) as f64 - want).abs() <= 1.0, "raw [{i}, {j}, {k}]");
     }
     for f in ["data/blobs.npy", "data/blobs.raw"] {
-        assert!(
-            std::fs::metadata(root.join(f)).unwrap().len() <= 64 * 1024,
-            "{f}"
-        );
+        assert!(std::fs::metadata(root.join(f)).unwrap().len() <= 64 * 1024, "{f}");
     }
 }

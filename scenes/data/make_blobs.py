@@ -7,14 +7,15 @@ Pure Python (no NumPy), so it runs on a fresh machine:
 
 Both files sample the same field, a sum of four metaballs
 
-    f(p) = sum_i r_i^2 / |p - c_i|^2        (f = 1 near each ball's surface)
+    f(p) = sum_i r_i^2 / |p - c_i|^2        (f = 1 on a lone ball's sphere)
 
 blobs.npy   shape (32, 32, 32), dtype uint8 ('|u1'), C order; element [i, j, k] is the value
-            at the grid point (x_i, y_j, z_k) of [-1, 1]^3; value = min(255, round(100 f)),
-            so the surface f = 1 is the isovalue 100 with inside "above".
+            at the grid point (x_i, y_j, z_k) of [-1, 1]^3; value = min(255, round(50 f)),
+            so the surface f = 2 (where the balls just merge) is the isovalue 100, inside
+            "above".
 blobs.raw   dims [20, 24, 28], u16 little endian, x fastest; point (i, j, k) sits at
             (-1 + i*2/19, -1.2 + j*2.4/23, -1.4 + k*2.8/27) (nearly cubic cells), and
-            value = min(65535, round(10000 f)): isovalue 10000, inside "above".
+            value = min(65535, round(5000 f)): again f = 2 is the isovalue 10000.
 """
 
 import os
@@ -56,7 +57,7 @@ def make_npy(path, n=32):
             y = -1.0 + 2.0 * j / (n - 1)
             for k in range(n):
                 z = -1.0 + 2.0 * k / (n - 1)
-                out.append(min(255, int(round(100.0 * field(x, y, z)))))
+                out.append(min(255, int(round(50.0 * field(x, y, z)))))
     with open(path, "wb") as f:
         f.write(npy_bytes("|u1", (n, n, n), bytes(out)))
 
@@ -70,7 +71,7 @@ def make_raw(path, dims=(20, 24, 28), half=(1.0, 1.2, 1.4)):
             y = -half[1] + 2.0 * half[1] * j / (ny - 1)
             for i in range(nx):
                 x = -half[0] + 2.0 * half[0] * i / (nx - 1)
-                out += struct.pack("<H", min(65535, int(round(10000.0 * field(x, y, z)))))
+                out += struct.pack("<H", min(65535, int(round(5000.0 * field(x, y, z)))))
     with open(path, "wb") as f:
         f.write(bytes(out))
 

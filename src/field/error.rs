@@ -1,3 +1,5 @@
+//! [`FieldError`]: why a field could not be sampled, as one line naming the file or expression.
+
 use std::path::PathBuf;
 
 use super::limits::GRID_CAP_ENV;

@@ -1,3 +1,5 @@
+//! The grid memory cap ([`GridLimits`]): checked before anything is allocated or read.
+
 use super::FieldError;
 
 /// Environment variable that sets the grid memory cap, in MiB.

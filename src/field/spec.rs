@@ -1,3 +1,6 @@
+//! [`FieldSpec`]: a validated field source plus its lattice, and sampling it into a [`Grid`]
+//! (sdf and expr grids are evaluated over z-slabs on all cores).
+
 use glam::DVec3;
 
 use super::expr::ExprSource;

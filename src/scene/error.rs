@@ -1,3 +1,5 @@
+//! [`SceneError`]: one line, `FILE:LINE:COL: KEY.PATH: what is wrong`.
+
 use crate::field::FieldError;
 
 /// What kind of mistake a [`SceneError`] reports.

@@ -19,7 +19,7 @@ use glam::DVec3;
 
 use super::error::{SceneError, SceneErrorKind};
 use super::read::{self, choice, number_where, points3, string, vec3, Result, View};
-use super::tree::{Node, Source};
+use super::tree::{Node, Origin, Source};
 use super::validate::show_vec;
 use super::{Bounds, SdfShape};
 use crate::field::{
@@ -174,8 +174,10 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
 
 /// `resolution`, required, checked against the memory cap.
 fn resolution(t: &View, limits: &GridLimits) -> Result<[usize; 3]> {
-    let res = t.required("resolution", "grid points along x, y, z, e.g. [48, 48, 48]", points3)?;
-    let node = t.get("resolution").unwrap_or_else(|| unreachable!("read above"));
+    let node = t
+        .get("resolution")
+        .ok_or_else(|| t.missing("resolution", "grid points along x, y, z, e.g. [48, 48, 48]"))?;
+    let res = points3(t.src, "field.resolution", node)?;
     limits
         .check(res.map(|n| n as u64), "field.resolution")
         .map_err(|e| data_error(t.src, "field.resolution", node, e))?;
@@ -245,9 +247,16 @@ fn bounds(t: &View) -> Result<Bounds> {
     let min = t.required("min", "the grid box's corner [x, y, z]", vec3)?;
     let max = t.required("max", "the grid box's corner [x, y, z]", vec3)?;
     if let Some(axis) = (0..3).find(|&a| min[a] >= max[a]) {
+        // At the table, unless an override set min or max.
+        let at = ["min", "max"]
+            .iter()
+            .filter_map(|k| t.get(k).map(|n| n.at))
+            .filter(|at| matches!(at, Origin::Override(_)))
+            .max()
+            .unwrap_or(t.at);
         return Err(t.src.err(
             SceneErrorKind::Value,
-            t.at,
+            at,
             &t.path,
             format!(
                 "min must be below max on every axis, got min = {}, max = {} ({} axis)",

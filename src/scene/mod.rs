@@ -33,13 +33,13 @@ pub use error::{SceneError, SceneErrorKind};
 pub use types::*;
 pub use validate::{MAX_IMAGE_SIDE, MAX_NEWTON_STEPS, MAX_STEPS};
 
-use crate::field::GridLimits;
+use crate::field::{GridLimits, GRID_CAP_ENV};
 use tree::Source;
 
 /// Loads the scene file at `path`, applies `overrides` (`KEY=VALUE`, VALUE in TOML syntax or a
 /// plain string), and validates it, under the grid memory cap of `ISOVIEW_MAX_GRID_MIB`.
 pub fn load(path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
-    load_with(path, overrides, &env_limits(&path.display().to_string())?)
+    load_with(path, overrides, &env_limits()?)
 }
 
 /// [`load`] under an explicit memory cap.
@@ -64,10 +64,9 @@ pub fn load_with(
         )
     })?;
     let text = String::from_utf8(text).map_err(|e| {
-        let at = Source::new(&name, "", &[]).location(tree::Origin::START);
-        let _ = at;
-        let prefix = &e.as_bytes()[..e.utf8_error().valid_up_to()];
-        let line = prefix.iter().filter(|&&b| b == b'\n').count() + 1;
+        // Point at the line of the first invalid byte.
+        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let line = valid.iter().filter(|&&b| b == b'\n').count() + 1;
         SceneError::new(
             SceneErrorKind::Syntax,
             format!("{name}:{line}"),
@@ -89,7 +88,7 @@ pub fn from_str(
     base_dir: &Path,
     overrides: &[String],
 ) -> Result<Scene, SceneError> {
-    from_str_with(text, origin, base_dir, overrides, &env_limits(origin)?)
+    from_str_with(text, origin, base_dir, overrides, &env_limits()?)
 }
 
 /// [`from_str`] under an explicit memory cap.
@@ -108,14 +107,13 @@ pub fn from_str_with(
     validate::scene(&src, &root, base_dir, limits)
 }
 
-/// The memory cap from the environment, as a scene error if the variable is malformed.
-fn env_limits(origin: &str) -> Result<GridLimits, SceneError> {
+/// The memory cap from the environment, as a scene error if the variable is malformed:
+/// `ISOVIEW_MAX_GRID_MIB="lots": expected a positive whole number of MiB`.
+fn env_limits() -> Result<GridLimits, SceneError> {
     GridLimits::from_env().map_err(|e| {
-        let _ = origin;
-        let mut err = SceneError::new(SceneErrorKind::Data, crate::field::GRID_CAP_ENV, None, "");
-        err.message = e.to_string().split_once(": ").map_or(e.to_string(), |(_, m)| m.to_string());
-        err.location =
-            e.to_string().split_once(": ").map_or(err.location.clone(), |(l, _)| l.to_string());
+        let text = e.to_string();
+        let (location, message) = text.split_once(": ").unwrap_or((GRID_CAP_ENV, &text));
+        let mut err = SceneError::new(SceneErrorKind::Data, location, None, message);
         err.field_error = Some(Box::new(e));
         err
     })

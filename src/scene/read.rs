@@ -53,13 +53,17 @@ impl<'a> View<'a> {
         allowed: &[&str],
         explain: impl Fn(&str) -> Option<String>,
     ) -> Result<()> {
-        let Some(table) = self.table else { return Ok(()) };
+        let Some(table) = self.table else {
+            return Ok(());
+        };
         let first_bad = table
             .entries
             .iter()
             .filter(|(k, _)| !allowed.contains(&k.as_str()))
             .min_by_key(|(_, e)| e.key_at);
-        let Some((key, entry)) = first_bad else { return Ok(()) };
+        let Some((key, entry)) = first_bad else {
+            return Ok(());
+        };
         let message = explain(key).unwrap_or_else(|| {
             let what = if self.path.is_empty() { "unknown table or key" } else { "unknown key" };
             match suggest(key, allowed) {

@@ -1,3 +1,6 @@
+//! The validated scene as plain data. Defaults (the contract's example values) are the
+//! `Default` impls here; the loader only ever starts from them.
+
 use std::path::PathBuf;
 
 use glam::DVec3;

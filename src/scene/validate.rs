@@ -72,9 +72,10 @@ fn camera(t: &View) -> Result<CameraSettings> {
             )
         })?,
     };
-    // Point at whichever of the keys involved was written (the later one first).
-    let blame =
-        |keys: &[&'static str]| *keys.iter().find(|k| t.get(k).is_some()).unwrap_or(&keys[0]);
+    // Blame the last-written of the keys involved (a --set counts as written after the file).
+    let blame = |keys: &[&'static str]| {
+        keys.iter().filter_map(|k| t.get(k).map(|n| (n.at, *k))).max().map_or(keys[0], |(_, k)| k)
+    };
     let forward = c.target - c.eye;
     if forward.length() <= 1e-12 * c.eye.length().max(1.0) {
         return Err(t.err(

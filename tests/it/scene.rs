@@ -432,7 +432,9 @@ fn memory_cap_is_checked_at_load() {
 /// Runs in a child process (see `env_cap_is_read_by_load`), where it may set the variable.
 #[test]
 fn env_cap_child() {
-    let Ok(cap) = std::env::var("ISOVIEW_MAX_GRID_MIB") else { return };
+    let Ok(cap) = std::env::var("ISOVIEW_MAX_GRID_MIB") else {
+        return;
+    };
     let text =
         "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 1\nresolution = [64, 64, 65]\n";
     let r = scene::from_str(text, "t.toml", Path::new("."), &[]);
@@ -441,8 +443,7 @@ fn env_cap_child() {
         "2" => assert!(r.is_ok()),
         _ => assert_eq!(
             r.unwrap_err().to_string(),
-            format!("ISOVIEW_MAX_GRID_MIB: {cap:?}: expected a positive whole number of MiB")
-                .replace(": \"", "=\"")
+            format!("ISOVIEW_MAX_GRID_MIB={cap:?}: expected a positive whole number of MiB")
         ),
     }
 }
@@ -540,6 +541,24 @@ fn override_errors_name_the_override() {
         error(CELL, &["camera.eye=[0,0,0]", "camera.target=[0,0,0]"]),
         "--set camera.target=[0,0,0]: camera.target: camera.eye and camera.target are the same point \
          [0.0, 0.0, 0.0]; the camera needs a direction"
+    );
+    assert_eq!(
+        error(&format!("{CELL}[camera]\neye = [1, 1, 1]\n"), &["camera.target=[1,1,1]"]),
+        "--set camera.target=[1,1,1]: camera.target: camera.eye and camera.target are the same \
+         point [1.0, 1.0, 1.0]; the camera needs a direction"
+    );
+    assert_eq!(
+        error(&format!("{CELL}[camera]\ntarget = [1, 1, 1]\n"), &["camera.eye=[1,1,1]"]),
+        "--set camera.eye=[1,1,1]: camera.eye: camera.eye and camera.target are the same \
+         point [1.0, 1.0, 1.0]; the camera needs a direction"
+    );
+    assert_eq!(
+        error(
+            &format!("{CELL}bounds = {{ min = [0, 0, 0], max = [1, 1, 1] }}\n"),
+            &["field.bounds.min=[0,2,0]"]
+        ),
+        "--set field.bounds.min=[0,2,0]: field.bounds: min must be below max on every axis, got \
+         min = [0.0, 2.0, 0.0], max = [1.0, 1.0, 1.0] (y axis)"
     );
     // The file's own errors still point into the file.
     assert_eq!(

@@ -5,6 +5,7 @@
 //! lavapipe) and every dispatch to at most [`MAX_BAND_PIXELS`] rays, so images of any size are
 //! rendered in pieces.
 
+pub mod mesh;
 pub mod params;
 
 use std::sync::Arc;
@@ -17,6 +18,7 @@ use crate::gpu::{
     copy_buffer, memory_barrier, Buffer, ComputePipeline, Context, GpuError, Image3d,
     MemoryLocation, Resource, Timer,
 };
+use crate::passes::mesh_render::MeshPipelines;
 use crate::passes::raymarch;
 use crate::scene::{Method, Scene};
 use params::{Band, RenderParams};
@@ -30,6 +32,8 @@ pub enum RenderError {
     Gpu(#[from] GpuError),
     #[error("render.method = \"{0}\" is not available in this build")]
     Unsupported(&'static str),
+    #[error("render.method = \"mesh\": {0}")]
+    Mesh(#[from] crate::mesh::MeshError),
 }
 
 /// A grid uploaded to the device.
@@ -50,6 +54,8 @@ pub struct Renderer {
     ctx: Arc<Context>,
     raymarch: ComputePipeline,
     colormap: Buffer,
+    /// The mesh render's pipelines, built on the first mesh render (they need 64-bit atomics).
+    mesh: Option<MeshPipelines>,
     /// GPU time of the last frame's ray passes, in milliseconds (None without timestamps).
     pub last_gpu_ms: Option<f64>,
 }
@@ -95,7 +101,7 @@ impl Renderer {
             copy_buffer(ctx, cmd, &staging, 0, &colormap, 0, staging.size);
             Ok(())
         })?;
-        Ok(Renderer { ctx: ctx.clone(), raymarch, colormap, last_gpu_ms: None })
+        Ok(Renderer { ctx: ctx.clone(), raymarch, colormap, mesh: None, last_gpu_ms: None })
     }
 
     pub fn context(&self) -> &Arc<Context> {
@@ -120,7 +126,7 @@ impl Renderer {
         let pipeline = match scene.render.method {
             Method::FixedStep => &self.raymarch,
             Method::Analytic => return Err(RenderError::Unsupported("analytic")),
-            Method::Mesh => return Err(RenderError::Unsupported("mesh")),
+            Method::Mesh => return self.render_scene_mesh(scene, grid, gpu_grid, time),
         };
         let ctx = &self.ctx;
         let (width, height) = (scene.image.width, scene.image.height);

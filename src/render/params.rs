@@ -74,11 +74,16 @@ pub fn depth_range(eye: DVec3, grid: &Grid) -> (f64, f64) {
     ((dist - radius).max(0.0), dist + radius)
 }
 
+/// Triangles tested per pixel at the top of the `steps` colormap of the mesh render.
+pub const MESH_STEPS_SCALE: f64 = 64.0;
+
 /// The step count shown at the top of the `steps` colormap: the sample count for fixed-step,
-/// the most cells a ray can cross (nx + ny + nz - 3 + 1) for analytic.
+/// the most cells a ray can cross (nx + ny + nz - 3 + 1) for analytic, [`MESH_STEPS_SCALE`]
+/// triangles tested for mesh.
 pub fn steps_scale(scene: &Scene, grid: &Grid) -> f64 {
     match scene.render.method {
         Method::FixedStep => scene.render.steps as f64,
+        Method::Mesh => MESH_STEPS_SCALE,
         _ => (grid.cells().iter().sum::<usize>() + 1) as f64,
     }
 }

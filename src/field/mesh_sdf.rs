@@ -21,7 +21,8 @@
 //! * **Sign**: the generalised winding number w(p) of Jacobson et al. (SIGGRAPH 2013), the sum of
 //!   the triangles' signed solid angles over 4π: 1 inside a closed, outward-wound mesh, 0 outside,
 //!   and a smooth, robust inside measure for meshes with holes, flipped parts or self-overlaps.
-//!   p is inside where w(p) > 1/2. Evaluated as Barill et al. (SIGGRAPH 2018) do: exactly
+//!   p is inside where |w(p)| > 1/2 (so a mesh wound inside-out, w = -1 within, keeps its
+//!   inside; the resampled surface then faces outward again). Evaluated as Barill et al. (SIGGRAPH 2018) do: exactly
 //!   (Van Oosterom–Strackee solid angle) for nearby BVH leaves, by the node's dipole (the sum of
 //!   its area-weighted normals at its area-weighted centroid) for nodes further than
 //!   [`FAR_FIELD`] times their radius.
@@ -285,10 +286,10 @@ impl MeshSdf {
         MeshSdf { tris, nodes }
     }
 
-    /// Signed distance at `p`: negative inside (winding number above 1/2).
+    /// Signed distance at `p`: negative inside (|winding number| above 1/2).
     pub fn distance(&self, p: DVec3) -> f64 {
         let d = self.unsigned_distance(p);
-        if self.winding_number(p) > 0.5 {
+        if self.winding_number(p).abs() > 0.5 {
             -d
         } else {
             d

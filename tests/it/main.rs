@@ -7,6 +7,7 @@ mod common;
 mod compare;
 mod layout;
 mod mesh;
+mod mesh_field;
 mod mesh_render;
 mod output;
 mod render;

@@ -573,7 +573,10 @@ mod tests {
             assert!((sdf.unsigned_distance(p) - brute).abs() < 1e-12, "{p}");
             let w = sdf.winding_number(p);
             assert!((w - exact_w).abs() < 0.05, "{p}: {w} vs {exact_w}");
-            assert_eq!(w > 0.5, p.length() < 0.75, "{p}: winding {w}");
+            // The faces lie between radius 0.8 cos(9°) ≈ 0.79 and 0.8.
+            if p.length() < 0.78 || p.length() > 0.8 {
+                assert_eq!(w > 0.5, p.length() < 0.78, "{p}: winding {w}");
+            }
         }
     }
 

@@ -5,6 +5,7 @@
 mod cli;
 mod common;
 mod compare;
+mod extract_cli;
 mod layout;
 mod mesh;
 mod mesh_field;

@@ -142,6 +142,14 @@ fn info(cli: &Cli) -> Result<i32, Failure> {
             "no".into()
         }
     );
+    println!(
+        "64-bit buffer atomics  {}",
+        if i.int64_atomics {
+            "yes (render.method = \"mesh\" works)"
+        } else {
+            "no (no mesh render)"
+        }
+    );
     println!("validation             {}", if cli.validation { "on" } else { "off" });
     Ok(0)
 }

@@ -50,8 +50,9 @@ impl From<GpuError> for Failure {
 )]
 pub struct Cli {
     /// Vulkan device to use: a case-insensitive part of its name (default: a discrete GPU, else
-    /// an integrated one, else lavapipe). Also read from ISOVIEW_DEVICE. For `extract`, the
-    /// words `gpu` and `cpu` choose where the extraction runs instead (see `extract --help`).
+    /// an integrated one, else lavapipe). Also read from ISOVIEW_DEVICE. For `extract`,
+    /// `--device gpu` or `--device cpu` chooses where the extraction runs (the Vulkan device then
+    /// comes from ISOVIEW_DEVICE); any other value names the Vulkan device.
     #[arg(long, global = true, env = "ISOVIEW_DEVICE")]
     pub device: Option<String>,
     /// Whether `device` was written on the command line (not read from ISOVIEW_DEVICE).

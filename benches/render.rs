@@ -48,6 +48,7 @@ fn scene(grid: &Grid, size: u32, steps: u32) -> Scene {
             background: [0.0; 4],
             color: [0.85, 0.65, 0.45],
         },
+        slice: SliceSettings::default(),
     }
 }
 

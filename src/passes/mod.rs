@@ -2,3 +2,4 @@
 //! dispatch. A pass reads as name → shader → bindings → push constants → dispatch.
 
 pub mod raymarch;
+pub mod slice;

@@ -98,6 +98,7 @@ pub fn scene_for(grid: &Grid, eye: DVec3, size: u32, method: Method) -> Scene {
             background: [0.0, 0.0, 0.0, 0.0],
             color: [0.85, 0.65, 0.45],
         },
+        slice: SliceSettings::default(),
     }
 }
 

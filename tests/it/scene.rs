@@ -519,7 +519,7 @@ fn override_errors_name_the_override() {
     assert_eq!(
         error(CELL, &["colour=1"]),
         "--set colour=1: colour: unknown table or key (a scene has the tables [image], [camera], \
-         [field], [surface], [render])"
+         [field], [surface], [render], [slice])"
     );
     assert_eq!(
         error(CELL, &["render.steps"]),

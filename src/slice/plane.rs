@@ -172,14 +172,19 @@ impl PlaneGrid {
         lerp(lerp(c00, c10, f.x), lerp(c01, c11, f.x), f.y)
     }
 
-    /// Plane index point → world `(u, v)`.
+    /// Plane index point → world `(u, v)` (exactly `min` and `max` at the box's sides).
     pub fn to_uv(&self, q: DVec2) -> DVec2 {
-        self.min + q * self.spacing()
+        let c = self.cells();
+        DVec2::new(
+            lerp(self.min.x, self.max.x, q.x / c[0] as f64),
+            lerp(self.min.y, self.max.y, q.y / c[1] as f64),
+        )
     }
 
     /// World `(u, v)` → plane index point.
     pub fn to_index(&self, uv: DVec2) -> DVec2 {
-        (uv - self.min) / self.spacing()
+        let c = self.cells();
+        (uv - self.min) / (self.max - self.min) * DVec2::new(c[0] as f64, c[1] as f64)
     }
 
     /// World `(u, v)` → world point on the plane.

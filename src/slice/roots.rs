@@ -216,7 +216,8 @@ pub fn probe_segment(
     for (n, &(ta, tb)) in pieces.iter().enumerate() {
         let [i, j] = plane.cell_of(at(0.5 * (ta + tb)));
         let origin = DVec2::new(i as f64, j as f64);
-        let (la, lb) = (at(ta) - origin, at(tb) - origin);
+        let unit = |q: DVec2| (q - origin).clamp(DVec2::ZERO, DVec2::ONE);
+        let (la, lb) = (unit(at(ta)), unit(at(tb)));
         let [v00, v10, v11, v01] = plane.cell_corners(i, j);
         let twist = v00 - v10 - v01 + v11;
         let (du, dv) = (v10 - v00, v01 - v00);

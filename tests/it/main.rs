@@ -10,4 +10,5 @@ mod mesh;
 mod output;
 mod render;
 mod scene;
+mod slice;
 mod sources;

@@ -5,6 +5,7 @@
 mod cli;
 mod common;
 mod compare;
+mod fuzz;
 mod golden;
 mod layout;
 mod mesh;

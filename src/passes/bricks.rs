@@ -40,6 +40,33 @@ pub fn brick_counts(dims: [usize; 3]) -> [usize; 3] {
     dims.map(|n| n.saturating_sub(1).max(1).div_ceil(BRICK))
 }
 
+/// The min/max grid computed on the CPU, in the buffer's layout: the test reference of
+/// `bricks.comp`.
+pub fn reference(grid: &crate::field::Grid) -> Vec<[f32; 2]> {
+    let counts = brick_counts(grid.dims);
+    let mut out = Vec::with_capacity(counts.iter().product());
+    for bz in 0..counts[2] {
+        for by in 0..counts[1] {
+            for bx in 0..counts[0] {
+                let lo = [bx, by, bz].map(|b| b * BRICK);
+                let hi: Vec<usize> =
+                    (0..3).map(|a| (lo[a] + BRICK).min(grid.dims[a] - 1)).collect();
+                let mut mm = [f32::INFINITY, f32::NEG_INFINITY];
+                for k in lo[2]..=hi[2] {
+                    for j in lo[1]..=hi[1] {
+                        for i in lo[0]..=hi[0] {
+                            let v = grid.at(i, j, k);
+                            mm = [mm[0].min(v), mm[1].max(v)];
+                        }
+                    }
+                }
+                out.push(mm);
+            }
+        }
+    }
+    out
+}
+
 pub fn pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
     ComputePipeline::new(
         ctx,

@@ -51,6 +51,11 @@ impl GpuGrid {
             bricks: std::cell::OnceCell::new(),
         })
     }
+
+    /// The brick min/max grid, once an analytic render has built it (layout: [`bricks`]).
+    pub fn bricks(&self) -> Option<&Buffer> {
+        self.bricks.get()
+    }
 }
 
 /// Owns the pipelines and constant resources; renders any number of frames.

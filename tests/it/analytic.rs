@@ -794,3 +794,31 @@ fn validation_layer_reports_nothing_for_an_analytic_render() {
     assert!(frame.pixels.iter().any(|p| p.is_hit()));
     assert_eq!(validation_messages(), before, "validation warnings or errors (printed above)");
 }
+
+#[test]
+fn scene_keys_skip_and_crossing() {
+    use isoview::field::GridLimits;
+    use std::path::Path;
+    let parse = |text: &str, overrides: &[&str]| {
+        let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+        isoview::scene::from_str_with(
+            text,
+            "t.toml",
+            Path::new("."),
+            &overrides,
+            &GridLimits::default(),
+        )
+    };
+    let cell = "[field]\nsource = \"corners\"\nvalues = [-1, 1, 1, 1, 1, 1, 1, 1]\n";
+    let s = parse(cell, &[]).unwrap();
+    assert_eq!((s.render.skip, s.render.crossing), (true, 1));
+    let s = parse(cell, &["render.skip=false", "render.crossing=3"]).unwrap();
+    assert_eq!((s.render.skip, s.render.crossing), (false, 3));
+    let text = format!("{cell}[render]\nskip = false\ncrossing = 2\n");
+    let s = parse(&text, &[]).unwrap();
+    assert_eq!((s.render.skip, s.render.crossing), (false, 2));
+    let e = parse(&format!("{cell}[render]\ncrossing = 0\n"), &[]).unwrap_err().to_string();
+    assert_eq!(e, "t.toml:5:12: render.crossing: must be at least 1, got 0");
+    let e = parse(&format!("{cell}[render]\nskip = 1\n"), &[]).unwrap_err().to_string();
+    assert_eq!(e, "t.toml:5:8: render.skip: expected true or false, got an integer 1");
+}

@@ -49,6 +49,7 @@
 //! | `marching-tetrahedra` | one per crossed edge of the 7 edge families | 6 tetrahedra per cell | `mt` |
 //! | `surface-nets` | one per active cell, mean of its crossings | one quad per crossed interior edge | `dual` |
 //! | `dual-contouring` | as surface nets, on a grid closed at its boundary (GEL) | one quad per crossed edge | `dual` |
+//! | `mc33` | as marching cubes | the trilinear interpolant's topology per cell (Chernyaev's MC33 cases) | `mc33` |
 //!
 //! Each module's documentation states its exact rules.
 
@@ -57,6 +58,7 @@ mod edges;
 pub mod export;
 mod field;
 mod mc;
+mod mc33;
 mod mt;
 pub mod stats;
 pub mod tables;
@@ -129,8 +131,6 @@ pub enum MeshError {
     BadIsovalue(f64),
     #[error("grid has {got} samples, but its dimensions {dims:?} need {want}")]
     BadGrid { dims: [usize; 3], got: usize, want: usize },
-    #[error("mesh algorithm \"{0}\" is not available in this build")]
-    Unsupported(&'static str),
     #[error("the mesh would have more than 2^32 - 1 {what}; use a coarser grid")]
     TooLarge { what: &'static str },
 }
@@ -157,7 +157,7 @@ pub fn extract(
         MeshAlgorithm::MarchingTetrahedra => mt::extract(&f),
         MeshAlgorithm::SurfaceNets => dual::extract(&f, dual::Boundary::Open, opts),
         MeshAlgorithm::DualContouring => dual::extract(&f, dual::Boundary::Closed, opts),
-        MeshAlgorithm::Mc33 => Err(MeshError::Unsupported(algo.name())),
+        MeshAlgorithm::Mc33 => mc33::extract(&f),
     }
 }
 

@@ -191,6 +191,11 @@ pub struct RenderSettings {
     pub steps: u32,
     /// Analytic: Newton-Raphson refinements of each root.
     pub newton_steps: u32,
+    /// Analytic: cross bricks of the min/max grid that cannot hold a crossing in one step
+    /// (images are identical either way; only `steps` changes).
+    pub skip: bool,
+    /// Analytic: which isovalue crossing along the ray is shown (1 = the first hit).
+    pub crossing: u32,
     pub mesh: MeshAlgorithm,
     pub shading: Shading,
     /// Linear RGBA of pixels whose ray misses.
@@ -200,13 +205,15 @@ pub struct RenderSettings {
 }
 
 impl Default for RenderSettings {
-    /// Analytic, 200 fixed steps, 10 Newton steps, marching cubes, Lambert shading, transparent
-    /// black background, colour (0.85, 0.65, 0.45).
+    /// Analytic, 200 fixed steps, 10 Newton steps, skipping on, first crossing, marching cubes,
+    /// Lambert shading, transparent black background, colour (0.85, 0.65, 0.45).
     fn default() -> Self {
         RenderSettings {
             method: Method::Analytic,
             steps: 200,
             newton_steps: 10,
+            skip: true,
+            crossing: 1,
             mesh: MeshAlgorithm::MarchingCubes,
             shading: Shading::Lambert,
             background: [0.0, 0.0, 0.0, 0.0],

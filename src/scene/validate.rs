@@ -18,6 +18,8 @@ pub const MAX_IMAGE_SIDE: i64 = 16384;
 pub const MAX_STEPS: i64 = 1 << 20;
 /// Most Newton refinements per root.
 pub const MAX_NEWTON_STEPS: i64 = 64;
+/// Largest `render.crossing` (a ray crosses at most a few times per cell it visits).
+pub const MAX_CROSSING: i64 = 1 << 20;
 /// Deepest quadtree refinement of a slice below the grid's cells.
 pub const MAX_SLICE_DEPTH: i64 = 10;
 
@@ -120,7 +122,17 @@ fn surface(t: &View) -> Result<SurfaceSettings> {
 }
 
 fn render(t: &View) -> Result<RenderSettings> {
-    t.check_keys(&["method", "steps", "newton_steps", "mesh", "shading", "background", "color"])?;
+    t.check_keys(&[
+        "method",
+        "steps",
+        "newton_steps",
+        "skip",
+        "crossing",
+        "mesh",
+        "shading",
+        "background",
+        "color",
+    ])?;
     let d = RenderSettings::default();
     let methods = Method::ALL.map(|m| (m.name(), m));
     let meshes = MeshAlgorithm::ALL.map(|m| (m.name(), m));
@@ -131,6 +143,10 @@ fn render(t: &View) -> Result<RenderSettings> {
         newton_steps: t.or("newton_steps", d.newton_steps as i64, |s, k, n| {
             integer(s, k, n, 0, MAX_NEWTON_STEPS)
         })? as u32,
+        skip: t.or("skip", d.skip, read::boolean)?,
+        crossing: t
+            .or("crossing", d.crossing as i64, |s, k, n| integer(s, k, n, 1, MAX_CROSSING))?
+            as u32,
         mesh: t.or("mesh", d.mesh, |s, k, n| choice(s, k, n, &meshes))?,
         shading: t.or("shading", d.shading, |s, k, n| choice(s, k, n, &shadings))?,
         background: t.or("background", d.background, colour::<4>)?,

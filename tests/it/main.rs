@@ -2,9 +2,12 @@
 //! device isoview picks (lavapipe in CI) and fail when none is found; set
 //! `ISOVIEW_SKIP_GPU_TESTS=1` to skip them on a machine without Vulkan (CI never does).
 
+mod analytic;
 mod cli;
 mod common;
 mod compare;
+mod fuzz;
+mod golden;
 mod layout;
 mod mesh;
 mod output;

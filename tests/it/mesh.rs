@@ -11,8 +11,9 @@ use isoview::mesh::stats::{self, MeshStats};
 use isoview::mesh::{extract, ExtractOptions, Mesh, QuadSplit};
 use isoview::scene::{Inside, MeshAlgorithm};
 
-const ALL: [MeshAlgorithm; 4] = [
+const ALL: [MeshAlgorithm; 5] = [
     MeshAlgorithm::MarchingCubes,
+    MeshAlgorithm::Mc33,
     MeshAlgorithm::MarchingTetrahedra,
     MeshAlgorithm::SurfaceNets,
     MeshAlgorithm::DualContouring,
@@ -108,7 +109,9 @@ fn closed_fields_topology_per_algorithm() {
             assert_eq!(s.unreferenced_vertices, 0, "{what}");
             assert!(s.volume > 0.0, "{what}");
             match algo {
-                MeshAlgorithm::MarchingCubes | MeshAlgorithm::MarchingTetrahedra => {
+                MeshAlgorithm::MarchingCubes
+                | MeshAlgorithm::Mc33
+                | MeshAlgorithm::MarchingTetrahedra => {
                     assert!(s.is_closed_manifold(), "{what}");
                     assert_eq!(s.euler_characteristic % 2, 0, "{what}");
                 }
@@ -132,7 +135,9 @@ fn ambiguous_noise_fields() {
                 // Bourke's table always separates the inside corners of an ambiguous face, from
                 // whichever cell it is seen, so it leaves no holes; it just ignores the trilinear
                 // interpolant's topology there.
-                MeshAlgorithm::MarchingCubes | MeshAlgorithm::MarchingTetrahedra => {
+                MeshAlgorithm::MarchingCubes
+                | MeshAlgorithm::Mc33
+                | MeshAlgorithm::MarchingTetrahedra => {
                     assert!(s.is_closed_manifold(), "{what}");
                 }
                 // One vertex per cell: closed, but four quads meet at the dual edge of each

@@ -7,6 +7,7 @@ pub mod compare;
 pub mod extract;
 pub mod probe;
 pub mod render;
+pub mod slice;
 
 use std::sync::Arc;
 
@@ -77,6 +78,9 @@ pub enum Command {
     /// Print what the ray through one pixel meets: cells, cubics, roots, Newton iterates, and
     /// where fixed-step finds its crossing.
     Probe(probe::ProbeArgs),
+    /// The field on an axis-aligned plane (EXR, PNG) and its contours by marching squares
+    /// (JSON, SVG).
+    Slice(slice::SliceArgs),
     /// Print the Vulkan device, driver and the limits isoview relies on.
     Info,
 }
@@ -104,6 +108,7 @@ pub fn main() -> i32 {
             &mut std::io::stderr().lock(),
         )),
         Command::Probe(args) => probe::run(&cli, args),
+        Command::Slice(args) => slice::run(&cli, args),
         Command::Info => info(&cli),
     };
     match result {

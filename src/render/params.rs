@@ -26,12 +26,16 @@ pub struct RenderParams {
     pub method: [u32; 4],
     pub surface: [f32; 4],
     pub debug: [f32; 4],
+    pub eye_grid: [f32; 4],
+    pub analytic: [u32; 4],
 }
 
 const _: () = {
-    assert!(std::mem::size_of::<RenderParams>() == 14 * 16);
+    assert!(std::mem::size_of::<RenderParams>() == 16 * 16);
     assert!(std::mem::offset_of!(RenderParams, dims) == 9 * 16);
     assert!(std::mem::offset_of!(RenderParams, debug) == 13 * 16);
+    assert!(std::mem::offset_of!(RenderParams, eye_grid) == 14 * 16);
+    assert!(std::mem::offset_of!(RenderParams, analytic) == 15 * 16);
 };
 
 /// Push constants of the ray passes: the band of rows being rendered.
@@ -115,6 +119,8 @@ impl RenderParams {
                 far as f32,
             ],
             debug: [steps_scale(scene, grid) as f32, 0.0, 0.0, 0.0],
+            eye_grid: v4((cam.eye - grid.min) / grid.spacing(), 0.0),
+            analytic: [r.crossing.max(1), r.skip as u32, crate::passes::bricks::BRICK as u32, 0],
         }
     }
 }

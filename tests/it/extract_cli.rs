@@ -218,4 +218,13 @@ fn render_method_mesh_writes_every_channel_and_says_how_it_was_made() {
     assert!(a.contains(&1.0) && a.contains(&0.0), "hits and misses");
     let text = format!("{:?}", img.attributes);
     assert!(text.contains("mesh") && text.contains("mc33"), "{text}");
+    // The exact surface has the same channels, so `compare` measures the mesh's departure.
+    let exact = dir.join("analytic.exr");
+    let e = exact.display().to_string();
+    let o = isoview(&["render", &scene_path, "-o", &e, "--set", "render.method=analytic"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = isoview(&["compare", &e, &out.display().to_string()], &[]);
+    assert_eq!(o.status.code(), Some(1), "differences, not an error: {}", stderr(&o));
+    let report = String::from_utf8_lossy(&o.stdout);
+    assert!(report.contains("crossings") && report.contains("Z "), "{report}");
 }

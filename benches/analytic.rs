@@ -12,7 +12,7 @@
 //! 3. fixed-step at that `steps`: median GPU time of `FRAMES` frames.
 //!
 //! Environment: `ISOVIEW_BENCH_SIZE` (image side, default 512), `ISOVIEW_BENCH_FRAMES`
-//! (default 3).
+//! (default 5).
 
 use glam::DVec3;
 use isoview::field::{FieldSource, FieldSpec, Grid};
@@ -90,7 +90,7 @@ fn main() {
     };
     let env = |k: &str, d: usize| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
     let size = env("ISOVIEW_BENCH_SIZE", 512) as u32;
-    let frames = env("ISOVIEW_BENCH_FRAMES", 3).max(1);
+    let frames = env("ISOVIEW_BENCH_FRAMES", 5).max(1);
     let mut renderer = Renderer::new(&ctx).expect("renderer");
     let rays = (size * size) as f64;
     println!("device: {} ({})", ctx.info.name, ctx.info.driver_info);

@@ -3,16 +3,18 @@
 //! markdown table; never asserts on time.
 //!
 //! For each scene, in one run:
-//! 1. analytic with skipping (the default) and without: median GPU time of `FRAMES` frames
-//!    (GPU timestamps around the ray passes, `Renderer::last_gpu_ms`); the brick grid is built
-//!    once per grid, before, and timed apart;
+//! 1. the analytic hit mask (skipping on; the brick grid is built by this first analytic frame
+//!    and timed apart);
 //! 2. the smallest fixed-step `steps` whose hit mask matches the analytic one on at least 99.9%
 //!    of the pixels: doubling from 4 until it matches, then bisection between the last miss and
 //!    the first match (matching is not strictly monotone in `steps`; this finds a boundary);
-//! 3. fixed-step at that `steps`: median GPU time of `FRAMES` frames.
+//! 3. `FRAMES` rounds of one frame each of analytic with skipping, analytic without, and
+//!    fixed-step at that `steps`, interleaved so that a change in the machine's load hits all
+//!    three alike; each reports the median GPU time of its frames (GPU timestamps around the ray
+//!    passes, `Renderer::last_gpu_ms`).
 //!
 //! Environment: `ISOVIEW_BENCH_SIZE` (image side, default 512), `ISOVIEW_BENCH_FRAMES`
-//! (default 3).
+//! (default 5).
 
 use glam::DVec3;
 use isoview::field::{FieldSource, FieldSpec, Grid};
@@ -63,16 +65,16 @@ impl Bench<'_> {
         self.renderer.render_uploaded(scene, self.grid, self.gpu_grid, 0.0).expect("render")
     }
 
-    /// Median GPU seconds per frame, and the last frame.
-    fn time(&mut self, scene: &Scene) -> (f64, Frame) {
-        let mut times = Vec::new();
-        let mut last = None;
+    /// Median GPU seconds per frame of each scene, frames interleaved.
+    fn time(&mut self, scenes: &[&Scene]) -> Vec<f64> {
+        let mut times = vec![Vec::new(); scenes.len()];
         for _ in 0..self.frames {
-            let f = self.frame(scene);
-            times.push(self.renderer.last_gpu_ms.unwrap_or(f64::NAN) / 1e3);
-            last = Some(f);
+            for (s, t) in scenes.iter().zip(&mut times) {
+                self.frame(s);
+                t.push(self.renderer.last_gpu_ms.unwrap_or(f64::NAN) / 1e3);
+            }
         }
-        (median(times), last.unwrap())
+        times.into_iter().map(median).collect()
     }
 }
 
@@ -91,7 +93,7 @@ fn main() {
     };
     let env = |k: &str, d: usize| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
     let size = env("ISOVIEW_BENCH_SIZE", 512) as u32;
-    let frames = env("ISOVIEW_BENCH_FRAMES", 3).max(1);
+    let frames = env("ISOVIEW_BENCH_FRAMES", 5).max(1);
     let mut renderer = Renderer::new(&ctx).expect("renderer");
     let rays = (size * size) as f64;
     println!("device: {} ({})", ctx.info.name, ctx.info.driver_info);
@@ -115,16 +117,11 @@ fn main() {
     for (name, grid) in &scenes {
         let gpu_grid = GpuGrid::upload(&ctx, grid).expect("upload");
         let mut b = Bench { renderer: &mut renderer, grid, gpu_grid: &gpu_grid, frames };
-        let mut analytic = scene(grid, size);
-        // Build the brick grid once (the first analytic frame) and time it apart.
-        analytic.image = ImageSettings { width: 1, height: 1 };
-        b.frame(&analytic);
+        let analytic = scene(grid, size);
+        let reference = b.frame(&analytic);
         let bricks_ms = b.renderer.last_bricks_ms;
-        analytic.image = ImageSettings { width: size, height: size };
-        let (t_skip, reference) = b.time(&analytic);
         let mut no_skip = analytic.clone();
         no_skip.render.skip = false;
-        let (t_plain, _) = b.time(&no_skip);
 
         let mut fixed = analytic.clone();
         fixed.render.method = Method::FixedStep;
@@ -148,7 +145,8 @@ fn main() {
         }
         let matched = matches(hi, &mut b);
         fixed.render.steps = hi;
-        let (t_fixed, _) = b.time(&fixed);
+        let t = b.time(&[&analytic, &no_skip, &fixed]);
+        let (t_skip, t_plain, t_fixed) = (t[0], t[1], t[2]);
         println!(
             "| {name} | {:.3e} | {:.3e} | {:.2}× | {} | {hi} | {matched} / {} ({:.3}%) | {:.3e} | {:.2}× |",
             rays / t_skip,

@@ -10,6 +10,12 @@
 // The walk goes on after the hit to count every crossing (the `crossings` channel); only the
 // wanted one (`P.analytic.x`, the k-th) is refined.
 //
+// Outputs: the hit's colour (shade()), normal, depth (the ray's t: distance, dir being a unit
+// vector), position, cell; `crossings`, every crossing with t > 0 inside the box; `steps`, the
+// passes of the walk up to and including the hit's (all of them on a miss). Without skipping a
+// pass is one cell, as the reference's `cells_visited`; with skipping a brick crossed in one jump
+// is one pass, and a ray whose remaining span lies in an empty brick stops there.
+//
 // Empty-space skipping (`P.analytic.y`): `bricks[]` holds the [min, max] of the corner values of
 // each brick of P.analytic.z^3 cells (built by bricks.comp). When the walk enters a cell whose
 // brick is clearly on one side of the isovalue, it jumps to the last cell of the brick along the

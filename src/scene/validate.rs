@@ -18,7 +18,7 @@ pub const MAX_IMAGE_SIDE: i64 = 16384;
 pub const MAX_STEPS: i64 = 1 << 20;
 /// Most Newton refinements per root.
 pub const MAX_NEWTON_STEPS: i64 = 64;
-/// Largest `render.crossing` (a ray crosses at most a few times per cell it visits).
+/// Largest `render.crossing` (far beyond any ray: a cell holds at most 3 crossings).
 pub const MAX_CROSSING: i64 = 1 << 20;
 /// Deepest quadtree refinement of a slice below the grid's cells.
 pub const MAX_SLICE_DEPTH: i64 = 10;

@@ -18,6 +18,8 @@ pub use context::{validation_messages, Context, ContextOptions, DeviceInfo};
 pub use error::GpuError;
 pub use gpu_allocator::MemoryLocation;
 pub use image::Image3d;
-pub use pipeline::{copy_buffer, memory_barrier, ComputePipeline, Dispatch, Resource, Timer};
+pub use pipeline::{
+    copy_buffer, fill_buffer, memory_barrier, ComputePipeline, Dispatch, Resource, Timer,
+};
 
 pub use ash::vk;

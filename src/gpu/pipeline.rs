@@ -272,6 +272,20 @@ pub fn copy_buffer(
     unsafe { ctx.device.cmd_copy_buffer(cmd, src.raw, dst.raw, &[region]) };
 }
 
+/// Records a fill of `bytes` bytes of `dst` from `offset` with the 32-bit word `value` (offset
+/// and size multiples of 4).
+pub fn fill_buffer(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    dst: &Buffer,
+    offset: u64,
+    bytes: u64,
+    value: u32,
+) {
+    // SAFETY: cmd is recording and the buffer is valid; callers keep the range inside it.
+    unsafe { ctx.device.cmd_fill_buffer(cmd, dst.raw, offset, bytes, value) };
+}
+
 /// A pair of timestamps around recorded work.
 pub struct Timer {
     pool: vk::QueryPool,

@@ -5,6 +5,7 @@
 mod cli;
 mod common;
 mod compare;
+mod extract_gpu;
 mod layout;
 mod mesh;
 mod output;

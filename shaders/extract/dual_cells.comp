@@ -1,0 +1,48 @@
+#version 450
+// Extraction pass `dual cells` (surface nets, dual contouring): one vertex per active padded
+// cell, numbered in increasing cell number by the scan (`mesh/dual.rs`).
+//
+// One invocation per cell. Mode 0 (over the slab's cell layers, including the layer before the
+// ones it owns): count 1 if any corner differs from the others, i.e. an edge is crossed. Mode 1
+// (owned cells, after the scan): write the vertex at the mean of the edge crossings with the
+// field's normal there, or, for a padding cell of dual contouring, the box's outward normal.
+
+// Before the include: common.glsl reads gl_WorkGroupSize.
+layout(local_size_x = 64) in;
+
+#include "common.glsl"
+#include "dual.glsl"
+
+void main() {
+    uint id = item_index();
+    if (id >= C.count) {
+        return;
+    }
+    ivec3 cells = nc();
+    ivec3 c = item_coords(id, cells.xy);
+    uint slot = cell_slot(c);
+    if (C.mode == 0u) {
+        uint any_in = 0u;
+        uint all_in = INSIDE_BIT;
+        for (int n = 0; n < 8; n++) {
+            uint m = point_mask[point_slot(c + offset_of(uint(n)))];
+            any_in |= m;
+            all_in &= m;
+        }
+        cell_scan[slot] = (any_in & INSIDE_BIT) != (all_in & INSIDE_BIT) ? 1u : 0u;
+        return;
+    }
+    CellVertex cv;
+    if (!cell_vertex(c, cv)) {
+        return;
+    }
+    uint v = cell_scan[slot] - cell_scan[C.owned_cell];
+    positions[v] = vec4(cell_vertex_world(c, cv), 1.0);
+    vec3 box = vec3(0.0);
+    if (pad() > 0) {
+        box = mix(vec3(0.0), vec3(-1.0), equal(c, ivec3(0)));
+        box = mix(box, vec3(1.0), equal(c, cells - 1));
+    }
+    vec3 normal = box != vec3(0.0) ? normalize(box) : normal_at(c - pad(), cv.local, cv.fallback);
+    normals[v] = vec4(normal, 0.0);
+}

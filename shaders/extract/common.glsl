@@ -42,6 +42,9 @@ layout(std430, binding = 6) writeonly buffer Positions { vec4 positions[]; };
 layout(std430, binding = 7) writeonly buffer Normals { vec4 normals[]; };
 layout(std430, binding = 8) writeonly buffer Indices { uint indices[]; };
 
+// The samples of the slab's padded point layers from C.value_z0 (0 at padding points).
+layout(std430, binding = 9) buffer Values { float values[]; };
+
 // `SlabPush` in Rust.
 layout(push_constant) uniform Push {
     uint groups_x;     // workgroups along x of this dispatch (1D work spread over x and y)
@@ -53,7 +56,7 @@ layout(push_constant) uniform Push {
     uint owned_cell;   // slab index of the first cell this slab owns
     uint vertex_base;  // global id of the slab's first vertex
     uint mode;         // pass-specific
-    uint pad_;
+    int value_z0;      // padded point layer of the slab's first sample in `values`
 } C;
 
 const uint INSIDE_BIT = 256u;
@@ -102,9 +105,10 @@ bool is_real(ivec3 q) {
     return all(greaterThanEqual(q, ivec3(pad()))) && all(lessThan(q, P.dims.xyz + pad()));
 }
 
-// Sample at padded point q (a grid point).
+// Sample at padded point q (a grid point within the slab's sample layers).
 float value_at(ivec3 q) {
-    return texelFetch(u_grid, q - pad(), 0).r;
+    ivec3 n = np();
+    return values[q.x + n.x * (q.y + n.y * (q.z - C.value_z0))];
 }
 
 bool padded_inside(ivec3 q) {
@@ -147,7 +151,7 @@ vec3 world(ivec3 base, vec3 local) {
 vec3 cell_gradient(ivec3 c, vec3 l) {
     float v[8];
     for (int n = 0; n < 8; n++) {
-        v[n] = texelFetch(u_grid, c + offset_of(uint(n)), 0).r;
+        v[n] = value_at(c + pad() + offset_of(uint(n)));
     }
     float x = l.x, y = l.y, z = l.z;
     float mx = 1.0 - x, my = 1.0 - y, mz = 1.0 - z;

@@ -199,10 +199,22 @@ struct SlabPlan {
     owned_point_end: usize,
     owned_cell: usize,
     owned_cell_end: usize,
+    /// Samples held: padded point layers from `value_z0`, `values` points (one layer around
+    /// the point layers, for the gradients of the cells on either side of them).
+    value_z0: usize,
+    values: usize,
 }
 
 impl SlabPlan {
     fn new(kind: Kind, z0: usize, z1: usize, cell_layers: usize, lp: usize, lc: usize) -> Self {
+        let mut plan = SlabPlan::layers(kind, z0, z1, cell_layers, lp, lc);
+        let point_end = plan.point_z0 + plan.points / lp;
+        plan.value_z0 = plan.point_z0.saturating_sub(1);
+        plan.values = ((point_end + 1).min(cell_layers + 1) - plan.value_z0) * lp;
+        plan
+    }
+
+    fn layers(kind: Kind, z0: usize, z1: usize, cell_layers: usize, lp: usize, lc: usize) -> Self {
         match kind {
             Kind::Edges { .. } => {
                 // Points of layer z1 are read for their ids; the last slab owns them too.
@@ -217,6 +229,8 @@ impl SlabPlan {
                     owned_point_end: owned_layers * lp,
                     owned_cell: 0,
                     owned_cell_end: (z1 - z0) * lc,
+                    value_z0: 0,
+                    values: 0,
                 }
             }
             Kind::Dual { .. } => {
@@ -232,6 +246,8 @@ impl SlabPlan {
                     owned_point_end: (z1 - zs) * lp,
                     owned_cell: (z0 - zs) * lc,
                     owned_cell_end: (z1 - zs) * lc,
+                    value_z0: 0,
+                    values: 0,
                 }
             }
         }
@@ -248,7 +264,7 @@ impl SlabPlan {
             owned_cell: self.owned_cell as u32,
             vertex_base,
             mode,
-            pad: 0,
+            value_z0: self.value_z0 as i32,
         }
     }
 }
@@ -266,6 +282,7 @@ struct SlabOutput {
 struct Scratch<'a> {
     image: &'a Image3d,
     params: Buffer,
+    values: Buffer,
     point_mask: Buffer,
     point_scan: Buffer,
     cell_scan: Buffer,
@@ -398,7 +415,9 @@ impl Extractor {
             .min(ctx.info.max_storage_buffer_range)
             .min(MAX_SCRATCH_BYTES);
         let limit_elems = (limit_bytes / 4) as usize;
-        let by_limit = ((limit_elems - 1) / lp).saturating_sub(2);
+        // A slab holds at most `layers + 2` point layers (plus one total) and `layers + 4`
+        // layers of samples.
+        let by_limit = ((limit_elems - 1) / lp).saturating_sub(4);
         if by_limit == 0 {
             return Err(GpuError::Limit(format!(
                 "a z layer of {}x{} points does not fit one storage buffer ({limit_bytes} bytes)",
@@ -416,6 +435,7 @@ impl Extractor {
             &params(grid, iso, inside, pad),
             (layers + 2) * lp,
             (layers + 1) * lc,
+            (layers + 4) * lp,
         )?;
         let mut stats =
             ExtractStats { gpu_ms: scratch.timer.as_ref().map(|_| 0.0), ..Default::default() };
@@ -464,6 +484,7 @@ impl Extractor {
         params: &ExtractParams,
         points: usize,
         cells: usize,
+        values: usize,
     ) -> Result<Scratch<'a>, GpuError> {
         let ctx = &self.ctx;
         let bytes = std::mem::size_of::<ExtractParams>() as u64;
@@ -497,6 +518,7 @@ impl Extractor {
                 MemoryLocation::GpuOnly,
             )
         };
+        let values = storage("extract values", values)?;
         let point_mask = storage("extract point masks", points)?;
         let point_scan = storage("extract point scan", points + 1)?;
         let cell_scan = storage("extract cell scan", cells + 1)?;
@@ -513,6 +535,7 @@ impl Extractor {
         Ok(Scratch {
             image,
             params: params_buf,
+            values,
             point_mask,
             point_scan,
             cell_scan,
@@ -544,6 +567,7 @@ impl Extractor {
             Resource::Storage(p),
             Resource::Storage(n),
             Resource::Storage(i),
+            Resource::Storage(&s.values),
         ])
     }
 
@@ -606,6 +630,7 @@ impl Extractor {
             Kind::Edges { mt: true } => (points_mode::MT, &p.mt),
             Kind::Dual { .. } => (points_mode::DUAL, &p.dual_cells),
         };
+        let values_set = self.bind(&p.values, s, None)?;
         let points_set = self.bind(&p.points, s, None)?;
         let cells_set = self.bind(cells, s, None)?;
         self.submit(s, stats, "extract count", |cmd| {
@@ -621,6 +646,8 @@ impl Extractor {
                     vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
                 ),
             );
+            record_items(cmd, &p.values, &values_set, plan.push(plan.values, plan.value_z0, 0, 0))?;
+            compute_barrier(ctx, cmd);
             let push = plan.push(plan.points, plan.point_z0, 0, points_mode);
             record_items(cmd, &p.points, &points_set, push)?;
             compute_barrier(ctx, cmd);

@@ -4,6 +4,7 @@
 //!
 //! | pass | shader | one invocation per | writes |
 //! | --- | --- | --- | --- |
+//! | `values` | `values.comp` | padded point | the slab's samples, gathered from the grid image into a buffer |
 //! | `points` | `points.comp` | padded lattice point | mask (inside bit, crossed families), count (MC/MT vertices, dual quads) |
 //! | `marching cubes` / `marching tetrahedra` | `mc.comp` / `mt.comp` | cell | mode 0: triangle count; mode 1: triangles |
 //! | `edge vertices` | `edge_vertices.comp` | owned point | one vertex per crossed edge |
@@ -11,7 +12,7 @@
 //! | `dual quads` | `dual_quads.comp` | owned point | two triangles per quad |
 //! | `scan`, `scan add` | `scan.comp`, `scan_add.comp` | 4 elements | exclusive prefix sums in place |
 //!
-//! Every extraction pass binds the same nine resources ([`EXTRACT_BINDINGS`]) and takes
+//! Every extraction pass binds the same ten resources ([`EXTRACT_BINDINGS`]) and takes
 //! [`SlabPush`]; a pass that does not use a binding still gets a (dummy) buffer there.
 
 use std::sync::Arc;
@@ -33,10 +34,11 @@ pub const SCAN_BLOCK: u64 = 1024;
 const MAX_GROUPS_X: u32 = 65535;
 
 /// Bindings of every extraction pass, in order: params (uniform), grid (3D image), point masks,
-/// point scan, cell scan, tables, positions, normals, indices (storage).
-pub const EXTRACT_BINDINGS: [vk::DescriptorType; 9] = [
+/// point scan, cell scan, tables, positions, normals, indices, values (storage).
+pub const EXTRACT_BINDINGS: [vk::DescriptorType; 10] = [
     vk::DescriptorType::UNIFORM_BUFFER,
     vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+    vk::DescriptorType::STORAGE_BUFFER,
     vk::DescriptorType::STORAGE_BUFFER,
     vk::DescriptorType::STORAGE_BUFFER,
     vk::DescriptorType::STORAGE_BUFFER,
@@ -89,7 +91,8 @@ pub struct SlabPush {
     pub vertex_base: u32,
     /// Pass-specific mode.
     pub mode: u32,
-    pub pad: u32,
+    /// Padded point layer of the slab's first sample in the values buffer.
+    pub value_z0: i32,
 }
 
 const _: () = assert!(std::mem::size_of::<SlabPush>() == 40);
@@ -192,6 +195,7 @@ pub mod points_mode {
 
 /// The extraction pipelines.
 pub struct ExtractPasses {
+    pub values: ComputePipeline,
     pub points: ComputePipeline,
     pub edge_vertices: ComputePipeline,
     pub mc: ComputePipeline,
@@ -211,6 +215,7 @@ impl ExtractPasses {
         let scan_bindings = [vk::DescriptorType::STORAGE_BUFFER; 2];
         let scan_push = std::mem::size_of::<ScanPush>() as u32;
         Ok(ExtractPasses {
+            values: extract("extract values", shaders::EXTRACT_VALUES)?,
             points: extract("extract points", shaders::EXTRACT_POINTS)?,
             edge_vertices: extract("extract edge vertices", shaders::EXTRACT_EDGE_VERTICES)?,
             mc: extract("extract marching cubes", shaders::EXTRACT_MC)?,

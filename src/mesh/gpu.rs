@@ -7,13 +7,15 @@
 //! Per slab of z layers, two submissions and one small readback:
 //!
 //! ```text
-//!  count:  points ──► cells (count) ──► scan(points) ──► scan(cells) ──► copy 4 counters ─► host
-//!            │ mask + count per point      │ count per cell       exclusive prefix sums
+//!  count:  values ─► points ─► cells (count) ─► scan(points) ─► scan(cells) ─► copy 4 counters ─► host
+//!                     │ mask + count per point   │ count per cell   exclusive prefix sums
 //!  host:   size the slab's output buffers from the counters (exactly)
 //!  emit:   vertices (per owned point or cell) ──┐
 //!          triangles (per owned cell or point) ─┴─► slab output ─► (several slabs) copy into one
 //! ```
 //!
+//! * **values**: the slab's samples, one texelFetch each from the grid image into a storage
+//!   buffer that the other passes read.
 //! * **points** (one invocation per lattice point of the slab): the inside bit and one bit per
 //!   crossed edge family starting at the point; the count of what the point owns: the vertices
 //!   of its crossed edges (marching cubes: x, y, z; marching tetrahedra: 7 families), or for the
@@ -39,9 +41,11 @@
 //! methods the cells of layer `z0 - 1` (owned by the previous slab, whose ids end where this
 //! slab's begin). Ids are `vertex_base + scan[owner] - scan[first owned]`, which is the
 //! neighbour's own numbering in both cases, so slabs join seamlessly. A slab whose output would
-//! not fit one binding is halved and redone. Memory: the per-slab scratch (8 bytes per point
+//! not fit one binding is halved and redone. Memory: the per-slab scratch (12 bytes per point
 //! and 4 per cell of at most one slab) plus the output, held twice while slabs are copied into
-//! one buffer (once with a single slab).
+//! one buffer (once with a single slab). Limits: a slab needs five point layers in one binding,
+//! so an x·y layer of more than a fifth of a binding (6.7 M points on lavapipe) is refused with
+//! an error, as is an axis beyond the device's 3D image size (4096 on lavapipe).
 //!
 //! # Precision
 //!

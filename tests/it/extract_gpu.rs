@@ -364,3 +364,42 @@ fn scan_is_an_exclusive_prefix_sum() {
         assert_eq!(got, want, "scan of {len}");
     }
 }
+
+/// Closed-form answers through the one-call API: for a linear field every vertex of every
+/// algorithm lies on the plane and every normal is the plane's (the trilinear interpolant is
+/// the plane itself); for a sphere's distance field the vertices lie within a fraction of a cell
+/// of the sphere and the normals point radially.
+#[test]
+fn closed_form_plane_and_sphere() {
+    let Some(ctx) = gpu() else { return };
+    let a = DVec3::new(0.3, -0.5, 0.8);
+    let plane = grid_from([9, 8, 10], DVec3::splat(-1.0), DVec3::ONE, |p| a.dot(p) - 0.1);
+    let sphere = grid_from([24, 24, 24], DVec3::splat(-1.0), DVec3::ONE, |p| p.length() - 0.7);
+    let h = sphere.spacing().x;
+    for algo in GPU_ALGOS {
+        let m = isoview::mesh::gpu::extract(&ctx, &plane, 0.0, Inside::Below, algo)
+            .unwrap()
+            .read()
+            .unwrap();
+        assert!(m.triangle_count() > 0);
+        for (p, n) in m.positions.iter().zip(&m.normals) {
+            let (p, n) = (DVec3::from(p.map(f64::from)), DVec3::from(n.map(f64::from)));
+            let on_box = p.abs().max_element() > 1.0 - 1e-6;
+            // Dual contouring's caps lie in the box faces, with the box's normals.
+            if algo == MeshAlgorithm::DualContouring && on_box {
+                continue;
+            }
+            assert!((a.dot(p) - 0.1).abs() < 1e-5, "{}: {p} off the plane", algo.name());
+            assert!((n - a.normalize()).length() < 1e-5, "{}: normal {n}", algo.name());
+        }
+        let m = isoview::mesh::gpu::extract(&ctx, &sphere, 0.0, Inside::Below, algo)
+            .unwrap()
+            .read()
+            .unwrap();
+        for (p, n) in m.positions.iter().zip(&m.normals) {
+            let (p, n) = (DVec3::from(p.map(f64::from)), DVec3::from(n.map(f64::from)));
+            assert!((p.length() - 0.7).abs() < 0.1 * h, "{}: {p} off the sphere", algo.name());
+            assert!(n.dot(p.normalize()) > 0.99, "{}: normal {n} at {p}", algo.name());
+        }
+    }
+}

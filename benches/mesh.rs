@@ -71,6 +71,14 @@ fn noise_grid(n: usize) -> Grid {
     g
 }
 
+/// `/proc/loadavg`'s first three fields (other work on the host skews every time here,
+/// lavapipe's most, as it runs on the same cores).
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|_| "unknown".into())
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
     v[v.len() / 2]
@@ -129,6 +137,7 @@ fn main() {
     let opts = GpuExtractOptions::default();
     let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
     println!("device: {} ({}); host: {threads} CPU threads", ctx.info.name, ctx.info.driver_info);
+    println!("load average at start: {}", load_average());
     println!();
 
     let mut rows = Vec::new();
@@ -206,6 +215,8 @@ fn main() {
         }
     }
 
+    println!("load average at end: {}", load_average());
+    println!();
     println!("| field | grid | implementation | ms | GPU-timestamp ms | Mvoxels/s | vertices | triangles | × isoview CPU |");
     println!("|---|---|---|---:|---:|---:|---:|---:|---:|");
     for r in &rows {

@@ -37,8 +37,9 @@ layout(std430, binding = 5) readonly buffer Tables {
 };
 
 // The slab's output: vertices (xyz, w = 1), normals (xyz, w = 0), triangles (3 global vertex
-// ids each), all indexed from the slab's first vertex / triangle.
-layout(std430, binding = 6) writeonly buffer Positions { vec4 positions[]; };
+// ids each), all indexed from the slab's first vertex / triangle. (The dual quad pass reads
+// the positions back for the shorter-diagonal split.)
+layout(std430, binding = 6) buffer Positions { vec4 positions[]; };
 layout(std430, binding = 7) writeonly buffer Normals { vec4 normals[]; };
 layout(std430, binding = 8) writeonly buffer Indices { uint indices[]; };
 
@@ -124,7 +125,7 @@ ivec3 offset_of(uint bits) {
 // [0, 1], 0.5 when NaN. The isovalue enters as hi + lo so that iso - a keeps its f64 digits
 // where it cancels (hi - a is then exact).
 float crossing(float a, float b) {
-    float s = ((P.iso.y - a) + P.iso.z) / (b - a);
+    precise float s = ((P.iso.y - a) + P.iso.z) / (b - a);
     return isnan(s) ? 0.5 : clamp(s, 0.0, 1.0);
 }
 
@@ -141,9 +142,11 @@ float padded_crossing(ivec3 q, ivec3 d) {
 }
 
 // World position of grid index-space point base + local (local summed last, so it keeps its
-// digits however far base is from the origin).
+// digits however far base is from the origin). `precise` here and in the crossings: no fused
+// multiply-adds, so every pass that computes a position gets the same bits.
 vec3 world(ivec3 base, vec3 local) {
-    return (P.box_min.xyz + vec3(base) * P.spacing.xyz) + local * P.spacing.xyz;
+    precise vec3 w = (P.box_min.xyz + vec3(base) * P.spacing.xyz) + local * P.spacing.xyz;
+    return w;
 }
 
 // Index-space gradient of the trilinear interpolant of grid cell c at local (x, y, z):

@@ -11,7 +11,7 @@ struct CellVertex {
 // edges, y edges, z edges, and within axis a by the offsets along (a + 1, a + 2) mod 3:
 // (0,0), (1,0), (0,1), (1,1). False if no edge is crossed.
 bool cell_vertex(ivec3 c, out CellVertex cv) {
-    vec3 sum = vec3(0.0);
+    precise vec3 sum = vec3(0.0);
     vec3 dir = vec3(0.0);
     uint n = 0u;
     for (int a = 0; a < 3; a++) {
@@ -34,7 +34,8 @@ bool cell_vertex(ivec3 c, out CellVertex cv) {
             n++;
         }
     }
-    cv.local = sum / float(max(n, 1u));
+    precise vec3 local = sum / float(max(n, 1u));
+    cv.local = local;
     cv.fallback = dir;
     return n > 0u;
 }

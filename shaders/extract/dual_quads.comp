@@ -19,7 +19,12 @@ uint cell_id(ivec3 c) {
     return C.vertex_base + cell_scan[cell_slot(c)] - cell_scan[C.owned_cell];
 }
 
+// World position of active cell c's vertex: written by the dual cells pass for the cells this
+// slab owns (layers from C.z0); recomputed, by the same code, for the layer before them.
 vec3 cell_position(ivec3 c) {
+    if (c.z >= C.z0) {
+        return positions[cell_scan[cell_slot(c)] - cell_scan[C.owned_cell]].xyz;
+    }
     CellVertex cv;
     cell_vertex(c, cv);
     return cell_vertex_world(c, cv);

@@ -708,6 +708,7 @@ impl Extractor {
         if vertices == 0 && triangles == 0 {
             return Ok(out);
         }
+        let ctx = &self.ctx;
         let p = &self.passes;
         let vb = vertex_base as u32;
         let owned_points = plan.owned_point_end - plan.owned_point;
@@ -729,6 +730,8 @@ impl Extractor {
         let second_set = self.bind(second, s, Some(&out))?;
         self.submit(s, stats, "extract emit", |cmd| {
             record_items(cmd, first, &first_set, first_push)?;
+            // The dual quads read the vertex positions just written.
+            compute_barrier(ctx, cmd);
             record_items(cmd, second, &second_set, second_push)?;
             Ok(())
         })?;

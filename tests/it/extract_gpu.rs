@@ -184,8 +184,8 @@ fn shorter_split_differs_only_at_ties() {
     }
 }
 
-/// Slabs of 1, 2 and 3 cell layers give the same mesh, bit for bit, as one slab, and it equals
-/// the reference.
+/// Slabs of 1, 2 and 3 cell layers give the same mesh, bit for bit, as one slab (with either
+/// quad split), and it equals the reference.
 #[test]
 fn slabs_join_without_seams() {
     let Some(mut gpu) = Gpu::new() else { return };
@@ -200,13 +200,17 @@ fn slabs_join_without_seams() {
             let reference = cpu(&c, algo, QuadSplit::Fixed);
             assert_vertices_match(&c, &whole, &reference, algo.name());
             assert_eq!(whole.indices, reference.indices);
+            let shorter = GpuExtractOptions { split: QuadSplit::Shorter, ..fixed };
+            let (whole_shorter, _) = gpu.run(&c, algo, &shorter).unwrap();
             for layers in [1, 2, 3] {
-                let opts = GpuExtractOptions { max_slab_layers: Some(layers), ..fixed };
-                let (sliced, stats) = gpu.run(&c, algo, &opts).unwrap();
-                let cells =
-                    c.grid.dims[2] - 1 + 2 * usize::from(algo == MeshAlgorithm::DualContouring);
-                assert_eq!(stats.slabs, cells.div_ceil(layers), "{} slabs", algo.name());
-                assert_eq!(sliced, whole, "{} in slabs of {layers} layers", algo.name());
+                for (base, whole) in [(fixed, &whole), (shorter, &whole_shorter)] {
+                    let opts = GpuExtractOptions { max_slab_layers: Some(layers), ..base };
+                    let (sliced, stats) = gpu.run(&c, algo, &opts).unwrap();
+                    let cells =
+                        c.grid.dims[2] - 1 + 2 * usize::from(algo == MeshAlgorithm::DualContouring);
+                    assert_eq!(stats.slabs, cells.div_ceil(layers), "{} slabs", algo.name());
+                    assert_eq!(&sliced, whole, "{} in slabs of {layers} layers", algo.name());
+                }
             }
         }
     }

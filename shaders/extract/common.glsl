@@ -58,6 +58,8 @@ layout(push_constant) uniform Push {
     uint vertex_base;  // global id of the slab's first vertex
     uint mode;         // pass-specific
     int value_z0;      // padded point layer of the slab's first sample in `values`
+    uint owned_point_end;  // slab index one past the last point this slab owns
+    uint owned_cell_end;   // slab index one past the last cell this slab owns
 } C;
 
 const uint INSIDE_BIT = 256u;
@@ -82,6 +84,55 @@ ivec3 item_coords(uint i, ivec2 extent) {
     uint r = i - k * layer;
     uint j = r / uint(extent.x);
     return ivec3(int(r - j * uint(extent.x)), int(j), C.z0 + int(k));
+}
+
+// Padded point / cell at slab index `slot` (inverse of point_slot / cell_slot).
+ivec3 point_at(uint slot) {
+    uvec3 n = uvec3(np());
+    uint layer = n.x * n.y;
+    uint r = slot % layer;
+    return ivec3(int(r % n.x), int(r / n.x), C.point_z0 + int(slot / layer));
+}
+ivec3 cell_at(uint slot) {
+    uvec3 n = uvec3(nc());
+    uint layer = n.x * n.y;
+    uint r = slot % layer;
+    return ivec3(int(r % n.x), int(r / n.x), C.cell_z0 + int(slot / layer));
+}
+
+// The owner of output item `target` (counted from the scan's value at the first owned slot):
+// the last owned slot p with scan[p] <= target, found by bisection. The emit passes run one
+// invocation per output item and find their owner this way, so their work follows the output,
+// not the grid. Returns the slot and, in `rank`, the item's rank within its owner.
+uint find_point(uint target, out uint rank) {
+    uint lo = C.owned_point;
+    uint hi = C.owned_point_end;
+    target += point_scan[lo];
+    while (hi - lo > 1u) {
+        uint mid = lo + ((hi - lo) >> 1);
+        if (point_scan[mid] <= target) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    rank = target - point_scan[lo];
+    return lo;
+}
+uint find_cell(uint target, out uint rank) {
+    uint lo = C.owned_cell;
+    uint hi = C.owned_cell_end;
+    target += cell_scan[lo];
+    while (hi - lo > 1u) {
+        uint mid = lo + ((hi - lo) >> 1);
+        if (cell_scan[mid] <= target) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    rank = target - cell_scan[lo];
+    return lo;
 }
 
 // Slab index of padded point q / padded cell c.

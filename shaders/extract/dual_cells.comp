@@ -2,10 +2,11 @@
 // Extraction pass `dual cells` (surface nets, dual contouring): one vertex per active padded
 // cell, numbered in increasing cell number by the scan (`mesh/dual.rs`).
 //
-// One invocation per cell. Mode 0 (over the slab's cell layers, including the layer before the
+// Mode 0, one invocation per cell of the slab's cell layers (including the layer before the
 // ones it owns): count 1 if any corner differs from the others, i.e. an edge is crossed. Mode 1
-// (owned cells, after the scan): write the vertex at the mean of the edge crossings with the
-// field's normal there, or, for a padding cell of dual contouring, the box's outward normal.
+// (after the scan), one invocation per vertex of the slab: find its cell (bisection of the
+// scan), write the vertex at the mean of the edge crossings with the field's normal there, or,
+// for a padding cell of dual contouring, the box's outward normal.
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
 layout(local_size_x = 64) in;
@@ -19,9 +20,8 @@ void main() {
         return;
     }
     ivec3 cells = nc();
-    ivec3 c = item_coords(id, cells.xy);
-    uint slot = cell_slot(c);
     if (C.mode == 0u) {
+        ivec3 c = item_coords(id, cells.xy);
         uint any_in = 0u;
         uint all_in = INSIDE_BIT;
         for (int n = 0; n < 8; n++) {
@@ -29,14 +29,15 @@ void main() {
             any_in |= m;
             all_in &= m;
         }
-        cell_scan[slot] = (any_in & INSIDE_BIT) != (all_in & INSIDE_BIT) ? 1u : 0u;
+        cell_scan[cell_slot(c)] = (any_in & INSIDE_BIT) != (all_in & INSIDE_BIT) ? 1u : 0u;
         return;
     }
+    // Vertex `id` of the slab belongs to the active cell found by bisection of the scan.
+    uint v = id;
+    uint rank;
+    ivec3 c = cell_at(find_cell(v, rank));
     CellVertex cv;
-    if (!cell_vertex(c, cv)) {
-        return;
-    }
-    uint v = cell_scan[slot] - cell_scan[C.owned_cell];
+    cell_vertex(c, cv);
     positions[v] = vec4(cell_vertex_world(c, cv), 1.0);
     vec3 box = vec3(0.0);
     if (pad() > 0) {

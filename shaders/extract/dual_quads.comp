@@ -3,7 +3,8 @@
 // edge with four cells around it, in increasing edge id, as two consecutive triangles
 // (`mesh/dual.rs`).
 //
-// One invocation per point the slab owns (the points pass counted its quads). For the edge
+// One invocation per quad of the slab: its point (bisection of the scan of the quad counts of
+// the points pass) and rank there give the edge. For the edge
 // along axis a, with (b, c) = (a + 1, a + 2) mod 3, the cells at offsets (-1,-1), (0,-1),
 // (0,0), (-1,0) along (b, c) make q0..q3, counter-clockwise about +a, reversed (q1 <-> q3) if
 // the edge starts outside. Mode 0 splits along q0-q2; mode 1 along the shorter diagonal
@@ -36,23 +37,25 @@ float dist2(vec3 a, vec3 b) {
 }
 
 void main() {
-    uint id = item_index();
-    if (id >= C.count) {
+    uint quad = item_index();
+    if (quad >= C.count) {
         return;
     }
-    ivec3 q = item_coords(id, np().xy);
-    uint slot = point_slot(q);
+    // Quad `quad` of the slab is quad `rank` of its point (bisection of the scan).
+    uint rank;
+    uint slot = find_point(quad, rank);
+    ivec3 q = point_at(slot);
     uint mask = point_mask[slot];
-    if ((mask & 7u) == 0u) {
-        return;
-    }
     ivec3 cells = nc();
-    uint quad = point_scan[slot] - point_scan[C.owned_point];
+    uint seen = 0u;
     for (int a = 0; a < 3; a++) {
         int b = (a + 1) % 3;
         int c = (a + 2) % 3;
         if ((mask & (1u << a)) == 0u || q[b] < 1 || q[c] < 1 || q[b] >= cells[b]
             || q[c] >= cells[c]) {
+            continue;
+        }
+        if (seen++ != rank) {
             continue;
         }
         ivec3 eb = ivec3(0);
@@ -93,6 +96,6 @@ void main() {
             indices[o + 4u] = v[2];
             indices[o + 5u] = v[3];
         }
-        quad++;
+        return;
     }
 }

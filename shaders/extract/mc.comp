@@ -1,10 +1,10 @@
 #version 450
 // Extraction pass `marching cubes`: triangles of each cell from Bourke's table (`mesh/mc.rs`).
 //
-// One invocation per cell the slab owns. The case comes from the inside bits of the 8 corner
-// points' masks. Mode 0 writes the cell's triangle count; mode 1 (after the scan) writes its
-// triangles from `cell_scan[slot] - cell_scan[owned_cell]` on, each table triple (e0, e1, e2)
-// as (v(e0), v(e2), v(e1)): counter-clockwise seen from outside.
+// The case comes from the inside bits of the 8 corner points' masks. Mode 0, one invocation
+// per cell the slab owns: the cell's triangle count. Mode 1 (after the scan), one invocation
+// per triangle of the slab: finds its cell and rank there (bisection of the scan), writes the
+// table triple (e0, e1, e2) as (v(e0), v(e2), v(e1)): counter-clockwise seen from outside.
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
 layout(local_size_x = 64) in;
@@ -18,12 +18,8 @@ uint edge_vertex(ivec3 q, uint axis) {
     return C.vertex_base + point_scan[slot] - point_scan[C.owned_point] + bitCount(below);
 }
 
-void main() {
-    uint id = item_index();
-    if (id >= C.count) {
-        return;
-    }
-    ivec3 c = item_coords(id, nc().xy);
+// The Bourke case of cell c from its corners' inside bits.
+uint cube_of(ivec3 c) {
     uint cube = 0u;
     for (int b = 0; b < 8; b++) {
         ivec3 q = c + offset_of(uint(mc_vertex_corner[b]));
@@ -31,27 +27,34 @@ void main() {
             cube |= 1u << b;
         }
     }
-    int row = int(cube) * 16;
-    uint slot = cell_slot(c);
+    return cube;
+}
+
+void main() {
+    uint id = item_index();
+    if (id >= C.count) {
+        return;
+    }
     if (C.mode == 0u) {
+        ivec3 c = item_coords(id, nc().xy);
+        int row = int(cube_of(c)) * 16;
         uint n = 0u;
         while (n < 15u && mc_triangles[row + int(n)] >= 0) {
             n += 3u;
         }
-        cell_scan[slot] = n / 3u;
+        cell_scan[cell_slot(c)] = n / 3u;
         return;
     }
-    uint t = cell_scan[slot] - cell_scan[C.owned_cell];
-    for (int n = 0; n < 15 && mc_triangles[row + n] >= 0; n += 3) {
-        uint v[3];
-        for (int e = 0; e < 3; e++) {
-            int edge = mc_triangles[row + n + e];
-            v[e] = edge_vertex(c + offset_of(uint(mc_edges[2 * edge])),
-                               uint(mc_edges[2 * edge + 1]));
-        }
-        indices[3u * t] = v[0];
-        indices[3u * t + 1u] = v[2];
-        indices[3u * t + 2u] = v[1];
-        t++;
+    // Triangle `id` of the slab is triangle `rank` of its cell.
+    uint rank;
+    ivec3 c = cell_at(find_cell(id, rank));
+    int n = int(cube_of(c)) * 16 + 3 * int(rank);
+    uint v[3];
+    for (int e = 0; e < 3; e++) {
+        int edge = mc_triangles[n + e];
+        v[e] = edge_vertex(c + offset_of(uint(mc_edges[2 * edge])), uint(mc_edges[2 * edge + 1]));
     }
+    indices[3u * id] = v[0];
+    indices[3u * id + 1u] = v[2];
+    indices[3u * id + 2u] = v[1];
 }

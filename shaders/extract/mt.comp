@@ -2,9 +2,9 @@
 // Extraction pass `marching tetrahedra`: triangles of the 6 tetrahedra of each cell
 // (`mesh/mt.rs`).
 //
-// One invocation per cell the slab owns. Mode 0 writes the cell's triangle count; mode 1 (after
-// the scan) writes its triangles, tetrahedra in table order, from
-// `cell_scan[slot] - cell_scan[owned_cell]` on.
+// Mode 0, one invocation per cell the slab owns: the cell's triangle count. Mode 1 (after the
+// scan), one invocation per triangle of the slab: finds its cell and rank there (bisection of
+// the scan) and writes it; a cell's triangles go tetrahedra in table order.
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
 layout(local_size_x = 64) in;
@@ -27,16 +27,17 @@ void main() {
     if (id >= C.count) {
         return;
     }
-    ivec3 c = item_coords(id, nc().xy);
+    bool emit = C.mode == 1u;
+    uint rank = 0u;
+    ivec3 c = emit ? cell_at(find_cell(id, rank)) : item_coords(id, nc().xy);
     uint mask = 0u;
     for (int n = 0; n < 8; n++) {
         if ((point_mask[point_slot(c + offset_of(uint(n)))] & INSIDE_BIT) != 0u) {
             mask |= 1u << n;
         }
     }
-    uint slot = cell_slot(c);
-    bool emit = C.mode == 1u;
-    uint t = emit ? cell_scan[slot] - cell_scan[C.owned_cell] : 0u;
+    // Count the cell's triangles; in mode 1 stop at triangle `rank` and write it as `id`.
+    uint t = 0u;
     if (mask != 0u && mask != 255u) {
         for (int tet = 0; tet < 6; tet++) {
             uint tcase = 0u;
@@ -47,19 +48,20 @@ void main() {
             }
             int row = int(tcase) * 6;
             for (int n = 0; n < 6 && mt_triangles[row + n] >= 0; n += 3) {
-                if (emit) {
+                if (emit && t == rank) {
                     for (int e = 0; e < 3; e++) {
                         int edge = mt_triangles[row + n + e];
                         uint a = uint(mt_tets[4 * tet + mt_tet_edges[2 * edge]]);
                         uint b = uint(mt_tets[4 * tet + mt_tet_edges[2 * edge + 1]]);
-                        indices[3u * t + uint(e)] = corner_edge_vertex(c, a, b);
+                        indices[3u * id + uint(e)] = corner_edge_vertex(c, a, b);
                     }
+                    return;
                 }
                 t++;
             }
         }
     }
     if (!emit) {
-        cell_scan[slot] = t;
+        cell_scan[cell_slot(c)] = t;
     }
 }

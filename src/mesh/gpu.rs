@@ -269,6 +269,8 @@ impl SlabPlan {
             vertex_base,
             mode,
             value_z0: self.value_z0 as i32,
+            owned_point_end: self.owned_point_end as u32,
+            owned_cell_end: self.owned_cell_end as u32,
         }
     }
 }
@@ -711,19 +713,24 @@ impl Extractor {
         let ctx = &self.ctx;
         let p = &self.passes;
         let vb = vertex_base as u32;
-        let owned_points = plan.owned_point_end - plan.owned_point;
+        // One invocation per vertex, then per triangle (per quad for the dual methods).
         let (first, first_push, second, second_push) = match kind {
             Kind::Edges { mt } => (
                 &p.edge_vertices,
-                plan.push(owned_points, plan.z0, vb, u32::from(mt)),
+                plan.push(vertices as usize, plan.z0, vb, u32::from(mt)),
                 if mt { &p.mt } else { &p.mc },
-                plan.push(plan.cells, plan.cell_z0, vb, 1),
+                plan.push(triangles as usize, plan.z0, vb, 1),
             ),
             Kind::Dual { .. } => (
                 &p.dual_cells,
-                plan.push(plan.owned_cell_end - plan.owned_cell, plan.z0, vb, 1),
+                plan.push(vertices as usize, plan.z0, vb, 1),
                 &p.dual_quads,
-                plan.push(owned_points, plan.z0, vb, u32::from(opts.split == QuadSplit::Shorter)),
+                plan.push(
+                    triangles as usize / 2,
+                    plan.z0,
+                    vb,
+                    u32::from(opts.split == QuadSplit::Shorter),
+                ),
             ),
         };
         let first_set = self.bind(first, s, Some(&out))?;

@@ -75,7 +75,7 @@ const _: () = {
 pub struct SlabPush {
     /// Workgroups along x of the dispatch (1D work spread over x and y).
     pub groups_x: u32,
-    /// Items (points or cells) in the dispatch.
+    /// Items (points, cells, vertices or triangles) in the dispatch.
     pub count: u32,
     /// Padded z layer of the first item.
     pub z0: i32,
@@ -93,9 +93,13 @@ pub struct SlabPush {
     pub mode: u32,
     /// Padded point layer of the slab's first sample in the values buffer.
     pub value_z0: i32,
+    /// Slab index one past the last point the slab owns.
+    pub owned_point_end: u32,
+    /// Slab index one past the last cell the slab owns.
+    pub owned_cell_end: u32,
 }
 
-const _: () = assert!(std::mem::size_of::<SlabPush>() == 40);
+const _: () = assert!(std::mem::size_of::<SlabPush>() == 48);
 
 /// Push constants of the scan passes.
 #[repr(C)]

@@ -2,11 +2,9 @@
 // Extraction pass `dual cells` (surface nets, dual contouring): one vertex per active padded
 // cell, numbered in increasing cell number by the scan (`mesh/dual.rs`).
 //
-// Mode 0, one invocation per cell of the slab's cell layers (including the layer before the
-// ones it owns): count 1 if any corner differs from the others, i.e. an edge is crossed. Mode 1
-// (after the scan), one invocation per vertex of the slab: find its cell (bisection of the
-// scan), write the vertex at the mean of the edge crossings with the field's normal there, or,
-// for a padding cell of dual contouring, the box's outward normal.
+// One invocation per vertex of the slab (the classify pass flagged the active cells): find its
+// cell (bisection of the scan), write the vertex at the mean of the edge crossings with the
+// field's normal there, or, for a padding cell of dual contouring, the box's outward normal.
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
 layout(local_size_x = 64) in;
@@ -20,18 +18,6 @@ void main() {
         return;
     }
     ivec3 cells = nc();
-    if (C.mode == 0u) {
-        ivec3 c = item_coords(id, cells.xy);
-        uint any_in = 0u;
-        uint all_in = INSIDE_BIT;
-        for (int n = 0; n < 8; n++) {
-            uint m = point_mask[point_slot(c + offset_of(uint(n)))];
-            any_in |= m;
-            all_in &= m;
-        }
-        cell_scan[cell_slot(c)] = (any_in & INSIDE_BIT) != (all_in & INSIDE_BIT) ? 1u : 0u;
-        return;
-    }
     // Vertex `id` of the slab belongs to the active cell found by bisection of the scan.
     uint v = id;
     uint rank;

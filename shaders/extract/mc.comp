@@ -1,10 +1,10 @@
 #version 450
 // Extraction pass `marching cubes`: triangles of each cell from Bourke's table (`mesh/mc.rs`).
 //
-// The case comes from the inside bits of the 8 corner points' masks. Mode 0, one invocation
-// per cell the slab owns: the cell's triangle count. Mode 1 (after the scan), one invocation
-// per triangle of the slab: finds its cell and rank there (bisection of the scan), writes the
-// table triple (e0, e1, e2) as (v(e0), v(e2), v(e1)): counter-clockwise seen from outside.
+// One invocation per triangle of the slab (the classify pass counted them per cell): finds its
+// cell and rank there (bisection of the scan), the case from the inside bits of the 8 corner
+// points' masks, and writes the table triple (e0, e1, e2) as (v(e0), v(e2), v(e1)):
+// counter-clockwise seen from outside.
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
 layout(local_size_x = 64) in;
@@ -33,16 +33,6 @@ uint cube_of(ivec3 c) {
 void main() {
     uint id = item_index();
     if (id >= C.count) {
-        return;
-    }
-    if (C.mode == 0u) {
-        ivec3 c = item_coords(id, nc().xy);
-        int row = int(cube_of(c)) * 16;
-        uint n = 0u;
-        while (n < 15u && mc_triangles[row + int(n)] >= 0) {
-            n += 3u;
-        }
-        cell_scan[cell_slot(c)] = n / 3u;
         return;
     }
     // Triangle `id` of the slab is triangle `rank` of its cell.

@@ -2,9 +2,9 @@
 // Extraction pass `marching tetrahedra`: triangles of the 6 tetrahedra of each cell
 // (`mesh/mt.rs`).
 //
-// Mode 0, one invocation per cell the slab owns: the cell's triangle count. Mode 1 (after the
-// scan), one invocation per triangle of the slab: finds its cell and rank there (bisection of
-// the scan) and writes it; a cell's triangles go tetrahedra in table order.
+// One invocation per triangle of the slab (the classify pass counted them per cell): finds its
+// cell and rank there (bisection of the scan) and writes it; a cell's triangles go tetrahedra
+// in table order.
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
 layout(local_size_x = 64) in;
@@ -27,41 +27,35 @@ void main() {
     if (id >= C.count) {
         return;
     }
-    bool emit = C.mode == 1u;
-    uint rank = 0u;
-    ivec3 c = emit ? cell_at(find_cell(id, rank)) : item_coords(id, nc().xy);
+    uint rank;
+    ivec3 c = cell_at(find_cell(id, rank));
     uint mask = 0u;
     for (int n = 0; n < 8; n++) {
         if ((point_mask[point_slot(c + offset_of(uint(n)))] & INSIDE_BIT) != 0u) {
             mask |= 1u << n;
         }
     }
-    // Count the cell's triangles; in mode 1 stop at triangle `rank` and write it as `id`.
+    // Walk the cell's triangles to triangle `rank`; write it as `id`.
     uint t = 0u;
-    if (mask != 0u && mask != 255u) {
-        for (int tet = 0; tet < 6; tet++) {
-            uint tcase = 0u;
-            for (int l = 0; l < 4; l++) {
-                if ((mask & (1u << uint(mt_tets[4 * tet + l]))) != 0u) {
-                    tcase |= 1u << l;
-                }
-            }
-            int row = int(tcase) * 6;
-            for (int n = 0; n < 6 && mt_triangles[row + n] >= 0; n += 3) {
-                if (emit && t == rank) {
-                    for (int e = 0; e < 3; e++) {
-                        int edge = mt_triangles[row + n + e];
-                        uint a = uint(mt_tets[4 * tet + mt_tet_edges[2 * edge]]);
-                        uint b = uint(mt_tets[4 * tet + mt_tet_edges[2 * edge + 1]]);
-                        indices[3u * id + uint(e)] = corner_edge_vertex(c, a, b);
-                    }
-                    return;
-                }
-                t++;
+    for (int tet = 0; tet < 6; tet++) {
+        uint tcase = 0u;
+        for (int l = 0; l < 4; l++) {
+            if ((mask & (1u << uint(mt_tets[4 * tet + l]))) != 0u) {
+                tcase |= 1u << l;
             }
         }
-    }
-    if (!emit) {
-        cell_scan[cell_slot(c)] = t;
+        int row = int(tcase) * 6;
+        for (int n = 0; n < 6 && mt_triangles[row + n] >= 0; n += 3) {
+            if (t == rank) {
+                for (int e = 0; e < 3; e++) {
+                    int edge = mt_triangles[row + n + e];
+                    uint a = uint(mt_tets[4 * tet + mt_tet_edges[2 * edge]]);
+                    uint b = uint(mt_tets[4 * tet + mt_tet_edges[2 * edge + 1]]);
+                    indices[3u * id + uint(e)] = corner_edge_vertex(c, a, b);
+                }
+                return;
+            }
+            t++;
+        }
     }
 }

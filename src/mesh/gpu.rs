@@ -7,29 +7,30 @@
 //! Per slab of z layers, two submissions and one small readback:
 //!
 //! ```text
-//!  count:  values ─► points ─► cells (count) ─► scan(points) ─► scan(cells) ─► copy 4 counters ─► host
-//!                     │ mask + count per point   │ count per cell   exclusive prefix sums
+//!  count:  values ─► classify ─► scan(points) ─► scan(cells) ─► copy 4 counters ─► host
+//!                     │ per point: mask + count; per cell: count
 //!  host:   size the slab's output buffers from the counters (exactly)
-//!  emit:   vertices (per owned point or cell) ──┐
-//!          triangles (per owned cell or point) ─┴─► slab output ─► (several slabs) copy into one
+//!  emit:   vertices (one invocation each) ─► triangles (one invocation each, or per quad)
+//!          ─► slab output ─► (several slabs) copied into one mesh
 //! ```
 //!
 //! * **values**: the slab's samples, one texelFetch each from the grid image into a storage
 //!   buffer that the other passes read.
-//! * **points** (one invocation per lattice point of the slab): the inside bit and one bit per
-//!   crossed edge family starting at the point; the count of what the point owns: the vertices
-//!   of its crossed edges (marching cubes: x, y, z; marching tetrahedra: 7 families), or for the
-//!   dual methods the quads of its crossed edges that have four cells around them.
-//! * **cells**: marching cubes / tetrahedra count their triangles from the corner masks; the
-//!   dual methods flag active cells (one vertex each).
+//! * **classify** (one invocation per lattice point of the slab): the inside bit and one bit
+//!   per crossed edge family starting at the point; the count of what the point owns: the
+//!   vertices of its crossed edges (marching cubes: x, y, z; marching tetrahedra: 7 families),
+//!   or for the dual methods the quads of its crossed edges that have four cells around them;
+//!   and for the cell at the point, what it owns: its triangles (marching cubes / tetrahedra)
+//!   or, if active, its vertex (dual methods).
 //! * **scan**: an exclusive prefix sum in place (workgroup scans of 1024 elements, block sums
 //!   scanned level by level, added back), so the id of every vertex and triangle is the scan
 //!   value of its owner plus its rank within the owner: the CPU numbering (vertices in increasing
 //!   edge or cell id, triangles in cell or edge order, then table order). No atomics: runs are
 //!   deterministic.
-//! * **emit**: vertices at the crossings (MC, MT) or at the mean of a cell's crossings (SN, DC)
-//!   with normals from the field's gradient as `Field::normal` defines them; triangles through
-//!   the scanned ids.
+//! * **emit**: one invocation per output vertex or triangle (quad), which finds its owner by
+//!   bisection of the scan, so the work follows the output, not the grid. Vertices at the
+//!   crossings (MC, MT) or at the mean of a cell's crossings (SN, DC) with normals from the
+//!   field's gradient as `Field::normal` defines them; triangles through the scanned ids.
 //!
 //! # Slabs
 //!
@@ -66,7 +67,7 @@ use crate::gpu::{
     Image3d, MemoryLocation, Resource, Timer,
 };
 use crate::passes::extract::{
-    compute_barrier, inside_threshold, points_mode, record_items, ExtractParams, ExtractPasses,
+    classify_mode, compute_barrier, inside_threshold, record_items, ExtractParams, ExtractPasses,
     ExtractTables, Scan, SlabPush,
 };
 use crate::scene::{Inside, MeshAlgorithm};
@@ -631,14 +632,13 @@ impl Extractor {
     ) -> Result<[u64; 2], GpuError> {
         let ctx = &self.ctx;
         let p = &self.passes;
-        let (points_mode, cells) = match kind {
-            Kind::Edges { mt: false } => (points_mode::MC, &p.mc),
-            Kind::Edges { mt: true } => (points_mode::MT, &p.mt),
-            Kind::Dual { .. } => (points_mode::DUAL, &p.dual_cells),
+        let mode = match kind {
+            Kind::Edges { mt: false } => classify_mode::MC,
+            Kind::Edges { mt: true } => classify_mode::MT,
+            Kind::Dual { .. } => classify_mode::DUAL,
         };
         let values_set = self.bind(&p.values, s, None)?;
-        let points_set = self.bind(&p.points, s, None)?;
-        let cells_set = self.bind(cells, s, None)?;
+        let classify_set = self.bind(&p.classify, s, None)?;
         self.submit(s, stats, "extract count", |cmd| {
             // The element after each array holds the total once scanned.
             fill_buffer(ctx, cmd, &s.point_scan, plan.points as u64 * 4, 4, 0);
@@ -654,10 +654,8 @@ impl Extractor {
             );
             record_items(cmd, &p.values, &values_set, plan.push(plan.values, plan.value_z0, 0, 0))?;
             compute_barrier(ctx, cmd);
-            let push = plan.push(plan.points, plan.point_z0, 0, points_mode);
-            record_items(cmd, &p.points, &points_set, push)?;
-            compute_barrier(ctx, cmd);
-            record_items(cmd, cells, &cells_set, plan.push(plan.cells, plan.cell_z0, 0, 0))?;
+            let push = plan.push(plan.points, plan.point_z0, 0, mode);
+            record_items(cmd, &p.classify, &classify_set, push)?;
             compute_barrier(ctx, cmd);
             s.point_scanner.record(ctx, p, cmd, plan.points as u64 + 1)?;
             s.cell_scanner.record(ctx, p, cmd, plan.cells as u64 + 1)?;

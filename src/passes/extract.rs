@@ -5,12 +5,16 @@
 //! | pass | shader | one invocation per | writes |
 //! | --- | --- | --- | --- |
 //! | `values` | `values.comp` | padded point | the slab's samples, gathered from the grid image into a buffer |
-//! | `points` | `points.comp` | padded lattice point | mask (inside bit, crossed families), count (MC/MT vertices, dual quads) |
-//! | `marching cubes` / `marching tetrahedra` | `mc.comp` / `mt.comp` | cell | mode 0: triangle count; mode 1: triangles |
-//! | `edge vertices` | `edge_vertices.comp` | owned point | one vertex per crossed edge |
-//! | `dual cells` | `dual_cells.comp` | padded cell | mode 0: active flag; mode 1: the cell's vertex |
-//! | `dual quads` | `dual_quads.comp` | owned point | two triangles per quad |
+//! | `classify` | `classify.comp` | padded point | point mask (inside bit, crossed families); counts: per point MC/MT vertices or dual quads, per cell MC/MT triangles or dual vertices |
 //! | `scan`, `scan add` | `scan.comp`, `scan_add.comp` | 4 elements | exclusive prefix sums in place |
+//! | `edge vertices` | `edge_vertices.comp` | vertex | MC/MT: the vertex of a crossed edge |
+//! | `marching cubes` / `marching tetrahedra` | `mc.comp` / `mt.comp` | triangle | the triangle |
+//! | `dual cells` | `dual_cells.comp` | vertex | SN/DC: the vertex of an active cell |
+//! | `dual quads` | `dual_quads.comp` | quad | SN/DC: two triangles |
+//!
+//! The emit passes (the last four) find the owner of their output item (the point or cell
+//! whose scanned count range holds it) by bisection of the scan, so their work follows the
+//! output, not the grid.
 //!
 //! Every extraction pass binds the same ten resources ([`EXTRACT_BINDINGS`]) and takes
 //! [`SlabPush`]; a pass that does not use a binding still gets a (dummy) buffer there.
@@ -190,8 +194,8 @@ fn next_toward(t: f32, sign: f32) -> f32 {
     }
 }
 
-/// Modes of `points.comp`.
-pub mod points_mode {
+/// Modes of `classify.comp`.
+pub mod classify_mode {
     pub const MC: u32 = 0;
     pub const MT: u32 = 1;
     pub const DUAL: u32 = 2;
@@ -200,7 +204,7 @@ pub mod points_mode {
 /// The extraction pipelines.
 pub struct ExtractPasses {
     pub values: ComputePipeline,
-    pub points: ComputePipeline,
+    pub classify: ComputePipeline,
     pub edge_vertices: ComputePipeline,
     pub mc: ComputePipeline,
     pub mt: ComputePipeline,
@@ -220,7 +224,7 @@ impl ExtractPasses {
         let scan_push = std::mem::size_of::<ScanPush>() as u32;
         Ok(ExtractPasses {
             values: extract("extract values", shaders::EXTRACT_VALUES)?,
-            points: extract("extract points", shaders::EXTRACT_POINTS)?,
+            classify: extract("extract classify", shaders::EXTRACT_CLASSIFY)?,
             edge_vertices: extract("extract edge vertices", shaders::EXTRACT_EDGE_VERTICES)?,
             mc: extract("extract marching cubes", shaders::EXTRACT_MC)?,
             mt: extract("extract marching tetrahedra", shaders::EXTRACT_MT)?,

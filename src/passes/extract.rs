@@ -32,7 +32,7 @@ use crate::shaders;
 
 /// Workgroup size of the extraction passes (`local_size_x`).
 pub const GROUP: u32 = 64;
-/// Elements scanned by one workgroup of `scan.comp` (256 invocations × 4).
+/// Elements scanned by one workgroup of `scan.comp` (64 invocations × 16).
 pub const SCAN_BLOCK: u64 = 1024;
 /// Most workgroups along one dispatch axis that every Vulkan device accepts.
 const MAX_GROUPS_X: u32 = 65535;

@@ -20,14 +20,8 @@ const uint MODE_MC = 0u;
 const uint MODE_MT = 1u;
 const uint MODE_DUAL = 2u;
 
-// What cell c owns, from the inside bits of its corners (bit n for corner n).
-uint cell_count(ivec3 c) {
-    uint mask = 0u;
-    for (int n = 0; n < 8; n++) {
-        if (padded_inside(c + offset_of(uint(n)))) {
-            mask |= 1u << n;
-        }
-    }
+// What the cell with inside-corner mask `mask` (bit n for corner n) owns.
+uint cell_count(uint mask) {
     if (mask == 0u || mask == 255u) {
         return 0u;
     }
@@ -67,16 +61,21 @@ void main() {
     }
     ivec3 n = np();
     ivec3 q = item_coords(id, n.xy);
-    bool in_q = padded_inside(q);
+    // Inside bits of the 8 points q + offset(k) (0 beyond the lattice): each sample is read
+    // once here, for the point's edges and for its cell alike.
+    uint corners = 0u;
+    for (uint k = 0u; k < 8u; k++) {
+        ivec3 r = q + offset_of(k);
+        if (all(lessThan(r, n)) && padded_inside(r)) {
+            corners |= 1u << k;
+        }
+    }
+    bool in_q = (corners & 1u) != 0u;
     uint mask = in_q ? INSIDE_BIT : 0u;
     uint families = C.mode == MODE_MT ? 7u : 3u;
     for (uint f = 0u; f < families; f++) {
         uint bits = C.mode == MODE_MT ? f + 1u : 1u << f;
-        ivec3 r = q + offset_of(bits);
-        if (any(greaterThanEqual(r, n))) {
-            continue;
-        }
-        if (padded_inside(r) != in_q) {
+        if (all(lessThan(q + offset_of(bits), n)) && ((corners >> bits) & 1u) != uint(in_q)) {
             mask |= 1u << f;
         }
     }
@@ -103,7 +102,7 @@ void main() {
     if (q.x < cells.x && q.y < cells.y && q.z >= C.cell_z0) {
         uint cslot = cell_slot(q);
         if (cslot < C.owned_cell_end) {
-            cell_scan[cslot] = cell_count(q);
+            cell_scan[cslot] = cell_count(corners);
         }
     }
 }

@@ -272,11 +272,18 @@ pub fn copy_buffer(
     unsafe { ctx.device.cmd_copy_buffer(cmd, src.raw, dst.raw, &[region]) };
 }
 
-/// Records a fill of a whole buffer with the 32-bit word `value`.
-pub fn fill_buffer(ctx: &Context, cmd: vk::CommandBuffer, dst: &Buffer, value: u32) {
-    // SAFETY: cmd is recording; the buffer is valid and its size a multiple of 4 (all buffers
-    // are sized so), WHOLE_SIZE fills all of it.
-    unsafe { ctx.device.cmd_fill_buffer(cmd, dst.raw, 0, vk::WHOLE_SIZE, value) };
+/// Records a fill of `bytes` bytes of `dst` from `offset` with the 32-bit word `value` (offset
+/// and size multiples of 4).
+pub fn fill_buffer(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    dst: &Buffer,
+    offset: u64,
+    bytes: u64,
+    value: u32,
+) {
+    // SAFETY: cmd is recording and the buffer is valid; callers keep the range inside it.
+    unsafe { ctx.device.cmd_fill_buffer(cmd, dst.raw, offset, bytes, value) };
 }
 
 /// A pair of timestamps around recorded work.

@@ -57,6 +57,7 @@ mod dual;
 mod edges;
 pub mod export;
 mod field;
+pub mod gpu;
 mod mc;
 mod mc33;
 mod mt;

@@ -3,6 +3,7 @@
 
 pub mod analytic;
 pub mod bricks;
+pub mod extract;
 pub mod mesh_render;
 pub mod raymarch;
 pub mod slice;

@@ -150,8 +150,8 @@ impl Renderer {
                     t.begin(cmd);
                 }
                 // Clear: no hit, nothing counted.
-                fill_buffer(ctx, cmd, &vis, NO_HIT_WORD);
-                fill_buffer(ctx, cmd, &counts, 0);
+                fill_buffer(ctx, cmd, &vis, 0, vis.size, NO_HIT_WORD);
+                fill_buffer(ctx, cmd, &counts, 0, counts.size, 0);
                 memory_barrier(
                     ctx,
                     cmd,

@@ -7,6 +7,7 @@ mod cli;
 mod common;
 mod compare;
 mod extract_cli;
+mod extract_gpu;
 mod fuzz;
 mod golden;
 mod layout;

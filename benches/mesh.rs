@@ -1,0 +1,237 @@
+//! `cargo bench --bench mesh` (or `./x bench`): isosurface extraction speed on 128³ and 256³
+//! grids (sphere, gyroid, noise): the GPU passes (`mesh::gpu`, marching cubes and surface nets)
+//! on the current Vulkan device against the f64 CPU references (`mesh::extract`, one thread)
+//! and the crates `fast-surface-nets` (surface nets) and `isosurface` (marching cubes), all in
+//! the same run. Prints a markdown table; never asserts on time.
+//!
+//! Voxels are cells, `(n - 1)³` for `n³` grid points. GPU times are wall-clock around
+//! `Extractor::extract` with the grid already uploaded: they include the host readback of the
+//! counts after each slab's scan and the output allocation, like the timings of Usher's
+//! WebGPU/Vulkan marching cubes; the GPU-timestamp sum is printed beside them. Every time is the
+//! median of 3 runs after one warm-up, except the CPU references (one run).
+//! `ISOVIEW_BENCH_SIZES=64,128` picks other grid sizes.
+
+use std::time::Instant;
+
+use glam::DVec3;
+use isoview::field::{FieldSource, FieldSpec, Grid};
+use isoview::gpu::{Context, ContextOptions, Image3d};
+use isoview::mesh::gpu::{Extractor, GpuExtractOptions};
+use isoview::mesh::{extract, ExtractOptions, Mesh};
+use isoview::scene::{Bounds, Inside, MeshAlgorithm, SdfShape};
+
+fn sdf_grid(shape: SdfShape, n: usize) -> Grid {
+    let spec = FieldSpec {
+        source: FieldSource::Sdf { shape, center: DVec3::ZERO },
+        resolution: [n, n, n],
+        bounds: Bounds { min: DVec3::splat(-1.0), max: DVec3::splat(1.0) },
+    };
+    spec.sample(0.0).expect("sdf grid")
+}
+
+/// Value noise: hashed lattice values at 8 and 16 cells across the box, trilinearly blended,
+/// minus a little, so the zero set is a dense tangle of blobs and tunnels.
+fn noise_grid(n: usize) -> Grid {
+    fn hash(i: i64, j: i64, k: i64, seed: u64) -> f64 {
+        let mut h = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            ^ (j as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+            ^ (k as u64).wrapping_mul(0x1656_67B1_9E37_79F9)
+            ^ seed;
+        h ^= h >> 31;
+        h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        h ^= h >> 29;
+        (h >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+    fn octave(p: DVec3, freq: f64, seed: u64) -> f64 {
+        let q = p * freq;
+        let f = q.floor();
+        let t = q - f;
+        let (i, j, k) = (f.x as i64, f.y as i64, f.z as i64);
+        let mut v = 0.0;
+        for c in 0..8 {
+            let (dx, dy, dz) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
+            let w = (if dx == 1 { t.x } else { 1.0 - t.x })
+                * (if dy == 1 { t.y } else { 1.0 - t.y })
+                * (if dz == 1 { t.z } else { 1.0 - t.z });
+            v += w * hash(i + dx, j + dy, k + dz, seed);
+        }
+        v
+    }
+    let mut g = Grid { dims: [n; 3], min: DVec3::ZERO, max: DVec3::ONE, values: Vec::new() };
+    g.values.reserve(n * n * n);
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let p = g.point(i, j, k);
+                let v = octave(p, 8.0, 1) + 0.5 * octave(p, 16.0, 2) - 0.1;
+                g.values.push(v as f32);
+            }
+        }
+    }
+    g
+}
+
+/// `/proc/loadavg`'s first three fields (other work on the host skews every time here,
+/// lavapipe's most, as it runs on the same cores).
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|_| "unknown".into())
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[v.len() / 2]
+}
+
+/// Median seconds of 3 runs after a warm-up, and the last run's output.
+fn time<T>(mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut out = f();
+    let mut times = Vec::new();
+    for _ in 0..3 {
+        let started = Instant::now();
+        out = f();
+        times.push(started.elapsed().as_secs_f64());
+    }
+    (median(times), out)
+}
+
+/// The grid as the `isosurface` crate samples it: its `Source` is evaluated at
+/// `(x, y, z) * (size - 1)` for integer x, y, z in `0..=size` (the last z layer is one past the
+/// grid; clamped).
+struct GridSource<'a>(&'a Grid);
+
+impl isosurface::source::Source for GridSource<'_> {
+    fn sample(&self, x: f32, y: f32, z: f32) -> f32 {
+        let g = self.0;
+        let at = |u: f32, n: usize| ((u * (n - 1) as f32).round() as usize).min(n - 1);
+        g.at(at(x, g.dims[0]), at(y, g.dims[1]), at(z, g.dims[2]))
+    }
+}
+
+struct Row {
+    field: &'static str,
+    n: usize,
+    method: String,
+    seconds: f64,
+    gpu_ms: Option<f64>,
+    vertices: usize,
+    triangles: usize,
+    /// Seconds of the isoview CPU reference of the same algorithm.
+    reference: f64,
+}
+
+fn main() {
+    let ctx = match Context::new(&ContextOptions::default()) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("bench: {e}");
+            std::process::exit(3);
+        }
+    };
+    let sizes: Vec<usize> = std::env::var("ISOVIEW_BENCH_SIZES")
+        .ok()
+        .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
+        .unwrap_or_else(|| vec![128, 256]);
+    let mut extractor = Extractor::new(&ctx).expect("extractor");
+    let opts = GpuExtractOptions::default();
+    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    println!("device: {} ({}); host: {threads} CPU threads", ctx.info.name, ctx.info.driver_info);
+    println!("load average at start: {}", load_average());
+    println!();
+
+    let mut rows = Vec::new();
+    for &n in &sizes {
+        let fields: [(&'static str, Grid); 3] = [
+            ("sphere", sdf_grid(SdfShape::Sphere { radius: 0.6 }, n)),
+            ("gyroid", sdf_grid(SdfShape::Gyroid { scale: 10.0, thickness: 0.05 }, n)),
+            ("noise", noise_grid(n)),
+        ];
+        for (field, grid) in &fields {
+            let image =
+                Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values).unwrap();
+            for algo in [MeshAlgorithm::MarchingCubes, MeshAlgorithm::SurfaceNets] {
+                let started = Instant::now();
+                let cpu: Mesh =
+                    extract(grid, 0.0, Inside::Below, algo, ExtractOptions::default()).unwrap();
+                let reference = started.elapsed().as_secs_f64();
+                let mut row = |method: String, seconds, gpu_ms, v, t| {
+                    rows.push(Row {
+                        field,
+                        n,
+                        method,
+                        seconds,
+                        gpu_ms,
+                        vertices: v,
+                        triangles: t,
+                        reference,
+                    })
+                };
+                row(
+                    format!("isoview CPU {}", algo.name()),
+                    reference,
+                    None,
+                    cpu.vertex_count(),
+                    cpu.triangle_count(),
+                );
+                let (s, (v, t, ms)) = time(|| {
+                    let m = extractor
+                        .extract(grid, &image, 0.0, Inside::Below, algo, &opts)
+                        .expect("GPU extraction");
+                    (m.vertex_count as usize, m.triangle_count as usize, extractor.last.gpu_ms)
+                });
+                assert_eq!((v, t), (cpu.vertex_count(), cpu.triangle_count()), "GPU vs CPU");
+                row(format!("isoview GPU {}", algo.name()), s, ms, v, t);
+                match algo {
+                    MeshAlgorithm::MarchingCubes => {
+                        let (s, (v, t)) = time(|| {
+                            let mut mc = isosurface::marching_cubes::MarchingCubes::new(n);
+                            let (mut verts, mut idx) = (Vec::new(), Vec::new());
+                            mc.extract(&GridSource(grid), &mut verts, &mut idx);
+                            (verts.len() / 3, idx.len() / 3)
+                        });
+                        row("isosurface 0.0.4 marching cubes".into(), s, None, v, t);
+                    }
+                    _ => {
+                        use fast_surface_nets::ndshape::{RuntimeShape, Shape};
+                        let shape = RuntimeShape::<u32, 3>::new([n as u32; 3]);
+                        assert_eq!(shape.linearize([1, 0, 0]), 1, "x fastest, like Grid");
+                        let mut buffer = fast_surface_nets::SurfaceNetsBuffer::default();
+                        let (s, (v, t)) = time(|| {
+                            let m = (n - 1) as u32;
+                            fast_surface_nets::surface_nets(
+                                &grid.values,
+                                &shape,
+                                [0; 3],
+                                [m; 3],
+                                &mut buffer,
+                            );
+                            (buffer.positions.len(), buffer.indices.len() / 3)
+                        });
+                        row("fast-surface-nets 0.2.1".into(), s, None, v, t);
+                    }
+                }
+            }
+        }
+    }
+
+    println!("load average at end: {}", load_average());
+    println!();
+    println!("| field | grid | implementation | ms | GPU-timestamp ms | Mvoxels/s | vertices | triangles | × isoview CPU |");
+    println!("|---|---|---|---:|---:|---:|---:|---:|---:|");
+    for r in &rows {
+        let voxels = ((r.n - 1) as f64).powi(3);
+        println!(
+            "| {} | {}³ | {} | {:.1} | {} | {:.1} | {} | {} | {:.2} |",
+            r.field,
+            r.n,
+            r.method,
+            r.seconds * 1e3,
+            r.gpu_ms.map(|m| format!("{m:.1}")).unwrap_or_else(|| "–".into()),
+            voxels / r.seconds / 1e6,
+            r.vertices,
+            r.triangles,
+            r.reference / r.seconds,
+        );
+    }
+}

@@ -1,0 +1,409 @@
+//! GPU extraction (`mesh::gpu`) against the CPU references (`mesh::extract`): on random grids,
+//! both inside modes, random isovalues and isovalues equal to samples, the GPU mesh has the
+//! reference's vertices in the same order (positions within 1e-5 of a cell plus f32 rounding of
+//! the coordinates, normals within 1e-3) and exactly its triangles; slabs of any depth join
+//! without a seam; empty results; slabs sized by the binding limit and halved when their output
+//! would not fit.
+
+use std::sync::Arc;
+
+use glam::DVec3;
+use isoview::field::Grid;
+use isoview::gpu::{Context, Image3d};
+use isoview::mesh::gpu::{ExtractStats, Extractor, GpuExtractOptions, GpuMeshError};
+use isoview::mesh::{extract, ExtractOptions, Mesh, QuadSplit};
+use isoview::scene::{Inside, MeshAlgorithm};
+
+use crate::common::*;
+
+const GPU_ALGOS: [MeshAlgorithm; 4] = [
+    MeshAlgorithm::MarchingCubes,
+    MeshAlgorithm::MarchingTetrahedra,
+    MeshAlgorithm::SurfaceNets,
+    MeshAlgorithm::DualContouring,
+];
+
+/// Position tolerance per axis: 1e-5 of a cell, plus 4 f32 ulps of the largest coordinate of the
+/// box (the reference rounds its f64 positions to f32 once, the GPU computes in f32).
+fn position_tol(grid: &Grid) -> DVec3 {
+    let extent = grid.min.abs().max(grid.max.abs()).max_element();
+    grid.spacing() * 1e-5 + DVec3::splat(extent * f64::from(f32::EPSILON) * 4.0)
+}
+
+/// Largest allowed |n_gpu - n_cpu| (f32 gradients against f64 ones).
+const NORMAL_TOL: f64 = 1e-3;
+
+struct Case {
+    grid: Grid,
+    iso: f64,
+    inside: Inside,
+}
+
+struct Gpu {
+    ctx: Arc<Context>,
+    extractor: Extractor,
+}
+
+impl Gpu {
+    fn new() -> Option<Self> {
+        let ctx = gpu()?;
+        let extractor = Extractor::new(&ctx).expect("extractor");
+        Some(Gpu { ctx, extractor })
+    }
+
+    fn run(
+        &mut self,
+        c: &Case,
+        algo: MeshAlgorithm,
+        opts: &GpuExtractOptions,
+    ) -> Result<(Mesh, ExtractStats), GpuMeshError> {
+        let extent = c.grid.dims.map(|d| d as u32);
+        let image = Image3d::upload(&self.ctx, "grid", extent, &c.grid.values)?;
+        let mesh = self.extractor.extract(&c.grid, &image, c.iso, c.inside, algo, opts)?;
+        assert!(mesh.positions.size >= 16 * u64::from(mesh.vertex_count));
+        assert!(mesh.indices.size >= 12 * u64::from(mesh.triangle_count));
+        Ok((mesh.read()?, self.extractor.last))
+    }
+}
+
+/// Random values in [-1, 1], a third of them from {-0.5, 0, 0.25, 0.5} (so samples equal the
+/// isovalue and crossings sit on grid points); isovalues uniform, from that set, or 0.1 (not an
+/// f32).
+fn random_case(rng: &mut Rng, max_dim: usize) -> Case {
+    const SET: [f32; 4] = [-0.5, 0.0, 0.25, 0.5];
+    let dims = [0; 3].map(|_| 2 + (rng.next_u64() % (max_dim as u64 - 1)) as usize);
+    let mut grid = random_grid(rng, dims);
+    for v in &mut grid.values {
+        if rng.next_u64() % 3 == 0 {
+            *v = SET[(rng.next_u64() % 4) as usize];
+        }
+    }
+    let iso = match rng.next_u64() % 3 {
+        0 => rng.range(-0.6, 0.6),
+        1 => f64::from(SET[(rng.next_u64() % 4) as usize]),
+        _ => 0.1,
+    };
+    let inside = Inside::ALL[(rng.next_u64() % 2) as usize];
+    Case { grid, iso, inside }
+}
+
+fn cpu(c: &Case, algo: MeshAlgorithm, split: QuadSplit) -> Mesh {
+    let opts = ExtractOptions { split, keep_quads: false };
+    extract(&c.grid, c.iso, c.inside, algo, opts).expect("CPU extraction")
+}
+
+/// Largest position and normal differences, after asserting equal counts and tolerances.
+fn assert_vertices_match(c: &Case, gpu: &Mesh, cpu: &Mesh, what: &str) -> (f64, f64) {
+    assert_eq!(gpu.vertex_count(), cpu.vertex_count(), "{what}: vertex count");
+    let tol = position_tol(&c.grid);
+    let spacing = c.grid.spacing();
+    let (mut worst_p, mut worst_n) = (0.0f64, 0.0f64);
+    for v in 0..cpu.vertex_count() {
+        let g = DVec3::from(gpu.positions[v].map(f64::from));
+        let r = DVec3::from(cpu.positions[v].map(f64::from));
+        let d = (g - r).abs();
+        assert!(d.cmple(tol).all(), "{what}: vertex {v} at {g} vs {r} (tolerance {tol})");
+        worst_p = worst_p.max((d / spacing).max_element());
+        let gn = DVec3::from(gpu.normals[v].map(f64::from));
+        let rn = DVec3::from(cpu.normals[v].map(f64::from));
+        let dn = (gn - rn).length();
+        assert!(dn <= NORMAL_TOL, "{what}: normal {v} {gn} vs {rn}");
+        worst_n = worst_n.max(dn);
+    }
+    (worst_p, worst_n)
+}
+
+#[test]
+fn gpu_equals_cpu_on_random_grids() {
+    let Some(mut gpu) = Gpu::new() else { return };
+    let mut rng = Rng::new(41);
+    let opts = GpuExtractOptions { split: QuadSplit::Fixed, ..Default::default() };
+    for algo in GPU_ALGOS {
+        let (mut worst_p, mut worst_n, mut verts, mut tris) = (0.0f64, 0.0f64, 0, 0);
+        for round in 0..24 {
+            let c = random_case(&mut rng, 12);
+            let what = format!(
+                "{} round {round} dims {:?} iso {} {:?}",
+                algo.name(),
+                c.grid.dims,
+                c.iso,
+                c.inside
+            );
+            let reference = cpu(&c, algo, QuadSplit::Fixed);
+            let (mesh, _) = gpu.run(&c, algo, &opts).unwrap();
+            let (p, n) = assert_vertices_match(&c, &mesh, &reference, &what);
+            assert_eq!(mesh.indices, reference.indices, "{what}: triangles");
+            worst_p = worst_p.max(p);
+            worst_n = worst_n.max(n);
+            verts += mesh.vertex_count();
+            tris += mesh.triangle_count();
+        }
+        eprintln!(
+            "{}: {verts} vertices, {tris} triangles equal; worst position {worst_p:.2e} cells, \
+             worst normal {worst_n:.2e}",
+            algo.name()
+        );
+    }
+}
+
+/// With the shorter-diagonal split the GPU compares f32 diagonals: a quad may split the other way
+/// only where the two diagonals tie to f32 precision.
+#[test]
+fn shorter_split_differs_only_at_ties() {
+    let Some(mut gpu) = Gpu::new() else { return };
+    let mut rng = Rng::new(7);
+    let opts = GpuExtractOptions { split: QuadSplit::Shorter, ..Default::default() };
+    for algo in [MeshAlgorithm::SurfaceNets, MeshAlgorithm::DualContouring] {
+        let (mut quads, mut ties) = (0, 0);
+        for _ in 0..16 {
+            let c = random_case(&mut rng, 12);
+            let reference = cpu(&c, algo, QuadSplit::Shorter);
+            let (mesh, _) = gpu.run(&c, algo, &opts).unwrap();
+            assert_vertices_match(&c, &mesh, &reference, algo.name());
+            assert_eq!(mesh.indices.len(), reference.indices.len());
+            for (q, (g, r)) in mesh.indices.chunks(6).zip(reference.indices.chunks(6)).enumerate() {
+                quads += 1;
+                if g == r {
+                    continue;
+                }
+                // The same quad (q0 q1 q2 q3) split along the other diagonal.
+                let quad =
+                    if r[2] == r[4] { [r[0], r[1], r[2], r[5]] } else { [r[0], r[1], r[4], r[2]] };
+                let p = |i: u32| DVec3::from(reference.positions[i as usize].map(f64::from));
+                let d02 = p(quad[0]).distance_squared(p(quad[2]));
+                let d13 = p(quad[1]).distance_squared(p(quad[3]));
+                assert!(
+                    (d02 - d13).abs() <= 1e-5 * d02.max(d13),
+                    "{}: quad {q} split {g:?} vs {r:?}, diagonals² {d02} vs {d13}",
+                    algo.name()
+                );
+                ties += 1;
+            }
+        }
+        eprintln!("{}: {quads} quads, {ties} near-tie splits differ", algo.name());
+    }
+}
+
+/// Slabs of 1, 2 and 3 cell layers give the same mesh, bit for bit, as one slab (with either
+/// quad split), and it equals the reference.
+#[test]
+fn slabs_join_without_seams() {
+    let Some(mut gpu) = Gpu::new() else { return };
+    let mut rng = Rng::new(3);
+    for algo in GPU_ALGOS {
+        for _ in 0..3 {
+            let mut c = random_case(&mut rng, 9);
+            c.grid = random_grid(&mut rng, [7, 6, 11]);
+            let fixed = GpuExtractOptions { split: QuadSplit::Fixed, ..Default::default() };
+            let (whole, stats) = gpu.run(&c, algo, &fixed).unwrap();
+            assert_eq!(stats.slabs, 1);
+            let reference = cpu(&c, algo, QuadSplit::Fixed);
+            assert_vertices_match(&c, &whole, &reference, algo.name());
+            assert_eq!(whole.indices, reference.indices);
+            let shorter = GpuExtractOptions { split: QuadSplit::Shorter, ..fixed };
+            let (whole_shorter, _) = gpu.run(&c, algo, &shorter).unwrap();
+            for layers in [1, 2, 3] {
+                for (base, whole) in [(fixed, &whole), (shorter, &whole_shorter)] {
+                    let opts = GpuExtractOptions { max_slab_layers: Some(layers), ..base };
+                    let (sliced, stats) = gpu.run(&c, algo, &opts).unwrap();
+                    let cells =
+                        c.grid.dims[2] - 1 + 2 * usize::from(algo == MeshAlgorithm::DualContouring);
+                    assert_eq!(stats.slabs, cells.div_ceil(layers), "{} slabs", algo.name());
+                    assert_eq!(&sliced, whole, "{} in slabs of {layers} layers", algo.name());
+                }
+            }
+        }
+    }
+}
+
+/// A binding limit of 16 KiB: slabs are sized from it, and a slab whose output would not fit
+/// is halved and redone; the mesh still equals the reference.
+#[test]
+fn small_binding_limit_splits_and_retries() {
+    let Some(mut gpu) = Gpu::new() else { return };
+    let mut rng = Rng::new(11);
+    for algo in GPU_ALGOS {
+        let c =
+            Case { grid: random_grid(&mut rng, [12, 10, 24]), iso: 0.05, inside: Inside::Below };
+        let opts = GpuExtractOptions {
+            split: QuadSplit::Fixed,
+            max_binding_bytes: Some(16 << 10),
+            ..Default::default()
+        };
+        let (mesh, stats) = gpu.run(&c, algo, &opts).unwrap();
+        let reference = cpu(&c, algo, QuadSplit::Fixed);
+        assert_vertices_match(&c, &mesh, &reference, algo.name());
+        assert_eq!(mesh.indices, reference.indices, "{}", algo.name());
+        assert!(stats.slabs > 1 && stats.retries > 0, "{}: {stats:?}", algo.name());
+        eprintln!("{}: {} slabs, {} halved", algo.name(), stats.slabs, stats.retries);
+    }
+}
+
+#[test]
+fn no_crossing_gives_an_empty_mesh() {
+    let Some(mut gpu) = Gpu::new() else { return };
+    let mut rng = Rng::new(5);
+    let grid = random_grid(&mut rng, [6, 5, 7]);
+    for algo in GPU_ALGOS {
+        for (iso, inside) in [(2.0, Inside::Below), (2.0, Inside::Above), (-2.0, Inside::Below)] {
+            let c = Case { grid: grid.clone(), iso, inside };
+            let (mesh, _) = gpu.run(&c, algo, &GpuExtractOptions::default()).unwrap();
+            let reference = cpu(&c, algo, QuadSplit::Shorter);
+            assert_eq!(mesh.vertex_count(), reference.vertex_count(), "{}", algo.name());
+            assert_eq!(mesh.indices, reference.indices, "{}", algo.name());
+            // Only dual contouring caps a grid that is all inside.
+            let capped =
+                algo == MeshAlgorithm::DualContouring && (iso, inside) == (2.0, Inside::Below);
+            assert_eq!(mesh.vertex_count() == 0, !capped, "{} iso {iso} {inside:?}", algo.name());
+        }
+    }
+}
+
+/// A sphere in the middle of a tall grid cut into slabs: the slabs above and below it are empty.
+#[test]
+fn empty_slabs_around_a_surface() {
+    let Some(mut gpu) = Gpu::new() else { return };
+    let grid = grid_from([9, 9, 30], DVec3::splat(-1.0), DVec3::new(1.0, 1.0, 6.0), |p| {
+        (p - DVec3::new(0.0, 0.0, 2.5)).length() - 0.7
+    });
+    let c = Case { grid, iso: 0.0, inside: Inside::Below };
+    for algo in GPU_ALGOS {
+        let opts = GpuExtractOptions {
+            split: QuadSplit::Fixed,
+            max_slab_layers: Some(4),
+            ..Default::default()
+        };
+        let (mesh, stats) = gpu.run(&c, algo, &opts).unwrap();
+        let reference = cpu(&c, algo, QuadSplit::Fixed);
+        assert!(reference.triangle_count() > 0);
+        assert_vertices_match(&c, &mesh, &reference, algo.name());
+        assert_eq!(mesh.indices, reference.indices, "{}", algo.name());
+        assert!(stats.slabs >= 7);
+    }
+}
+
+#[test]
+fn runs_are_deterministic() {
+    let Some(mut gpu) = Gpu::new() else { return };
+    let mut rng = Rng::new(9);
+    let c = random_case(&mut rng, 16);
+    for algo in GPU_ALGOS {
+        let (a, _) = gpu.run(&c, algo, &GpuExtractOptions::default()).unwrap();
+        let (b, _) = gpu.run(&c, algo, &GpuExtractOptions::default()).unwrap();
+        let bits = |m: &Mesh| -> Vec<u32> {
+            m.positions.iter().chain(&m.normals).flatten().map(|x| x.to_bits()).collect()
+        };
+        assert_eq!(bits(&a), bits(&b), "{}", algo.name());
+        assert_eq!(a.indices, b.indices, "{}", algo.name());
+    }
+}
+
+#[test]
+fn mc33_and_bad_input_are_errors() {
+    let Some(mut gpu) = Gpu::new() else { return };
+    let mut rng = Rng::new(1);
+    let c = Case { grid: random_grid(&mut rng, [4, 4, 4]), iso: 0.0, inside: Inside::Below };
+    let opts = GpuExtractOptions::default();
+    let err = gpu.run(&c, MeshAlgorithm::Mc33, &opts).expect_err("mc33 is CPU only");
+    assert!(matches!(err, GpuMeshError::Unsupported("mc33")), "{err}");
+    let bad = Case { iso: f64::NAN, ..c };
+    let err = gpu.run(&bad, MeshAlgorithm::MarchingCubes, &opts).expect_err("NaN isovalue");
+    assert!(err.to_string().contains("isovalue"), "{err}");
+}
+
+/// The multi-level scan on lengths around its block size and over three levels.
+#[test]
+fn scan_is_an_exclusive_prefix_sum() {
+    use isoview::gpu::{copy_buffer, memory_barrier, vk, Buffer, MemoryLocation};
+    use isoview::passes::extract::{ExtractPasses, Scan};
+    let Some(ctx) = gpu() else { return };
+    let passes = ExtractPasses::new(&ctx).unwrap();
+    let mut rng = Rng::new(17);
+    for len in [1usize, 2, 1023, 1024, 1025, 4096 + 3, 1 << 20, (1 << 20) + 1025 * 3] {
+        let data: Vec<u32> = (0..len).map(|_| (rng.next_u64() % 8) as u32).collect();
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+            | vk::BufferUsageFlags::TRANSFER_SRC
+            | vk::BufferUsageFlags::TRANSFER_DST;
+        let bytes = len as u64 * 4;
+        let mut up = Buffer::new(&ctx, "up", bytes, usage, MemoryLocation::CpuToGpu).unwrap();
+        up.write(&data).unwrap();
+        let buf = Buffer::new(&ctx, "data", bytes, usage, MemoryLocation::GpuOnly).unwrap();
+        let down = Buffer::new(&ctx, "down", bytes, usage, MemoryLocation::GpuToCpu).unwrap();
+        let scan = Scan::new(&ctx, &passes, "test", &buf, len as u64 + 7).unwrap();
+        ctx.submit("scan test", |cmd| {
+            copy_buffer(&ctx, cmd, &up, 0, &buf, 0, bytes);
+            memory_barrier(
+                &ctx,
+                cmd,
+                (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
+                (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_READ),
+            );
+            scan.record(&ctx, &passes, cmd, len as u64)?;
+            memory_barrier(
+                &ctx,
+                cmd,
+                (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
+                (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
+            );
+            copy_buffer(&ctx, cmd, &buf, 0, &down, 0, bytes);
+            memory_barrier(
+                &ctx,
+                cmd,
+                (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
+                (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+            );
+            Ok(())
+        })
+        .unwrap();
+        let got: Vec<u32> = down.read(len).unwrap();
+        let mut sum = 0u32;
+        let want: Vec<u32> = data
+            .iter()
+            .map(|&x| {
+                let before = sum;
+                sum += x;
+                before
+            })
+            .collect();
+        assert_eq!(got, want, "scan of {len}");
+    }
+}
+
+/// Closed-form answers through the one-call API: for a linear field every vertex of every
+/// algorithm lies on the plane and every normal is the plane's (the trilinear interpolant is
+/// the plane itself); for a sphere's distance field the vertices lie within a fraction of a cell
+/// of the sphere and the normals point radially.
+#[test]
+fn closed_form_plane_and_sphere() {
+    let Some(ctx) = gpu() else { return };
+    let a = DVec3::new(0.3, -0.5, 0.8);
+    let plane = grid_from([9, 8, 10], DVec3::splat(-1.0), DVec3::ONE, |p| a.dot(p) - 0.1);
+    let sphere = grid_from([24, 24, 24], DVec3::splat(-1.0), DVec3::ONE, |p| p.length() - 0.7);
+    let h = sphere.spacing().x;
+    for algo in GPU_ALGOS {
+        let m = isoview::mesh::gpu::extract(&ctx, &plane, 0.0, Inside::Below, algo)
+            .unwrap()
+            .read()
+            .unwrap();
+        assert!(m.triangle_count() > 0);
+        for (p, n) in m.positions.iter().zip(&m.normals) {
+            let (p, n) = (DVec3::from(p.map(f64::from)), DVec3::from(n.map(f64::from)));
+            let on_box = p.abs().max_element() > 1.0 - 1e-6;
+            // Dual contouring's caps lie in the box faces, with the box's normals.
+            if algo == MeshAlgorithm::DualContouring && on_box {
+                continue;
+            }
+            assert!((a.dot(p) - 0.1).abs() < 1e-5, "{}: {p} off the plane", algo.name());
+            assert!((n - a.normalize()).length() < 1e-5, "{}: normal {n}", algo.name());
+        }
+        let m = isoview::mesh::gpu::extract(&ctx, &sphere, 0.0, Inside::Below, algo)
+            .unwrap()
+            .read()
+            .unwrap();
+        for (p, n) in m.positions.iter().zip(&m.normals) {
+            let (p, n) = (DVec3::from(p.map(f64::from)), DVec3::from(n.map(f64::from)));
+            assert!((p.length() - 0.7).abs() < 0.1 * h, "{}: {p} off the sphere", algo.name());
+            assert!(n.dot(p.normalize()) > 0.99, "{}: normal {n} at {p}", algo.name());
+        }
+    }
+}

@@ -132,24 +132,48 @@ pub fn extract_cpu(scene: &Scene, grid: &Grid, opts: ExtractOptions) -> Result<M
         .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))
 }
 
-/// The GPU extraction, and where it actually ran.
-///
-/// Stopgap: the compute passes of `isoview::mesh::gpu` are not in this tree yet, so this runs
-/// the CPU reference (whose output the GPU passes reproduce index for index) and says so on
-/// stderr. When they land, this one function becomes the call to `mesh::gpu::extract` on a
-/// context for `vulkan_device` and the read-back of its buffers into a [`Mesh`].
+/// The GPU extraction (compute passes of [`mesh::gpu`]) on the Vulkan device `vulkan_device`,
+/// read back into a [`Mesh`], and where it ran. `mc33` has no GPU extraction: it runs on the CPU
+/// with a note on stderr. `opts.split` is honoured; `opts.keep_quads` needs the CPU quads, so
+/// `--quads` extracts on the CPU too.
 fn extract_gpu(
-    _cli: &Cli,
-    _vulkan_device: Option<String>,
+    cli: &Cli,
+    vulkan_device: Option<String>,
     scene: &Scene,
     grid: &Grid,
     opts: ExtractOptions,
 ) -> Result<(Mesh, Backend), Failure> {
-    eprintln!(
-        "isoview: note: GPU extraction is not in this build yet; extracting on the CPU \
-         (identical output; --device cpu silences this note)"
-    );
-    Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu))
+    if scene.render.mesh == crate::scene::MeshAlgorithm::Mc33 || opts.keep_quads {
+        eprintln!(
+            "isoview: note: {} on the CPU (the GPU extraction has no {})",
+            if opts.keep_quads { "--quads extracts" } else { "mc33 is extracted" },
+            if opts.keep_quads { "quads" } else { "mc33" }
+        );
+        return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu));
+    }
+    let ctx = crate::gpu::Context::new(&crate::gpu::ContextOptions {
+        device: vulkan_device,
+        validation: cli.validation,
+    })?;
+    let image =
+        crate::gpu::Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values)?;
+    let gpu_opts = mesh::gpu::GpuExtractOptions { split: opts.split, ..Default::default() };
+    let gpu_mesh = mesh::gpu::Extractor::new(&ctx)
+        .and_then(|mut x| {
+            x.extract(
+                grid,
+                &image,
+                scene.surface.isovalue,
+                scene.surface.inside,
+                scene.render.mesh,
+                &gpu_opts,
+            )
+        })
+        .map_err(|e| match e {
+            mesh::gpu::GpuMeshError::Gpu(g) => Failure::gpu(g),
+            other => Failure::input(format!("{}: {other}", scene_name(scene))),
+        })?;
+    Ok((gpu_mesh.read()?, Backend::Gpu))
 }
 
 fn scene_name(scene: &Scene) -> String {

@@ -88,6 +88,19 @@ pub struct GpuMesh {
 }
 
 impl GpuMesh {
+    /// Wraps buffers already in this layout (e.g. a CPU-extracted mesh uploaded by
+    /// `passes::mesh_render::upload`).
+    pub fn from_buffers(
+        ctx: &Arc<Context>,
+        positions: Buffer,
+        normals: Buffer,
+        indices: Buffer,
+        vertex_count: u32,
+        triangle_count: u32,
+    ) -> Self {
+        GpuMesh { positions, normals, indices, vertex_count, triangle_count, ctx: ctx.clone() }
+    }
+
     /// Copies the mesh back to the host (through staging buffers).
     pub fn read(&self) -> Result<Mesh, GpuError> {
         let ctx = &self.ctx;

@@ -13,7 +13,7 @@
 //! The visibility key needs 64-bit buffer atomics (`shaderBufferInt64Atomics`; lavapipe and the
 //! desktop drivers have them). Mesh buffers have the layout of the GPU extraction's output
 //! (`GpuMesh`): positions and normals as one `vec4` per vertex, indices as three `u32` per
-//! triangle, counter-clockwise seen from outside. [`MeshBuffers`] uploads a CPU
+//! triangle, counter-clockwise seen from outside. [`upload`] puts a CPU
 //! [`Mesh`] into that layout. The f64 mirror is `reference::mesh`.
 
 use std::sync::Arc;
@@ -24,6 +24,7 @@ use bytemuck::{Pod, Zeroable};
 use crate::gpu::{
     copy_buffer, Buffer, ComputePipeline, Context, GpuError, MemoryLocation, Resource,
 };
+use crate::mesh::gpu::GpuMesh;
 use crate::mesh::Mesh;
 use crate::shaders;
 
@@ -49,50 +50,38 @@ pub struct RasterPush {
     pub threads_x: u32,
 }
 
-/// A triangle mesh on the device, in the layout of the GPU extraction's `GpuMesh`.
-pub struct MeshBuffers {
-    /// One `vec4` per vertex: world-space xyz, w = 1.
-    pub positions: Buffer,
-    /// One `vec4` per vertex: unit normal (inside -> outside), w = 0.
-    pub normals: Buffer,
-    /// Three `u32` per triangle.
-    pub indices: Buffer,
-    pub vertex_count: u32,
-    pub triangle_count: u32,
-}
-
-impl MeshBuffers {
-    /// Uploads `mesh` (through staging buffers) into device-local storage buffers.
-    pub fn upload(ctx: &Arc<Context>, mesh: &Mesh) -> Result<Self, GpuError> {
-        let too_large = |what: &str| {
-            GpuError::Limit(format!("the mesh has too many {what} for one storage buffer"))
-        };
-        let vertex_count = u32::try_from(mesh.vertex_count()).map_err(|_| too_large("vertices"))?;
-        let triangle_count =
-            u32::try_from(mesh.triangle_count()).map_err(|_| too_large("triangles"))?;
-        let four = |v: &[f32; 3], w: f32| [v[0], v[1], v[2], w];
-        let positions: Vec<[f32; 4]> = mesh.positions.iter().map(|p| four(p, 1.0)).collect();
-        let normals: Vec<[f32; 4]> = mesh.normals.iter().map(|n| four(n, 0.0)).collect();
-        let limit = ctx.info.max_storage_buffer_range;
-        if (positions.len() * 16) as u64 > limit || (mesh.indices.len() * 4) as u64 > limit {
-            return Err(GpuError::Limit(format!(
-                "the mesh ({vertex_count} vertices, {triangle_count} triangles) exceeds the \
-                 device's largest storage buffer ({} MiB)",
-                limit >> 20
-            )));
-        }
-        Ok(MeshBuffers {
-            positions: upload(ctx, "mesh positions", &positions)?,
-            normals: upload(ctx, "mesh normals", &normals)?,
-            indices: upload(ctx, "mesh indices", &mesh.indices)?,
-            vertex_count,
-            triangle_count,
-        })
+/// Uploads a CPU mesh (through staging buffers) into device-local storage buffers in the layout
+/// of the GPU extraction's output.
+pub fn upload(ctx: &Arc<Context>, mesh: &Mesh) -> Result<GpuMesh, GpuError> {
+    let too_large = |what: &str| {
+        GpuError::Limit(format!("the mesh has too many {what} for one storage buffer"))
+    };
+    let vertex_count = u32::try_from(mesh.vertex_count()).map_err(|_| too_large("vertices"))?;
+    let triangle_count =
+        u32::try_from(mesh.triangle_count()).map_err(|_| too_large("triangles"))?;
+    let four = |v: &[f32; 3], w: f32| [v[0], v[1], v[2], w];
+    let positions: Vec<[f32; 4]> = mesh.positions.iter().map(|p| four(p, 1.0)).collect();
+    let normals: Vec<[f32; 4]> = mesh.normals.iter().map(|n| four(n, 0.0)).collect();
+    let limit = ctx.info.max_storage_buffer_range;
+    if (positions.len() * 16) as u64 > limit || (mesh.indices.len() * 4) as u64 > limit {
+        return Err(GpuError::Limit(format!(
+            "the mesh ({vertex_count} vertices, {triangle_count} triangles) exceeds the \
+             device's largest storage buffer ({} MiB)",
+            limit >> 20
+        )));
     }
+    Ok(GpuMesh::from_buffers(
+        ctx,
+        upload_slice(ctx, "mesh positions", &positions)?,
+        upload_slice(ctx, "mesh normals", &normals)?,
+        upload_slice(ctx, "mesh indices", &mesh.indices)?,
+        vertex_count,
+        triangle_count,
+    ))
 }
 
 /// A device-local storage buffer holding `data`.
-fn upload<T: Pod>(ctx: &Arc<Context>, name: &str, data: &[T]) -> Result<Buffer, GpuError> {
+fn upload_slice<T: Pod>(ctx: &Arc<Context>, name: &str, data: &[T]) -> Result<Buffer, GpuError> {
     let bytes = std::mem::size_of_val(data) as u64;
     let mut staging = Buffer::new(
         ctx,
@@ -165,7 +154,7 @@ impl MeshPipelines {
     /// Bindings of the raster pass, in order.
     pub fn raster_resources<'a>(
         params: &'a Buffer,
-        mesh: &'a MeshBuffers,
+        mesh: &'a GpuMesh,
         vis: &'a Buffer,
         counts: &'a Buffer,
     ) -> [Resource<'a>; 5] {

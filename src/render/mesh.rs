@@ -11,14 +11,15 @@ use crate::frame::{Frame, Pixel};
 use crate::gpu::{
     copy_buffer, fill_buffer, memory_barrier, Buffer, MemoryLocation, Resource, Timer,
 };
+use crate::mesh::gpu::{Extractor, GpuExtractOptions, GpuMesh};
 use crate::mesh::{self, ExtractOptions, Mesh};
 use crate::passes::mesh_render::{
-    MeshBuffers, MeshPipelines, RasterPush, COUNT_BYTES, NO_HIT_WORD, RESOLVE_GROUP, VIS_BYTES,
+    self, MeshPipelines, RasterPush, COUNT_BYTES, NO_HIT_WORD, RESOLVE_GROUP, VIS_BYTES,
 };
-use crate::scene::Scene;
+use crate::scene::{MeshAlgorithm, Scene};
 
-/// The mesh of `scene`'s surface over `grid`, as `render.method = "mesh"` draws it (the CPU
-/// extraction; the GPU one keeps it on the device once it lands).
+/// The mesh of `scene`'s surface over `grid`, extracted on the CPU (the reference of what
+/// `render.method = "mesh"` draws).
 pub fn scene_mesh(scene: &Scene, grid: &Grid) -> Result<Mesh, RenderError> {
     Ok(mesh::extract(
         grid,
@@ -30,7 +31,9 @@ pub fn scene_mesh(scene: &Scene, grid: &Grid) -> Result<Mesh, RenderError> {
 }
 
 impl Renderer {
-    /// Extracts the scene's mesh from `grid`, uploads it and draws it.
+    /// Extracts the scene's mesh from the uploaded grid on the GPU (the mesh stays on the
+    /// device) and draws it. `mc33` has no GPU extraction: it is extracted on the CPU and
+    /// uploaded.
     pub(super) fn render_scene_mesh(
         &mut self,
         scene: &Scene,
@@ -38,9 +41,23 @@ impl Renderer {
         gpu_grid: &GpuGrid,
         time: f64,
     ) -> Result<Frame, RenderError> {
-        let mesh = scene_mesh(scene, grid)?;
-        let buffers = MeshBuffers::upload(&self.ctx, &mesh)?;
-        self.render_mesh(scene, grid, gpu_grid, &buffers, time)
+        let mesh = if scene.render.mesh == MeshAlgorithm::Mc33 {
+            mesh_render::upload(&self.ctx, &scene_mesh(scene, grid)?)?
+        } else {
+            if self.extractor.is_none() {
+                self.extractor = Some(Extractor::new(&self.ctx)?);
+            }
+            let extractor = self.extractor.as_mut().expect("created above");
+            extractor.extract(
+                grid,
+                &gpu_grid.image,
+                scene.surface.isovalue,
+                scene.surface.inside,
+                scene.render.mesh,
+                &GpuExtractOptions::default(),
+            )?
+        };
+        self.render_mesh(scene, grid, gpu_grid, &mesh, time)
     }
 
     /// Draws `mesh` with `scene`'s camera and shading. `grid` (uploaded as `gpu_grid`) gives the
@@ -51,7 +68,7 @@ impl Renderer {
         scene: &Scene,
         grid: &Grid,
         gpu_grid: &GpuGrid,
-        mesh: &MeshBuffers,
+        mesh: &GpuMesh,
         time: f64,
     ) -> Result<Frame, RenderError> {
         if self.mesh.is_none() {

@@ -38,6 +38,17 @@ pub enum RenderError {
     Mesh(#[from] crate::mesh::MeshError),
 }
 
+impl From<crate::mesh::gpu::GpuMeshError> for RenderError {
+    fn from(e: crate::mesh::gpu::GpuMeshError) -> Self {
+        use crate::mesh::gpu::GpuMeshError;
+        match e {
+            GpuMeshError::Gpu(g) => RenderError::Gpu(g),
+            GpuMeshError::Mesh(m) => RenderError::Mesh(m),
+            GpuMeshError::Unsupported(what) => RenderError::Unsupported(what),
+        }
+    }
+}
+
 /// A grid uploaded to the device.
 pub struct GpuGrid {
     pub image: Image3d,
@@ -71,6 +82,8 @@ pub struct Renderer {
     colormap: Buffer,
     /// The mesh render's pipelines, built on the first mesh render (they need 64-bit atomics).
     mesh: Option<MeshPipelines>,
+    /// The GPU mesh extraction, built on the first mesh render.
+    extractor: Option<crate::mesh::gpu::Extractor>,
     /// GPU time of the last frame's ray passes, in milliseconds (None without timestamps).
     pub last_gpu_ms: Option<f64>,
     /// GPU time of building the brick min/max grid during the last frame, in milliseconds
@@ -128,6 +141,7 @@ impl Renderer {
             bricks,
             colormap,
             mesh: None,
+            extractor: None,
             last_gpu_ms: None,
             last_bricks_ms: None,
         })

@@ -7,7 +7,7 @@ use isoview::camera::Camera;
 use isoview::field::Grid;
 use isoview::frame::Pixel;
 use isoview::mesh::{extract, ExtractOptions, Mesh};
-use isoview::passes::mesh_render::MeshBuffers;
+use isoview::passes::mesh_render;
 use isoview::reference::{analytic, field, mesh as reference};
 use isoview::render::{GpuGrid, Renderer};
 use isoview::scene::{Inside, MeshAlgorithm, Method, Scene, Shading};
@@ -91,7 +91,7 @@ fn compare(scene: &Scene, grid: &Grid, mesh: &Mesh, gpu: &[Pixel]) -> Agreement 
 fn render_mesh(renderer: &mut Renderer, scene: &Scene, grid: &Grid, mesh: &Mesh) -> Vec<Pixel> {
     let ctx = renderer.context().clone();
     let gpu_grid = GpuGrid::upload(&ctx, grid).unwrap();
-    let buffers = MeshBuffers::upload(&ctx, mesh).unwrap();
+    let buffers = mesh_render::upload(&ctx, mesh).unwrap();
     renderer.render_mesh(scene, grid, &gpu_grid, &buffers, 0.0).unwrap().pixels
 }
 

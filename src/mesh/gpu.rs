@@ -423,7 +423,7 @@ impl Extractor {
         let limit_elems = (limit_bytes / 4) as usize;
         // Slab depth: a slab holds at most `layers + 2` point layers (plus one total) and
         // `layers + 4` layers of samples.
-        let by_limit = ((limit_elems - 1) / lp).saturating_sub(4);
+        let by_limit = (limit_elems.saturating_sub(1) / lp).saturating_sub(4);
         if by_limit == 0 {
             return Err(GpuError::Limit(format!(
                 "a z layer of {}x{} points does not fit one storage buffer ({limit_bytes} bytes)",

@@ -43,11 +43,14 @@ fn scene(grid: &Grid, size: u32, steps: u32) -> Scene {
             method: Method::FixedStep,
             steps,
             newton_steps: 10,
+            skip: true,
+            crossing: 1,
             mesh: MeshAlgorithm::MarchingCubes,
             shading: Shading::Lambert,
             background: [0.0; 4],
             color: [0.85, 0.65, 0.45],
         },
+        slice: SliceSettings::default(),
     }
 }
 

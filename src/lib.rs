@@ -26,6 +26,7 @@ pub mod passes;
 pub mod reference;
 pub mod render;
 pub mod scene;
+pub mod slice;
 
 /// SPIR-V for every shader in `shaders/`, compiled by `build.rs`.
 pub mod shaders {

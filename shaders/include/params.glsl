@@ -12,13 +12,17 @@ struct RenderParams {
     vec4 color;        // rgb: surface colour
     ivec4 dims;        // xyz: grid points per axis
     uvec4 image;       // x: width, y: height
-    uvec4 method;      // x: method (0 fixed-step, 1 analytic), y: shading, z: steps, w: newton steps
+    uvec4 method;      // x: method (0 fixed-step, 1 analytic, 2 mesh), y: shading, z: steps, w: newton steps
     vec4 surface;      // x: isovalue, y: +1 if below is inside, -1 if above; z, w: depth-shading near, far
     vec4 debug;        // x: step count that maps to the top of the colormap
+    vec4 eye_grid;     // xyz: the eye in index space, (eye - box_min) / spacing, computed in f64
+    uvec4 analytic;    // x: which crossing is the hit (>= 1), y: 1 = empty-space skipping,
+                       // z: brick size in cells (the min/max grid of the skipping)
 };
 
 const uint METHOD_FIXED_STEP = 0u;
 const uint METHOD_ANALYTIC = 1u;
+const uint METHOD_MESH = 2u;
 
 const uint SHADE_LAMBERT = 0u;
 const uint SHADE_NORMAL = 1u;

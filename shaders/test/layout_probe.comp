@@ -29,6 +29,8 @@ void main() {
     bits[11] = P.method;
     bits[12] = floatBitsToUint(P.surface);
     bits[13] = floatBitsToUint(P.debug);
+    bits[14] = floatBitsToUint(P.eye_grid);
+    bits[15] = P.analytic;
 
     Pixel p;
     p.rgba = vec4(1.0, 2.0, 3.0, 4.0);

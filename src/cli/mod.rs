@@ -4,12 +4,15 @@
 //! failure. Errors are one line on stderr, never a panic.
 
 pub mod compare;
+pub mod extract;
 pub mod probe;
 pub mod render;
+pub mod slice;
 
 use std::sync::Arc;
 
-use clap::{Parser, Subcommand};
+use clap::parser::ValueSource;
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 use crate::gpu::{Context, ContextOptions, GpuError};
 
@@ -48,9 +51,14 @@ impl From<GpuError> for Failure {
 )]
 pub struct Cli {
     /// Vulkan device to use: a case-insensitive part of its name (default: a discrete GPU, else
-    /// an integrated one, else lavapipe). Also read from ISOVIEW_DEVICE.
+    /// an integrated one, else lavapipe). Also read from ISOVIEW_DEVICE. For `extract`,
+    /// `--device gpu` or `--device cpu` chooses where the extraction runs (the Vulkan device then
+    /// comes from ISOVIEW_DEVICE); any other value names the Vulkan device.
     #[arg(long, global = true, env = "ISOVIEW_DEVICE")]
     pub device: Option<String>,
+    /// Whether `device` was written on the command line (not read from ISOVIEW_DEVICE).
+    #[arg(skip)]
+    pub device_from_command_line: bool,
     /// Enable the Vulkan validation layer and print its warnings and errors.
     #[arg(long, global = true)]
     pub validation: bool,
@@ -62,11 +70,17 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene to a float EXR with AOVs (and optionally a PNG preview).
     Render(render::RenderArgs),
+    /// Extract the isosurface as a mesh (.ply, .obj, .stl) with `render.mesh`'s algorithm.
+    /// `--device gpu|cpu` picks where it runs; the Vulkan device then comes from ISOVIEW_DEVICE.
+    Extract(extract::ExtractArgs),
     /// Compare two float EXRs channel by channel (exit 1 on a difference over the thresholds).
     Compare(compare::CompareArgs),
     /// Print what the ray through one pixel meets: cells, cubics, roots, Newton iterates, and
     /// where fixed-step finds its crossing.
     Probe(probe::ProbeArgs),
+    /// The field on an axis-aligned plane (EXR, PNG) and its contours by marching squares
+    /// (JSON, SVG).
+    Slice(slice::SliceArgs),
     /// Print the Vulkan device, driver and the limits isoview relies on.
     Info,
 }
@@ -82,15 +96,19 @@ impl Cli {
 
 /// Runs the command line and returns the process exit status.
 pub fn main() -> i32 {
-    let cli = Cli::parse();
+    let matches = Cli::command().get_matches();
+    let mut cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    cli.device_from_command_line = matches.value_source("device") == Some(ValueSource::CommandLine);
     let result = match &cli.command {
         Command::Render(args) => render::run(&cli, args),
+        Command::Extract(args) => extract::run(&cli, args),
         Command::Compare(args) => Ok(compare::run_with(
             args,
             &mut std::io::stdout().lock(),
             &mut std::io::stderr().lock(),
         )),
         Command::Probe(args) => probe::run(&cli, args),
+        Command::Slice(args) => slice::run(&cli, args),
         Command::Info => info(&cli),
     };
     match result {
@@ -128,6 +146,14 @@ fn info(cli: &Cli) -> Result<i32, Failure> {
             format!("yes, {} ns per tick", i.timestamp_period_ns)
         } else {
             "no".into()
+        }
+    );
+    println!(
+        "64-bit buffer atomics  {}",
+        if i.int64_atomics {
+            "yes (render.method = \"mesh\" works)"
+        } else {
+            "no (no mesh render)"
         }
     );
     println!("validation             {}", if cli.validation { "on" } else { "off" });

@@ -20,8 +20,15 @@ pub struct ProbeArgs {
     /// Scene file (TOML).
     pub scene: PathBuf,
     /// Pixel column and row (row 0 at the top), e.g. --pixel 120,64.
-    #[arg(long, value_name = "X,Y")]
-    pub pixel: String,
+    #[arg(long, value_name = "X,Y", required_unless_present = "slice", conflicts_with = "slice")]
+    pub pixel: Option<String>,
+    /// Probe a slicing plane instead of a pixel, e.g. --slice z=0.1 (needs --segment).
+    #[arg(long, value_name = "AXIS=C", requires = "segment")]
+    pub slice: Option<String>,
+    /// With --slice: the segment u0,v0,u1,v1 in the plane's (u, v) world coordinates (u right,
+    /// v up, as in the slice picture); prints the bilinear field's crossings along it.
+    #[arg(long, value_name = "U0,V0,U1,V1", requires = "slice", allow_hyphen_values = true)]
+    pub segment: Option<String>,
     /// Override a scene key (as for `render`).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
@@ -67,9 +74,14 @@ fn visit_json(v: &CellVisit) -> Value {
 }
 
 pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
+    if let Some(s) = &args.slice {
+        let segment = args.segment.as_deref();
+        return super::slice::probe(&args.scene, &args.sets, args.time, s, segment, args.json);
+    }
     let scene = scene::load(&args.scene, &args.sets).map_err(Failure::input)?;
+    let pixel = args.pixel.as_deref().ok_or_else(|| Failure::input("--pixel X,Y is missing"))?;
     let (px, py) =
-        parse_pixel(&args.pixel, scene.image.width, scene.image.height).map_err(Failure::input)?;
+        parse_pixel(pixel, scene.image.width, scene.image.height).map_err(Failure::input)?;
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let cam = Camera::new(&scene.camera, &scene.image);
     let dir = cam.ray_dir(px, py);

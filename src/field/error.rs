@@ -26,6 +26,11 @@ pub enum FieldError {
     #[error("{}: {message}", path.display())]
     BadShape { path: PathBuf, message: String },
 
+    /// A mesh file (`source = "mesh"`) that cannot be used: not STL/OBJ/PLY, malformed, empty,
+    /// out-of-range indices or non-finite vertices.
+    #[error("{}: {message}", path.display())]
+    BadMesh { path: PathBuf, message: String },
+
     /// The file ends before all samples were read.
     #[error(
         "{}: truncated data: expected {expected} bytes of samples ({layout}), found {actual}",

@@ -25,6 +25,7 @@
 //!   whatever the file's order (C or Fortran) or byte order.
 //! - `raw`: `nx * ny * nz` samples, x fastest.
 //! - `expr`: evaluated at the world position of each point and the time `t`.
+//! - `mesh`: the signed distance to a triangle mesh file, negative inside ([`mesh_sdf`]).
 //! - Samples must be finite: the first NaN or infinity is reported with its `[i, j, k]`.
 //! - Memory: a grid whose `f32` samples would exceed [`GridLimits::max_bytes`] (default
 //!   1024 MiB, `ISOVIEW_MAX_GRID_MIB` overrides) is refused before anything is allocated or any
@@ -34,6 +35,7 @@ mod error;
 mod expr;
 mod grid;
 mod limits;
+pub mod mesh_sdf;
 mod npy;
 mod raw;
 mod samples;
@@ -43,6 +45,7 @@ pub use error::FieldError;
 pub use expr::ExprSource;
 pub use grid::Grid;
 pub use limits::{GridLimits, GRID_CAP_ENV};
+pub use mesh_sdf::{MeshSdf, MeshSource, TriangleMesh};
 pub use npy::NpySource;
 pub use raw::RawSource;
 pub use samples::{Endian, SampleType, StorageOrder};

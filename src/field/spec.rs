@@ -4,6 +4,7 @@
 use glam::DVec3;
 
 use super::expr::ExprSource;
+use super::mesh_sdf::{MeshSdf, MeshSource};
 use super::npy::{path_str, NpySource};
 use super::raw::{file_name, RawSource};
 use super::samples::{self, StorageOrder};
@@ -25,6 +26,8 @@ pub enum FieldSource {
     Raw(RawSource),
     /// An expression over `x`, `y`, `z` (world coordinates) and `t`.
     Expr(ExprSource),
+    /// The signed distance to a triangle mesh read at load time (negative inside).
+    Mesh(MeshSource),
 }
 
 /// A validated `[field]` table: the source, and the lattice it is sampled on.
@@ -84,6 +87,7 @@ impl FieldSpec {
         let what = match &self.source {
             FieldSource::Npy(n) => path_str(&n.path),
             FieldSource::Raw(r) => path_str(&r.path),
+            FieldSource::Mesh(m) => path_str(&m.path),
             _ => "field.resolution".to_string(),
         };
         limits.check(dims, &what)?;
@@ -109,6 +113,10 @@ impl FieldSpec {
                 r.read(limits)?
             }
             FieldSource::Expr(e) => fill(&grid, |p| e.eval(p, time)),
+            FieldSource::Mesh(m) => {
+                let sdf = MeshSdf::new(&m.mesh);
+                fill(&grid, |p| sdf.distance(p))
+            }
         };
 
         let spacing = grid.spacing();
@@ -173,6 +181,11 @@ impl FieldSpec {
                 format!("raw {} {} {}-endian", r.file_name(), r.dtype.name(), r.endian.name())
             }
             FieldSource::Expr(e) => format!("expr \"{}\"", e.text),
+            FieldSource::Mesh(m) => format!(
+                "mesh {} ({} triangles) signed distance",
+                file_name(&m.path),
+                m.mesh.triangles.len()
+            ),
         };
         format!("{what} {nx}x{ny}x{nz} in {}..{}", vec3(self.bounds.min), vec3(self.bounds.max))
     }

@@ -36,6 +36,9 @@ pub struct DeviceInfo {
     pub timestamps: bool,
     /// Size of the largest device-local heap in bytes.
     pub device_local_heap: u64,
+    /// 64-bit integer atomics on storage buffers (`shaderInt64` + `shaderBufferInt64Atomics`),
+    /// enabled on the device when supported; the mesh render's visibility buffer needs them.
+    pub int64_atomics: bool,
 }
 
 /// Instance, device, queue and allocator. Shared by `Arc`; resources keep it alive.
@@ -280,6 +283,14 @@ impl Context {
         // SAFETY: as above.
         unsafe { instance.get_physical_device_properties2(pd, &mut props2b) };
 
+        let mut features12 = vk::PhysicalDeviceVulkan12Features::default();
+        let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut features12);
+        // SAFETY: pd is valid and the chain is well formed (Vulkan 1.2 instance).
+        unsafe { instance.get_physical_device_features2(pd, &mut features2) };
+        let int64_atomics = features2.features.shader_int64 == vk::TRUE
+            && features12.shader_buffer_int64_atomics == vk::TRUE
+            && props.api_version >= vk::API_VERSION_1_2;
+
         let limits = props.limits;
         let info = DeviceInfo {
             name,
@@ -296,13 +307,20 @@ impl Context {
             timestamp_period_ns: limits.timestamp_period,
             timestamps: ts_bits > 0 && limits.timestamp_compute_and_graphics == vk::TRUE,
             device_local_heap,
+            int64_atomics,
         };
 
         let priorities = [1.0f32];
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(family)
             .queue_priorities(&priorities)];
-        let create = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
+        let enabled = vk::PhysicalDeviceFeatures::default().shader_int64(int64_atomics);
+        let mut enabled12 = vk::PhysicalDeviceVulkan12Features::default()
+            .shader_buffer_int64_atomics(int64_atomics);
+        let create = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_info)
+            .enabled_features(&enabled)
+            .push_next(&mut enabled12);
         // SAFETY: pd is valid and the create info outlives the call.
         let device = unsafe { instance.create_device(pd, &create, None) }.vk("vkCreateDevice")?;
         Ok((pd, device, family, info))

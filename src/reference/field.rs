@@ -1,7 +1,10 @@
-//! The trilinear field in f64 (GPU: `shaders/include/field.glsl`), and the ray/box clip.
+//! The trilinear field in f64 as the GPU's ray passes address it (`shaders/include/field.glsl`):
+//! world point → grid coordinates clamped into the box → the cell from `floor`, the last plane
+//! belonging to the last cell. The interpolation itself is [`super::trilinear`]'s.
 
 use glam::DVec3;
 
+use super::trilinear::{cell_corners, gradient, trilerp};
 use crate::field::Grid;
 
 /// World position → continuous grid coordinates, clamped into the box.
@@ -21,43 +24,18 @@ pub fn cell_of(grid: &Grid, u: DVec3) -> [usize; 3] {
     ]
 }
 
-/// Corner values of a cell widened to f64, in `Grid::corners` order.
-pub fn corners(grid: &Grid, c: [usize; 3]) -> [f64; 8] {
-    grid.corners(c[0], c[1], c[2]).map(f64::from)
-}
-
-/// Trilinear interpolation of corner values at local coordinates `f` in [0,1]^3.
-pub fn trilinear_local(v: &[f64; 8], f: DVec3) -> f64 {
-    let lerp = |a: f64, b: f64, t: f64| a * (1.0 - t) + b * t;
-    let x00 = lerp(v[0], v[1], f.x);
-    let x10 = lerp(v[2], v[3], f.x);
-    let x01 = lerp(v[4], v[5], f.x);
-    let x11 = lerp(v[6], v[7], f.x);
-    lerp(lerp(x00, x10, f.y), lerp(x01, x11, f.y), f.z)
-}
-
-/// Gradient of the trilinear interpolant with respect to local coordinates.
-pub fn gradient_local(v: &[f64; 8], f: DVec3) -> DVec3 {
-    let lerp = |a: f64, b: f64, t: f64| a * (1.0 - t) + b * t;
-    DVec3::new(
-        lerp(lerp(v[1] - v[0], v[3] - v[2], f.y), lerp(v[5] - v[4], v[7] - v[6], f.y), f.z),
-        lerp(lerp(v[2] - v[0], v[3] - v[1], f.x), lerp(v[6] - v[4], v[7] - v[5], f.x), f.z),
-        lerp(lerp(v[4] - v[0], v[5] - v[1], f.x), lerp(v[6] - v[2], v[7] - v[3], f.x), f.y),
-    )
-}
-
 /// Field value at grid coordinates `u`.
 pub fn value_at(grid: &Grid, u: DVec3) -> f64 {
     let c = cell_of(grid, u);
     let f = u - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
-    trilinear_local(&corners(grid, c), f)
+    trilerp(&cell_corners(grid, c), f)
 }
 
 /// World-space gradient at grid coordinates `u`.
 pub fn gradient_at(grid: &Grid, u: DVec3) -> DVec3 {
     let c = cell_of(grid, u);
     let f = u - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
-    gradient_local(&corners(grid, c), f) / grid.spacing()
+    gradient(&cell_corners(grid, c), f) / grid.spacing()
 }
 
 /// Ray/box intersection by slabs: `Some((t0, t1))` with `0 <= t0 <= t1`, or None when the ray

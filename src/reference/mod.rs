@@ -5,5 +5,6 @@
 pub mod analytic;
 pub mod field;
 pub mod fixed_step;
+pub mod mesh;
 pub mod shade;
 pub mod trilinear;

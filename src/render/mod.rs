@@ -1,10 +1,13 @@
 //! Rendering a scene: upload the grid as a 3D image, run the method's ray pass over bands of
-//! rows, read the pixels back into a [`Frame`].
+//! rows, read the pixels back into a [`Frame`]. The analytic pass also reads the grid's brick
+//! min/max grid (empty-space skipping), built on the GPU the first time an analytic render uses
+//! an uploaded grid and kept with it.
 //!
 //! Bands keep every storage buffer under the device's `maxStorageBufferRange` (128 MiB on
 //! lavapipe) and every dispatch to at most [`MAX_BAND_PIXELS`] rays, so images of any size are
 //! rendered in pieces.
 
+pub mod mesh;
 pub mod params;
 
 use std::sync::Arc;
@@ -17,7 +20,8 @@ use crate::gpu::{
     copy_buffer, memory_barrier, Buffer, ComputePipeline, Context, GpuError, Image3d,
     MemoryLocation, Resource, Timer,
 };
-use crate::passes::raymarch;
+use crate::passes::mesh_render::MeshPipelines;
+use crate::passes::{analytic, bricks, raymarch};
 use crate::scene::{Method, Scene};
 use params::{Band, RenderParams};
 
@@ -30,18 +34,31 @@ pub enum RenderError {
     Gpu(#[from] GpuError),
     #[error("render.method = \"{0}\" is not available in this build")]
     Unsupported(&'static str),
+    #[error("render.method = \"mesh\": {0}")]
+    Mesh(#[from] crate::mesh::MeshError),
 }
 
 /// A grid uploaded to the device.
 pub struct GpuGrid {
     pub image: Image3d,
     pub dims: [usize; 3],
+    /// The brick min/max grid ([`bricks`]), built by the first analytic render.
+    bricks: std::cell::OnceCell<Buffer>,
 }
 
 impl GpuGrid {
     pub fn upload(ctx: &Arc<Context>, grid: &Grid) -> Result<Self, GpuError> {
         let extent = grid.dims.map(|d| d as u32);
-        Ok(GpuGrid { image: Image3d::upload(ctx, "grid", extent, &grid.values)?, dims: grid.dims })
+        Ok(GpuGrid {
+            image: Image3d::upload(ctx, "grid", extent, &grid.values)?,
+            dims: grid.dims,
+            bricks: std::cell::OnceCell::new(),
+        })
+    }
+
+    /// The brick min/max grid, once an analytic render has built it (layout: [`bricks`]).
+    pub fn bricks(&self) -> Option<&Buffer> {
+        self.bricks.get()
     }
 }
 
@@ -49,9 +66,16 @@ impl GpuGrid {
 pub struct Renderer {
     ctx: Arc<Context>,
     raymarch: ComputePipeline,
+    analytic: ComputePipeline,
+    bricks: ComputePipeline,
     colormap: Buffer,
+    /// The mesh render's pipelines, built on the first mesh render (they need 64-bit atomics).
+    mesh: Option<MeshPipelines>,
     /// GPU time of the last frame's ray passes, in milliseconds (None without timestamps).
     pub last_gpu_ms: Option<f64>,
+    /// GPU time of building the brick min/max grid during the last frame, in milliseconds
+    /// (None when the frame did not build it: not analytic, already built, or no timestamps).
+    pub last_bricks_ms: Option<f64>,
 }
 
 /// The `steps` heat map: 256 linear RGBA entries of colorous's inferno (sRGB-decoded).
@@ -75,6 +99,8 @@ pub fn colormap() -> Vec<[f32; 4]> {
 impl Renderer {
     pub fn new(ctx: &Arc<Context>) -> Result<Self, RenderError> {
         let raymarch = raymarch::pipeline(ctx)?;
+        let analytic = analytic::pipeline(ctx)?;
+        let bricks = bricks::pipeline(ctx)?;
         let map = colormap();
         let mut staging = Buffer::new(
             ctx,
@@ -95,7 +121,16 @@ impl Renderer {
             copy_buffer(ctx, cmd, &staging, 0, &colormap, 0, staging.size);
             Ok(())
         })?;
-        Ok(Renderer { ctx: ctx.clone(), raymarch, colormap, last_gpu_ms: None })
+        Ok(Renderer {
+            ctx: ctx.clone(),
+            raymarch,
+            analytic,
+            bricks,
+            colormap,
+            mesh: None,
+            last_gpu_ms: None,
+            last_bricks_ms: None,
+        })
     }
 
     pub fn context(&self) -> &Arc<Context> {
@@ -119,10 +154,16 @@ impl Renderer {
     ) -> Result<Frame, RenderError> {
         let pipeline = match scene.render.method {
             Method::FixedStep => &self.raymarch,
-            Method::Analytic => return Err(RenderError::Unsupported("analytic")),
-            Method::Mesh => return Err(RenderError::Unsupported("mesh")),
+            Method::Analytic => &self.analytic,
+            Method::Mesh => return self.render_scene_mesh(scene, grid, gpu_grid, time),
         };
         let ctx = &self.ctx;
+        self.last_bricks_ms = None;
+        if scene.render.method == Method::Analytic && gpu_grid.bricks.get().is_none() {
+            let (built, ms) = bricks::build(ctx, &self.bricks, &gpu_grid.image, gpu_grid.dims)?;
+            let _ = gpu_grid.bricks.set(built);
+            self.last_bricks_ms = ms;
+        }
         let (width, height) = (scene.image.width, scene.image.height);
         let pixel_bytes = std::mem::size_of::<Pixel>() as u64;
         let row_bytes = width as u64 * pixel_bytes;
@@ -160,12 +201,16 @@ impl Renderer {
             vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuToCpu,
         )?;
-        let set = pipeline.bind(&[
+        let mut resources = vec![
             Resource::Uniform(&params_buf),
             Resource::Sampled(&gpu_grid.image),
             Resource::Storage(&out),
             Resource::Storage(&self.colormap),
-        ])?;
+        ];
+        if let (Method::Analytic, Some(b)) = (scene.render.method, gpu_grid.bricks.get()) {
+            resources.push(Resource::Storage(b));
+        }
+        let set = pipeline.bind(&resources)?;
         ctx.submit("upload params", |cmd| {
             copy_buffer(ctx, cmd, &params_staging, 0, &params_buf, 0, params_staging.size);
             Ok(())
@@ -227,7 +272,11 @@ impl Renderer {
         ];
         match r.method {
             Method::FixedStep => extra.push(("steps".into(), r.steps.to_string())),
-            Method::Analytic => extra.push(("newton_steps".into(), r.newton_steps.to_string())),
+            Method::Analytic => {
+                extra.push(("newton_steps".into(), r.newton_steps.to_string()));
+                extra.push(("skip".into(), r.skip.to_string()));
+                extra.push(("crossing".into(), r.crossing.to_string()));
+            }
             Method::Mesh => extra.push(("mesh".into(), r.mesh.name().to_string())),
         }
         FrameInfo {

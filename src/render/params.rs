@@ -26,12 +26,16 @@ pub struct RenderParams {
     pub method: [u32; 4],
     pub surface: [f32; 4],
     pub debug: [f32; 4],
+    pub eye_grid: [f32; 4],
+    pub analytic: [u32; 4],
 }
 
 const _: () = {
-    assert!(std::mem::size_of::<RenderParams>() == 14 * 16);
+    assert!(std::mem::size_of::<RenderParams>() == 16 * 16);
     assert!(std::mem::offset_of!(RenderParams, dims) == 9 * 16);
     assert!(std::mem::offset_of!(RenderParams, debug) == 13 * 16);
+    assert!(std::mem::offset_of!(RenderParams, eye_grid) == 14 * 16);
+    assert!(std::mem::offset_of!(RenderParams, analytic) == 15 * 16);
 };
 
 /// Push constants of the ray passes: the band of rows being rendered.
@@ -74,11 +78,16 @@ pub fn depth_range(eye: DVec3, grid: &Grid) -> (f64, f64) {
     ((dist - radius).max(0.0), dist + radius)
 }
 
+/// Triangles tested per pixel at the top of the `steps` colormap of the mesh render.
+pub const MESH_STEPS_SCALE: f64 = 64.0;
+
 /// The step count shown at the top of the `steps` colormap: the sample count for fixed-step,
-/// the most cells a ray can cross (nx + ny + nz - 3 + 1) for analytic.
+/// the most cells a ray can cross (nx + ny + nz - 3 + 1) for analytic, [`MESH_STEPS_SCALE`]
+/// triangles tested for mesh.
 pub fn steps_scale(scene: &Scene, grid: &Grid) -> f64 {
     match scene.render.method {
         Method::FixedStep => scene.render.steps as f64,
+        Method::Mesh => MESH_STEPS_SCALE,
         _ => (grid.cells().iter().sum::<usize>() + 1) as f64,
     }
 }
@@ -110,6 +119,8 @@ impl RenderParams {
                 far as f32,
             ],
             debug: [steps_scale(scene, grid) as f32, 0.0, 0.0, 0.0],
+            eye_grid: v4((cam.eye - grid.min) / grid.spacing(), 0.0),
+            analytic: [r.crossing.max(1), r.skip as u32, crate::passes::bricks::BRICK as u32, 0],
         }
     }
 }

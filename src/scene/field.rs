@@ -7,7 +7,11 @@
 //!   npy       path                                                 the array's shape
 //!   raw       path, dims, dtype, endian                            dims
 //!   expr      expression, resolution                               resolution
+//!   mesh      path, resolution (points on the longest axis)         the mesh's box + 5%
 //! ```
+//!
+//! `mesh` takes no `bounds`: its box is the mesh's bounding box grown by 5% of its longest side
+//! on every side, with cubic cells (`field::mesh_sdf::grid_for`).
 //!
 //! A key of another source (or another shape) is an error that says whose key it is. Data
 //! files are opened here, but only their headers and lengths are read: the memory cap and
@@ -18,16 +22,18 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::error::{SceneError, SceneErrorKind};
-use super::read::{self, choice, number_where, points3, string, vec3, Result, View};
+use super::read::{self, choice, integer, number_where, points3, string, vec3, Result, View};
 use super::tree::{Node, Origin, Source};
 use super::validate::show_vec;
 use super::{Bounds, SdfShape};
 use crate::field::{
-    Endian, ExprSource, FieldError, FieldSource, FieldSpec, GridLimits, NpySource, RawSource,
-    SampleType,
+    mesh_sdf, Endian, ExprSource, FieldError, FieldSource, FieldSpec, GridLimits, MeshSource,
+    NpySource, RawSource, SampleType,
 };
 
-const SOURCES: [&str; 5] = ["sdf", "corners", "npy", "raw", "expr"];
+const SOURCES: [&str; 6] = ["sdf", "corners", "npy", "raw", "expr", "mesh"];
+/// Most grid points along the longest axis of a mesh field (the memory cap is checked too).
+const MAX_MESH_RESOLUTION: i64 = 1 << 16;
 const COMMON: [&str; 2] = ["source", "bounds"];
 const SHAPES: [&str; 4] = ["sphere", "box", "torus", "gyroid"];
 const SHAPE_PARAMS: [&str; 6] =
@@ -51,6 +57,7 @@ fn source_keys(source: &str) -> &'static [&'static str] {
         "npy" => &["path"],
         "raw" => &["path", "dims", "dtype", "endian"],
         "expr" => &["expression", "resolution"],
+        "mesh" => &["path", "resolution"],
         _ => &[],
     }
 }
@@ -83,7 +90,7 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
             SceneErrorKind::Missing,
             root.at,
             "field",
-            "missing table; add [field] with source = \"sdf\", \"corners\", \"npy\", \"raw\" or \"expr\"",
+            "missing table; add [field] with source = \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\" or \"mesh\"",
         ));
     }
     let mut all: Vec<&str> =
@@ -93,11 +100,22 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
     let sources = SOURCES.map(|s| (s, s));
     let Some(source_node) = t.get("source") else {
         t.check_keys(&all)?;
-        return Err(t.missing("source", "one of \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\""));
+        return Err(t.missing(
+            "source",
+            "one of \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\", \"mesh\"",
+        ));
     };
     let source = choice(t.src, "field.source", source_node, &sources)?;
-    let allowed: Vec<&str> = COMMON.iter().chain(source_keys(source)).copied().collect();
+    let common: &[&str] = if source == "mesh" { &COMMON[..1] } else { &COMMON };
+    let allowed: Vec<&str> = common.iter().chain(source_keys(source)).copied().collect();
     t.check_keys_with(&allowed, |key| {
+        if source == "mesh" && key == "bounds" {
+            return Some(
+                "not a key of source \"mesh\" (its box is the mesh's bounding box grown by 5% \
+                 of its longest side on every side)"
+                    .to_string(),
+            );
+        }
         let owners: Vec<&str> =
             SOURCES.iter().filter(|s| source_keys(s).contains(&key)).copied().collect();
         (!owners.is_empty()).then(|| {
@@ -109,6 +127,7 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
         })
     })?;
 
+    let mut mesh_bounds = None;
     let (source_value, resolution) = match source {
         "sdf" => {
             let shape = sdf_shape(&t)?;
@@ -150,6 +169,22 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
             })?;
             (FieldSource::Raw(raw), dims)
         }
+        "mesh" => {
+            let (path_node, path) = data_path(&t, base_dir)?;
+            let res_node = t.get("resolution").ok_or_else(|| {
+                t.missing("resolution", "grid points along the mesh's longest axis, e.g. 64")
+            })?;
+            let n = integer(t.src, "field.resolution", res_node, 2, MAX_MESH_RESOLUTION)? as usize;
+            let mesh = MeshSource::open(&path)
+                .map_err(|e| data_error(t.src, "field.path", path_node, e))?;
+            let (lo, hi) = mesh.mesh.bounds();
+            let (dims, bounds) = mesh_sdf::grid_for(lo, hi, n);
+            limits
+                .check(dims.map(|d| d as u64), "field.resolution")
+                .map_err(|e| data_error(t.src, "field.resolution", res_node, e))?;
+            mesh_bounds = Some(bounds);
+            (FieldSource::Mesh(mesh), dims)
+        }
         _ => {
             let node = t
                 .get("expression")
@@ -165,9 +200,10 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
         }
     };
 
-    let bounds = match t.get("bounds") {
-        None => Bounds::index_space(resolution),
-        Some(_) => bounds(&t.table("bounds")?)?,
+    let bounds = match (mesh_bounds, t.get("bounds")) {
+        (Some(b), _) => b,
+        (None, None) => Bounds::index_space(resolution),
+        (None, Some(_)) => bounds(&t.table("bounds")?)?,
     };
     Ok(FieldSpec { source: source_value, resolution, bounds })
 }

@@ -31,7 +31,7 @@ use std::path::Path;
 
 pub use error::{SceneError, SceneErrorKind};
 pub use types::*;
-pub use validate::{MAX_IMAGE_SIDE, MAX_NEWTON_STEPS, MAX_STEPS};
+pub use validate::{MAX_IMAGE_SIDE, MAX_NEWTON_STEPS, MAX_SLICE_DEPTH, MAX_STEPS};
 
 use crate::field::{GridLimits, GRID_CAP_ENV};
 use tree::Source;

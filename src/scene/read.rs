@@ -167,6 +167,14 @@ pub(crate) fn number_where(
     }
 }
 
+/// `true` or `false`.
+pub(crate) fn boolean(src: &Source, key: &str, node: &Node) -> Result<bool> {
+    match node.value {
+        Value::Boolean(b) => Ok(b),
+        _ => Err(type_error(src, key, node, "true or false")),
+    }
+}
+
 /// An integer in `lo..=hi`.
 pub(crate) fn integer(src: &Source, key: &str, node: &Node, lo: i64, hi: i64) -> Result<i64> {
     let Value::Integer(i) = node.value else {

@@ -16,6 +16,7 @@ pub struct Scene {
     pub field: crate::field::FieldSpec,
     pub surface: SurfaceSettings,
     pub render: RenderSettings,
+    pub slice: SliceSettings,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -190,6 +191,11 @@ pub struct RenderSettings {
     pub steps: u32,
     /// Analytic: Newton-Raphson refinements of each root.
     pub newton_steps: u32,
+    /// Analytic: cross bricks of the min/max grid that cannot hold a crossing in one step
+    /// (images are identical either way; only `steps` changes).
+    pub skip: bool,
+    /// Analytic: which isovalue crossing along the ray is shown (1 = the first hit).
+    pub crossing: u32,
     pub mesh: MeshAlgorithm,
     pub shading: Shading,
     /// Linear RGBA of pixels whose ray misses.
@@ -199,18 +205,68 @@ pub struct RenderSettings {
 }
 
 impl Default for RenderSettings {
-    /// Analytic, 200 fixed steps, 10 Newton steps, marching cubes, Lambert shading, transparent
-    /// black background, colour (0.85, 0.65, 0.45).
+    /// Analytic, 200 fixed steps, 10 Newton steps, skipping on, first crossing, marching cubes,
+    /// Lambert shading, transparent black background, colour (0.85, 0.65, 0.45).
     fn default() -> Self {
         RenderSettings {
             method: Method::Analytic,
             steps: 200,
             newton_steps: 10,
+            skip: true,
+            crossing: 1,
             mesh: MeshAlgorithm::MarchingCubes,
             shading: Shading::Lambert,
             background: [0.0, 0.0, 0.0, 0.0],
             color: [0.85, 0.65, 0.45],
         }
+    }
+}
+
+/// How marching squares decides its two ambiguous cases (5 and 10: inside corners on one
+/// diagonal, outside corners on the other): by the inside test of a value at the cell's centre.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ambiguity {
+    /// The mean of the 4 corner values (which is the bilinear interpolant at the centre).
+    Average,
+    /// The field's source evaluated at the centre (sdf, expr and corners sources).
+    Sample,
+    /// The bilinear interpolant's saddle value (the asymptotic decider): the contours then have
+    /// the topology of the bilinear zero set itself.
+    Saddle,
+}
+
+impl Ambiguity {
+    /// Every rule, the default first.
+    pub const ALL: [Ambiguity; 3] = [Ambiguity::Average, Ambiguity::Sample, Ambiguity::Saddle];
+
+    /// The name as written in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Ambiguity::Average => "average",
+            Ambiguity::Sample => "sample",
+            Ambiguity::Saddle => "saddle",
+        }
+    }
+}
+
+/// `[slice]`: settings of `isoview slice` (the plane itself comes from the command line).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SliceSettings {
+    /// Rule for marching squares' ambiguous cases.
+    pub ambiguity: Ambiguity,
+    /// Quadtree levels below the grid's cells (0: contours on the grid's cells only).
+    pub max_depth: u32,
+    /// Picture width in pixels; None: `image.width`, or from `height` and the cross-section's
+    /// aspect ratio.
+    pub width: Option<u32>,
+    /// Picture height in pixels; None: from the width and the cross-section's aspect ratio.
+    pub height: Option<u32>,
+}
+
+impl Default for SliceSettings {
+    /// Average rule, no refinement, size from `[image]` and the cross-section.
+    fn default() -> Self {
+        SliceSettings { ambiguity: Ambiguity::Average, max_depth: 0, width: None, height: None }
     }
 }
 

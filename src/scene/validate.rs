@@ -7,10 +7,10 @@ use super::error::SceneErrorKind;
 use super::read::{self, choice, integer, number_where, numbers, vec3, Result, View};
 use super::tree::{Node, Source, Value};
 use super::{
-    CameraSettings, ImageSettings, Inside, MeshAlgorithm, Method, RenderSettings, Scene, Shading,
-    SurfaceSettings,
+    Ambiguity, CameraSettings, ImageSettings, Inside, MeshAlgorithm, Method, RenderSettings, Scene,
+    Shading, SliceSettings, SurfaceSettings,
 };
-use crate::field::GridLimits;
+use crate::field::{FieldSource, FieldSpec, GridLimits};
 
 /// Largest image side.
 pub const MAX_IMAGE_SIDE: i64 = 16384;
@@ -18,8 +18,12 @@ pub const MAX_IMAGE_SIDE: i64 = 16384;
 pub const MAX_STEPS: i64 = 1 << 20;
 /// Most Newton refinements per root.
 pub const MAX_NEWTON_STEPS: i64 = 64;
+/// Largest `render.crossing` (far beyond any ray: a cell holds at most 3 crossings).
+pub const MAX_CROSSING: i64 = 1 << 20;
+/// Deepest quadtree refinement of a slice below the grid's cells.
+pub const MAX_SLICE_DEPTH: i64 = 10;
 
-const TABLES: [&str; 5] = ["image", "camera", "field", "surface", "render"];
+const TABLES: [&str; 6] = ["image", "camera", "field", "surface", "render", "slice"];
 
 /// Validates the whole tree into a scene. `base_dir` resolves relative data paths.
 pub(crate) fn scene(
@@ -35,6 +39,7 @@ pub(crate) fn scene(
     root.check_keys(&TABLES)?;
     // [field] first: a scene without a field is the most basic mistake.
     let field = super::field::field(&root, base_dir, limits)?;
+    let slice = slice(&root.table("slice")?, &field)?;
     Ok(Scene {
         path: None,
         image: image(&root.table("image")?)?,
@@ -42,6 +47,7 @@ pub(crate) fn scene(
         field,
         surface: surface(&root.table("surface")?)?,
         render: render(&root.table("render")?)?,
+        slice,
     })
 }
 
@@ -116,7 +122,17 @@ fn surface(t: &View) -> Result<SurfaceSettings> {
 }
 
 fn render(t: &View) -> Result<RenderSettings> {
-    t.check_keys(&["method", "steps", "newton_steps", "mesh", "shading", "background", "color"])?;
+    t.check_keys(&[
+        "method",
+        "steps",
+        "newton_steps",
+        "skip",
+        "crossing",
+        "mesh",
+        "shading",
+        "background",
+        "color",
+    ])?;
     let d = RenderSettings::default();
     let methods = Method::ALL.map(|m| (m.name(), m));
     let meshes = MeshAlgorithm::ALL.map(|m| (m.name(), m));
@@ -127,11 +143,43 @@ fn render(t: &View) -> Result<RenderSettings> {
         newton_steps: t.or("newton_steps", d.newton_steps as i64, |s, k, n| {
             integer(s, k, n, 0, MAX_NEWTON_STEPS)
         })? as u32,
+        skip: t.or("skip", d.skip, read::boolean)?,
+        crossing: t
+            .or("crossing", d.crossing as i64, |s, k, n| integer(s, k, n, 1, MAX_CROSSING))?
+            as u32,
         mesh: t.or("mesh", d.mesh, |s, k, n| choice(s, k, n, &meshes))?,
         shading: t.or("shading", d.shading, |s, k, n| choice(s, k, n, &shadings))?,
         background: t.or("background", d.background, colour::<4>)?,
         color: t.or("color", d.color, colour::<3>)?,
     })
+}
+
+fn slice(t: &View, field: &FieldSpec) -> Result<SliceSettings> {
+    t.check_keys(&["ambiguity", "max_depth", "width", "height"])?;
+    let d = SliceSettings::default();
+    let rules = Ambiguity::ALL.map(|a| (a.name(), a));
+    let side = |src: &Source, key: &str, n: &Node| integer(src, key, n, 1, MAX_IMAGE_SIDE);
+    let s = SliceSettings {
+        ambiguity: t.or("ambiguity", d.ambiguity, |s, k, n| choice(s, k, n, &rules))?,
+        max_depth: t
+            .or("max_depth", d.max_depth as i64, |s, k, n| integer(s, k, n, 0, MAX_SLICE_DEPTH))?
+            as u32,
+        width: t.or("width", None, |s, k, n| side(s, k, n).map(|w| Some(w as u32)))?,
+        height: t.or("height", None, |s, k, n| side(s, k, n).map(|h| Some(h as u32)))?,
+    };
+    let sampled = matches!(
+        field.source,
+        FieldSource::Sdf { .. } | FieldSource::Expr(_) | FieldSource::Corners(_)
+    );
+    if s.ambiguity == Ambiguity::Sample && !sampled {
+        return Err(t.err(
+            SceneErrorKind::Value,
+            "ambiguity",
+            "\"sample\" evaluates the field's source at cell centres, which needs an sdf, expr or \
+             corners source (this field is sampled data); use \"average\" or \"saddle\"",
+        ));
+    }
+    Ok(s)
 }
 
 /// A linear colour: `N` finite numbers that fit an `f32`.

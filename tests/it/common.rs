@@ -93,11 +93,14 @@ pub fn scene_for(grid: &Grid, eye: DVec3, size: u32, method: Method) -> Scene {
             method,
             steps: 64,
             newton_steps: 10,
+            skip: true,
+            crossing: 1,
             mesh: MeshAlgorithm::MarchingCubes,
             shading: Shading::Lambert,
             background: [0.0, 0.0, 0.0, 0.0],
             color: [0.85, 0.65, 0.45],
         },
+        slice: SliceSettings::default(),
     }
 }
 

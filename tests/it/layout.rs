@@ -21,10 +21,13 @@ fn shared_structs_have_the_same_layout_on_the_gpu() {
         *w = 0x4000_0000 + i as u32 * 7919;
     }
     let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_BUFFER;
-    let mut ubo = Buffer::new(&ctx, "probe params", 224, usage, MemoryLocation::CpuToGpu).unwrap();
+    let bytes = std::mem::size_of::<RenderParams>() as u64;
+    let words = bytes as usize / 4;
+    let mut ubo =
+        Buffer::new(&ctx, "probe params", bytes, usage, MemoryLocation::CpuToGpu).unwrap();
     ubo.write(std::slice::from_ref(&params)).unwrap();
-    let mut bits = Buffer::new(&ctx, "probe bits", 224, usage, MemoryLocation::GpuToCpu).unwrap();
-    bits.write(&[SENTINEL; 56]).unwrap();
+    let mut bits = Buffer::new(&ctx, "probe bits", bytes, usage, MemoryLocation::GpuToCpu).unwrap();
+    bits.write(&vec![SENTINEL; words]).unwrap();
     let mut px = Buffer::new(&ctx, "probe pixels", 128, usage, MemoryLocation::GpuToCpu).unwrap();
     px.write(&[SENTINEL; 32]).unwrap();
 
@@ -49,7 +52,7 @@ fn shared_structs_have_the_same_layout_on_the_gpu() {
     })
     .unwrap();
 
-    let seen: Vec<u32> = bits.read(56).unwrap();
+    let seen: Vec<u32> = bits.read(words).unwrap();
     let sent: &[u32] = bytemuck::cast_slice(std::slice::from_ref(&params));
     assert_eq!(seen, sent, "RenderParams as GLSL reads it");
 

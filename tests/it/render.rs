@@ -211,3 +211,28 @@ fn validation_layer_reports_nothing_for_a_render() {
     assert!(frame.pixels.iter().any(|p| p.is_hit()));
     assert_eq!(validation_messages(), before, "validation warnings or errors (printed above)");
 }
+
+#[test]
+fn grids_larger_than_one_staging_slab_upload_in_pieces() {
+    let Some(ctx) = gpu() else { return };
+    // 300^3 f32 = 103 MiB: two 64 MiB staging slabs, and more than lavapipe's 128 MiB storage
+    // buffer range would allow as one buffer of a slightly larger grid.
+    let n = 300;
+    let grid = grid_from([n, n, n], DVec3::splat(-1.0), DVec3::splat(1.0), |p| {
+        (p - DVec3::new(0.1, -0.2, 0.3)).length() - 0.5
+    });
+    // Looking from +z the rays meet the upper slab's part of the sphere first, from -z the
+    // lower slab's (the boundary is at grid z = 186, world z = 0.244).
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    for (eye_z, upper) in [(3.0, true), (-3.0, false)] {
+        let mut scene = scene_for(&grid, DVec3::new(0.4, 0.3, eye_z), 32, Method::FixedStep);
+        scene.render.steps = 300;
+        let frame = renderer.render(&scene, &grid, 0.0).unwrap();
+        let a = compare_with_reference(&scene, &grid, &frame.pixels);
+        assert!(a.hits > 100, "{} hits", a.hits);
+        let in_slab = |z: f32| if upper { z > 0.244 } else { z < 0.244 };
+        let hits: Vec<f32> =
+            frame.pixels.iter().filter(|p| p.is_hit()).map(|p| p.position[2]).collect();
+        assert!(hits.iter().filter(|&&z| in_slab(z)).count() * 2 > hits.len());
+    }
+}

@@ -178,7 +178,7 @@ fn keys_of_other_sources_and_shapes_are_errors() {
     let e = error(&format!("{sdf}path = \"x.npy\"\n"), &[]);
     assert_eq!(
         e,
-        "t.toml:7:1: field.path: not a key of source \"sdf\" (it belongs to \"npy\", \"raw\"; \"sdf\" \
+        "t.toml:7:1: field.path: not a key of source \"sdf\" (it belongs to \"npy\", \"raw\", \"mesh\"; \"sdf\" \
          takes source, bounds, shape, center, resolution, radius, half_extents, major_radius, \
          minor_radius, scale, thickness)"
     );
@@ -314,10 +314,10 @@ fn field_table_source_and_shape_are_checked() {
     let e = error("[image]\nwidth = 8\n", &[]);
     assert_eq!(
         e,
-        "t.toml:1:1: field: missing table; add [field] with source = \"sdf\", \"corners\", \"npy\", \"raw\" or \"expr\""
+        "t.toml:1:1: field: missing table; add [field] with source = \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\" or \"mesh\""
     );
     let e = error("[field]\nvalues = [1, 2, 3, 4, 5, 6, 7, 8]\n", &[]);
-    assert_eq!(e, "t.toml:1:1: field.source: missing (one of \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\")");
+    assert_eq!(e, "t.toml:1:1: field.source: missing (one of \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\", \"mesh\")");
     let e = error("[field]\nsource = \"volume\"\n", &[]);
     assert!(
         e.starts_with("t.toml:2:10: field.source: unknown value \"volume\" (expected \"sdf\""),
@@ -519,7 +519,7 @@ fn override_errors_name_the_override() {
     assert_eq!(
         error(CELL, &["colour=1"]),
         "--set colour=1: colour: unknown table or key (a scene has the tables [image], [camera], \
-         [field], [surface], [render])"
+         [field], [surface], [render], [slice])"
     );
     assert_eq!(
         error(CELL, &["render.steps"]),
@@ -588,7 +588,7 @@ fn load_reads_files_and_reports_io_errors() {
     let unknown = dir.join("unknown.toml");
     std::fs::write(&unknown, format!("{CELL}[render]\nfoo = 1\n")).unwrap();
     let e = scene::load(&unknown, &[]).unwrap_err().to_string();
-    assert_eq!(e, format!("{}:5:1: render.foo: unknown key ([render] has method, steps, newton_steps, mesh, shading, background, color)", unknown.display()));
+    assert_eq!(e, format!("{}:5:1: render.foo: unknown key ([render] has method, steps, newton_steps, skip, crossing, mesh, shading, background, color)", unknown.display()));
 }
 
 #[test]

@@ -162,8 +162,10 @@ mod tests;
 use glam::DVec3;
 
 use crate::field::Grid;
+use crate::frame::Pixel;
+use crate::reference::shade::{render_with, RayHit};
 use crate::reference::trilinear::{cell_corners, gradient, lerp3, trilerp};
-use crate::scene::Inside;
+use crate::scene::{Inside, Scene};
 
 use cubic::{inside_g, refine, Cubic};
 
@@ -298,6 +300,29 @@ pub fn trace_detailed(
     let mut visits = Vec::new();
     let hit = walk(grid, isovalue, inside, origin, dir, opts, Some(&mut visits));
     (hit, visits)
+}
+
+/// The options a scene asks for (`render.newton_steps`, `render.crossing`).
+pub fn options(scene: &Scene) -> AnalyticOptions {
+    AnalyticOptions { newton_steps: scene.render.newton_steps, crossing: scene.render.crossing }
+}
+
+/// The whole image, as the GPU's analytic pass produces it: `steps` is
+/// [`AnalyticHit::cells_visited`], `crossings` is [`AnalyticHit::crossings`]. (With
+/// `render.skip` on, the GPU's `steps` counts less work; every other channel is the same.)
+pub fn render(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
+    let (iso, inside, opts) = (scene.surface.isovalue, scene.surface.inside, options(scene));
+    render_with(scene, grid, |o, d| {
+        let a = trace(grid, iso, inside, o, d, &opts);
+        let hit = a.hit.map(|h| RayHit {
+            t: h.t,
+            position: h.position,
+            normal: h.normal,
+            grid_coords: DVec3::new(h.cell[0] as f64, h.cell[1] as f64, h.cell[2] as f64) + h.local,
+            cell: h.cell.map(|c| c as usize),
+        });
+        (hit, a.cells_visited, a.crossings as i32)
+    })
 }
 
 /// Ray parameter of segment parameter `u`: `t_in + u (t_out - t_in)`, at most `t_out`, and

@@ -1,0 +1,162 @@
+//! `cargo bench --bench analytic` (or `./x bench`): exact ray tracing against fixed-step ray
+//! marching, and empty-space skipping on and off, on the current Vulkan device. Prints a
+//! markdown table; never asserts on time.
+//!
+//! For each scene, in one run:
+//! 1. the analytic hit mask (skipping on; the brick grid is built by this first analytic frame
+//!    and timed apart);
+//! 2. the smallest fixed-step `steps` whose hit mask matches the analytic one on at least 99.9%
+//!    of the pixels: doubling from 4 until it matches, then bisection between the last miss and
+//!    the first match (matching is not strictly monotone in `steps`; this finds a boundary);
+//! 3. `FRAMES` rounds of one frame each of analytic with skipping, analytic without, and
+//!    fixed-step at that `steps`, interleaved so that a change in the machine's load hits all
+//!    three alike; each reports the median GPU time of its frames (GPU timestamps around the ray
+//!    passes, `Renderer::last_gpu_ms`).
+//!
+//! Environment: `ISOVIEW_BENCH_SIZE` (image side, default 512), `ISOVIEW_BENCH_FRAMES`
+//! (default 5).
+
+use glam::DVec3;
+use isoview::field::{FieldSource, FieldSpec, Grid};
+use isoview::frame::Frame;
+use isoview::gpu::{Context, ContextOptions};
+use isoview::render::{GpuGrid, Renderer};
+use isoview::scene::*;
+
+fn sdf_grid(shape: SdfShape, center: DVec3, n: usize) -> Grid {
+    let spec = FieldSpec {
+        source: FieldSource::Sdf { shape, center },
+        resolution: [n, n, n],
+        bounds: Bounds { min: DVec3::splat(-1.0), max: DVec3::splat(1.0) },
+    };
+    spec.sample(0.0).expect("grid")
+}
+
+fn scene(grid: &Grid, size: u32) -> Scene {
+    Scene {
+        path: None,
+        image: ImageSettings { width: size, height: size },
+        camera: CameraSettings::default(),
+        field: FieldSpec {
+            source: FieldSource::Corners([0.0; 8]),
+            resolution: grid.dims,
+            bounds: Bounds { min: grid.min, max: grid.max },
+        },
+        surface: SurfaceSettings::default(),
+        render: RenderSettings::default(),
+        slice: SliceSettings::default(),
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[v.len() / 2]
+}
+
+struct Bench<'a> {
+    renderer: &'a mut Renderer,
+    grid: &'a Grid,
+    gpu_grid: &'a GpuGrid,
+    frames: usize,
+}
+
+impl Bench<'_> {
+    fn frame(&mut self, scene: &Scene) -> Frame {
+        self.renderer.render_uploaded(scene, self.grid, self.gpu_grid, 0.0).expect("render")
+    }
+
+    /// Median GPU seconds per frame of each scene, frames interleaved.
+    fn time(&mut self, scenes: &[&Scene]) -> Vec<f64> {
+        let mut times = vec![Vec::new(); scenes.len()];
+        for _ in 0..self.frames {
+            for (s, t) in scenes.iter().zip(&mut times) {
+                self.frame(s);
+                t.push(self.renderer.last_gpu_ms.unwrap_or(f64::NAN) / 1e3);
+            }
+        }
+        times.into_iter().map(median).collect()
+    }
+}
+
+/// Pixels whose hit/miss agree.
+fn agreeing(a: &Frame, b: &Frame) -> usize {
+    a.pixels.iter().zip(&b.pixels).filter(|(x, y)| x.is_hit() == y.is_hit()).count()
+}
+
+fn main() {
+    let ctx = match Context::new(&ContextOptions::default()) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("bench: {e}");
+            std::process::exit(3);
+        }
+    };
+    let env = |k: &str, d: usize| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
+    let size = env("ISOVIEW_BENCH_SIZE", 512) as u32;
+    let frames = env("ISOVIEW_BENCH_FRAMES", 5).max(1);
+    let mut renderer = Renderer::new(&ctx).expect("renderer");
+    let rays = (size * size) as f64;
+    println!("device: {} ({})", ctx.info.name, ctx.info.driver_info);
+    println!(
+        "analytic vs fixed-step, {size}x{size} image, default camera; GPU time: median of \
+         {frames} frames (GPU timestamps); fixed-step at the smallest steps whose hit mask \
+         matches analytic on >= 99.9% of pixels"
+    );
+    println!();
+    println!(
+        "| scene | analytic rays/s | no skipping rays/s | skipping speed-up | bricks ms | \
+         fixed-step steps | mask match | fixed-step rays/s | analytic / fixed-step |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let torus = SdfShape::Torus { major_radius: 0.6, minor_radius: 0.25 };
+    let sphere = SdfShape::Sphere { radius: 0.15 };
+    let scenes = [
+        ("torus SDF 64³", sdf_grid(torus, DVec3::ZERO, 64)),
+        ("sphere r = 0.15 in a corner of 256³", sdf_grid(sphere, DVec3::splat(-0.75), 256)),
+    ];
+    for (name, grid) in &scenes {
+        let gpu_grid = GpuGrid::upload(&ctx, grid).expect("upload");
+        let mut b = Bench { renderer: &mut renderer, grid, gpu_grid: &gpu_grid, frames };
+        let analytic = scene(grid, size);
+        let reference = b.frame(&analytic);
+        let bricks_ms = b.renderer.last_bricks_ms;
+        let mut no_skip = analytic.clone();
+        no_skip.render.skip = false;
+
+        let mut fixed = analytic.clone();
+        fixed.render.method = Method::FixedStep;
+        let need = (0.999 * rays).ceil() as usize;
+        let mut matches = |steps: u32, b: &mut Bench| {
+            fixed.render.steps = steps;
+            agreeing(&b.frame(&fixed), &reference)
+        };
+        let (mut lo, mut hi) = (2u32, 4u32);
+        while matches(hi, &mut b) < need && hi < 1 << 16 {
+            lo = hi;
+            hi *= 2;
+        }
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if matches(mid, &mut b) >= need {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        let matched = matches(hi, &mut b);
+        fixed.render.steps = hi;
+        let t = b.time(&[&analytic, &no_skip, &fixed]);
+        let (t_skip, t_plain, t_fixed) = (t[0], t[1], t[2]);
+        println!(
+            "| {name} | {:.3e} | {:.3e} | {:.2}× | {} | {hi} | {matched} / {} ({:.3}%) | {:.3e} | {:.2}× |",
+            rays / t_skip,
+            rays / t_plain,
+            t_plain / t_skip,
+            bricks_ms.map(|ms| format!("{ms:.1}")).unwrap_or_else(|| "-".into()),
+            rays as usize,
+            100.0 * matched as f64 / rays,
+            rays / t_fixed,
+            t_fixed / t_skip,
+        );
+    }
+}

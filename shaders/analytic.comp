@@ -1,0 +1,304 @@
+#version 450
+// Exact ray tracing of the trilinear isosurface (`render.method = "analytic"`): the f32 port of
+// `reference::analytic` (f64), whose module doc is the specification. The numbers below are the
+// steps of its per-ray algorithm:
+//   1. index space; 2. slab clip to [t_lo, t_hi]; 3. entry point; 4. first cell; 5. next planes
+//   from plane indices; 6. walk the cells: per cell the cubic of the segment, split at the roots
+//   of its derivative, a crossing wherever the inside predicate changes between consecutive
+//   split points (values at cell faces carried from cell to cell), refined by Newton kept in
+//   the bracket; 7. hit attributes.
+// The walk goes on after the hit to count every crossing (the `crossings` channel); only the
+// wanted one (`P.analytic.x`, the k-th) is refined.
+//
+// Outputs: the hit's colour (shade()), normal, depth (the ray's t: distance, dir being a unit
+// vector), position, cell; `crossings`, every crossing with t > 0 inside the box; `steps`, the
+// passes of the walk up to and including the hit's (all of them on a miss). Without skipping a
+// pass is one cell, as the reference's `cells_visited`; with skipping a brick crossed in one jump
+// is one pass, and a ray whose remaining span lies in an empty brick stops there.
+//
+// Empty-space skipping (`P.analytic.y`): `bricks[]` holds the [min, max] of the corner values of
+// each brick of P.analytic.z^3 cells (built by bricks.comp). When the walk enters a cell whose
+// brick is clearly on one side of the isovalue, it jumps to the last cell of the brick along the
+// ray and only evaluates the value where it leaves the brick, landing in exactly the state
+// (cell, local entry point, carried value, t) the cell-by-cell walk would reach there, so the
+// image is bit for bit the same. See `jump` below for why, and when it is not attempted.
+//
+// Where f32 needs care (the reference is free of tolerances except CONVERGED):
+// - the predicate is decided on g = f - iso as in the reference (`inside_g`);
+// - CONVERGED = 4 FLT_EPSILON (analytic.glsl);
+// - lerps are `precise`, so face values are exact at local 0 and 1;
+// - `tmax` values are always computed from plane indices, never accumulated, so ties (rays
+//   through edges and corners) are exact float equalities and the last cell's tmax is the
+//   slab's far t.
+
+#extension GL_GOOGLE_include_directive : require
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+#include "params.glsl"
+#include "pixel.glsl"
+
+layout(std140, binding = 0) uniform Params { RenderParams P; };
+layout(binding = 1) uniform sampler3D u_grid;
+layout(std430, binding = 2) writeonly buffer Out { Pixel pixels[]; };
+layout(std430, binding = 3) readonly buffer Colormap { vec4 colormap[256]; };
+layout(std430, binding = 4) readonly buffer Bricks { vec2 bricks[]; };
+layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
+
+#include "field.glsl"
+#include "shade.glsl"
+#include "camera.glsl"
+#include "analytic.glsl"
+
+// A brick is skipped only when its whole value range is on one side of the isovalue by more
+// than this, relative to the magnitudes involved. Every value the walk decides the predicate on
+// inside a brick is a convex combination of the brick's corners (trilerp at segment ends) or the
+// cubic evaluated at a derivative root; their f32 rounding errors are bounded by a few tens of
+// FLT_EPSILON times (max |corner| + |iso|) (coefficients up to ~30 times the corner magnitude,
+// Horner and coefficient rounding), about 2^-15 of it. 2^-10 leaves a factor of 30.
+const float SKIP_MARGIN = 1.0 / 1024.0;
+
+float tmax_of(int a, int c, vec3 o, vec3 d) {
+    if (d[a] > 0.0) return (float(c + 1) - o[a]) / d[a];
+    if (d[a] < 0.0) return (float(c) - o[a]) / d[a];
+    return uintBitsToFloat(0x7f800000u);
+}
+
+// Whether no crossing can lie in the brick of `cell`.
+bool brick_is_empty(ivec3 cell) {
+    int size = int(P.analytic.z);
+    ivec3 nb = (P.dims.xyz - 2) / size + 1;  // bricks per axis: ceil(cells / size)
+    ivec3 b = cell / size;
+    vec2 mm = bricks[(b.z * nb.y + b.y) * nb.x + b.x];
+    float iso = P.surface.x;
+    float tol = SKIP_MARGIN * (max(abs(mm.x), abs(mm.y)) + abs(iso));
+    return mm.x - iso > tol || iso - mm.y > tol;
+}
+
+void main() {
+    uvec2 px_local = gl_GlobalInvocationID.xy;
+    if (px_local.x >= P.image.x || px_local.y >= band.rows) return;
+    uvec2 px = uvec2(px_local.x, px_local.y + band.row_offset);
+    vec3 eye = P.eye.xyz;
+    vec3 dir = ray_dir(px);
+    float INF = uintBitsToFloat(0x7f800000u);
+
+    Pixel r;
+    r.rgba = P.background;
+    r.normal = vec3(0.0);
+    r.depth = INF;
+    r.position = vec3(0.0);
+    r.steps = 0.0;
+    r.cell = ivec3(-1);
+    r.crossings = 0;
+
+    bool below = P.surface.y > 0.0;
+    float iso = P.surface.x;
+    uint wanted = max(P.analytic.x, 1u);
+
+    // 1. Index space (the eye's index-space position comes from the CPU, in f64).
+    ivec3 ncell = P.dims.xyz - 1;
+    vec3 n = vec3(ncell);
+    vec3 o = P.eye_grid.xyz;
+    vec3 d = dir * P.inv_spacing.xyz;
+    bool usable = !any(isnan(o)) && !any(isinf(o)) && !any(isnan(d)) && !any(isinf(d))
+        && d != vec3(0.0);
+
+    // 2. Slab clip.
+    float t_enter = -INF;
+    float t_exit = INF;
+    int enter_axis = -1;
+    for (int a = 0; a < 3 && usable; a++) {
+        if (d[a] == 0.0) {
+            if (!(o[a] >= 0.0 && o[a] <= n[a])) usable = false;
+            continue;
+        }
+        float t0 = (0.0 - o[a]) / d[a];
+        float t1 = (n[a] - o[a]) / d[a];
+        float near = d[a] > 0.0 ? t0 : t1;
+        float far = d[a] > 0.0 ? t1 : t0;
+        if (near > t_enter) {
+            t_enter = near;
+            enter_axis = a;
+        }
+        if (far < t_exit) t_exit = far;
+    }
+    if (!usable || !(t_enter <= t_exit && t_exit > 0.0 && t_exit < INF)) {
+        pixels[px_local.y * P.image.x + px_local.x] = r;
+        return;
+    }
+    float t_lo = max(t_enter, 0.0);
+    float t_hi = t_exit;
+
+    // 3. Entry point: exactly on the entry face when the ray enters through it.
+    vec3 p = o + t_lo * d;
+    if (t_lo == t_enter && enter_axis >= 0) {
+        p[enter_axis] = d[enter_axis] > 0.0 ? 0.0 : n[enter_axis];
+    }
+    p = clamp(p, vec3(0.0), n);
+
+    // 4. First cell: a ray starting on a grid plane goes into the cell it heads into.
+    ivec3 cell;
+    vec3 q_in;
+    for (int a = 0; a < 3; a++) {
+        float c = d[a] < 0.0 ? ceil(p[a]) - 1.0 : floor(p[a]);
+        c = clamp(c, 0.0, n[a] - 1.0);
+        cell[a] = int(c);
+        q_in[a] = clamp(p[a] - c, 0.0, 1.0);
+    }
+    Corners corners = cell_corners(cell);
+    float g_in = trilerp(corners, q_in) - iso;
+
+    // 5. Next planes, from plane indices.
+    vec3 tmax = vec3(tmax_of(0, cell.x, o, d), tmax_of(1, cell.y, o, d), tmax_of(2, cell.z, o, d));
+    float t_in = t_lo;
+
+    // Jumps need tmax strictly increasing along each axis (so the cell-by-cell walk has no
+    // zero-length segments inside a brick): plane numerators c - o distinct and ordered
+    // (|o| < 2^20), quotients finite and normal (2^-90 < |d| < 2^90). Always true for cameras within a million cells
+    // of the grid; other rays walk cell by cell.
+    bool may_jump = P.analytic.y != 0u && all(lessThan(abs(o), vec3(1048576.0)));
+    for (int a = 0; a < 3; a++) {
+        float m = abs(d[a]);
+        if (m != 0.0 && !(m > 8.0779356694631609e-28 && m < 1.2379400392853803e27)) may_jump = false;
+    }
+    int brick = int(P.analytic.z);
+
+    // 6. The walk.
+    uint max_passes = uint(ncell.x + ncell.y + ncell.z);
+    uint passes = 0u;
+    uint crossings = 0u;
+    bool found = false;
+    uint visited = 0u;
+    bool have_corners = true;
+    for (uint pass = 0u; pass < max_passes; pass++) {
+        passes++;
+        float t_out;
+        bool jumped = false;
+
+        // Jump over an empty brick. The cell-by-cell walk from here crosses every plane whose
+        // tmax is below t_b (where the ray leaves the brick), each at its own t, so when it
+        // reaches t_b it is in the cell whose per-axis index is the first (in travel order)
+        // with tmax >= t_b; there it ends its segment at t_b, evaluates the exit value, and
+        // steps. Land in that cell and let the shared code below do the rest.
+        if (may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in && brick_is_empty(cell)) {
+            ivec3 last_cell;
+            float t_b = t_hi;
+            for (int a = 0; a < 3; a++) {
+                int first = (cell[a] / brick) * brick;
+                last_cell[a] = d[a] > 0.0 ? min(first + brick - 1, ncell[a] - 1)
+                                          : (d[a] < 0.0 ? first : cell[a]);
+                t_b = min(t_b, tmax_of(a, last_cell[a], o, d));
+            }
+            // The rest of the ray lies in this brick: no crossing is left.
+            if (t_b >= t_hi) break;
+            for (int a = 0; a < 3; a++) {
+                if (d[a] == 0.0) continue;
+                int s = d[a] > 0.0 ? 1 : -1;
+                float x = o[a] + t_b * d[a];
+                int c = s > 0 ? int(floor(x)) : int(ceil(x)) - 1;
+                c = s > 0 ? clamp(c, cell[a], last_cell[a]) : clamp(c, last_cell[a], cell[a]);
+                for (int i = 0; i <= brick && c != cell[a] && tmax_of(a, c - s, o, d) >= t_b; i++)
+                    c -= s;
+                for (int i = 0; i <= brick && c != last_cell[a] && tmax_of(a, c, o, d) < t_b; i++)
+                    c += s;
+                cell[a] = c;
+                tmax[a] = tmax_of(a, c, o, d);
+            }
+            corners = cell_corners(cell);
+            have_corners = true;
+            t_out = t_b;
+            jumped = true;
+        } else {
+            if (!have_corners) corners = cell_corners(cell);
+            // 6.1 Segment end.
+            t_out = max(min(min(tmax.x, min(tmax.y, tmax.z)), t_hi), t_in);
+        }
+        bool last = t_out >= t_hi;
+        bvec3 crossed = lessThanEqual(tmax, vec3(t_out));
+
+        // 6.2 Exit point (crossed coordinates exactly on the face) and value.
+        vec3 q_out;
+        for (int a = 0; a < 3; a++) {
+            if (crossed[a]) {
+                q_out[a] = d[a] > 0.0 ? 1.0 : 0.0;
+            } else if (t_out == t_in) {
+                q_out[a] = q_in[a];
+            } else {
+                q_out[a] = clamp(o[a] + t_out * d[a] - float(cell[a]), 0.0, 1.0);
+            }
+        }
+        float g_out = t_out == t_in ? g_in : trilerp(corners, q_out) - iso;
+
+        if (!jumped) {
+            // 6.3 Cubic; 6.4 split points.
+            vec4 cubic = cubic_along(corners, q_in, q_out, g_in);
+            float r0, r1;
+            int nd = derivative_roots(cubic, r0, r1);
+            float su[4];
+            float sg[4];
+            su[0] = 0.0;
+            sg[0] = g_in;
+            su[1] = r0;
+            sg[1] = cubic_eval(cubic, r0);
+            su[2] = r1;
+            sg[2] = cubic_eval(cubic, r1);
+            su[nd + 1] = 1.0;
+            sg[nd + 1] = g_out;
+
+            // 6.5 Crossings, piece by piece.
+            for (int s = 0; s <= nd; s++) {
+                float ua = su[s], ga = sg[s], ub = su[s + 1], gb = sg[s + 1];
+                bool pa = inside_g(below, ga);
+                bool pb = inside_g(below, gb);
+                if (pa == pb) continue;
+                // A point exactly on the surface closes the bracket: the crossing is there.
+                bool exact = ga == 0.0 || gb == 0.0;
+                float ue = ga == 0.0 ? ua : ub;
+                // A crossing at t = 0 (the ray starts on the surface) is not counted.
+                if (exact && segment_t(t_in, t_out, ue) <= 0.0) continue;
+                crossings++;
+                if (found || crossings != wanted) continue;
+
+                // 7. The hit.
+                found = true;
+                visited = passes;
+                float u = exact ? ue : refine_root(cubic, below, ua, ub, ga, gb, P.method.w);
+                float t = segment_t(t_in, t_out, u);
+                vec3 q = vec3(lerp1(q_in.x, q_out.x, u), lerp1(q_in.y, q_out.y, u),
+                              lerp1(q_in.z, q_out.z, u));
+                vec3 grad = gradient_cell(corners, q) * P.inv_spacing.xyz;
+                vec3 oriented = below ? grad : -grad;
+                float len = length(oriented);
+                r.normal = len > 0.0 && !isinf(len) ? oriented / len : -dir;
+                r.depth = t;
+                r.position = eye + t * dir;
+                r.cell = cell;
+                r.rgba = vec4(shade(r.normal, dir, t, float(visited), vec3(cell) + q, cell), 1.0);
+            }
+        }
+
+        // 6.6 Advance: step every crossed axis (ties step together: diagonal through an edge
+        // or corner), carry the exit point and value into the next cell.
+        if (last) break;
+        bool left_box = false;
+        for (int a = 0; a < 3; a++) {
+            if (crossed[a]) {
+                cell[a] += d[a] > 0.0 ? 1 : -1;
+                left_box = left_box || cell[a] < 0 || cell[a] > ncell[a] - 1;
+                q_in[a] = 1.0 - q_out[a];
+                tmax[a] = tmax_of(a, cell[a], o, d);
+            } else {
+                q_in[a] = q_out[a];
+            }
+        }
+        if (left_box) break;
+        have_corners = false;
+        g_in = g_out;
+        t_in = t_out;
+    }
+
+    r.steps = float(found ? visited : passes);
+    r.crossings = int(crossings);
+    pixels[px_local.y * P.image.x + px_local.x] = r;
+}

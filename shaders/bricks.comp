@@ -1,0 +1,37 @@
+#version 450
+// The min/max grid of empty-space skipping (`src/passes/bricks.rs`): one invocation per brick of
+// `size`^3 cells, writing the smallest and largest of the grid values at the brick's points,
+// (size + 1)^3 of them (a brick's cells share their boundary points with the next brick). Every
+// value of the trilinear field inside the brick's cells is a convex combination of these, so it
+// lies in [min, max].
+
+#extension GL_GOOGLE_include_directive : require
+
+layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+
+layout(binding = 0) uniform sampler3D u_grid;
+layout(std430, binding = 1) writeonly buffer Bricks { vec2 bricks[]; };
+layout(push_constant) uniform Shape {
+    ivec4 points;  // xyz: grid points per axis
+    ivec4 bricks;  // xyz: bricks per axis, w: brick size in cells
+} shape;
+
+void main() {
+    ivec3 b = ivec3(gl_GlobalInvocationID);
+    if (any(greaterThanEqual(b, shape.bricks.xyz))) return;
+    int size = shape.bricks.w;
+    ivec3 lo = b * size;
+    ivec3 hi = min(lo + size, shape.points.xyz - 1);
+    float vmin = texelFetch(u_grid, lo, 0).r;
+    float vmax = vmin;
+    for (int z = lo.z; z <= hi.z; z++) {
+        for (int y = lo.y; y <= hi.y; y++) {
+            for (int x = lo.x; x <= hi.x; x++) {
+                float v = texelFetch(u_grid, ivec3(x, y, z), 0).r;
+                vmin = min(vmin, v);
+                vmax = max(vmax, v);
+            }
+        }
+    }
+    bricks[(b.z * shape.bricks.y + b.y) * shape.bricks.x + b.x] = vec2(vmin, vmax);
+}

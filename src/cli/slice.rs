@@ -1,0 +1,295 @@
+//! `isoview slice SCENE.toml -o OUT.exr --axis x|y|z --at C [--json C.json] [--svg C.svg]
+//! [--png P.png] [--set K=V]... [--time T]`, and the `--slice` branch of `isoview probe`.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use glam::DVec2;
+use serde_json::{json, Value};
+
+use super::{Cli, Failure};
+use crate::render::GpuGrid;
+use crate::scene;
+use crate::slice::{self, export, Axis, PlaneGrid, SliceRenderer, SliceStyle};
+
+#[derive(clap::Args, Debug)]
+pub struct SliceArgs {
+    /// Scene file (TOML).
+    pub scene: PathBuf,
+    /// Output EXR: R, G, B, A (colormap with the contours), value (the field), contour
+    /// (line coverage).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// The axis the plane is perpendicular to.
+    #[arg(long, value_enum, ignore_case = true)]
+    pub axis: Axis,
+    /// World coordinate of the plane along the axis (inside the grid box).
+    #[arg(long, allow_negative_numbers = true)]
+    pub at: f64,
+    /// Write the contours as JSON (world coordinates).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write the contours as SVG.
+    #[arg(long)]
+    pub svg: Option<PathBuf>,
+    /// Also write an 8-bit sRGB preview of the picture.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+    /// Override a scene key (as for `render`), e.g. --set slice.ambiguity=sample.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<String>,
+    /// Time of the field in seconds (`t` in expr fields).
+    #[arg(long, default_value_t = 0.0)]
+    pub time: f64,
+}
+
+fn check_extension(path: &Path, ext: &str, flag: &str) -> Result<(), Failure> {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some(e) if e.eq_ignore_ascii_case(ext) => Ok(()),
+        _ => Err(Failure::input(format!(
+            "{flag} {}: the file name must end in .{ext}",
+            path.display()
+        ))),
+    }
+}
+
+pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
+    let started = Instant::now();
+    check_extension(&args.output, "exr", "-o")?;
+    for (p, ext, flag) in [(&args.json, "json", "--json"), (&args.svg, "svg", "--svg")] {
+        if let Some(p) = p {
+            check_extension(p, ext, flag)?;
+        }
+    }
+    if let Some(p) = &args.png {
+        check_extension(p, "png", "--png")?;
+    }
+    if !args.at.is_finite() {
+        return Err(Failure::input(format!("--at {}: must be a finite number", args.at)));
+    }
+    if !args.time.is_finite() {
+        return Err(Failure::input(format!("--time {}: must be a finite number", args.time)));
+    }
+    let scene = scene::load(&args.scene, &args.sets).map_err(Failure::input)?;
+    let grid = scene.field.sample(args.time).map_err(Failure::input)?;
+    let plane = PlaneGrid::new(&grid, args.axis, args.at).map_err(Failure::input)?;
+    let set = slice::scene_contours(&scene, &plane, args.time).map_err(Failure::input)?;
+    let (width, height) = slice::picture_size(
+        &plane,
+        scene.slice.width,
+        scene.slice.height,
+        scene.image.width,
+        scene::MAX_IMAGE_SIDE as u32,
+    );
+    let iso = scene.surface.isovalue;
+    let style = SliceStyle {
+        width,
+        height,
+        isovalue: iso,
+        inside: scene.surface.inside,
+        half_range: slice::image::colormap_half_range(&plane, iso),
+        line_width: 1.5,
+        line_color: [0.0, 0.0, 0.0, 1.0],
+    };
+
+    let ctx = cli.gpu()?;
+    let renderer = SliceRenderer::new(&ctx)?;
+    let gpu_grid = GpuGrid::upload(&ctx, &grid)?;
+    let picture = renderer.render(&gpu_grid, &plane, &set.contours, &style)?;
+
+    let attributes = slice::attributes(
+        &scene,
+        &plane,
+        &style,
+        (&ctx.info.name, &ctx.info.driver_info),
+        args.time,
+    );
+    export::write_exr(&args.output, &picture, &attributes).map_err(Failure::input)?;
+    if let Some(p) = &args.png {
+        export::write_png(p, &picture).map_err(Failure::input)?;
+    }
+    if let Some(p) = &args.json {
+        export::write_json(p, &plane, iso, &set.contours).map_err(Failure::input)?;
+    }
+    if let Some(p) = &args.svg {
+        let title = format!(
+            "isoview slice {} = {} of {}, isovalue {iso}",
+            plane.axis.name(),
+            plane.at,
+            args.scene.display()
+        );
+        export::write_svg(p, &plane, &set.contours, width, height, &title)
+            .map_err(Failure::input)?;
+    }
+    let (closed, open) = set.counts();
+    eprintln!(
+        "isoview: slice {} = {} ({}x{} px): {closed} closed and {open} open contour(s), {} \
+         ambiguous cell(s) by \"{}\" ({} joined){} on {} in {:.0} ms -> {}",
+        plane.axis.name(),
+        plane.at,
+        width,
+        height,
+        set.stats.ambiguous,
+        scene.slice.ambiguity.name(),
+        set.stats.joined,
+        if set.stats.on_source {
+            format!(", {} cells refined on the source", set.stats.cells)
+        } else {
+            String::new()
+        },
+        ctx.info.name,
+        started.elapsed().as_secs_f64() * 1e3,
+        args.output.display()
+    );
+    Ok(0)
+}
+
+/// Parses `--slice z=C`.
+fn parse_slice(s: &str) -> Result<(Axis, f64), String> {
+    let bad = || format!("--slice {s}: expected AXIS=C, e.g. z=0.25");
+    let (a, c) = s.split_once('=').ok_or_else(bad)?;
+    let axis = Axis::parse(a).ok_or_else(bad)?;
+    let c: f64 = c.trim().parse().map_err(|_| bad())?;
+    if !c.is_finite() {
+        return Err(bad());
+    }
+    Ok((axis, c))
+}
+
+/// Parses `--segment u0,v0,u1,v1`.
+fn parse_segment(s: &str) -> Result<(DVec2, DVec2), String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("--segment {s}: expected four numbers u0,v0,u1,v1"))?;
+    if v.len() != 4 || v.iter().any(|x| !x.is_finite()) {
+        return Err(format!("--segment {s}: expected four finite numbers u0,v0,u1,v1"));
+    }
+    Ok((DVec2::new(v[0], v[1]), DVec2::new(v[2], v[3])))
+}
+
+/// `isoview probe SCENE --slice AXIS=C --segment u0,v0,u1,v1 [--json]`: the crossings of the
+/// bilinear interpolant on the plane along the segment (world `(u, v)`: the plane's right and
+/// up axes, as in the slice picture), cell by cell with the cells' corner values and quadratics.
+pub fn probe(
+    scene_path: &Path,
+    sets: &[String],
+    time: f64,
+    slice_arg: &str,
+    segment: Option<&str>,
+    as_json: bool,
+) -> Result<i32, Failure> {
+    let (axis, at) = parse_slice(slice_arg).map_err(Failure::input)?;
+    let segment = segment.ok_or_else(|| Failure::input("--slice needs --segment u0,v0,u1,v1"))?;
+    let (a, b) = parse_segment(segment).map_err(Failure::input)?;
+    let scene = scene::load(scene_path, sets).map_err(Failure::input)?;
+    let grid = scene.field.sample(time).map_err(Failure::input)?;
+    let plane = PlaneGrid::new(&grid, axis, at).map_err(Failure::input)?;
+    let (iso, inside) = (scene.surface.isovalue, scene.surface.inside);
+    let probe = slice::probe_segment(&plane, a, b, iso, inside);
+    let names = ["x", "y", "z"];
+    let (u, v) = (names[plane.axes.0], names[plane.axes.1]);
+
+    if as_json {
+        let cells: Vec<Value> = probe
+            .cells
+            .iter()
+            .map(|c| {
+                json!({
+                    "cell": c.cell,
+                    "corners": {"v00": c.corners[0], "v10": c.corners[1], "v01": c.corners[2], "v11": c.corners[3]},
+                    "t": [c.t.0, c.t.1],
+                    "local_in": [c.local_in.x, c.local_in.y],
+                    "local_out": [c.local_out.x, c.local_out.y],
+                    "quadratic": c.quadratic,
+                    "roots": c.roots.iter().map(|r| json!({
+                        "s": r.s, "t": r.t, "point": r.point.to_array(), "kind": r.kind.name(),
+                    })).collect::<Vec<_>>(),
+                })
+            })
+            .collect();
+        let report = json!({
+            "scene": scene_path.display().to_string(),
+            "axis": axis.name(),
+            "at": at,
+            "plane_axes": [u, v],
+            "layer": plane.layer,
+            "weight": plane.weight,
+            "isovalue": iso,
+            "inside": inside.name(),
+            "segment": [[a.x, a.y], [b.x, b.y]],
+            "span": probe.span.map(|(t0, t1)| json!([t0, t1])),
+            "cells": cells,
+        });
+        println!("{}", serde_json::to_string_pretty(&report).map_err(Failure::input)?);
+        return Ok(0);
+    }
+
+    println!(
+        "slice {} = {at}: {u} right, {v} up; between grid layers {} and {} at {:.6}; isovalue \
+         {iso}, inside {}",
+        axis.name(),
+        plane.layer,
+        plane.layer + 1,
+        plane.weight,
+        inside.name()
+    );
+    println!("segment ({u}, {v}) from ({}, {}) to ({}, {}), t in [0, 1]", a.x, a.y, b.x, b.y);
+    let Some((t0, t1)) = probe.span else {
+        println!(
+            "the segment misses the plane's box ({u} {} .. {}, {v} {} .. {})",
+            plane.min.x, plane.max.x, plane.min.y, plane.max.y
+        );
+        return Ok(0);
+    };
+    println!("inside the box for t in [{t0:.6}, {t1:.6}], {} cell(s)", probe.cells.len());
+    let mut count = 0;
+    for c in &probe.cells {
+        let k = c.corners;
+        println!(
+            "  cell [{}, {}]  t [{:.6}, {:.6}]  corners v00 {:.6} v10 {:.6} v01 {:.6} v11 {:.6}",
+            c.cell[0], c.cell[1], c.t.0, c.t.1, k[0], k[1], k[2], k[3]
+        );
+        let q = c.quadratic;
+        println!(
+            "    f - iso = {:.6e} + {:.6e} s + {:.6e} s^2, s in [0, 1] from local ({:.4}, {:.4}) \
+             to ({:.4}, {:.4})",
+            q[0], q[1], q[2], c.local_in.x, c.local_in.y, c.local_out.x, c.local_out.y
+        );
+        for r in &c.roots {
+            count += 1;
+            println!(
+                "    root: s = {:.9}  t = {:.9}  at [{:.6}, {:.6}, {:.6}]  ({})",
+                r.s,
+                r.t,
+                r.point.x,
+                r.point.y,
+                r.point.z,
+                r.kind.name()
+            );
+        }
+    }
+    println!("{count} root(s)");
+    Ok(0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slice_and_segment_arguments() {
+        assert_eq!(parse_slice("z=0.25"), Ok((Axis::Z, 0.25)));
+        assert_eq!(parse_slice("X = -1"), Ok((Axis::X, -1.0)));
+        assert!(parse_slice("w=1").is_err());
+        assert!(parse_slice("z").is_err());
+        assert!(parse_slice("z=inf").is_err());
+        assert_eq!(
+            parse_segment("-1, 0, 1,0.5"),
+            Ok((DVec2::new(-1.0, 0.0), DVec2::new(1.0, 0.5)))
+        );
+        assert!(parse_segment("1,2,3").is_err());
+        assert!(parse_segment("1,2,3,a").is_err());
+    }
+}

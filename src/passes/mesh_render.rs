@@ -1,0 +1,188 @@
+//! The mesh render (`render.method = "mesh"`): a triangle mesh drawn with the scene's camera
+//! into the same [`Pixel`](crate::frame::Pixel) channels as the ray passes, in two compute
+//! passes per band of rows:
+//!
+//! ```text
+//!   mesh_raster.comp   one invocation per triangle: screen box -> exact ray-triangle test per
+//!                      pixel centre -> atomicMin(vis[pixel], t bits << 32 | triangle id),
+//!                      atomicAdd(tested), atomicAdd(hits)
+//!   mesh_resolve.comp  one invocation per pixel: winning triangle -> Z, P, N (interpolated
+//!                      vertex normals), cell, steps = tested, crossings = hits, shade()
+//! ```
+//!
+//! The visibility key needs 64-bit buffer atomics (`shaderBufferInt64Atomics`; lavapipe and the
+//! desktop drivers have them). Mesh buffers have the layout of the GPU extraction's output
+//! (`GpuMesh`): positions and normals as one `vec4` per vertex, indices as three `u32` per
+//! triangle, counter-clockwise seen from outside. [`MeshBuffers`] uploads a CPU
+//! [`Mesh`] into that layout. The f64 mirror is `reference::mesh`.
+
+use std::sync::Arc;
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+
+use crate::gpu::{
+    copy_buffer, Buffer, ComputePipeline, Context, GpuError, MemoryLocation, Resource,
+};
+use crate::mesh::Mesh;
+use crate::shaders;
+
+/// Invocations per workgroup of the raster pass.
+pub const RASTER_GROUP: u32 = 64;
+/// Workgroup side of the resolve pass (8 x 8 pixels, as the ray passes).
+pub const RESOLVE_GROUP: u32 = 8;
+/// Bytes per pixel of the visibility buffer (one u64 key).
+pub const VIS_BYTES: u64 = 8;
+/// Bytes per pixel of the counts buffer (tested, hits: two u32).
+pub const COUNT_BYTES: u64 = 8;
+/// Bytes of the "no hit" key word: the visibility buffer is filled with this 32-bit word.
+pub const NO_HIT_WORD: u32 = u32::MAX;
+
+/// Push constants of `mesh_raster.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RasterPush {
+    pub row_offset: u32,
+    pub rows: u32,
+    pub triangle_count: u32,
+    /// Invocations per row of the 2D dispatch (`groups_x * RASTER_GROUP`).
+    pub threads_x: u32,
+}
+
+/// A triangle mesh on the device, in the layout of the GPU extraction's `GpuMesh`.
+pub struct MeshBuffers {
+    /// One `vec4` per vertex: world-space xyz, w = 1.
+    pub positions: Buffer,
+    /// One `vec4` per vertex: unit normal (inside -> outside), w = 0.
+    pub normals: Buffer,
+    /// Three `u32` per triangle.
+    pub indices: Buffer,
+    pub vertex_count: u32,
+    pub triangle_count: u32,
+}
+
+impl MeshBuffers {
+    /// Uploads `mesh` (through staging buffers) into device-local storage buffers.
+    pub fn upload(ctx: &Arc<Context>, mesh: &Mesh) -> Result<Self, GpuError> {
+        let too_large = |what: &str| {
+            GpuError::Limit(format!("the mesh has too many {what} for one storage buffer"))
+        };
+        let vertex_count = u32::try_from(mesh.vertex_count()).map_err(|_| too_large("vertices"))?;
+        let triangle_count =
+            u32::try_from(mesh.triangle_count()).map_err(|_| too_large("triangles"))?;
+        let four = |v: &[f32; 3], w: f32| [v[0], v[1], v[2], w];
+        let positions: Vec<[f32; 4]> = mesh.positions.iter().map(|p| four(p, 1.0)).collect();
+        let normals: Vec<[f32; 4]> = mesh.normals.iter().map(|n| four(n, 0.0)).collect();
+        let limit = ctx.info.max_storage_buffer_range;
+        if (positions.len() * 16) as u64 > limit || (mesh.indices.len() * 4) as u64 > limit {
+            return Err(GpuError::Limit(format!(
+                "the mesh ({vertex_count} vertices, {triangle_count} triangles) exceeds the \
+                 device's largest storage buffer ({} MiB)",
+                limit >> 20
+            )));
+        }
+        Ok(MeshBuffers {
+            positions: upload(ctx, "mesh positions", &positions)?,
+            normals: upload(ctx, "mesh normals", &normals)?,
+            indices: upload(ctx, "mesh indices", &mesh.indices)?,
+            vertex_count,
+            triangle_count,
+        })
+    }
+}
+
+/// A device-local storage buffer holding `data`.
+fn upload<T: Pod>(ctx: &Arc<Context>, name: &str, data: &[T]) -> Result<Buffer, GpuError> {
+    let bytes = std::mem::size_of_val(data) as u64;
+    let mut staging = Buffer::new(
+        ctx,
+        &format!("{name} staging"),
+        bytes,
+        vk::BufferUsageFlags::TRANSFER_SRC,
+        MemoryLocation::CpuToGpu,
+    )?;
+    staging.write(data)?;
+    let buffer = Buffer::new(
+        ctx,
+        name,
+        bytes,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+        MemoryLocation::GpuOnly,
+    )?;
+    if bytes > 0 {
+        ctx.submit(&format!("upload {name}"), |cmd| {
+            copy_buffer(ctx, cmd, &staging, 0, &buffer, 0, bytes);
+            Ok(())
+        })?;
+    }
+    Ok(buffer)
+}
+
+/// The two pipelines of the mesh render.
+pub struct MeshPipelines {
+    pub raster: ComputePipeline,
+    pub resolve: ComputePipeline,
+}
+
+impl MeshPipelines {
+    /// Builds both pipelines; fails with a clear message on a device without 64-bit buffer
+    /// atomics.
+    pub fn new(ctx: &Arc<Context>) -> Result<Self, GpuError> {
+        if !ctx.info.int64_atomics {
+            return Err(GpuError::Limit(format!(
+                "render.method = \"mesh\" needs 64-bit buffer atomics (shaderInt64 and \
+                 shaderBufferInt64Atomics), which {} does not offer; use another device \
+                 (--device) or method",
+                ctx.info.name
+            )));
+        }
+        use vk::DescriptorType as D;
+        let raster = ComputePipeline::new(
+            ctx,
+            "mesh_raster",
+            shaders::MESH_RASTER,
+            &[
+                D::UNIFORM_BUFFER,
+                D::STORAGE_BUFFER,
+                D::STORAGE_BUFFER,
+                D::STORAGE_BUFFER,
+                D::STORAGE_BUFFER,
+            ],
+            std::mem::size_of::<RasterPush>() as u32,
+        )?;
+        let mut resolve_bindings = crate::passes::raymarch::RAY_BINDINGS.to_vec();
+        resolve_bindings.extend([D::STORAGE_BUFFER; 5]);
+        let resolve = ComputePipeline::new(
+            ctx,
+            "mesh_resolve",
+            shaders::MESH_RESOLVE,
+            &resolve_bindings,
+            std::mem::size_of::<crate::render::params::Band>() as u32,
+        )?;
+        Ok(MeshPipelines { raster, resolve })
+    }
+
+    /// Bindings of the raster pass, in order.
+    pub fn raster_resources<'a>(
+        params: &'a Buffer,
+        mesh: &'a MeshBuffers,
+        vis: &'a Buffer,
+        counts: &'a Buffer,
+    ) -> [Resource<'a>; 5] {
+        [
+            Resource::Uniform(params),
+            Resource::Storage(&mesh.positions),
+            Resource::Storage(&mesh.indices),
+            Resource::Storage(vis),
+            Resource::Storage(counts),
+        ]
+    }
+
+    /// Workgroups of the raster pass for `triangles` (2D: at most 65535 groups per row) and the
+    /// invocations per row.
+    pub fn raster_groups(triangles: u32) -> ([u32; 3], u32) {
+        let groups = triangles.div_ceil(RASTER_GROUP).max(1);
+        let x = groups.min(65535);
+        ([x, groups.div_ceil(x), 1], x * RASTER_GROUP)
+    }
+}

@@ -1,0 +1,209 @@
+//! `render.method = "mesh"`: extract the isosurface with `render.mesh`, put it on the device and
+//! draw it with the mesh passes (`passes::mesh_render`), band by band, into the same `Pixel`
+//! records as the ray passes.
+
+use ash::vk;
+
+use super::params::{Band, RenderParams};
+use super::{GpuGrid, RenderError, Renderer, MAX_BAND_PIXELS};
+use crate::field::Grid;
+use crate::frame::{Frame, Pixel};
+use crate::gpu::{
+    copy_buffer, fill_buffer, memory_barrier, Buffer, MemoryLocation, Resource, Timer,
+};
+use crate::mesh::{self, ExtractOptions, Mesh};
+use crate::passes::mesh_render::{
+    MeshBuffers, MeshPipelines, RasterPush, COUNT_BYTES, NO_HIT_WORD, RESOLVE_GROUP, VIS_BYTES,
+};
+use crate::scene::Scene;
+
+/// The mesh of `scene`'s surface over `grid`, as `render.method = "mesh"` draws it (the CPU
+/// extraction; the GPU one keeps it on the device once it lands).
+pub fn scene_mesh(scene: &Scene, grid: &Grid) -> Result<Mesh, RenderError> {
+    Ok(mesh::extract(
+        grid,
+        scene.surface.isovalue,
+        scene.surface.inside,
+        scene.render.mesh,
+        ExtractOptions::default(),
+    )?)
+}
+
+impl Renderer {
+    /// Extracts the scene's mesh from `grid`, uploads it and draws it.
+    pub(super) fn render_scene_mesh(
+        &mut self,
+        scene: &Scene,
+        grid: &Grid,
+        gpu_grid: &GpuGrid,
+        time: f64,
+    ) -> Result<Frame, RenderError> {
+        let mesh = scene_mesh(scene, grid)?;
+        let buffers = MeshBuffers::upload(&self.ctx, &mesh)?;
+        self.render_mesh(scene, grid, gpu_grid, &buffers, time)
+    }
+
+    /// Draws `mesh` with `scene`'s camera and shading. `grid` (uploaded as `gpu_grid`) gives the
+    /// box and cells that the `cell` channel, `cells` shading and `depth` shading refer to; the
+    /// mesh need not come from it.
+    pub fn render_mesh(
+        &mut self,
+        scene: &Scene,
+        grid: &Grid,
+        gpu_grid: &GpuGrid,
+        mesh: &MeshBuffers,
+        time: f64,
+    ) -> Result<Frame, RenderError> {
+        if self.mesh.is_none() {
+            self.mesh = Some(MeshPipelines::new(&self.ctx)?);
+        }
+        let pipes = self.mesh.as_ref().expect("created above");
+        let ctx = &self.ctx;
+        let (width, height) = (scene.image.width, scene.image.height);
+        let pixel_bytes = std::mem::size_of::<Pixel>() as u64;
+        let row_bytes = width as u64 * pixel_bytes;
+        let rows_by_range = ctx.info.max_storage_buffer_range / row_bytes;
+        let rows_by_count = MAX_BAND_PIXELS / width as u64;
+        let band_rows = rows_by_range.min(rows_by_count).clamp(1, height as u64) as u32;
+        let band_pixels = band_rows as u64 * width as u64;
+
+        let params = RenderParams::new(scene, grid);
+        let mut params_staging = Buffer::new(
+            ctx,
+            "params staging",
+            std::mem::size_of::<RenderParams>() as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        params_staging.write(std::slice::from_ref(&params))?;
+        let params_buf = Buffer::new(
+            ctx,
+            "params",
+            params_staging.size,
+            vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )?;
+        let scratch = |name: &str, bytes: u64| {
+            Buffer::new(
+                ctx,
+                name,
+                bytes,
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuOnly,
+            )
+        };
+        let vis = scratch("mesh visibility", band_pixels * VIS_BYTES)?;
+        let counts = scratch("mesh counts", band_pixels * COUNT_BYTES)?;
+        let out = Buffer::new(
+            ctx,
+            "pixels",
+            band_pixels * pixel_bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        let readback = Buffer::new(
+            ctx,
+            "pixels readback",
+            out.size,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
+        let raster_set = pipes.raster.bind(&MeshPipelines::raster_resources(
+            &params_buf,
+            mesh,
+            &vis,
+            &counts,
+        ))?;
+        let resolve_set = pipes.resolve.bind(&[
+            Resource::Uniform(&params_buf),
+            Resource::Sampled(&gpu_grid.image),
+            Resource::Storage(&out),
+            Resource::Storage(&self.colormap),
+            Resource::Storage(&mesh.positions),
+            Resource::Storage(&mesh.normals),
+            Resource::Storage(&mesh.indices),
+            Resource::Storage(&vis),
+            Resource::Storage(&counts),
+        ])?;
+        ctx.submit("upload params", |cmd| {
+            copy_buffer(ctx, cmd, &params_staging, 0, &params_buf, 0, params_staging.size);
+            Ok(())
+        })?;
+
+        let (raster_groups, threads_x) = MeshPipelines::raster_groups(mesh.triangle_count);
+        let timer = Timer::new(ctx)?;
+        let mut gpu_ms = timer.as_ref().map(|_| 0.0);
+        let mut pixels = Vec::with_capacity(width as usize * height as usize);
+        let mut row = 0;
+        while row < height {
+            let rows = band_rows.min(height - row);
+            let band = Band { row_offset: row, rows };
+            let push = RasterPush {
+                row_offset: row,
+                rows,
+                triangle_count: mesh.triangle_count,
+                threads_x,
+            };
+            let bytes = rows as u64 * row_bytes;
+            ctx.submit("mesh_raster + mesh_resolve", |cmd| {
+                if let Some(t) = &timer {
+                    t.begin(cmd);
+                }
+                // Clear: no hit, nothing counted.
+                fill_buffer(ctx, cmd, &vis, 0, vis.size, NO_HIT_WORD);
+                fill_buffer(ctx, cmd, &counts, 0, counts.size, 0);
+                memory_barrier(
+                    ctx,
+                    cmd,
+                    (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
+                    (
+                        vk::PipelineStageFlags::COMPUTE_SHADER,
+                        vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
+                    ),
+                );
+                if mesh.triangle_count > 0 {
+                    pipes.raster.record(cmd, &raster_set, bytemuck::bytes_of(&push), raster_groups);
+                    memory_barrier(
+                        ctx,
+                        cmd,
+                        (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
+                        (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_READ),
+                    );
+                }
+                pipes.resolve.record(
+                    cmd,
+                    &resolve_set,
+                    bytemuck::bytes_of(&band),
+                    [width.div_ceil(RESOLVE_GROUP), rows.div_ceil(RESOLVE_GROUP), 1],
+                );
+                if let Some(t) = &timer {
+                    t.end(cmd);
+                }
+                memory_barrier(
+                    ctx,
+                    cmd,
+                    (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
+                    (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
+                );
+                copy_buffer(ctx, cmd, &out, 0, &readback, 0, bytes);
+                memory_barrier(
+                    ctx,
+                    cmd,
+                    (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
+                    (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+                );
+                Ok(())
+            })?;
+            if let (Some(t), Some(ms)) = (&timer, gpu_ms.as_mut()) {
+                *ms += t.elapsed_ms()?;
+            }
+            pixels.extend(readback.read::<Pixel>((rows * width) as usize)?);
+            row += rows;
+        }
+        self.last_gpu_ms = gpu_ms;
+        let mut info = self.frame_info(scene, grid, time);
+        info.extra.push(("mesh_triangles".into(), mesh.triangle_count.to_string()));
+        info.extra.push(("mesh_vertices".into(), mesh.vertex_count.to_string()));
+        Ok(Frame { width, height, pixels, info })
+    }
+}

@@ -1,0 +1,302 @@
+//! The slice picture on the GPU: uploads the grid, the colormap and the contour segments
+//! (bucketed into 8x8-pixel tiles), runs the slice pass over bands of rows and reads back one
+//! [`SlicePixel`] per pixel.
+//!
+//! Bands keep the pixel buffer under the device's `maxStorageBufferRange` and each dispatch
+//! under [`crate::render::MAX_BAND_PIXELS`] pixels, as the renderer does.
+
+use std::sync::Arc;
+
+use ash::vk;
+use glam::DVec2;
+
+use super::contour::Contour;
+use super::plane::PlaneGrid;
+use crate::gpu::{
+    copy_buffer, memory_barrier, Buffer, ComputePipeline, Context, GpuError, MemoryLocation,
+    Resource,
+};
+use crate::passes::slice::{self as pass, SliceParams, SlicePixel};
+use crate::render::params::Band;
+use crate::render::{GpuGrid, MAX_BAND_PIXELS};
+use crate::scene::Inside;
+
+/// The colormap's name, as recorded in the EXR header.
+pub const COLORMAP_NAME: &str = "RdBu (colorous RED_BLUE)";
+
+/// The slice colormap: 256 linear RGBA entries of colorous's RdBu (sRGB-decoded). Entry 0 (dark
+/// red) is the inside end, entry 255 (dark blue) the outside end, white the isovalue.
+pub fn colormap() -> Vec<[f32; 4]> {
+    (0..256)
+        .map(|i| {
+            let c = colorous::RED_BLUE.eval_continuous(i as f64 / 255.0);
+            let lin = |u: u8| {
+                let s = u as f32 / 255.0;
+                if s <= 0.04045 {
+                    s / 12.92
+                } else {
+                    ((s + 0.055) / 1.055).powf(2.4)
+                }
+            };
+            [lin(c.r), lin(c.g), lin(c.b), 1.0]
+        })
+        .collect()
+}
+
+/// `|value - isovalue|` mapped to the colormap's ends: the largest on the plane (1 where the
+/// plane is all at the isovalue).
+pub fn colormap_half_range(plane: &PlaneGrid, isovalue: f64) -> f64 {
+    let (lo, hi) = plane.range();
+    let r = (hi - isovalue).abs().max((lo - isovalue).abs());
+    if r > 0.0 && r.is_finite() {
+        r
+    } else {
+        1.0
+    }
+}
+
+/// How to draw a slice picture.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SliceStyle {
+    pub width: u32,
+    pub height: u32,
+    pub isovalue: f64,
+    pub inside: Inside,
+    /// `|value - isovalue|` at the colormap's ends.
+    pub half_range: f64,
+    /// Contour lines: width in pixels and linear RGBA.
+    pub line_width: f32,
+    pub line_color: [f32; 4],
+}
+
+/// A slice picture read back from the GPU, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SliceImage {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<SlicePixel>,
+}
+
+/// Contour segments in pixel coordinates, bucketed by 8x8-pixel tile (CSR).
+struct Tiles {
+    start: Vec<u32>,
+    members: Vec<u32>,
+    segments: Vec<[f32; 4]>,
+    per_row: u32,
+}
+
+fn tiles(plane: &PlaneGrid, contours: &[Contour], style: &SliceStyle) -> Tiles {
+    let (w, h) = (style.width as f64, style.height as f64);
+    let cells = plane.cells();
+    let to_pixel = |q: DVec2| DVec2::new(q.x * w / cells[0] as f64, h - q.y * h / cells[1] as f64);
+    let mut segments = Vec::new();
+    for c in contours {
+        let n = c.points.len();
+        let count = if c.closed { n } else { n - 1 };
+        for i in 0..count {
+            let (a, b) = (to_pixel(c.points[i]), to_pixel(c.points[(i + 1) % n]));
+            segments.push([a.x as f32, a.y as f32, b.x as f32, b.y as f32]);
+        }
+    }
+    let tile = pass::GROUP as f64;
+    let per_row = style.width.div_ceil(pass::GROUP);
+    let rows = style.height.div_ceil(pass::GROUP);
+    let reach = 0.5 * style.line_width as f64 + 1.0;
+    let span = |lo: f32, hi: f32, count: u32| {
+        let first = ((lo as f64 - reach) / tile).floor().max(0.0) as u32;
+        let last = ((hi as f64 + reach) / tile).floor().clamp(0.0, (count - 1) as f64) as u32;
+        first..=last
+    };
+    let mut lists: Vec<Vec<u32>> = vec![Vec::new(); (per_row * rows) as usize];
+    for (n, s) in segments.iter().enumerate() {
+        for ty in span(s[1].min(s[3]), s[1].max(s[3]), rows) {
+            for tx in span(s[0].min(s[2]), s[0].max(s[2]), per_row) {
+                lists[(ty * per_row + tx) as usize].push(n as u32);
+            }
+        }
+    }
+    let mut start = Vec::with_capacity(lists.len() + 1);
+    let mut members = Vec::new();
+    for l in &lists {
+        start.push(members.len() as u32);
+        members.extend_from_slice(l);
+    }
+    start.push(members.len() as u32);
+    Tiles { start, members, segments, per_row }
+}
+
+/// Owns the slice pipeline and the colormap; draws any number of slices.
+pub struct SliceRenderer {
+    ctx: Arc<Context>,
+    pipeline: ComputePipeline,
+    colormap: Buffer,
+}
+
+/// A device-local storage buffer holding `data`, uploaded through a staging buffer recorded
+/// into `uploads` (the staging buffer is returned so it outlives the submission).
+fn storage_with<T: bytemuck::Pod>(
+    ctx: &Arc<Context>,
+    name: &str,
+    data: &[T],
+) -> Result<(Buffer, Buffer), GpuError> {
+    let bytes = std::mem::size_of_val(data) as u64;
+    let mut staging = Buffer::new(
+        ctx,
+        &format!("{name} staging"),
+        bytes,
+        vk::BufferUsageFlags::TRANSFER_SRC,
+        MemoryLocation::CpuToGpu,
+    )?;
+    staging.write(data)?;
+    let buffer = Buffer::new(
+        ctx,
+        name,
+        staging.size,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+        MemoryLocation::GpuOnly,
+    )?;
+    Ok((buffer, staging))
+}
+
+fn copy_all(ctx: &Arc<Context>, pairs: &[&(Buffer, Buffer)]) -> Result<(), GpuError> {
+    ctx.submit("slice uploads", |cmd| {
+        for (dst, src) in pairs {
+            copy_buffer(ctx, cmd, src, 0, dst, 0, src.size);
+        }
+        Ok(())
+    })
+}
+
+impl SliceRenderer {
+    pub fn new(ctx: &Arc<Context>) -> Result<Self, GpuError> {
+        let pipeline = pass::pipeline(ctx)?;
+        let colormap = storage_with(ctx, "slice colormap", &colormap())?;
+        copy_all(ctx, &[&colormap])?;
+        Ok(SliceRenderer { ctx: ctx.clone(), pipeline, colormap: colormap.0 })
+    }
+
+    pub fn context(&self) -> &Arc<Context> {
+        &self.ctx
+    }
+
+    /// Draws `plane` of the uploaded grid with `contours` (plane index coordinates) over it.
+    pub fn render(
+        &self,
+        grid: &GpuGrid,
+        plane: &PlaneGrid,
+        contours: &[Contour],
+        style: &SliceStyle,
+    ) -> Result<SliceImage, GpuError> {
+        let ctx = &self.ctx;
+        let (width, height) = (style.width, style.height);
+        if width == 0 || height == 0 {
+            return Err(GpuError::Limit(format!("cannot draw an empty {width}x{height} slice")));
+        }
+        let t = tiles(plane, contours, style);
+        let cells = plane.cells();
+        let params = SliceParams {
+            axes: [plane.axes.0 as u32, plane.axes.1 as u32, plane.axis.index() as u32, 0],
+            dims: [grid.dims[0] as i32, grid.dims[1] as i32, grid.dims[2] as i32, 0],
+            image: [width, height, t.per_row, 0],
+            plane: [
+                plane.w() as f32,
+                style.isovalue as f32,
+                if style.inside == Inside::Below { 1.0 } else { -1.0 },
+                style.half_range as f32,
+            ],
+            scale: [
+                (cells[0] as f64 / width as f64) as f32,
+                (cells[1] as f64 / height as f64) as f32,
+                0.5 * style.line_width,
+                0.0,
+            ],
+            line: style.line_color,
+        };
+        let mut params_staging = Buffer::new(
+            ctx,
+            "slice params staging",
+            std::mem::size_of::<SliceParams>() as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        params_staging.write(std::slice::from_ref(&params))?;
+        let params_buf = Buffer::new(
+            ctx,
+            "slice params",
+            params_staging.size,
+            vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )?;
+        let start = storage_with(ctx, "slice tile starts", &t.start)?;
+        let members = storage_with(ctx, "slice tile segments", &t.members)?;
+        let segments = storage_with(ctx, "slice segments", &t.segments)?;
+        ctx.submit("slice uploads", |cmd| {
+            copy_buffer(ctx, cmd, &params_staging, 0, &params_buf, 0, params_staging.size);
+            for (dst, src) in [&start, &members, &segments] {
+                copy_buffer(ctx, cmd, src, 0, dst, 0, src.size);
+            }
+            Ok(())
+        })?;
+
+        let pixel_bytes = std::mem::size_of::<SlicePixel>() as u64;
+        let row_bytes = width as u64 * pixel_bytes;
+        let rows_by_range = ctx.info.max_storage_buffer_range / row_bytes;
+        let rows_by_count = MAX_BAND_PIXELS / width as u64;
+        let band_rows = rows_by_range.min(rows_by_count).clamp(1, height as u64) as u32;
+        let out = Buffer::new(
+            ctx,
+            "slice pixels",
+            band_rows as u64 * row_bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        let readback = Buffer::new(
+            ctx,
+            "slice pixels readback",
+            out.size,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
+        let set = self.pipeline.bind(&[
+            Resource::Uniform(&params_buf),
+            Resource::Sampled(&grid.image),
+            Resource::Storage(&out),
+            Resource::Storage(&self.colormap),
+            Resource::Storage(&start.0),
+            Resource::Storage(&members.0),
+            Resource::Storage(&segments.0),
+        ])?;
+
+        let mut pixels = Vec::with_capacity(width as usize * height as usize);
+        let mut row = 0;
+        while row < height {
+            let rows = band_rows.min(height - row);
+            let band = Band { row_offset: row, rows };
+            ctx.submit(&self.pipeline.name, |cmd| {
+                self.pipeline.record(
+                    cmd,
+                    &set,
+                    bytemuck::bytes_of(&band),
+                    [width.div_ceil(pass::GROUP), rows.div_ceil(pass::GROUP), 1],
+                );
+                memory_barrier(
+                    ctx,
+                    cmd,
+                    (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
+                    (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
+                );
+                copy_buffer(ctx, cmd, &out, 0, &readback, 0, rows as u64 * row_bytes);
+                memory_barrier(
+                    ctx,
+                    cmd,
+                    (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
+                    (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+                );
+                Ok(())
+            })?;
+            pixels.extend(readback.read::<SlicePixel>((rows * width) as usize)?);
+            row += rows;
+        }
+        Ok(SliceImage { width, height, pixels })
+    }
+}

@@ -1,0 +1,112 @@
+//! Slices: the field on an axis-aligned plane through the grid box, its isovalue contours by
+//! marching squares, and 2D root finding on the plane.
+//!
+//! ```text
+//!   Grid ──PlaneGrid::new(axis, at)──> plane values (the trilinear field restricted to the
+//!     │                                plane: bilinear per cross-section cell)
+//!     │                                   │
+//!     │                        contour::extract (quadtree, marching squares, ambiguity rule,
+//!     │                                   │      stitching)  ──> loops and polylines
+//!     │                                   │                        ├─> export::json / svg
+//!     └──GpuGrid──> image::SliceRenderer (shaders/slice.comp) <───┘  (drawn over the colour)
+//!                      value, colormap, contour lines  ──> export::exr / png
+//! ```
+//!
+//! The picture of `--axis A --at C` covers the box's cross-section: `u` (right) and `v` (up)
+//! are the other two axes in xyz order (`x`: y right, z up; `y`: x right, z up; `z`: x right,
+//! y up), and pixel `(px, py)` of a `W x H` picture is the point
+//! `u = min.u + (px + 0.5) / W (max.u - min.u)`, `v = max.v - (py + 0.5) / H (max.v - min.v)`.
+//! "Inside on the left" and "counterclockwise" refer to that view.
+//!
+//! Module map: [`plane`] (geometry and the plane's values), [`squares`] (the case table and the
+//! ambiguity rule), [`contour`] (refinement and stitching), [`roots`] (edge and segment root
+//! finding), [`image`] (the GPU picture), [`reference`] (its f64 mirror), [`export`] (files).
+
+pub mod contour;
+pub mod export;
+pub mod image;
+pub mod plane;
+pub mod reference;
+pub mod roots;
+pub mod squares;
+
+pub use contour::{extract, Contour, ContourOptions, ContourSet, ContourStats, SourceField};
+pub use image::{SliceImage, SliceRenderer, SliceStyle};
+pub use plane::{picture_size, Axis, PlaneGrid};
+pub use roots::{probe_segment, RootKind, SegmentProbe};
+
+use crate::scene::Scene;
+
+/// What can go wrong in a slice before the GPU or the output files are involved.
+#[derive(Debug, thiserror::Error)]
+pub enum SliceError {
+    #[error("--at {at}: the plane {axis} = {at} misses the grid box ({axis} from {min} to {max})")]
+    OutsideBox { axis: &'static str, at: f64, min: f64, max: f64 },
+    #[error("{0}")]
+    Input(String),
+}
+
+/// Contour options from a scene's `[surface]` and `[slice]`.
+pub fn contour_options(scene: &Scene) -> ContourOptions {
+    ContourOptions {
+        isovalue: scene.surface.isovalue,
+        inside: scene.surface.inside,
+        ambiguity: scene.slice.ambiguity,
+        max_depth: scene.slice.max_depth,
+    }
+}
+
+/// The contours of `plane` by the scene's settings, with the scene's source (at `time`) for
+/// `ambiguity = "sample"` and refinement.
+pub fn scene_contours(
+    scene: &Scene,
+    plane: &PlaneGrid,
+    time: f64,
+) -> Result<ContourSet, SliceError> {
+    let source = SourceField::from_spec(&scene.field, time);
+    extract(plane, source.as_ref(), &contour_options(scene))
+}
+
+/// The EXR header attributes of a slice (names under `isoview/`).
+pub fn attributes(
+    scene: &Scene,
+    plane: &PlaneGrid,
+    style: &SliceStyle,
+    device: (&str, &str),
+    time: f64,
+) -> Vec<(String, String)> {
+    let names = ["x", "y", "z"];
+    let (u, v) = (names[plane.axes.0], names[plane.axes.1]);
+    let sign = match scene.surface.inside {
+        crate::scene::Inside::Below => -1.0,
+        crate::scene::Inside::Above => 1.0,
+    };
+    let iso = style.isovalue;
+    let a = |k: &str, v: String| (format!("isoview/{k}"), v);
+    vec![
+        a("version", crate::VERSION.to_string()),
+        a("scene", scene.path.as_ref().map(|p| p.display().to_string()).unwrap_or_default()),
+        a("method", "slice".into()),
+        a("field", scene.field.describe()),
+        a("isovalue", iso.to_string()),
+        a("inside", scene.surface.inside.name().into()),
+        a("time", time.to_string()),
+        a("device", device.0.to_string()),
+        a("driver", device.1.to_string()),
+        a("slice/axis", plane.axis.name().into()),
+        a("slice/at", plane.at.to_string()),
+        a(
+            "slice/window",
+            format!(
+                "{u} right from {} to {}, {v} up from {} to {}",
+                plane.min.x, plane.max.x, plane.min.y, plane.max.y
+            ),
+        ),
+        a("slice/ambiguity", scene.slice.ambiguity.name().into()),
+        a("slice/max_depth", scene.slice.max_depth.to_string()),
+        a("slice/colormap", image::COLORMAP_NAME.into()),
+        // The values at the colormap's red (inside) and blue (outside) ends.
+        a("slice/colormap_red", (iso + sign * style.half_range).to_string()),
+        a("slice/colormap_blue", (iso - sign * style.half_range).to_string()),
+    ]
+}

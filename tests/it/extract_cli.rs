@@ -1,0 +1,230 @@
+//! `isoview extract` and `render.method = "mesh"` through the binary: mesh files in every
+//! format equal to the library's extraction, `--stats`, `--device gpu|cpu` beside the global
+//! Vulkan `--device`, exit codes with one-line errors, and outputs never truncated or clobbered.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use isoview::field::TriangleMesh;
+use isoview::mesh::{extract, stats, ExtractOptions};
+use isoview::output::exr;
+use isoview::scene;
+
+use crate::common::scratch;
+
+const SPHERE: &str = r#"
+[image]
+width = 32
+height = 24
+
+[camera]
+eye = [0.0, 0.5, 3.0]
+
+[field]
+source = "sdf"
+shape = "sphere"
+radius = 0.6
+resolution = [14, 13, 12]
+bounds = { min = [-1.0, -1.0, -1.0], max = [1.0, 1.0, 1.0] }
+
+[render]
+method = "mesh"
+mesh = "mc33"
+"#;
+
+fn isoview(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_isoview"));
+    cmd.args(args).env_remove("ISOVIEW_DEVICE");
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    cmd.output().expect("run isoview")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Exit status `code` with exactly one line on stderr containing every `needle`.
+fn assert_fails(o: &Output, code: i32, needles: &[&str]) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(code), "stderr: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line expected: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "`{n}` missing from: {err}");
+    }
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.display().to_string()
+}
+
+#[test]
+fn extract_writes_every_format_with_the_library_s_mesh() {
+    let dir = scratch("extract-formats");
+    let scene_path = write(&dir, "sphere.toml", SPHERE);
+    let s = scene::load(Path::new(&scene_path), &[]).unwrap();
+    let grid = s.field.sample(0.0).unwrap();
+    let want =
+        extract(&grid, 0.0, s.surface.inside, s.render.mesh, ExtractOptions::default()).unwrap();
+    for ext in ["ply", "obj", "stl"] {
+        let out = dir.join(format!("sphere.{ext}"));
+        let o = isoview(
+            &["extract", &scene_path, "-o", &out.display().to_string(), "--device", "cpu"],
+            &[],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(stderr(&o).contains("mc33 on cpu"), "{}", stderr(&o));
+        let got = TriangleMesh::read(&out).unwrap();
+        assert_eq!(got.triangles.len(), want.triangle_count(), "{ext}");
+        for (t, tri) in got.triangles.iter().enumerate() {
+            for (&a, &b) in tri.iter().zip(&want.triangle(t)) {
+                assert_eq!(
+                    got.positions[a as usize],
+                    glam::DVec3::from(want.positions[b as usize].map(f64::from)),
+                    "{ext} triangle {t}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn stats_device_and_overrides() {
+    let dir = scratch("extract-stats");
+    let scene_path = write(&dir, "sphere.toml", SPHERE);
+    let (a, b, c) = (dir.join("a.ply"), dir.join("b.ply"), dir.join("c.ply"));
+    let path = |p: &Path| p.display().to_string();
+    let o = isoview(&["extract", &scene_path, "-o", &path(&a), "--stats", "--device", "cpu"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let s = scene::load(Path::new(&scene_path), &[]).unwrap();
+    let grid = s.field.sample(0.0).unwrap();
+    let mesh = extract(&grid, 0.0, s.surface.inside, s.render.mesh, Default::default()).unwrap();
+    assert_eq!(text.trim_end(), stats::compute(&mesh).to_string());
+    for needle in [
+        "vertices:",
+        "triangles:",
+        "area:",
+        "volume:",
+        "boundary edges: 0",
+        "non-manifold edges: 0",
+        "min-angle histogram:",
+    ] {
+        assert!(text.contains(needle), "{needle} missing from {text}");
+    }
+    // The default device (gpu) and the global flag before the subcommand give the same file.
+    let o = isoview(&["extract", &scene_path, "-o", &path(&b)], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = isoview(&["--device", "cpu", "extract", &scene_path, "-o", &path(&c)], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&c).unwrap());
+    // --set reaches the extraction: another algorithm, another mesh.
+    let o = isoview(
+        &[
+            "extract",
+            &scene_path,
+            "-o",
+            &path(&c),
+            "--device",
+            "cpu",
+            "--set",
+            "render.mesh=surface-nets",
+            "--quads",
+        ],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("surface-nets on cpu"));
+    assert_ne!(std::fs::read(&a).unwrap(), std::fs::read(&c).unwrap());
+    let header = String::from_utf8_lossy(&std::fs::read(&c).unwrap()[..400]).into_owned();
+    assert!(header.contains("element face"), "{header}");
+}
+
+#[test]
+fn extract_errors_are_one_line_and_never_clobber_the_output() {
+    let dir = scratch("extract-errors");
+    let good = write(&dir, "good.toml", SPHERE);
+    let out = dir.join("out.ply");
+    let o = out.display().to_string();
+    std::fs::write(&out, b"previous mesh").unwrap();
+    assert_fails(
+        &isoview(&["extract", &good, "-o", &dir.join("m.dae").display().to_string()], &[]),
+        2,
+        &["m.dae", ".ply, .obj or .stl"],
+    );
+    let typo = write(&dir, "typo.toml", &SPHERE.replace("mesh = \"mc33\"", "mesh = \"mc34\""));
+    assert_fails(&isoview(&["extract", &typo, "-o", &o], &[]), 2, &["typo.toml:", "render.mesh"]);
+    assert_fails(
+        &isoview(&["extract", &good, "-o", &o, "--set", "surface.isovalue=nan"], &[]),
+        2,
+        &["--set surface.isovalue=nan"],
+    );
+    assert_fails(&isoview(&["extract", &good, "-o", &o, "--time", "inf"], &[]), 2, &["--time"]);
+    let missing = dir.join("no/such/dir/m.ply").display().to_string();
+    assert_fails(
+        &isoview(&["extract", &good, "-o", &missing, "--device", "cpu"], &[]),
+        2,
+        &["no/such/dir"],
+    );
+    assert_eq!(std::fs::read(&out).unwrap(), b"previous mesh");
+    let entries = std::fs::read_dir(&dir).unwrap().count();
+    assert_eq!(entries, 3, "no temporary files left behind");
+}
+
+#[test]
+fn empty_meshes_are_written_with_a_note() {
+    let dir = scratch("extract-empty");
+    let good = write(&dir, "good.toml", SPHERE);
+    let out = dir.join("empty.stl");
+    let o = isoview(
+        &[
+            "extract",
+            &good,
+            "-o",
+            &out.display().to_string(),
+            "--device",
+            "cpu",
+            "--set",
+            "surface.isovalue=5",
+        ],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("the mesh is empty"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&out).unwrap().len(), 84, "an STL header with 0 triangles");
+}
+
+#[test]
+fn render_method_mesh_writes_every_channel_and_says_how_it_was_made() {
+    if std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() == Ok("1") {
+        return;
+    }
+    let dir = scratch("extract-render");
+    let scene_path = write(&dir, "sphere.toml", SPHERE);
+    let out = dir.join("mesh.exr");
+    let o = isoview(&["render", &scene_path, "-o", &out.display().to_string()], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = exr::read(&out).unwrap();
+    let names: Vec<&str> = img.channel_names().collect();
+    for c in ["R", "A", "Z", "N.X", "P.Z", "steps", "cell.Y", "crossings"] {
+        assert!(names.contains(&c), "{c} missing from {names:?}");
+    }
+    let a = &img.channel("A").unwrap().values;
+    assert!(a.contains(&1.0) && a.contains(&0.0), "hits and misses");
+    let text = format!("{:?}", img.attributes);
+    assert!(text.contains("mesh") && text.contains("mc33"), "{text}");
+    // The exact surface has the same channels, so `compare` measures the mesh's departure.
+    let exact = dir.join("analytic.exr");
+    let e = exact.display().to_string();
+    let o = isoview(&["render", &scene_path, "-o", &e, "--set", "render.method=analytic"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = isoview(&["compare", &e, &out.display().to_string()], &[]);
+    assert_eq!(o.status.code(), Some(1), "differences, not an error: {}", stderr(&o));
+    let report = String::from_utf8_lossy(&o.stdout);
+    assert!(report.contains("crossings") && report.contains("Z "), "{report}");
+}

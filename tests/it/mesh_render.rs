@@ -1,0 +1,307 @@
+//! The mesh render (`render.method = "mesh"`) against its f64 reference on random meshes and
+//! cameras, and against the exact surface: a plane from a linear field, and a fine sphere SDF
+//! grid compared with the fixed-step render and the analytic reference.
+
+use glam::DVec3;
+use isoview::camera::Camera;
+use isoview::field::Grid;
+use isoview::frame::Pixel;
+use isoview::mesh::{extract, ExtractOptions, Mesh};
+use isoview::passes::mesh_render::MeshBuffers;
+use isoview::reference::{analytic, field, mesh as reference};
+use isoview::render::{GpuGrid, Renderer};
+use isoview::scene::{Inside, MeshAlgorithm, Method, Scene, Shading};
+
+use crate::common::*;
+
+/// Rays whose f64 trace passes closer than this (radians) to an edge of a tested triangle may
+/// hit or miss differently in f32; such pixels are excused (and counted).
+const EDGE_MARGIN: f64 = 2e-5;
+/// Depth, GPU vs reference, relative to the box diagonal.
+const DEPTH_TOL: f64 = 2e-5;
+/// Normals: largest |n_gpu - n_ref|.
+const NORMAL_TOL: f64 = 2e-3;
+
+fn v(a: [f32; 3]) -> DVec3 {
+    DVec3::from(a.map(f64::from))
+}
+
+struct Agreement {
+    rays: usize,
+    hits: usize,
+    excused: usize,
+    steps_off: usize,
+}
+
+fn compare(scene: &Scene, grid: &Grid, mesh: &Mesh, gpu: &[Pixel]) -> Agreement {
+    let (reference, traces) = reference::render(scene, grid, mesh);
+    let diag = (grid.max - grid.min).length();
+    let mut a = Agreement { rays: 0, hits: 0, excused: 0, steps_off: 0 };
+    for (i, ((g, r), tr)) in gpu.iter().zip(&reference).zip(&traces).enumerate() {
+        let (px, py) = (i as u32 % scene.image.width, i as u32 / scene.image.width);
+        a.rays += 1;
+        // The tested count depends on screen boxes rounded to whole pixels: f32 and f64 may
+        // disagree by a triangle where a box edge falls on a pixel centre.
+        if g.steps != r.steps {
+            assert!(
+                (g.steps - r.steps).abs() <= 2.0,
+                "({px},{py}): steps {} vs {}",
+                g.steps,
+                r.steps
+            );
+            a.steps_off += 1;
+        }
+        let near_edge = tr.margin < EDGE_MARGIN;
+        if g.is_hit() != r.is_hit() || g.crossings != r.crossings {
+            assert!(near_edge, "({px},{py}): GPU {g:?} vs reference {r:?}, margin {}", tr.margin);
+            a.excused += 1;
+            continue;
+        }
+        if !r.is_hit() {
+            assert_eq!(g.rgba, r.rgba, "({px},{py}) background");
+            assert_eq!((g.cell, g.normal, g.position), (r.cell, r.normal, r.position));
+            continue;
+        }
+        a.hits += 1;
+        let dz = (g.depth as f64 - r.depth as f64).abs();
+        let dn = (v(g.normal) - v(r.normal)).length();
+        if dz > DEPTH_TOL * diag || dn > NORMAL_TOL {
+            // Another triangle won by a hair (a shared edge, or two sheets at one depth).
+            assert!(
+                near_edge,
+                "({px},{py}): depth {} vs {}, normal {:?} vs {:?}",
+                g.depth, r.depth, g.normal, r.normal
+            );
+            a.excused += 1;
+            continue;
+        }
+        assert!((v(g.position) - v(r.position)).length() <= 2.0 * DEPTH_TOL * diag);
+        if g.cell != r.cell {
+            let u = field::to_grid(grid, v(r.position));
+            let on_face = (0..3).any(|k| (u[k] - u[k].round()).abs() < 1e-4);
+            assert!(on_face, "({px},{py}): cell {:?} vs {:?}", g.cell, r.cell);
+        }
+        for c in 0..4 {
+            assert!((g.rgba[c] - r.rgba[c]).abs() < 5e-3, "({px},{py}) colour {g:?} vs {r:?}");
+        }
+    }
+    a
+}
+
+fn render_mesh(renderer: &mut Renderer, scene: &Scene, grid: &Grid, mesh: &Mesh) -> Vec<Pixel> {
+    let ctx = renderer.context().clone();
+    let gpu_grid = GpuGrid::upload(&ctx, grid).unwrap();
+    let buffers = MeshBuffers::upload(&ctx, mesh).unwrap();
+    renderer.render_mesh(scene, grid, &gpu_grid, &buffers, 0.0).unwrap().pixels
+}
+
+#[test]
+fn mesh_render_matches_reference_on_random_meshes_and_cameras() {
+    let Some(ctx) = gpu() else { return };
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let mut rng = Rng::new(11);
+    let (mut rays, mut hits, mut excused, mut steps_off) = (0, 0, 0, 0);
+    for case in 0..12 {
+        let dims = [
+            3 + (rng.next_u64() % 6) as usize,
+            3 + (rng.next_u64() % 6) as usize,
+            3 + (rng.next_u64() % 6) as usize,
+        ];
+        let grid = random_grid(&mut rng, dims);
+        let eye = random_eye(&mut rng, &grid, case % 4 == 3);
+        let mut scene = scene_for(&grid, eye, 40, Method::Mesh);
+        scene.surface.isovalue = rng.range(-0.3, 0.3);
+        scene.surface.inside = if case % 2 == 0 { Inside::Below } else { Inside::Above };
+        scene.render.shading = [Shading::Lambert, Shading::Normal, Shading::Cells][case % 3];
+        scene.render.mesh = MeshAlgorithm::ALL[case % 5];
+        let mesh = extract(
+            &grid,
+            scene.surface.isovalue,
+            scene.surface.inside,
+            scene.render.mesh,
+            ExtractOptions::default(),
+        )
+        .unwrap();
+        let pixels = render_mesh(&mut renderer, &scene, &grid, &mesh);
+        let a = compare(&scene, &grid, &mesh, &pixels);
+        rays += a.rays;
+        hits += a.hits;
+        excused += a.excused;
+        steps_off += a.steps_off;
+    }
+    eprintln!(
+        "mesh render vs reference: {rays} rays, {hits} hits compared, {excused} excused near \
+         edges, {steps_off} tested counts off by at most 2"
+    );
+    assert!(hits > rays / 10, "too few hits to mean anything: {hits} of {rays}");
+    assert!(excused * 200 < rays, "too many excused: {excused} of {rays}");
+    assert!(steps_off * 100 < rays, "too many tested counts off: {steps_off} of {rays}");
+}
+
+#[test]
+fn random_triangle_soup_and_a_camera_among_the_triangles_match_the_reference() {
+    let Some(ctx) = gpu() else { return };
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let mut rng = Rng::new(5);
+    let grid = grid_from([3, 3, 3], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.x);
+    let mut mesh = Mesh::default();
+    for t in 0..60u32 {
+        let c = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+        for _ in 0..3 {
+            let p = c + rng.unit_vector() * rng.range(0.05, 0.5);
+            mesh.positions.push(p.as_vec3().to_array());
+            mesh.normals.push(rng.unit_vector().as_vec3().to_array());
+        }
+        mesh.indices.extend([3 * t, 3 * t + 1, 3 * t + 2]);
+    }
+    let (mut rays, mut excused) = (0, 0);
+    for (k, eye) in [DVec3::new(0.1, 0.2, 0.05), DVec3::new(2.5, 1.0, -2.0)].into_iter().enumerate()
+    {
+        let mut scene = scene_for(&grid, eye, 48, Method::Mesh);
+        scene.camera.target = DVec3::new(0.3, -0.2, 1.0) * (1.0 - 2.0 * k as f64);
+        let pixels = render_mesh(&mut renderer, &scene, &grid, &mesh);
+        let a = compare(&scene, &grid, &mesh, &pixels);
+        assert!(a.hits > a.rays / 10, "{} hits of {}", a.hits, a.rays);
+        rays += a.rays;
+        excused += a.excused;
+    }
+    assert!(excused * 100 < rays, "too many excused: {excused} of {rays}");
+}
+
+#[test]
+fn linear_field_mesh_renders_the_exact_plane() {
+    let Some(ctx) = gpu() else { return };
+    // f = x + 2y - z: every algorithm's mesh of f = 0.1 lies in the plane (dual methods inside
+    // the grid; marching cubes exactly).
+    let grid =
+        grid_from([6, 5, 7], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.x + 2.0 * p.y - p.z);
+    let mut scene = scene_for(&grid, DVec3::new(2.5, 1.0, 3.0), 48, Method::Mesh);
+    scene.surface.isovalue = 0.1;
+    let frame = Renderer::new(&ctx).unwrap().render(&scene, &grid, 0.0).unwrap();
+    let n = DVec3::new(1.0, 2.0, -1.0).normalize();
+    let mut hits = 0;
+    for p in frame.pixels.iter().filter(|p| p.is_hit()) {
+        hits += 1;
+        let pos = v(p.position);
+        assert!((pos.dot(DVec3::new(1.0, 2.0, -1.0)) - 0.1).abs() < 1e-5, "{pos} off the plane");
+        assert!((v(p.normal) - n).length() < 1e-5, "normal {:?}", p.normal);
+        assert!(((pos - scene.camera.eye).length() - p.depth as f64).abs() < 1e-5);
+        assert_eq!(p.crossings, 1);
+    }
+    assert!(hits > 150, "the plane covers part of the image: {hits}");
+    assert_eq!(frame.info.method, "mesh");
+}
+
+/// A sphere of radius 0.6 as an SDF on a 65^3 grid over [-1, 1]^3 (h = 1/32).
+fn sphere_grid() -> Grid {
+    grid_from([65, 65, 65], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.6)
+}
+
+/// Largest gap between the mesh of a fine sphere grid and the exact trilinear surface, measured
+/// along the normal (depth difference times |cos| of the ray's angle to the normal), on rays
+/// that meet the sphere within 60° of its normal; along such a ray a gap g is a depth
+/// difference of up to 2g. Sphere of radius r = 0.6 sampled at spacing h = 1/32:
+/// * mc33 (vertices on the surface, flat triangles between): about h^2 / (8 r) ≈ 2e-4;
+///   tolerance 3e-4.
+/// * surface-nets (vertices at the mean of a cell's crossings, inside the surface's hull):
+///   up to about h^2 ≈ 1e-3; tolerance 1e-3.
+const SPHERE_GAP_TOL: [(MeshAlgorithm, f64); 2] =
+    [(MeshAlgorithm::Mc33, 3e-4), (MeshAlgorithm::SurfaceNets, 1e-3)];
+
+#[test]
+fn fine_sphere_mesh_render_agrees_with_fixed_step_and_analytic_within_the_stated_tolerance() {
+    let Some(ctx) = gpu() else { return };
+    let grid = sphere_grid();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    for (algo, gap_tol) in SPHERE_GAP_TOL {
+        let mut scene = scene_for(&grid, DVec3::new(0.4, 0.9, 2.6), 80, Method::Mesh);
+        scene.render.mesh = algo;
+        let mesh_frame = renderer.render(&scene, &grid, 0.0).unwrap();
+        scene.render.method = Method::FixedStep;
+        scene.render.steps = 400;
+        let fixed = renderer.render(&scene, &grid, 0.0).unwrap();
+        let cam = Camera::new(&scene.camera, &scene.image);
+        let opts = analytic::AnalyticOptions::default();
+        let (mut compared, mut worst_fixed, mut worst_exact, mut worst_gap) = (0, 0.0, 0.0, 0.0f64);
+        for py in 0..80 {
+            for px in 0..80 {
+                let (m, f) = (mesh_frame.pixel(px, py), fixed.pixel(px, py));
+                let d = cam.ray_dir(px, py);
+                let closest = (cam.eye - d * cam.eye.dot(d)).length();
+                if closest > 0.6 * 60f64.to_radians().sin() {
+                    continue;
+                }
+                assert!(m.is_hit() && f.is_hit(), "({px},{py}) should hit");
+                let exact = analytic::trace(&grid, 0.0, Inside::Below, cam.eye, d, &opts);
+                let t = exact.hit.expect("the analytic reference hits").t;
+                let dz = (m.depth as f64 - t).abs();
+                worst_fixed = f64::max(worst_fixed, (m.depth as f64 - f.depth as f64).abs());
+                worst_exact = f64::max(worst_exact, dz);
+                worst_gap = worst_gap.max(dz * v(m.normal).dot(d).abs());
+                assert!(v(m.normal).dot(v(m.position).normalize()) > 0.995, "normal ({px},{py})");
+                assert_eq!(m.crossings as u32, exact.crossings, "({px},{py}) crossings");
+                compared += 1;
+            }
+        }
+        eprintln!(
+            "sphere r = 0.6 on 65^3, {}: {compared} rays within 60° of the normal, largest \
+             |Z_mesh - Z_fixed| = {worst_fixed:.2e}, |Z_mesh - Z_analytic| = {worst_exact:.2e}, \
+             gap along the normal {worst_gap:.2e}",
+            algo.name()
+        );
+        assert!(compared > 1000);
+        assert!(worst_fixed < 2.0 * gap_tol, "mesh vs fixed-step: {worst_fixed}");
+        assert!(worst_exact < 2.0 * gap_tol, "mesh vs analytic: {worst_exact}");
+        assert!(worst_gap < gap_tol, "gap along the normal: {worst_gap}");
+    }
+}
+
+#[test]
+fn tall_images_render_the_mesh_in_bands_identically() {
+    let Some(ctx) = gpu() else { return };
+    let grid = grid_from([9, 9, 9], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.7);
+    let mut scene = scene_for(&grid, DVec3::new(0.3, 0.2, 3.0), 16, Method::Mesh);
+    scene.image.width = 4096;
+    scene.image.height = 600;
+    scene.camera.fov_y_deg = 50.0;
+    let frame = Renderer::new(&ctx).unwrap().render(&scene, &grid, 0.0).unwrap();
+    assert_eq!(frame.pixels.len(), 4096 * 600);
+    // Rows at the ends of each band (256 rows each) against the reference.
+    let mesh = extract(&grid, 0.0, Inside::Below, MeshAlgorithm::MarchingCubes, Default::default())
+        .unwrap();
+    let cam = Camera::new(&scene.camera, &scene.image);
+    let boxes: Vec<_> = (0..mesh.triangle_count())
+        .map(|t| {
+            let [a, b, c] = mesh.triangle(t).map(|i| v(mesh.positions[i as usize]));
+            reference::screen_box(&cam, a, b, c)
+        })
+        .collect();
+    for row in [0u32, 255, 256, 300, 511, 512, 599] {
+        for col in (0..4096).step_by(97) {
+            let tr = reference::trace(&mesh, &cam, &boxes, col, row);
+            let p = frame.pixel(col, row);
+            if tr.margin > EDGE_MARGIN {
+                assert_eq!(p.is_hit(), tr.hit.is_some(), "({col},{row})");
+                assert_eq!(p.crossings as u32, tr.hits, "({col},{row})");
+            }
+        }
+    }
+}
+
+#[test]
+fn validation_layer_reports_nothing_for_a_mesh_render() {
+    if std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() == Ok("1") {
+        return;
+    }
+    use isoview::gpu::{validation_messages, Context, ContextOptions};
+    let ctx = Context::new(&ContextOptions { device: None, validation: true }).expect(
+        "Vulkan with VK_LAYER_KHRONOS_validation (apt-get install vulkan-validationlayers)",
+    );
+    let grid = grid_from([9, 8, 7], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.7);
+    let scene = scene_for(&grid, DVec3::new(0.3, 0.2, 3.0), 24, Method::Mesh);
+    let before = validation_messages();
+    let frame = Renderer::new(&ctx).unwrap().render(&scene, &grid, 0.0).unwrap();
+    drop(ctx);
+    assert!(frame.pixels.iter().any(|p| p.is_hit()));
+    assert_eq!(validation_messages(), before, "validation warnings or errors (printed above)");
+}

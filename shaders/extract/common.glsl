@@ -5,8 +5,11 @@
 // Lattice: grid point (i, j, k) is *padded* point q = (i, j, k) + pad, where pad is 1 for dual
 // contouring (a layer of points outside the box that count as outside) and 0 otherwise. Padded
 // cell c spans padded points c .. c + 1. Items of a dispatch are points or cells of consecutive
-// z layers starting at layer C.z0, numbered x fastest; the slab's point and cell buffers hold
-// consecutive layers starting at C.point_z0 and C.cell_z0.
+// z layers starting at layer C.z0, numbered x fastest (the emit passes instead take one
+// invocation per output item); the slab's point and cell buffers hold consecutive layers
+// starting at C.point_z0 and C.cell_z0, and its copy of the samples (gathered from the grid
+// image once by the `values` pass, so the other passes read a plain buffer) the padded point
+// layers from C.value_z0.
 
 layout(std140, binding = 0) uniform Params {
     ivec4 dims;     // xyz: grid points per axis; w: padding layers (pad)

@@ -428,16 +428,15 @@ impl Extractor {
         let nc = np.map(|n| n - 1);
         let (lp, lc) = (np[0] * np[1], nc[0] * nc[1]);
 
-        // Slab depth: a slab holds at most `layers + 2` point layers (plus one total).
         let limit_bytes = opts
             .max_binding_bytes
             .unwrap_or(ctx.info.max_storage_buffer_range)
             .min(ctx.info.max_storage_buffer_range)
             .min(MAX_SCRATCH_BYTES);
         let limit_elems = (limit_bytes / 4) as usize;
-        // A slab holds at most `layers + 2` point layers (plus one total) and `layers + 4`
-        // layers of samples.
-        let by_limit = ((limit_elems - 1) / lp).saturating_sub(4);
+        // Slab depth: a slab holds at most `layers + 2` point layers (plus one total) and
+        // `layers + 4` layers of samples.
+        let by_limit = (limit_elems.saturating_sub(1) / lp).saturating_sub(4);
         if by_limit == 0 {
             return Err(GpuError::Limit(format!(
                 "a z layer of {}x{} points does not fit one storage buffer ({limit_bytes} bytes)",

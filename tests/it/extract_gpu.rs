@@ -299,13 +299,16 @@ fn runs_are_deterministic() {
 }
 
 #[test]
-fn mc33_and_bad_input_are_errors() {
+fn mc33_bad_input_and_tiny_bindings_are_errors() {
     let Some(mut gpu) = Gpu::new() else { return };
     let mut rng = Rng::new(1);
     let c = Case { grid: random_grid(&mut rng, [4, 4, 4]), iso: 0.0, inside: Inside::Below };
     let opts = GpuExtractOptions::default();
     let err = gpu.run(&c, MeshAlgorithm::Mc33, &opts).expect_err("mc33 is CPU only");
     assert!(matches!(err, GpuMeshError::Unsupported("mc33")), "{err}");
+    let tiny = GpuExtractOptions { max_binding_bytes: Some(64), ..opts };
+    let err = gpu.run(&c, MeshAlgorithm::SurfaceNets, &tiny).expect_err("64-byte bindings");
+    assert!(err.to_string().contains("does not fit one storage buffer"), "{err}");
     let bad = Case { iso: f64::NAN, ..c };
     let err = gpu.run(&bad, MeshAlgorithm::MarchingCubes, &opts).expect_err("NaN isovalue");
     assert!(err.to_string().contains("isovalue"), "{err}");

@@ -32,20 +32,11 @@ fn sdf_grid(shape: SdfShape, center: DVec3, n: usize) -> Grid {
     spec.sample(0.0).expect("grid")
 }
 
+/// The contract's default scene (analytic, default camera) over `grid`.
 fn scene(grid: &Grid, size: u32) -> Scene {
-    Scene {
-        path: None,
-        image: ImageSettings { width: size, height: size },
-        camera: CameraSettings::default(),
-        field: FieldSpec {
-            source: FieldSource::Corners([0.0; 8]),
-            resolution: grid.dims,
-            bounds: Bounds { min: grid.min, max: grid.max },
-        },
-        surface: SurfaceSettings::default(),
-        render: RenderSettings::default(),
-        slice: SliceSettings::default(),
-    }
+    let mut scene = Scene::new(FieldSpec::from_grid(grid.clone()));
+    scene.image = ImageSettings { width: size, height: size };
+    scene
 }
 
 fn median(mut v: Vec<f64>) -> f64 {

@@ -23,35 +23,13 @@ fn torus_grid(n: usize) -> Grid {
     spec.sample(0.0).expect("torus grid")
 }
 
+/// The contract's default scene (camera included) over `grid`, fixed-step.
 fn scene(grid: &Grid, size: u32, steps: u32) -> Scene {
-    Scene {
-        path: None,
-        image: ImageSettings { width: size, height: size },
-        camera: CameraSettings {
-            eye: DVec3::new(2.2, 1.6, 2.4),
-            target: DVec3::ZERO,
-            up: DVec3::Y,
-            fov_y_deg: 40.0,
-        },
-        field: FieldSpec {
-            source: FieldSource::Corners([0.0; 8]),
-            resolution: grid.dims,
-            bounds: Bounds { min: grid.min, max: grid.max },
-        },
-        surface: SurfaceSettings { isovalue: 0.0, inside: Inside::Below },
-        render: RenderSettings {
-            method: Method::FixedStep,
-            steps,
-            newton_steps: 10,
-            skip: true,
-            crossing: 1,
-            mesh: MeshAlgorithm::MarchingCubes,
-            shading: Shading::Lambert,
-            background: [0.0; 4],
-            color: [0.85, 0.65, 0.45],
-        },
-        slice: SliceSettings::default(),
-    }
+    let mut scene = Scene::new(FieldSpec::from_grid(grid.clone()));
+    scene.image = ImageSettings { width: size, height: size };
+    scene.render.method = Method::FixedStep;
+    scene.render.steps = steps;
+    scene
 }
 
 fn median(mut v: Vec<f64>) -> f64 {

@@ -26,6 +26,9 @@ pub enum FieldSource {
     Raw(RawSource),
     /// An expression over `x`, `y`, `z` (world coordinates) and `t`.
     Expr(ExprSource),
+    /// Samples already in memory (scenes built in code, not from a file); the spec's
+    /// resolution and bounds are the grid's.
+    Grid(std::sync::Arc<Grid>),
     /// The signed distance to a triangle mesh read at load time (negative inside).
     Mesh(MeshSource),
 }
@@ -54,6 +57,15 @@ impl FieldSpec {
         bounds: Bounds,
     ) -> FieldSpec {
         FieldSpec { source: FieldSource::Sdf { shape, center }, resolution, bounds }
+    }
+
+    /// A grid already in memory, as it is (its dims and box become the lattice).
+    pub fn from_grid(grid: Grid) -> FieldSpec {
+        FieldSpec {
+            resolution: grid.dims,
+            bounds: Bounds { min: grid.min, max: grid.max },
+            source: FieldSource::Grid(std::sync::Arc::new(grid)),
+        }
     }
 
     /// An expression field; fails if the expression does not compile.
@@ -113,6 +125,7 @@ impl FieldSpec {
                 r.read(limits)?
             }
             FieldSource::Expr(e) => fill(&grid, |p| e.eval(p, time)),
+            FieldSource::Grid(g) => g.values.clone(),
             FieldSource::Mesh(m) => {
                 let sdf = MeshSdf::new(&m.mesh);
                 fill(&grid, |p| sdf.distance(p))
@@ -181,6 +194,7 @@ impl FieldSpec {
                 format!("raw {} {} {}-endian", r.file_name(), r.dtype.name(), r.endian.name())
             }
             FieldSource::Expr(e) => format!("expr \"{}\"", e.text),
+            FieldSource::Grid(_) => "grid in memory".to_string(),
             FieldSource::Mesh(m) => format!(
                 "mesh {} ({} triangles) signed distance",
                 file_name(&m.path),

@@ -19,6 +19,22 @@ pub struct Scene {
     pub slice: SliceSettings,
 }
 
+impl Scene {
+    /// A scene over `field` with every other key at the contract's default (for scenes built
+    /// in code; files go through [`super::load`]).
+    pub fn new(field: crate::field::FieldSpec) -> Scene {
+        Scene {
+            path: None,
+            image: ImageSettings::default(),
+            camera: CameraSettings::default(),
+            field,
+            surface: SurfaceSettings::default(),
+            render: RenderSettings::default(),
+            slice: SliceSettings::default(),
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ImageSettings {
     pub width: u32,

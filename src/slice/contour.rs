@@ -103,7 +103,7 @@ impl<'a> SourceField<'a> {
                 let sdf = crate::field::MeshSdf::new(&m.mesh);
                 Some(SourceField { eval: Box::new(move |p| sdf.distance(p)), lipschitz: None })
             }
-            FieldSource::Npy(_) | FieldSource::Raw(_) => None,
+            FieldSource::Npy(_) | FieldSource::Raw(_) | FieldSource::Grid(_) => None,
         }
     }
 }

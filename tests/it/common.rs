@@ -3,7 +3,7 @@
 use std::sync::Arc;
 
 use glam::DVec3;
-use isoview::field::{FieldSource, FieldSpec, Grid};
+use isoview::field::{FieldSpec, Grid};
 use isoview::gpu::{Context, ContextOptions};
 use isoview::scene::*;
 
@@ -72,36 +72,16 @@ pub fn grid_from(dims: [usize; 3], min: DVec3, max: DVec3, f: impl Fn(DVec3) -> 
     g
 }
 
-/// A scene around `grid` (its field spec is a placeholder: renders take the grid directly).
+/// A scene around `grid` at the contract's defaults, looking at the box's centre from `eye`,
+/// `size`² pixels, fixed-step with 64 steps or the given method.
 pub fn scene_for(grid: &Grid, eye: DVec3, size: u32, method: Method) -> Scene {
-    Scene {
-        path: None,
-        image: ImageSettings { width: size, height: size },
-        camera: CameraSettings {
-            eye,
-            target: 0.5 * (grid.min + grid.max),
-            up: DVec3::Y,
-            fov_y_deg: 40.0,
-        },
-        field: FieldSpec {
-            source: FieldSource::Corners([0.0; 8]),
-            resolution: grid.dims,
-            bounds: Bounds { min: grid.min, max: grid.max },
-        },
-        surface: SurfaceSettings { isovalue: 0.0, inside: Inside::Below },
-        render: RenderSettings {
-            method,
-            steps: 64,
-            newton_steps: 10,
-            skip: true,
-            crossing: 1,
-            mesh: MeshAlgorithm::MarchingCubes,
-            shading: Shading::Lambert,
-            background: [0.0, 0.0, 0.0, 0.0],
-            color: [0.85, 0.65, 0.45],
-        },
-        slice: SliceSettings::default(),
-    }
+    let mut scene = Scene::new(FieldSpec::from_grid(grid.clone()));
+    scene.image = ImageSettings { width: size, height: size };
+    scene.camera.eye = eye;
+    scene.camera.target = 0.5 * (grid.min + grid.max);
+    scene.render.method = method;
+    scene.render.steps = 64;
+    scene
 }
 
 /// A random camera position looking at the box from outside (or, with `inside`, from within).

@@ -65,6 +65,39 @@ impl Buffer {
         })
     }
 
+    /// A device-local buffer holding `data`, uploaded through a staging buffer (one submission
+    /// that waits). `usage` gets `TRANSFER_DST` added.
+    pub fn upload<T: bytemuck::Pod>(
+        ctx: &Arc<Context>,
+        name: &str,
+        data: &[T],
+        usage: vk::BufferUsageFlags,
+    ) -> Result<Self, GpuError> {
+        let bytes = std::mem::size_of_val(data) as u64;
+        let mut staging = Buffer::new(
+            ctx,
+            &format!("{name} staging"),
+            bytes,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        staging.write(data)?;
+        let buffer = Buffer::new(
+            ctx,
+            name,
+            bytes,
+            usage | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )?;
+        if bytes > 0 {
+            ctx.submit(&format!("upload {name}"), |cmd| {
+                super::copy_buffer(ctx, cmd, &staging, 0, &buffer, 0, bytes);
+                Ok(())
+            })?;
+        }
+        Ok(buffer)
+    }
+
     fn mapped(&self) -> Result<&[u8], GpuError> {
         self.allocation
             .as_ref()

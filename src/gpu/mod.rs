@@ -19,7 +19,8 @@ pub use error::GpuError;
 pub use gpu_allocator::MemoryLocation;
 pub use image::Image3d;
 pub use pipeline::{
-    copy_buffer, fill_buffer, memory_barrier, ComputePipeline, Dispatch, Resource, Timer,
+    copy_buffer, fill_buffer, memory_barrier, record_readback, ComputePipeline, Dispatch, Resource,
+    Timer,
 };
 
 pub use ash::vk;

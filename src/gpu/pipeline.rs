@@ -286,6 +286,31 @@ pub fn fill_buffer(
     unsafe { ctx.device.cmd_fill_buffer(cmd, dst.raw, offset, bytes, value) };
 }
 
+/// Records the copy of a compute pass's output (`bytes` from the start of `src`) into the
+/// host-visible `dst`, with the barriers that make compute writes visible to the copy and the
+/// copy visible to the host after the submission's fence.
+pub fn record_readback(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    src: &Buffer,
+    dst: &Buffer,
+    bytes: u64,
+) {
+    memory_barrier(
+        ctx,
+        cmd,
+        (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
+        (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
+    );
+    copy_buffer(ctx, cmd, src, 0, dst, 0, bytes);
+    memory_barrier(
+        ctx,
+        cmd,
+        (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
+        (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+    );
+}
+
 /// A pair of timestamps around recorded work.
 pub struct Timer {
     pool: vk::QueryPool,

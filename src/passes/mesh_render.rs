@@ -21,9 +21,7 @@ use std::sync::Arc;
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
-use crate::gpu::{
-    copy_buffer, Buffer, ComputePipeline, Context, GpuError, MemoryLocation, Resource,
-};
+use crate::gpu::{Buffer, ComputePipeline, Context, GpuError, Resource};
 use crate::mesh::gpu::GpuMesh;
 use crate::mesh::Mesh;
 use crate::shaders;
@@ -50,6 +48,8 @@ pub struct RasterPush {
     pub threads_x: u32,
 }
 
+const STORAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::STORAGE_BUFFER;
+
 /// Uploads a CPU mesh (through staging buffers) into device-local storage buffers in the layout
 /// of the GPU extraction's output.
 pub fn upload(ctx: &Arc<Context>, mesh: &Mesh) -> Result<GpuMesh, GpuError> {
@@ -72,39 +72,12 @@ pub fn upload(ctx: &Arc<Context>, mesh: &Mesh) -> Result<GpuMesh, GpuError> {
     }
     Ok(GpuMesh::from_buffers(
         ctx,
-        upload_slice(ctx, "mesh positions", &positions)?,
-        upload_slice(ctx, "mesh normals", &normals)?,
-        upload_slice(ctx, "mesh indices", &mesh.indices)?,
+        Buffer::upload(ctx, "mesh positions", &positions, STORAGE)?,
+        Buffer::upload(ctx, "mesh normals", &normals, STORAGE)?,
+        Buffer::upload(ctx, "mesh indices", &mesh.indices, STORAGE)?,
         vertex_count,
         triangle_count,
     ))
-}
-
-/// A device-local storage buffer holding `data`.
-fn upload_slice<T: Pod>(ctx: &Arc<Context>, name: &str, data: &[T]) -> Result<Buffer, GpuError> {
-    let bytes = std::mem::size_of_val(data) as u64;
-    let mut staging = Buffer::new(
-        ctx,
-        &format!("{name} staging"),
-        bytes,
-        vk::BufferUsageFlags::TRANSFER_SRC,
-        MemoryLocation::CpuToGpu,
-    )?;
-    staging.write(data)?;
-    let buffer = Buffer::new(
-        ctx,
-        name,
-        bytes,
-        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-        MemoryLocation::GpuOnly,
-    )?;
-    if bytes > 0 {
-        ctx.submit(&format!("upload {name}"), |cmd| {
-            copy_buffer(ctx, cmd, &staging, 0, &buffer, 0, bytes);
-            Ok(())
-        })?;
-    }
-    Ok(buffer)
 }
 
 /// The two pipelines of the mesh render.

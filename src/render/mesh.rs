@@ -8,9 +8,8 @@ use super::params::{Band, RenderParams};
 use super::{GpuGrid, RenderError, Renderer, MAX_BAND_PIXELS};
 use crate::field::Grid;
 use crate::frame::{Frame, Pixel};
-use crate::gpu::{
-    copy_buffer, fill_buffer, memory_barrier, Buffer, MemoryLocation, Resource, Timer,
-};
+use crate::gpu::record_readback;
+use crate::gpu::{fill_buffer, memory_barrier, Buffer, MemoryLocation, Resource, Timer};
 use crate::mesh::gpu::{Extractor, GpuExtractOptions, GpuMesh};
 use crate::mesh::{self, ExtractOptions, Mesh};
 use crate::passes::mesh_render::{
@@ -85,20 +84,11 @@ impl Renderer {
         let band_pixels = band_rows as u64 * width as u64;
 
         let params = RenderParams::new(scene, grid);
-        let mut params_staging = Buffer::new(
-            ctx,
-            "params staging",
-            std::mem::size_of::<RenderParams>() as u64,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::CpuToGpu,
-        )?;
-        params_staging.write(std::slice::from_ref(&params))?;
-        let params_buf = Buffer::new(
+        let params_buf = Buffer::upload(
             ctx,
             "params",
-            params_staging.size,
-            vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
+            std::slice::from_ref(&params),
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
         )?;
         let scratch = |name: &str, bytes: u64| {
             Buffer::new(
@@ -142,10 +132,6 @@ impl Renderer {
             Resource::Storage(&vis),
             Resource::Storage(&counts),
         ])?;
-        ctx.submit("upload params", |cmd| {
-            copy_buffer(ctx, cmd, &params_staging, 0, &params_buf, 0, params_staging.size);
-            Ok(())
-        })?;
 
         let (raster_groups, threads_x) = MeshPipelines::raster_groups(mesh.triangle_count);
         let timer = Timer::new(ctx)?;
@@ -196,19 +182,7 @@ impl Renderer {
                 if let Some(t) = &timer {
                     t.end(cmd);
                 }
-                memory_barrier(
-                    ctx,
-                    cmd,
-                    (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
-                    (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
-                );
-                copy_buffer(ctx, cmd, &out, 0, &readback, 0, bytes);
-                memory_barrier(
-                    ctx,
-                    cmd,
-                    (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
-                    (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
-                );
+                record_readback(ctx, cmd, &out, &readback, bytes);
                 Ok(())
             })?;
             if let (Some(t), Some(ms)) = (&timer, gpu_ms.as_mut()) {

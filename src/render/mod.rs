@@ -16,9 +16,9 @@ use ash::vk;
 
 use crate::field::Grid;
 use crate::frame::{Frame, FrameInfo, Pixel};
+use crate::gpu::record_readback;
 use crate::gpu::{
-    copy_buffer, memory_barrier, Buffer, ComputePipeline, Context, GpuError, Image3d,
-    MemoryLocation, Resource, Timer,
+    Buffer, ComputePipeline, Context, GpuError, Image3d, MemoryLocation, Resource, Timer,
 };
 use crate::passes::mesh_render::MeshPipelines;
 use crate::passes::{analytic, bricks, raymarch};
@@ -91,22 +91,27 @@ pub struct Renderer {
     pub last_bricks_ms: Option<f64>,
 }
 
-/// The `steps` heat map: 256 linear RGBA entries of colorous's inferno (sRGB-decoded).
-pub fn colormap() -> Vec<[f32; 4]> {
+/// 256 linear RGBA entries of a colorous gradient (its sRGB colours decoded), for shaders.
+pub fn linear_colormap(gradient: colorous::Gradient) -> Vec<[f32; 4]> {
+    let linear = |u: u8| {
+        let s = u as f32 / 255.0;
+        if s <= 0.04045 {
+            s / 12.92
+        } else {
+            ((s + 0.055) / 1.055).powf(2.4)
+        }
+    };
     (0..256)
         .map(|i| {
-            let c = colorous::INFERNO.eval_continuous(i as f64 / 255.0);
-            let lin = |u: u8| {
-                let s = u as f32 / 255.0;
-                if s <= 0.04045 {
-                    s / 12.92
-                } else {
-                    ((s + 0.055) / 1.055).powf(2.4)
-                }
-            };
-            [lin(c.r), lin(c.g), lin(c.b), 1.0]
+            let c = gradient.eval_continuous(i as f64 / 255.0);
+            [linear(c.r), linear(c.g), linear(c.b), 1.0]
         })
         .collect()
+}
+
+/// The `steps` heat map: colorous's inferno.
+pub fn colormap() -> Vec<[f32; 4]> {
+    linear_colormap(colorous::INFERNO)
 }
 
 impl Renderer {
@@ -114,26 +119,8 @@ impl Renderer {
         let raymarch = raymarch::pipeline(ctx)?;
         let analytic = analytic::pipeline(ctx)?;
         let bricks = bricks::pipeline(ctx)?;
-        let map = colormap();
-        let mut staging = Buffer::new(
-            ctx,
-            "colormap staging",
-            (map.len() * 16) as u64,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::CpuToGpu,
-        )?;
-        staging.write(&map)?;
-        let colormap = Buffer::new(
-            ctx,
-            "colormap",
-            staging.size,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
-        )?;
-        ctx.submit("upload colormap", |cmd| {
-            copy_buffer(ctx, cmd, &staging, 0, &colormap, 0, staging.size);
-            Ok(())
-        })?;
+        let colormap =
+            Buffer::upload(ctx, "colormap", &colormap(), vk::BufferUsageFlags::STORAGE_BUFFER)?;
         Ok(Renderer {
             ctx: ctx.clone(),
             raymarch,
@@ -186,20 +173,11 @@ impl Renderer {
         let band_rows = rows_by_range.min(rows_by_count).clamp(1, height as u64) as u32;
 
         let params = RenderParams::new(scene, grid);
-        let mut params_staging = Buffer::new(
-            ctx,
-            "params staging",
-            std::mem::size_of::<RenderParams>() as u64,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::CpuToGpu,
-        )?;
-        params_staging.write(std::slice::from_ref(&params))?;
-        let params_buf = Buffer::new(
+        let params_buf = Buffer::upload(
             ctx,
             "params",
-            params_staging.size,
-            vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
+            std::slice::from_ref(&params),
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
         )?;
         let out = Buffer::new(
             ctx,
@@ -225,10 +203,6 @@ impl Renderer {
             resources.push(Resource::Storage(b));
         }
         let set = pipeline.bind(&resources)?;
-        ctx.submit("upload params", |cmd| {
-            copy_buffer(ctx, cmd, &params_staging, 0, &params_buf, 0, params_staging.size);
-            Ok(())
-        })?;
 
         let timer = Timer::new(ctx)?;
         let mut gpu_ms = timer.as_ref().map(|_| 0.0);
@@ -251,19 +225,7 @@ impl Renderer {
                 if let Some(t) = &timer {
                     t.end(cmd);
                 }
-                memory_barrier(
-                    ctx,
-                    cmd,
-                    (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
-                    (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
-                );
-                copy_buffer(ctx, cmd, &out, 0, &readback, 0, bytes);
-                memory_barrier(
-                    ctx,
-                    cmd,
-                    (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
-                    (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
-                );
+                record_readback(ctx, cmd, &out, &readback, bytes);
                 Ok(())
             })?;
             if let (Some(t), Some(ms)) = (&timer, gpu_ms.as_mut()) {

@@ -12,10 +12,8 @@ use glam::DVec2;
 
 use super::contour::Contour;
 use super::plane::PlaneGrid;
-use crate::gpu::{
-    copy_buffer, memory_barrier, Buffer, ComputePipeline, Context, GpuError, MemoryLocation,
-    Resource,
-};
+use crate::gpu::record_readback;
+use crate::gpu::{Buffer, ComputePipeline, Context, GpuError, MemoryLocation, Resource};
 use crate::passes::slice::{self as pass, SliceParams, SlicePixel};
 use crate::render::params::Band;
 use crate::render::{GpuGrid, MAX_BAND_PIXELS};
@@ -27,20 +25,7 @@ pub const COLORMAP_NAME: &str = "RdBu (colorous RED_BLUE)";
 /// The slice colormap: 256 linear RGBA entries of colorous's RdBu (sRGB-decoded). Entry 0 (dark
 /// red) is the inside end, entry 255 (dark blue) the outside end, white the isovalue.
 pub fn colormap() -> Vec<[f32; 4]> {
-    (0..256)
-        .map(|i| {
-            let c = colorous::RED_BLUE.eval_continuous(i as f64 / 255.0);
-            let lin = |u: u8| {
-                let s = u as f32 / 255.0;
-                if s <= 0.04045 {
-                    s / 12.92
-                } else {
-                    ((s + 0.055) / 1.055).powf(2.4)
-                }
-            };
-            [lin(c.r), lin(c.g), lin(c.b), 1.0]
-        })
-        .collect()
+    crate::render::linear_colormap(colorous::RED_BLUE)
 }
 
 /// `|value - isovalue|` mapped to the colormap's ends: the largest on the plane (1 where the
@@ -132,47 +117,16 @@ pub struct SliceRenderer {
     colormap: Buffer,
 }
 
-/// A device-local storage buffer holding `data`, uploaded through a staging buffer recorded
-/// into `uploads` (the staging buffer is returned so it outlives the submission).
-fn storage_with<T: bytemuck::Pod>(
-    ctx: &Arc<Context>,
-    name: &str,
-    data: &[T],
-) -> Result<(Buffer, Buffer), GpuError> {
-    let bytes = std::mem::size_of_val(data) as u64;
-    let mut staging = Buffer::new(
-        ctx,
-        &format!("{name} staging"),
-        bytes,
-        vk::BufferUsageFlags::TRANSFER_SRC,
-        MemoryLocation::CpuToGpu,
-    )?;
-    staging.write(data)?;
-    let buffer = Buffer::new(
-        ctx,
-        name,
-        staging.size,
-        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-        MemoryLocation::GpuOnly,
-    )?;
-    Ok((buffer, staging))
-}
-
-fn copy_all(ctx: &Arc<Context>, pairs: &[&(Buffer, Buffer)]) -> Result<(), GpuError> {
-    ctx.submit("slice uploads", |cmd| {
-        for (dst, src) in pairs {
-            copy_buffer(ctx, cmd, src, 0, dst, 0, src.size);
-        }
-        Ok(())
-    })
-}
-
 impl SliceRenderer {
     pub fn new(ctx: &Arc<Context>) -> Result<Self, GpuError> {
         let pipeline = pass::pipeline(ctx)?;
-        let colormap = storage_with(ctx, "slice colormap", &colormap())?;
-        copy_all(ctx, &[&colormap])?;
-        Ok(SliceRenderer { ctx: ctx.clone(), pipeline, colormap: colormap.0 })
+        let colormap = Buffer::upload(
+            ctx,
+            "slice colormap",
+            &colormap(),
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+        )?;
+        Ok(SliceRenderer { ctx: ctx.clone(), pipeline, colormap })
     }
 
     pub fn context(&self) -> &Arc<Context> {
@@ -212,31 +166,16 @@ impl SliceRenderer {
             ],
             line: style.line_color,
         };
-        let mut params_staging = Buffer::new(
-            ctx,
-            "slice params staging",
-            std::mem::size_of::<SliceParams>() as u64,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::CpuToGpu,
-        )?;
-        params_staging.write(std::slice::from_ref(&params))?;
-        let params_buf = Buffer::new(
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let params_buf = Buffer::upload(
             ctx,
             "slice params",
-            params_staging.size,
-            vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
+            std::slice::from_ref(&params),
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
         )?;
-        let start = storage_with(ctx, "slice tile starts", &t.start)?;
-        let members = storage_with(ctx, "slice tile segments", &t.members)?;
-        let segments = storage_with(ctx, "slice segments", &t.segments)?;
-        ctx.submit("slice uploads", |cmd| {
-            copy_buffer(ctx, cmd, &params_staging, 0, &params_buf, 0, params_staging.size);
-            for (dst, src) in [&start, &members, &segments] {
-                copy_buffer(ctx, cmd, src, 0, dst, 0, src.size);
-            }
-            Ok(())
-        })?;
+        let start = Buffer::upload(ctx, "slice tile starts", &t.start, storage)?;
+        let members = Buffer::upload(ctx, "slice tile segments", &t.members, storage)?;
+        let segments = Buffer::upload(ctx, "slice segments", &t.segments, storage)?;
 
         let pixel_bytes = std::mem::size_of::<SlicePixel>() as u64;
         let row_bytes = width as u64 * pixel_bytes;
@@ -262,9 +201,9 @@ impl SliceRenderer {
             Resource::Sampled(&grid.image),
             Resource::Storage(&out),
             Resource::Storage(&self.colormap),
-            Resource::Storage(&start.0),
-            Resource::Storage(&members.0),
-            Resource::Storage(&segments.0),
+            Resource::Storage(&start),
+            Resource::Storage(&members),
+            Resource::Storage(&segments),
         ])?;
 
         let mut pixels = Vec::with_capacity(width as usize * height as usize);
@@ -279,19 +218,7 @@ impl SliceRenderer {
                     bytemuck::bytes_of(&band),
                     [width.div_ceil(pass::GROUP), rows.div_ceil(pass::GROUP), 1],
                 );
-                memory_barrier(
-                    ctx,
-                    cmd,
-                    (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
-                    (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
-                );
-                copy_buffer(ctx, cmd, &out, 0, &readback, 0, rows as u64 * row_bytes);
-                memory_barrier(
-                    ctx,
-                    cmd,
-                    (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
-                    (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
-                );
+                record_readback(ctx, cmd, &out, &readback, rows as u64 * row_bytes);
                 Ok(())
             })?;
             pixels.extend(readback.read::<SlicePixel>((rows * width) as usize)?);

@@ -13,8 +13,11 @@
 //!    three alike; each reports the median GPU time of its frames (GPU timestamps around the ray
 //!    passes, `Renderer::last_gpu_ms`).
 //!
+//! Scenes: a torus SDF on 64³ and a small sphere in a corner of a 256³ grid (default camera),
+//! then every shipped scene in `scenes/` with its own camera, rendered square at the bench size.
+//!
 //! Environment: `ISOVIEW_BENCH_SIZE` (image side, default 512), `ISOVIEW_BENCH_FRAMES`
-//! (default 5).
+//! (default 5), `ISOVIEW_BENCH_SHIPPED=0` to leave out the shipped scenes.
 
 use glam::DVec3;
 use isoview::field::{FieldSource, FieldSpec, Grid};
@@ -101,14 +104,41 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|---|");
     let torus = SdfShape::Torus { major_radius: 0.6, minor_radius: 0.25 };
     let sphere = SdfShape::Sphere { radius: 0.15 };
-    let scenes = [
+    let mut scenes: Vec<(String, Scene, Grid)> = Vec::new();
+    for (name, grid) in [
         ("torus SDF 64³", sdf_grid(torus, DVec3::ZERO, 64)),
         ("sphere r = 0.15 in a corner of 256³", sdf_grid(sphere, DVec3::splat(-0.75), 256)),
-    ];
-    for (name, grid) in &scenes {
+    ] {
+        scenes.push((name.to_string(), scene(&grid, size), grid));
+    }
+    if env("ISOVIEW_BENCH_SHIPPED", 1) != 0 {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        let mut paths: Vec<_> = std::fs::read_dir(&dir)
+            .expect("scenes/")
+            .map(|e| e.expect("entry").path())
+            .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+            .collect();
+        paths.sort();
+        for path in paths {
+            let mut sc = load(&path, &[]).expect("shipped scene");
+            let grid = sc.field.sample(0.0).expect("shipped scene's grid");
+            sc.image = ImageSettings { width: size, height: size };
+            sc.render.method = Method::Analytic;
+            sc.render.skip = true;
+            let name = format!(
+                "scenes/{} ({}x{}x{})",
+                path.file_name().expect("name").to_string_lossy(),
+                grid.dims[0],
+                grid.dims[1],
+                grid.dims[2]
+            );
+            scenes.push((name, sc, grid));
+        }
+    }
+    for (name, analytic, grid) in &scenes {
         let gpu_grid = GpuGrid::upload(&ctx, grid).expect("upload");
         let mut b = Bench { renderer: &mut renderer, grid, gpu_grid: &gpu_grid, frames };
-        let analytic = scene(grid, size);
+        let analytic = analytic.clone();
         let reference = b.frame(&analytic);
         let bricks_ms = b.renderer.last_bricks_ms;
         let mut no_skip = analytic.clone();

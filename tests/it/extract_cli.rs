@@ -3,14 +3,13 @@
 //! Vulkan `--device`, exit codes with one-line errors, and outputs never truncated or clobbered.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 use isoview::field::TriangleMesh;
 use isoview::mesh::{extract, stats, ExtractOptions};
 use isoview::output::exr;
 use isoview::scene;
 
-use crate::common::scratch;
+use crate::common::{assert_fails, isoview, scratch, stderr, write};
 
 const SPHERE: &str = r#"
 [image]
@@ -31,36 +30,6 @@ bounds = { min = [-1.0, -1.0, -1.0], max = [1.0, 1.0, 1.0] }
 method = "mesh"
 mesh = "mc33"
 "#;
-
-fn isoview(args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_isoview"));
-    cmd.args(args).env_remove("ISOVIEW_DEVICE");
-    for (k, v) in env {
-        cmd.env(k, v);
-    }
-    cmd.output().expect("run isoview")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// Exit status `code` with exactly one line on stderr containing every `needle`.
-fn assert_fails(o: &Output, code: i32, needles: &[&str]) {
-    let err = stderr(o);
-    assert_eq!(o.status.code(), Some(code), "stderr: {err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "one line expected: {err}");
-    assert!(!err.contains("panicked"), "{err}");
-    for n in needles {
-        assert!(err.contains(n), "`{n}` missing from: {err}");
-    }
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> String {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p.display().to_string()
-}
 
 #[test]
 fn extract_writes_every_format_with_the_library_s_mesh() {

@@ -92,7 +92,7 @@ fn main() {
     let rays = (size * size) as f64;
     println!("device: {} ({})", ctx.info.name, ctx.info.driver_info);
     println!(
-        "analytic vs fixed-step, {size}x{size} image, default camera; GPU time: median of \
+        "analytic vs fixed-step, {size}x{size} image, default camera (shipped scenes: their own); GPU time: median of \
          {frames} frames (GPU timestamps); fixed-step at the smallest steps whose hit mask \
          matches analytic on >= 99.9% of pixels"
     );

@@ -5,7 +5,7 @@
 use ash::vk;
 
 use super::params::{Band, RenderParams};
-use super::{GpuGrid, RenderError, Renderer, MAX_BAND_PIXELS};
+use super::{GpuGrid, RenderError, Renderer};
 use crate::field::Grid;
 use crate::frame::{Frame, Pixel};
 use crate::gpu::record_readback;
@@ -78,9 +78,7 @@ impl Renderer {
         let (width, height) = (scene.image.width, scene.image.height);
         let pixel_bytes = std::mem::size_of::<Pixel>() as u64;
         let row_bytes = width as u64 * pixel_bytes;
-        let rows_by_range = ctx.info.max_storage_buffer_range / row_bytes;
-        let rows_by_count = MAX_BAND_PIXELS / width as u64;
-        let band_rows = rows_by_range.min(rows_by_count).clamp(1, height as u64) as u32;
+        let band_rows = super::band_rows(ctx, width, height, pixel_bytes);
         let band_pixels = band_rows as u64 * width as u64;
 
         let params = RenderParams::new(scene, grid);

@@ -49,6 +49,15 @@ impl From<crate::mesh::gpu::GpuMeshError> for RenderError {
     }
 }
 
+/// Rows per band for an image `width` × `height` whose pixels take `pixel_bytes` each: as many as
+/// fit one storage-buffer binding and [`MAX_BAND_PIXELS`], at least one.
+pub fn band_rows(ctx: &Context, width: u32, height: u32, pixel_bytes: u64) -> u32 {
+    let row_bytes = width as u64 * pixel_bytes;
+    let rows_by_range = ctx.info.max_storage_buffer_range / row_bytes;
+    let rows_by_count = MAX_BAND_PIXELS / width as u64;
+    rows_by_range.min(rows_by_count).clamp(1, height as u64) as u32
+}
+
 /// A grid uploaded to the device.
 pub struct GpuGrid {
     pub image: Image3d,
@@ -168,9 +177,7 @@ impl Renderer {
         let (width, height) = (scene.image.width, scene.image.height);
         let pixel_bytes = std::mem::size_of::<Pixel>() as u64;
         let row_bytes = width as u64 * pixel_bytes;
-        let rows_by_range = ctx.info.max_storage_buffer_range / row_bytes;
-        let rows_by_count = MAX_BAND_PIXELS / width as u64;
-        let band_rows = rows_by_range.min(rows_by_count).clamp(1, height as u64) as u32;
+        let band_rows = band_rows(ctx, width, height, pixel_bytes);
 
         let params = RenderParams::new(scene, grid);
         let params_buf = Buffer::upload(

@@ -16,7 +16,7 @@ use crate::gpu::record_readback;
 use crate::gpu::{Buffer, ComputePipeline, Context, GpuError, MemoryLocation, Resource};
 use crate::passes::slice::{self as pass, SliceParams, SlicePixel};
 use crate::render::params::Band;
-use crate::render::{GpuGrid, MAX_BAND_PIXELS};
+use crate::render::GpuGrid;
 use crate::scene::Inside;
 
 /// The colormap's name, as recorded in the EXR header.
@@ -179,9 +179,7 @@ impl SliceRenderer {
 
         let pixel_bytes = std::mem::size_of::<SlicePixel>() as u64;
         let row_bytes = width as u64 * pixel_bytes;
-        let rows_by_range = ctx.info.max_storage_buffer_range / row_bytes;
-        let rows_by_count = MAX_BAND_PIXELS / width as u64;
-        let band_rows = rows_by_range.min(rows_by_count).clamp(1, height as u64) as u32;
+        let band_rows = crate::render::band_rows(ctx, width, height, pixel_bytes);
         let out = Buffer::new(
             ctx,
             "slice pixels",

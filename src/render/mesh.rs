@@ -4,12 +4,11 @@
 
 use ash::vk;
 
-use super::params::{Band, RenderParams};
-use super::{GpuGrid, RenderError, Renderer};
+use super::params::RenderParams;
+use super::{run_bands, GpuGrid, RenderError, Renderer};
 use crate::field::Grid;
 use crate::frame::{Frame, Pixel};
-use crate::gpu::record_readback;
-use crate::gpu::{fill_buffer, memory_barrier, Buffer, MemoryLocation, Resource, Timer};
+use crate::gpu::{fill_buffer, memory_barrier, Buffer, MemoryLocation, Resource};
 use crate::mesh::gpu::{Extractor, GpuExtractOptions, GpuMesh};
 use crate::mesh::{self, ExtractOptions, Mesh};
 use crate::passes::mesh_render::{
@@ -77,7 +76,6 @@ impl Renderer {
         let ctx = &self.ctx;
         let (width, height) = (scene.image.width, scene.image.height);
         let pixel_bytes = std::mem::size_of::<Pixel>() as u64;
-        let row_bytes = width as u64 * pixel_bytes;
         let band_rows = super::band_rows(ctx, width, height, pixel_bytes);
         let band_pixels = band_rows as u64 * width as u64;
 
@@ -132,24 +130,19 @@ impl Renderer {
         ])?;
 
         let (raster_groups, threads_x) = MeshPipelines::raster_groups(mesh.triangle_count);
-        let timer = Timer::new(ctx)?;
-        let mut gpu_ms = timer.as_ref().map(|_| 0.0);
-        let mut pixels = Vec::with_capacity(width as usize * height as usize);
-        let mut row = 0;
-        while row < height {
-            let rows = band_rows.min(height - row);
-            let band = Band { row_offset: row, rows };
-            let push = RasterPush {
-                row_offset: row,
-                rows,
-                triangle_count: mesh.triangle_count,
-                threads_x,
-            };
-            let bytes = rows as u64 * row_bytes;
-            ctx.submit("mesh_raster + mesh_resolve", |cmd| {
-                if let Some(t) = &timer {
-                    t.begin(cmd);
-                }
+        let (pixels, gpu_ms) = run_bands(
+            ctx,
+            "mesh_raster + mesh_resolve",
+            (width, height, band_rows),
+            &out,
+            &readback,
+            |cmd, band| {
+                let push = RasterPush {
+                    row_offset: band.row_offset,
+                    rows: band.rows,
+                    triangle_count: mesh.triangle_count,
+                    threads_x,
+                };
                 // Clear: no hit, nothing counted.
                 fill_buffer(ctx, cmd, &vis, 0, vis.size, NO_HIT_WORD);
                 fill_buffer(ctx, cmd, &counts, 0, counts.size, 0);
@@ -175,20 +168,10 @@ impl Renderer {
                     cmd,
                     &resolve_set,
                     bytemuck::bytes_of(&band),
-                    [width.div_ceil(RESOLVE_GROUP), rows.div_ceil(RESOLVE_GROUP), 1],
+                    [width.div_ceil(RESOLVE_GROUP), band.rows.div_ceil(RESOLVE_GROUP), 1],
                 );
-                if let Some(t) = &timer {
-                    t.end(cmd);
-                }
-                record_readback(ctx, cmd, &out, &readback, bytes);
-                Ok(())
-            })?;
-            if let (Some(t), Some(ms)) = (&timer, gpu_ms.as_mut()) {
-                *ms += t.elapsed_ms()?;
-            }
-            pixels.extend(readback.read::<Pixel>((rows * width) as usize)?);
-            row += rows;
-        }
+            },
+        )?;
         self.last_gpu_ms = gpu_ms;
         let mut info = self.frame_info(scene, grid, time);
         info.extra.push(("mesh_triangles".into(), mesh.triangle_count.to_string()));

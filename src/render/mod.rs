@@ -58,6 +58,46 @@ pub fn band_rows(ctx: &Context, width: u32, height: u32, pixel_bytes: u64) -> u3
     rows_by_range.min(rows_by_count).clamp(1, height as u64) as u32
 }
 
+/// Runs a frame's passes band by band: for each band of at most `band_rows` rows, `record`
+/// records the passes that write the band's pixels to the start of `out` (timed with GPU
+/// timestamps where the device has them), then the band is copied to `readback` and read. Returns
+/// the frame's pixels and the summed GPU time of the passes in milliseconds.
+pub(super) fn run_bands(
+    ctx: &Arc<Context>,
+    pass: &str,
+    (width, height, band_rows): (u32, u32, u32),
+    out: &Buffer,
+    readback: &Buffer,
+    mut record: impl FnMut(vk::CommandBuffer, Band),
+) -> Result<(Vec<Pixel>, Option<f64>), GpuError> {
+    let timer = Timer::new(ctx)?;
+    let mut gpu_ms = timer.as_ref().map(|_| 0.0);
+    let mut pixels = Vec::with_capacity(width as usize * height as usize);
+    let mut row = 0;
+    while row < height {
+        let rows = band_rows.min(height - row);
+        let band = Band { row_offset: row, rows };
+        let bytes = (rows * width) as u64 * std::mem::size_of::<Pixel>() as u64;
+        ctx.submit(pass, |cmd| {
+            if let Some(t) = &timer {
+                t.begin(cmd);
+            }
+            record(cmd, band);
+            if let Some(t) = &timer {
+                t.end(cmd);
+            }
+            record_readback(ctx, cmd, out, readback, bytes);
+            Ok(())
+        })?;
+        if let (Some(t), Some(ms)) = (&timer, gpu_ms.as_mut()) {
+            *ms += t.elapsed_ms()?;
+        }
+        pixels.extend(readback.read::<Pixel>((rows * width) as usize)?);
+        row += rows;
+    }
+    Ok((pixels, gpu_ms))
+}
+
 /// A grid uploaded to the device.
 pub struct GpuGrid {
     pub image: Image3d,
@@ -211,36 +251,18 @@ impl Renderer {
         }
         let set = pipeline.bind(&resources)?;
 
-        let timer = Timer::new(ctx)?;
-        let mut gpu_ms = timer.as_ref().map(|_| 0.0);
-        let mut pixels = Vec::with_capacity(width as usize * height as usize);
-        let mut row = 0;
-        while row < height {
-            let rows = band_rows.min(height - row);
-            let band = Band { row_offset: row, rows };
-            let bytes = rows as u64 * row_bytes;
-            ctx.submit(&pipeline.name, |cmd| {
-                if let Some(t) = &timer {
-                    t.begin(cmd);
-                }
-                pipeline.record(
-                    cmd,
-                    &set,
-                    bytemuck::bytes_of(&band),
-                    [width.div_ceil(raymarch::GROUP), rows.div_ceil(raymarch::GROUP), 1],
-                );
-                if let Some(t) = &timer {
-                    t.end(cmd);
-                }
-                record_readback(ctx, cmd, &out, &readback, bytes);
-                Ok(())
-            })?;
-            if let (Some(t), Some(ms)) = (&timer, gpu_ms.as_mut()) {
-                *ms += t.elapsed_ms()?;
-            }
-            pixels.extend(readback.read::<Pixel>((rows * width) as usize)?);
-            row += rows;
-        }
+        let groups_x = width.div_ceil(raymarch::GROUP);
+        let (pixels, gpu_ms) = run_bands(
+            ctx,
+            &pipeline.name,
+            (width, height, band_rows),
+            &out,
+            &readback,
+            |cmd, band| {
+                let groups = [groups_x, band.rows.div_ceil(raymarch::GROUP), 1];
+                pipeline.record(cmd, &set, bytemuck::bytes_of(&band), groups);
+            },
+        )?;
         self.last_gpu_ms = gpu_ms;
         Ok(Frame { width, height, pixels, info: self.frame_info(scene, grid, time) })
     }

@@ -16,6 +16,7 @@ layout(std140, binding = 0) uniform Params {
     vec4 box_min;   // xyz: world position of grid point (0, 0, 0)
     vec4 spacing;   // xyz: world size of one cell
     vec4 iso;       // x: inside threshold; y + z: the isovalue as f32 hi + lo; w: +1 below, -1 above
+    uvec4 iso_bits; // xy: the f64 isovalue's bits, low word first (read by the mc33 passes)
 } P;
 
 layout(binding = 1) uniform sampler3D u_grid;
@@ -26,8 +27,10 @@ layout(std430, binding = 2) buffer PointMasks { uint point_mask[]; };
 // Per point: the count of what it owns (MC/MT vertices, dual quads), scanned in place into
 // exclusive prefix sums (one extra element holds the total).
 layout(std430, binding = 3) buffer PointScan { uint point_scan[]; };
-// Per cell: MC/MT triangles, dual vertices; scanned likewise.
+// Per cell: MC/MT/MC33 triangles, dual vertices; scanned likewise.
 layout(std430, binding = 4) buffer CellScan { uint cell_scan[]; };
+// Per cell: MC33 added vertices; scanned likewise (a dummy for the other algorithms).
+layout(std430, binding = 10) buffer AddedScan { uint added_scan[]; };
 
 // `mesh::tables`, uploaded as the Rust struct `ExtractTables` (std430 int arrays).
 layout(std430, binding = 5) readonly buffer Tables {
@@ -41,10 +44,10 @@ layout(std430, binding = 5) readonly buffer Tables {
 
 // The slab's output: vertices (xyz, w = 1), normals (xyz, w = 0), triangles (3 global vertex
 // ids each), all indexed from the slab's first vertex / triangle. (The dual quad pass reads
-// the positions back for the shorter-diagonal split.)
+// the positions back for the shorter-diagonal split; the mc33 fixup rewrites indices.)
 layout(std430, binding = 6) buffer Positions { vec4 positions[]; };
 layout(std430, binding = 7) writeonly buffer Normals { vec4 normals[]; };
-layout(std430, binding = 8) writeonly buffer Indices { uint indices[]; };
+layout(std430, binding = 8) buffer Indices { uint indices[]; };
 
 // The samples of the slab's padded point layers from C.value_z0 (0 at padding points).
 layout(std430, binding = 9) buffer Values { float values[]; };
@@ -63,6 +66,8 @@ layout(push_constant) uniform Push {
     int value_z0;      // padded point layer of the slab's first sample in `values`
     uint owned_point_end;  // slab index one past the last point this slab owns
     uint owned_cell_end;   // slab index one past the last cell this slab owns
+    uint added_base;       // mc33: global number of the slab's first added vertex
+    uint added_offset;     // mc33: output index of the slab's first added vertex
 } C;
 
 const uint INSIDE_BIT = 256u;
@@ -168,6 +173,14 @@ float value_at(ivec3 q) {
 
 bool padded_inside(ivec3 q) {
     return is_real(q) && inside_value(value_at(q));
+}
+
+// Global id of the vertex on the crossed lattice edge from padded point q along axis (x, y, z
+// families: marching cubes and mc33).
+uint edge_vertex(ivec3 q, uint axis) {
+    uint slot = point_slot(q);
+    uint below = point_mask[slot] & ((1u << axis) - 1u);
+    return C.vertex_base + point_scan[slot] - point_scan[C.owned_point] + bitCount(below);
 }
 
 // Offset of an edge family given as corner bits (x = 1, y = 2, z = 4).

@@ -11,13 +11,6 @@ layout(local_size_x = 64) in;
 
 #include "common.glsl"
 
-// Global id of the vertex on the lattice edge from point q along axis.
-uint edge_vertex(ivec3 q, uint axis) {
-    uint slot = point_slot(q);
-    uint below = point_mask[slot] & ((1u << axis) - 1u);
-    return C.vertex_base + point_scan[slot] - point_scan[C.owned_point] + bitCount(below);
-}
-
 // The Bourke case of cell c from its corners' inside bits.
 uint cube_of(ivec3 c) {
     uint cube = 0u;

@@ -156,6 +156,10 @@ fn info(cli: &Cli) -> Result<i32, Failure> {
             "no (no mesh render)"
         }
     );
+    println!(
+        "64-bit floats          {}",
+        if i.float64 { "yes (mc33 extracts on the GPU)" } else { "no (mc33 extracts on the CPU)" }
+    );
     println!("validation             {}", if cli.validation { "on" } else { "off" });
     Ok(0)
 }

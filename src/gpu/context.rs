@@ -39,6 +39,9 @@ pub struct DeviceInfo {
     /// 64-bit integer atomics on storage buffers (`shaderInt64` + `shaderBufferInt64Atomics`),
     /// enabled on the device when supported; the mesh render's visibility buffer needs them.
     pub int64_atomics: bool,
+    /// `shaderFloat64`: the mc33 extraction passes decide topology in f64 like the CPU
+    /// reference, and need it.
+    pub float64: bool,
 }
 
 /// Instance, device, queue and allocator. Shared by `Arc`; resources keep it alive.
@@ -287,6 +290,7 @@ impl Context {
         let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut features12);
         // SAFETY: pd is valid and the chain is well formed (Vulkan 1.2 instance).
         unsafe { instance.get_physical_device_features2(pd, &mut features2) };
+        let float64 = features2.features.shader_float64 == vk::TRUE;
         let int64_atomics = features2.features.shader_int64 == vk::TRUE
             && features12.shader_buffer_int64_atomics == vk::TRUE
             && props.api_version >= vk::API_VERSION_1_2;
@@ -308,13 +312,16 @@ impl Context {
             timestamps: ts_bits > 0 && limits.timestamp_compute_and_graphics == vk::TRUE,
             device_local_heap,
             int64_atomics,
+            float64,
         };
 
         let priorities = [1.0f32];
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(family)
             .queue_priorities(&priorities)];
-        let enabled = vk::PhysicalDeviceFeatures::default().shader_int64(int64_atomics);
+        let enabled = vk::PhysicalDeviceFeatures::default()
+            .shader_int64(int64_atomics)
+            .shader_float64(float64);
         let mut enabled12 = vk::PhysicalDeviceVulkan12Features::default()
             .shader_buffer_int64_atomics(int64_atomics);
         let create = vk::DeviceCreateInfo::default()

@@ -197,8 +197,9 @@ pub struct Extractor {
 /// How an algorithm maps onto the passes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Kind {
-    /// Vertices on lattice edges (points own them), triangles per cell.
-    Edges { mt: bool },
+    /// Vertices on lattice edges (points own them), triangles per cell; `mc33` also adds
+    /// vertices per cell, numbered after all edge vertices.
+    Edges { mt: bool, mc33: bool },
     /// Vertices per cell, quads per lattice edge (points own them); `pad` layers of outside
     /// points around the grid (dual contouring).
     Dual { pad: usize },
@@ -285,16 +286,20 @@ impl SlabPlan {
             value_z0: self.value_z0 as i32,
             owned_point_end: self.owned_point_end as u32,
             owned_cell_end: self.owned_cell_end as u32,
+            added_base: 0,
+            added_offset: 0,
         }
     }
 }
 
-/// One slab's output.
+/// One slab's output: `vertices` vertices (for mc33, `added` of them, at the end, added per
+/// cell) and `triangles` triangles.
 struct SlabOutput {
     positions: Buffer,
     normals: Buffer,
     indices: Buffer,
     vertices: u64,
+    added: u64,
     triangles: u64,
 }
 
@@ -306,8 +311,11 @@ struct Scratch<'a> {
     point_mask: Buffer,
     point_scan: Buffer,
     cell_scan: Buffer,
+    /// MC33's per-cell added vertices (one element for the other algorithms).
+    added_scan: Buffer,
     point_scanner: Scan,
     cell_scanner: Scan,
+    added_scanner: Option<Scan>,
     readback: Buffer,
     timer: Option<Timer>,
 }
@@ -341,6 +349,7 @@ fn params(grid: &Grid, iso: f64, inside: Inside, pad: usize) -> ExtractParams {
             (iso - f64::from(hi)) as f32,
             if below { 1.0 } else { -1.0 },
         ],
+        iso_bits: [iso.to_bits() as u32, (iso.to_bits() >> 32) as u32, 0, 0],
     }
 }
 
@@ -413,12 +422,16 @@ impl Extractor {
             .into());
         }
         let kind = match algo {
-            MeshAlgorithm::MarchingCubes => Kind::Edges { mt: false },
-            MeshAlgorithm::MarchingTetrahedra => Kind::Edges { mt: true },
+            MeshAlgorithm::MarchingCubes => Kind::Edges { mt: false, mc33: false },
+            MeshAlgorithm::MarchingTetrahedra => Kind::Edges { mt: true, mc33: false },
             MeshAlgorithm::SurfaceNets => Kind::Dual { pad: 0 },
             MeshAlgorithm::DualContouring => Kind::Dual { pad: 1 },
-            MeshAlgorithm::Mc33 => return Err(GpuMeshError::Unsupported("mc33")),
+            MeshAlgorithm::Mc33 if self.passes.mc33.is_none() => {
+                return Err(GpuMeshError::Unsupported("mc33"))
+            }
+            MeshAlgorithm::Mc33 => Kind::Edges { mt: false, mc33: true },
         };
+        let mc33 = kind == Kind::Edges { mt: false, mc33: true };
         let ctx = self.ctx.clone();
         let pad = match kind {
             Kind::Edges { .. } => 0,
@@ -455,17 +468,19 @@ impl Extractor {
             (layers + 2) * lp,
             (layers + 1) * lc,
             (layers + 4) * lp,
+            mc33,
         )?;
         let mut stats =
             ExtractStats { gpu_ms: scratch.timer.as_ref().map(|_| 0.0), ..Default::default() };
         let mut pieces = Vec::new();
-        let (mut vbase, mut tbase) = (0u64, 0u64);
+        // Edge vertices, triangles and (mc33) added vertices of the slabs so far.
+        let (mut vbase, mut tbase, mut abase) = (0u64, 0u64, 0u64);
         let mut z0 = 0;
         while z0 < nc[2] {
             let z1 = (z0 + layers).min(nc[2]);
             let plan = SlabPlan::new(kind, z0, z1, nc[2], lp, lc);
-            let [vertices, triangles] = self.count(&mut scratch, &mut stats, kind, &plan)?;
-            let fits = vertices * 16 <= limit_bytes && triangles * 12 <= limit_bytes;
+            let [vertices, triangles, added] = self.count(&mut scratch, &mut stats, kind, &plan)?;
+            let fits = (vertices + added) * 16 <= limit_bytes && triangles * 12 <= limit_bytes;
             if !fits {
                 if z1 - z0 == 1 {
                     return Err(GpuError::Limit(format!(
@@ -478,21 +493,23 @@ impl Extractor {
                 stats.retries += 1;
                 continue;
             }
-            if vbase + vertices >= u64::from(u32::MAX) {
+            if vbase + vertices + abase + added >= u64::from(u32::MAX) {
                 return Err(MeshError::TooLarge { what: "vertices" }.into());
             }
             if 3 * (tbase + triangles) >= u64::from(u32::MAX) {
                 return Err(MeshError::TooLarge { what: "indices" }.into());
             }
-            let out =
-                self.emit(&mut scratch, &mut stats, kind, &plan, opts, vbase, vertices, triangles)?;
+            let bases = [vbase, abase];
+            let counts = [vertices, triangles, added];
+            let out = self.emit(&mut scratch, &mut stats, kind, &plan, opts, bases, counts)?;
             vbase += vertices;
             tbase += triangles;
+            abase += added;
             pieces.push(out);
             stats.slabs += 1;
             z0 = z1;
         }
-        let mesh = self.assemble(pieces, vbase, tbase)?;
+        let mesh = self.assemble(&scratch, pieces, vbase, tbase, abase)?;
         self.last = stats;
         Ok(mesh)
     }
@@ -504,6 +521,7 @@ impl Extractor {
         points: usize,
         cells: usize,
         values: usize,
+        mc33: bool,
     ) -> Result<Scratch<'a>, GpuError> {
         let ctx = &self.ctx;
         let bytes = std::mem::size_of::<ExtractParams>() as u64;
@@ -544,10 +562,16 @@ impl Extractor {
         let point_scanner =
             Scan::new(ctx, &self.passes, "point scan", &point_scan, points as u64 + 1)?;
         let cell_scanner = Scan::new(ctx, &self.passes, "cell scan", &cell_scan, cells as u64 + 1)?;
+        let added_scan = storage("extract added scan", if mc33 { cells + 1 } else { 1 })?;
+        let added_scanner = if mc33 {
+            Some(Scan::new(ctx, &self.passes, "added scan", &added_scan, cells as u64 + 1)?)
+        } else {
+            None
+        };
         let readback = Buffer::new(
             ctx,
             "extract counters readback",
-            16,
+            24,
             vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuToCpu,
         )?;
@@ -558,8 +582,10 @@ impl Extractor {
             point_mask,
             point_scan,
             cell_scan,
+            added_scan,
             point_scanner,
             cell_scanner,
+            added_scanner,
             readback,
             timer: Timer::new(ctx)?,
         })
@@ -587,6 +613,7 @@ impl Extractor {
             Resource::Storage(n),
             Resource::Storage(i),
             Resource::Storage(&s.values),
+            Resource::Storage(&s.added_scan),
         ])
     }
 
@@ -634,27 +661,35 @@ impl Extractor {
         Ok(())
     }
 
-    /// Classifies and scans one slab; returns its vertex and triangle counts.
+    /// Classifies and scans one slab; returns its vertex (edge vertices for mc33), triangle and
+    /// mc33 added-vertex counts.
     fn count(
         &self,
         s: &mut Scratch,
         stats: &mut ExtractStats,
         kind: Kind,
         plan: &SlabPlan,
-    ) -> Result<[u64; 2], GpuError> {
+    ) -> Result<[u64; 3], GpuError> {
         let ctx = &self.ctx;
         let p = &self.passes;
         let mode = match kind {
-            Kind::Edges { mt: false } => classify_mode::MC,
-            Kind::Edges { mt: true } => classify_mode::MT,
+            Kind::Edges { mt: false, .. } => classify_mode::MC,
+            Kind::Edges { mt: true, .. } => classify_mode::MT,
             Kind::Dual { .. } => classify_mode::DUAL,
         };
         let values_set = self.bind(&p.values, s, None)?;
         let classify_set = self.bind(&p.classify, s, None)?;
+        let mc33 = match (&s.added_scanner, &p.mc33) {
+            (Some(_), Some(m)) => Some((&m.count, self.bind(&m.count, s, None)?)),
+            _ => None,
+        };
         self.submit(s, stats, "extract count", |cmd| {
             // The element after each array holds the total once scanned.
             fill_buffer(ctx, cmd, &s.point_scan, plan.points as u64 * 4, 4, 0);
             fill_buffer(ctx, cmd, &s.cell_scan, plan.cells as u64 * 4, 4, 0);
+            if s.added_scanner.is_some() {
+                fill_buffer(ctx, cmd, &s.added_scan, plan.cells as u64 * 4, 4, 0);
+            }
             memory_barrier(
                 ctx,
                 cmd,
@@ -669,8 +704,17 @@ impl Extractor {
             let push = plan.push(plan.points, plan.point_z0, 0, mode);
             record_items(cmd, &p.classify, &classify_set, push)?;
             compute_barrier(ctx, cmd);
+            if let Some((pipeline, set)) = &mc33 {
+                // Over classify's cell counts: the cells' mc33 triangles and added vertices.
+                let push = plan.push(plan.cells, plan.cell_z0, 0, 0);
+                record_items(cmd, pipeline, set, push)?;
+                compute_barrier(ctx, cmd);
+            }
             s.point_scanner.record(ctx, p, cmd, plan.points as u64 + 1)?;
             s.cell_scanner.record(ctx, p, cmd, plan.cells as u64 + 1)?;
+            if let Some(scanner) = &s.added_scanner {
+                scanner.record(ctx, p, cmd, plan.cells as u64 + 1)?;
+            }
             memory_barrier(
                 ctx,
                 cmd,
@@ -682,8 +726,11 @@ impl Extractor {
                 (&s.point_scan, plan.owned_point_end),
                 (&s.cell_scan, plan.owned_cell),
                 (&s.cell_scan, plan.owned_cell_end),
+                (&s.added_scan, plan.owned_cell),
+                (&s.added_scan, plan.owned_cell_end),
             ];
-            for (n, (buf, at)) in counters.into_iter().enumerate() {
+            let counters = &counters[..if s.added_scanner.is_some() { 6 } else { 4 }];
+            for (n, &(buf, at)) in counters.iter().enumerate() {
                 copy_buffer(ctx, cmd, buf, at as u64 * 4, &s.readback, n as u64 * 4, 4);
             }
             memory_barrier(
@@ -694,16 +741,19 @@ impl Extractor {
             );
             Ok(())
         })?;
-        let c: Vec<u32> = s.readback.read(4)?;
+        let c: Vec<u32> = s.readback.read(6)?;
         let point_owned = u64::from(c[1].wrapping_sub(c[0]));
         let cell_owned = u64::from(c[3].wrapping_sub(c[2]));
+        let added = if s.added_scanner.is_some() { u64::from(c[5].wrapping_sub(c[4])) } else { 0 };
         Ok(match kind {
-            Kind::Edges { .. } => [point_owned, cell_owned],
-            Kind::Dual { .. } => [cell_owned, 2 * point_owned],
+            Kind::Edges { .. } => [point_owned, cell_owned, added],
+            Kind::Dual { .. } => [cell_owned, 2 * point_owned, 0],
         })
     }
 
-    /// Writes one slab's vertices and triangles into new buffers sized for them.
+    /// Writes one slab's vertices and triangles into new buffers sized for them. `bases`: the
+    /// edge (or dual) vertices and the mc33 added vertices of the slabs before; `counts`: this
+    /// slab's vertices, triangles and mc33 added vertices.
     #[allow(clippy::too_many_arguments)]
     fn emit(
         &self,
@@ -712,23 +762,28 @@ impl Extractor {
         kind: Kind,
         plan: &SlabPlan,
         opts: &GpuExtractOptions,
-        vertex_base: u64,
-        vertices: u64,
-        triangles: u64,
+        bases: [u64; 2],
+        counts: [u64; 3],
     ) -> Result<SlabOutput, GpuError> {
-        let out = output(&self.ctx, "slab", vertices, triangles)?;
+        let [vertices, triangles, added] = counts;
+        let mut out = output(&self.ctx, "slab", vertices + added, triangles)?;
+        out.added = added;
         if vertices == 0 && triangles == 0 {
             return Ok(out);
         }
         let ctx = &self.ctx;
         let p = &self.passes;
-        let vb = vertex_base as u32;
+        let vb = bases[0] as u32;
         // One invocation per vertex, then per triangle (per quad for the dual methods).
-        let (first, first_push, second, second_push) = match kind {
-            Kind::Edges { mt } => (
+        let (first, first_push, second, mut second_push) = match kind {
+            Kind::Edges { mt, mc33 } => (
                 &p.edge_vertices,
                 plan.push(vertices as usize, plan.z0, vb, u32::from(mt)),
-                if mt { &p.mt } else { &p.mc },
+                match (mt, mc33, &p.mc33) {
+                    (_, true, Some(m)) => &m.emit,
+                    (true, ..) => &p.mt,
+                    _ => &p.mc,
+                },
                 plan.push(triangles as usize, plan.z0, vb, 1),
             ),
             Kind::Dual { .. } => (
@@ -743,6 +798,8 @@ impl Extractor {
                 ),
             ),
         };
+        second_push.added_base = bases[1] as u32;
+        second_push.added_offset = vertices as u32;
         let first_set = self.bind(first, s, Some(&out))?;
         let second_set = self.bind(second, s, Some(&out))?;
         self.submit(s, stats, "extract emit", |cmd| {
@@ -755,19 +812,23 @@ impl Extractor {
         Ok(out)
     }
 
-    /// The slabs' outputs as one mesh: the only slab's buffers, or all copied into new ones.
+    /// The slabs' outputs as one mesh: the only slab's buffers, or all copied into new ones
+    /// (vertices: every slab's edge or dual vertices, then every slab's mc33 added vertices).
+    /// For mc33 (`added` > 0), the triangles' added-vertex placeholders are then resolved.
     fn assemble(
         &self,
+        s: &Scratch,
         mut pieces: Vec<SlabOutput>,
         vertices: u64,
         triangles: u64,
+        added: u64,
     ) -> Result<GpuMesh, GpuError> {
         let ctx = &self.ctx;
         let single = pieces.len() == 1;
         let out = if single {
             pieces.pop().expect("one slab")
         } else {
-            let out = output(ctx, "mesh", vertices, triangles)?;
+            let out = output(ctx, "mesh", vertices + added, triangles)?;
             ctx.submit("extract assemble", |cmd| {
                 memory_barrier(
                     ctx,
@@ -775,23 +836,58 @@ impl Extractor {
                     (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
                     (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
                 );
-                let (mut v, mut t) = (0, 0);
+                let (mut v, mut a, mut t) = (0, vertices * 16, 0);
                 for piece in &pieces {
-                    let (vb, tb) = (piece.vertices * 16, piece.triangles * 12);
-                    if vb > 0 {
-                        copy_buffer(ctx, cmd, &piece.positions, 0, &out.positions, v, vb);
-                        copy_buffer(ctx, cmd, &piece.normals, 0, &out.normals, v, vb);
+                    let own = piece.vertices - piece.added;
+                    let (vb, ab, tb) = (own * 16, piece.added * 16, piece.triangles * 12);
+                    for (src, dst) in
+                        [(&piece.positions, &out.positions), (&piece.normals, &out.normals)]
+                    {
+                        if vb > 0 {
+                            copy_buffer(ctx, cmd, src, 0, dst, v, vb);
+                        }
+                        if ab > 0 {
+                            copy_buffer(ctx, cmd, src, vb, dst, a, ab);
+                        }
                     }
                     if tb > 0 {
                         copy_buffer(ctx, cmd, &piece.indices, 0, &out.indices, t, tb);
                     }
                     v += vb;
+                    a += ab;
                     t += tb;
                 }
                 Ok(())
             })?;
             out
         };
+        if added > 0 {
+            let fixup =
+                &self.passes.mc33.as_ref().expect("mc33 passes made the added vertices").fixup;
+            let set = self.bind(fixup, s, Some(&out))?;
+            let mut push = SlabPush {
+                count: (3 * triangles) as u32,
+                vertex_base: vertices as u32,
+                added_base: added as u32,
+                ..Default::default()
+            };
+            push.groups_x = 0;
+            ctx.submit("extract mc33 fixup", |cmd| {
+                memory_barrier(
+                    ctx,
+                    cmd,
+                    (
+                        vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+                        vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
+                    ),
+                    (
+                        vk::PipelineStageFlags::COMPUTE_SHADER,
+                        vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
+                    ),
+                );
+                record_items(cmd, fixup, &set, push)
+            })?;
+        }
         // Make the mesh visible to whatever reads it next (draws, copies, shaders).
         ctx.submit("extract finish", |cmd| {
             memory_barrier(
@@ -809,7 +905,7 @@ impl Extractor {
             positions: out.positions,
             normals: out.normals,
             indices: out.indices,
-            vertex_count: vertices as u32,
+            vertex_count: (vertices + added) as u32,
             triangle_count: triangles as u32,
             ctx: ctx.clone(),
         })
@@ -835,6 +931,7 @@ fn output(
         normals: buf("normals", vertices * 16, vertex)?,
         indices: buf("indices", triangles * 12, index)?,
         vertices,
+        added: 0,
         triangles,
     })
 }

@@ -11,12 +11,15 @@
 //! | `marching cubes` / `marching tetrahedra` | `mc.comp` / `mt.comp` | triangle | the triangle |
 //! | `dual cells` | `dual_cells.comp` | vertex | SN/DC: the vertex of an active cell |
 //! | `dual quads` | `dual_quads.comp` | quad | SN/DC: two triangles |
+//! | `mc33 count` | `mc33_count.comp` | cell | MC33: the cell's triangles and added vertices (f64) |
+//! | `mc33 emit` | `mc33_emit.comp` | triangle | MC33: a cell's triangles and added vertices (its first triangle's invocation) |
+//! | `mc33 fixup` | `mc33_fixup.comp` | index | MC33: added-vertex placeholders → final ids |
 //!
 //! The emit passes (the last four) find the owner of their output item (the point or cell
 //! whose scanned count range holds it) by bisection of the scan, so their work follows the
 //! output, not the grid.
 //!
-//! Every extraction pass binds the same ten resources ([`EXTRACT_BINDINGS`]) and takes
+//! Every extraction pass binds the same eleven resources ([`EXTRACT_BINDINGS`]) and takes
 //! [`SlabPush`]; a pass that does not use a binding still gets a (dummy) buffer there.
 
 use std::sync::Arc;
@@ -38,10 +41,11 @@ pub const SCAN_BLOCK: u64 = 1024;
 const MAX_GROUPS_X: u32 = 65535;
 
 /// Bindings of every extraction pass, in order: params (uniform), grid (3D image), point masks,
-/// point scan, cell scan, tables, positions, normals, indices, values (storage).
-pub const EXTRACT_BINDINGS: [vk::DescriptorType; 10] = [
+/// point scan, cell scan, tables, positions, normals, indices, values, added scan (storage).
+pub const EXTRACT_BINDINGS: [vk::DescriptorType; 11] = [
     vk::DescriptorType::UNIFORM_BUFFER,
     vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+    vk::DescriptorType::STORAGE_BUFFER,
     vk::DescriptorType::STORAGE_BUFFER,
     vk::DescriptorType::STORAGE_BUFFER,
     vk::DescriptorType::STORAGE_BUFFER,
@@ -66,11 +70,15 @@ pub struct ExtractParams {
     /// x: inside threshold (see [`inside_threshold`]); y, z: the isovalue as f32 hi + lo; w: +1
     /// for inside = below, -1 for above.
     pub iso: [f32; 4],
+    /// x, y: the bits of the f64 isovalue, low word first (`packDouble2x32`); the mc33 passes
+    /// decide topology in f64 as the CPU reference does. z, w: unused.
+    pub iso_bits: [u32; 4],
 }
 
 const _: () = {
-    assert!(std::mem::size_of::<ExtractParams>() == 64);
+    assert!(std::mem::size_of::<ExtractParams>() == 80);
     assert!(std::mem::offset_of!(ExtractParams, iso) == 48);
+    assert!(std::mem::offset_of!(ExtractParams, iso_bits) == 64);
 };
 
 /// Push constants of the extraction passes (`Push` in `common.glsl`).
@@ -101,9 +109,13 @@ pub struct SlabPush {
     pub owned_point_end: u32,
     /// Slab index one past the last cell the slab owns.
     pub owned_cell_end: u32,
+    /// MC33: global number of the slab's first added vertex (among all added vertices).
+    pub added_base: u32,
+    /// MC33: where the slab's added vertices start in its output (after its edge vertices).
+    pub added_offset: u32,
 }
 
-const _: () = assert!(std::mem::size_of::<SlabPush>() == 48);
+const _: () = assert!(std::mem::size_of::<SlabPush>() == 56);
 
 /// Push constants of the scan passes.
 #[repr(C)]
@@ -210,6 +222,8 @@ pub struct ExtractPasses {
     pub mt: ComputePipeline,
     pub dual_cells: ComputePipeline,
     pub dual_quads: ComputePipeline,
+    /// The MC33 passes; None where the device has no `shaderFloat64`.
+    pub mc33: Option<Mc33Passes>,
     scan: ComputePipeline,
     scan_add: ComputePipeline,
 }
@@ -230,6 +244,15 @@ impl ExtractPasses {
             mt: extract("extract marching tetrahedra", shaders::EXTRACT_MT)?,
             dual_cells: extract("extract dual cells", shaders::EXTRACT_DUAL_CELLS)?,
             dual_quads: extract("extract dual quads", shaders::EXTRACT_DUAL_QUADS)?,
+            mc33: if ctx.info.float64 {
+                Some(Mc33Passes {
+                    count: extract("extract mc33 count", shaders::EXTRACT_MC33_COUNT)?,
+                    emit: extract("extract mc33 emit", shaders::EXTRACT_MC33_EMIT)?,
+                    fixup: extract("extract mc33 fixup", shaders::EXTRACT_MC33_FIXUP)?,
+                })
+            } else {
+                None
+            },
             scan: ComputePipeline::new(
                 ctx,
                 "extract scan",
@@ -246,6 +269,13 @@ impl ExtractPasses {
             )?,
         })
     }
+}
+
+/// The MC33 pipelines (their shaders use f64).
+pub struct Mc33Passes {
+    pub count: ComputePipeline,
+    pub emit: ComputePipeline,
+    pub fixup: ComputePipeline,
 }
 
 /// Workgroups for `groups` groups of 1D work, spread over x and y: `(x, y)` with `x * y >=

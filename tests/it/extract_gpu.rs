@@ -16,8 +16,9 @@ use isoview::scene::{Inside, MeshAlgorithm};
 
 use crate::common::*;
 
-const GPU_ALGOS: [MeshAlgorithm; 4] = [
+const GPU_ALGOS: [MeshAlgorithm; 5] = [
     MeshAlgorithm::MarchingCubes,
+    MeshAlgorithm::Mc33,
     MeshAlgorithm::MarchingTetrahedra,
     MeshAlgorithm::SurfaceNets,
     MeshAlgorithm::DualContouring,

@@ -133,9 +133,9 @@ pub fn extract_cpu(scene: &Scene, grid: &Grid, opts: ExtractOptions) -> Result<M
 }
 
 /// The GPU extraction (compute passes of [`mesh::gpu`]) on the Vulkan device `vulkan_device`,
-/// read back into a [`Mesh`], and where it ran. `mc33` has no GPU extraction: it runs on the CPU
-/// with a note on stderr. `opts.split` is honoured; `opts.keep_quads` needs the CPU quads, so
-/// `--quads` extracts on the CPU too.
+/// read back into a [`Mesh`], and where it ran. `opts.split` is honoured; `opts.keep_quads`
+/// needs the CPU quads, so `--quads` extracts on the CPU, with a note on stderr, as does `mc33`
+/// on a device without `shaderFloat64`.
 fn extract_gpu(
     cli: &Cli,
     vulkan_device: Option<String>,
@@ -143,18 +143,22 @@ fn extract_gpu(
     grid: &Grid,
     opts: ExtractOptions,
 ) -> Result<(Mesh, Backend), Failure> {
-    if scene.render.mesh == crate::scene::MeshAlgorithm::Mc33 || opts.keep_quads {
-        eprintln!(
-            "isoview: note: {} on the CPU (the GPU extraction has no {})",
-            if opts.keep_quads { "--quads extracts" } else { "mc33 is extracted" },
-            if opts.keep_quads { "quads" } else { "mc33" }
-        );
+    if opts.keep_quads {
+        eprintln!("isoview: note: --quads extracts on the CPU (the GPU extraction has no quads)");
         return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu));
     }
     let ctx = crate::gpu::Context::new(&crate::gpu::ContextOptions {
         device: vulkan_device,
         validation: cli.validation,
     })?;
+    if scene.render.mesh == crate::scene::MeshAlgorithm::Mc33 && !ctx.info.float64 {
+        eprintln!(
+            "isoview: note: mc33 is extracted on the CPU ({} has no 64-bit floats, which the \
+             GPU mc33 passes need)",
+            ctx.info.name
+        );
+        return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu));
+    }
     let image =
         crate::gpu::Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values)?;
     let gpu_opts = mesh::gpu::GpuExtractOptions { split: opts.split, ..Default::default() };

@@ -30,8 +30,8 @@ pub fn scene_mesh(scene: &Scene, grid: &Grid) -> Result<Mesh, RenderError> {
 
 impl Renderer {
     /// Extracts the scene's mesh from the uploaded grid on the GPU (the mesh stays on the
-    /// device) and draws it. `mc33` has no GPU extraction: it is extracted on the CPU and
-    /// uploaded.
+    /// device) and draws it. On a device without `shaderFloat64`, which the mc33 passes need,
+    /// `mc33` is extracted on the CPU and uploaded.
     pub(super) fn render_scene_mesh(
         &mut self,
         scene: &Scene,
@@ -39,7 +39,7 @@ impl Renderer {
         gpu_grid: &GpuGrid,
         time: f64,
     ) -> Result<Frame, RenderError> {
-        let mesh = if scene.render.mesh == MeshAlgorithm::Mc33 {
+        let mesh = if scene.render.mesh == MeshAlgorithm::Mc33 && !self.ctx.info.float64 {
             mesh_render::upload(&self.ctx, &scene_mesh(scene, grid)?)?
         } else {
             if self.extractor.is_none() {

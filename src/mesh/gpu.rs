@@ -32,6 +32,20 @@
 //!   crossings (MC, MT) or at the mean of a cell's crossings (SN, DC) with normals from the
 //!   field's gradient as `Field::normal` defines them; triangles through the scanned ids.
 //!
+//! # MC33
+//!
+//! MC33 decides each cell's topology by tests (`mesh::mc33`), not by a table, and some cells
+//! get *added* vertices (contour centres, split tunnel rungs), numbered after all edge vertices.
+//! After classify (marching-cubes mode), `mc33 count` builds each crossed cell's surface in f64
+//! (`shaders/extract/mc33.glsl`, the reference's operations in its order) and overwrites the
+//! cell's triangle count; its added-vertex count goes to a third scan. `mc33 emit` (one
+//! invocation per triangle; the cell's first does the work) writes the triangles, and the added
+//! vertices after the slab's edge vertices; triangles name added vertex `n` (over the whole
+//! grid) `u32::MAX - n` until, with every slab emitted and the edge-vertex total known, the
+//! assembly puts all edge vertices first, then all added ones, and `mc33 fixup` resolves the
+//! placeholders. The passes need `shaderFloat64`; without it [`Extractor::extract`] returns
+//! [`GpuMeshError::Unsupported`].
+//!
 //! # Slabs
 //!
 //! The per-point and per-cell buffers of a slab must fit one storage-buffer binding
@@ -152,7 +166,10 @@ pub enum GpuMeshError {
     Gpu(#[from] GpuError),
     #[error(transparent)]
     Mesh(#[from] MeshError),
-    #[error("render.mesh = \"{0}\" has no GPU extraction; extract it on the CPU (--device cpu)")]
+    #[error(
+        "render.mesh = \"{0}\" needs 64-bit floats (shaderFloat64) on the GPU, which this device \
+         lacks; extract it on the CPU (--device cpu)"
+    )]
     Unsupported(&'static str),
 }
 

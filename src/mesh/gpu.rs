@@ -57,8 +57,8 @@
 //! slab's begin). Ids are `vertex_base + scan[owner] - scan[first owned]`, which is the
 //! neighbour's own numbering in both cases, so slabs join seamlessly. A slab whose output would
 //! not fit one binding is halved and redone. Memory: the per-slab scratch (12 bytes per point
-//! and 4 per cell of at most one slab) plus the output, held twice while slabs are copied into
-//! one buffer (once with a single slab). Limits: a slab needs five point layers in one binding,
+//! and 4 per cell, 8 for mc33, of at most one slab) plus the output, held twice while slabs are
+//! copied into one buffer (once with a single slab). Limits: a slab needs five point layers in one binding,
 //! so an x·y layer of more than a fifth of a binding (6.7 M points on lavapipe) is refused with
 //! an error, as is an axis beyond the device's 3D image size (4096 on lavapipe).
 //!
@@ -82,7 +82,7 @@ use crate::gpu::{
 };
 use crate::passes::extract::{
     classify_mode, compute_barrier, inside_threshold, record_items, ExtractParams, ExtractPasses,
-    ExtractTables, Scan, SlabPush,
+    ExtractTables, Mc33Passes, Scan, SlabPush,
 };
 use crate::scene::{Inside, MeshAlgorithm};
 
@@ -443,10 +443,15 @@ impl Extractor {
             MeshAlgorithm::MarchingTetrahedra => Kind::Edges { mt: true, mc33: false },
             MeshAlgorithm::SurfaceNets => Kind::Dual { pad: 0 },
             MeshAlgorithm::DualContouring => Kind::Dual { pad: 1 },
-            MeshAlgorithm::Mc33 if self.passes.mc33.is_none() => {
-                return Err(GpuMeshError::Unsupported("mc33"))
+            MeshAlgorithm::Mc33 => {
+                if self.passes.mc33.is_none() {
+                    self.passes.mc33 = Mc33Passes::new(&self.ctx)?;
+                }
+                if self.passes.mc33.is_none() {
+                    return Err(GpuMeshError::Unsupported("mc33"));
+                }
+                Kind::Edges { mt: false, mc33: true }
             }
-            MeshAlgorithm::Mc33 => Kind::Edges { mt: false, mc33: true },
         };
         let mc33 = kind == Kind::Edges { mt: false, mc33: true };
         let ctx = self.ctx.clone();
@@ -882,13 +887,12 @@ impl Extractor {
             let fixup =
                 &self.passes.mc33.as_ref().expect("mc33 passes made the added vertices").fixup;
             let set = self.bind(fixup, s, Some(&out))?;
-            let mut push = SlabPush {
+            let push = SlabPush {
                 count: (3 * triangles) as u32,
                 vertex_base: vertices as u32,
                 added_base: added as u32,
                 ..Default::default()
             };
-            push.groups_x = 0;
             ctx.submit("extract mc33 fixup", |cmd| {
                 memory_barrier(
                     ctx,

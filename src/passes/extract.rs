@@ -222,7 +222,8 @@ pub struct ExtractPasses {
     pub mt: ComputePipeline,
     pub dual_cells: ComputePipeline,
     pub dual_quads: ComputePipeline,
-    /// The MC33 passes; None where the device has no `shaderFloat64`.
+    /// The MC33 passes, made on first use ([`Mc33Passes::new`]: their shaders are large, and
+    /// compiling them cost lavapipe about a second that the other algorithms need not pay).
     pub mc33: Option<Mc33Passes>,
     scan: ComputePipeline,
     scan_add: ComputePipeline,
@@ -244,15 +245,7 @@ impl ExtractPasses {
             mt: extract("extract marching tetrahedra", shaders::EXTRACT_MT)?,
             dual_cells: extract("extract dual cells", shaders::EXTRACT_DUAL_CELLS)?,
             dual_quads: extract("extract dual quads", shaders::EXTRACT_DUAL_QUADS)?,
-            mc33: if ctx.info.float64 {
-                Some(Mc33Passes {
-                    count: extract("extract mc33 count", shaders::EXTRACT_MC33_COUNT)?,
-                    emit: extract("extract mc33 emit", shaders::EXTRACT_MC33_EMIT)?,
-                    fixup: extract("extract mc33 fixup", shaders::EXTRACT_MC33_FIXUP)?,
-                })
-            } else {
-                None
-            },
+            mc33: None,
             scan: ComputePipeline::new(
                 ctx,
                 "extract scan",
@@ -276,6 +269,24 @@ pub struct Mc33Passes {
     pub count: ComputePipeline,
     pub emit: ComputePipeline,
     pub fixup: ComputePipeline,
+}
+
+impl Mc33Passes {
+    /// The pipelines, or None where the device has no `shaderFloat64`.
+    pub fn new(ctx: &Arc<Context>) -> Result<Option<Self>, GpuError> {
+        if !ctx.info.float64 {
+            return Ok(None);
+        }
+        let push = std::mem::size_of::<SlabPush>() as u32;
+        let extract = |name: &str, spirv: &[u8]| {
+            ComputePipeline::new(ctx, name, spirv, &EXTRACT_BINDINGS, push)
+        };
+        Ok(Some(Mc33Passes {
+            count: extract("extract mc33 count", shaders::EXTRACT_MC33_COUNT)?,
+            emit: extract("extract mc33 emit", shaders::EXTRACT_MC33_EMIT)?,
+            fixup: extract("extract mc33 fixup", shaders::EXTRACT_MC33_FIXUP)?,
+        }))
+    }
 }
 
 /// Workgroups for `groups` groups of 1D work, spread over x and y: `(x, y)` with `x * y >=

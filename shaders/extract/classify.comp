@@ -10,6 +10,8 @@
 //          triangles
 //   mode 2 (dual methods): families x, y, z on the padded lattice; point: quads, i.e. crossed
 //          edges with four cells around them; cell: 1 if active (a corner differs), its vertex
+//   mode 3 (mc33): families x, y, z; point: vertices; cell: 1 if crossed, so the scan numbers
+//          the crossed cells and the mc33 passes run over them only
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
 layout(local_size_x = 64) in;
@@ -19,13 +21,14 @@ layout(local_size_x = 64) in;
 const uint MODE_MC = 0u;
 const uint MODE_MT = 1u;
 const uint MODE_DUAL = 2u;
+const uint MODE_MC33 = 3u;
 
 // What the cell with inside-corner mask `mask` (bit n for corner n) owns.
 uint cell_count(uint mask) {
     if (mask == 0u || mask == 255u) {
         return 0u;
     }
-    if (C.mode == MODE_DUAL) {
+    if (C.mode == MODE_DUAL || C.mode == MODE_MC33) {
         return 1u;
     }
     if (C.mode == MODE_MC) {

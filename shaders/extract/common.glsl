@@ -27,10 +27,12 @@ layout(std430, binding = 2) buffer PointMasks { uint point_mask[]; };
 // Per point: the count of what it owns (MC/MT vertices, dual quads), scanned in place into
 // exclusive prefix sums (one extra element holds the total).
 layout(std430, binding = 3) buffer PointScan { uint point_scan[]; };
-// Per cell: MC/MT/MC33 triangles, dual vertices; scanned likewise.
+// Per cell: MC/MT triangles, dual vertices, 1 for a crossed MC33 cell; scanned likewise.
 layout(std430, binding = 4) buffer CellScan { uint cell_scan[]; };
-// Per cell: MC33 added vertices; scanned likewise (a dummy for the other algorithms).
+// MC33, per crossed cell (numbered by cell_scan): its triangles and its added vertices; scanned
+// likewise. (Dummies for the other algorithms.)
 layout(std430, binding = 10) buffer AddedScan { uint added_scan[]; };
+layout(std430, binding = 11) buffer TriScan { uint tri_scan[]; };
 
 // `mesh::tables`, uploaded as the Rust struct `ExtractTables` (std430 int arrays).
 layout(std430, binding = 5) readonly buffer Tables {

@@ -606,14 +606,3 @@ void cell_mesh(ivec3 c) {
         }
     }
 }
-
-// Inside-corner mask of cell c from the classified point masks.
-uint cell_corner_mask(ivec3 c) {
-    uint mask = 0u;
-    for (int n = 0; n < 8; n++) {
-        if ((point_mask[point_slot(c + offset_of(uint(n)))] & INSIDE_BIT) != 0u) {
-            mask |= 1u << n;
-        }
-    }
-    return mask;
-}

@@ -1,9 +1,11 @@
 #version 450
-// Extraction pass `mc33 count`: the triangles and added vertices of each cell of the slab
-// (`mesh/mc33.rs`), after `classify` (mode marching cubes) has written the point masks.
+// Extraction pass `mc33 count`: the triangles and added vertices of each crossed cell of the
+// slab (`mesh/mc33.rs`), after `classify` (mode mc33: 1 per crossed cell) and the cell scan.
 //
-// One invocation per cell of the slab's cell layers: cell_scan gets its triangle count (over
-// what classify wrote there), added_scan its added-vertex count; both are scanned next.
+// One invocation per crossed cell (the i-th by the scan): tri_scan[i] gets its triangle count,
+// added_scan[i] its added-vertex count; both are scanned next. Only crossed cells run this
+// large shader: lavapipe pays a fixed cost per invocation of it even on a path that skips the
+// work, so a dispatch over every cell took ten times the marching-cubes time.
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
 layout(local_size_x = 64) in;
@@ -16,17 +18,9 @@ void main() {
     if (id >= C.count) {
         return;
     }
-    ivec3 c = item_coords(id, nc().xy);
-    uint slot = cell_slot(c);
-    uint mask = cell_corner_mask(c);
-    uint tris = 0u;
-    uint added = 0u;
-    if (mask != 0u && mask != 255u) {
-        WRITE = false;
-        cell_mesh(c);
-        tris = NTRI;
-        added = uint(NADDED);
-    }
-    cell_scan[slot] = tris;
-    added_scan[slot] = added;
+    uint rank;
+    WRITE = false;
+    cell_mesh(cell_at(find_cell(id, rank)));
+    tri_scan[id] = NTRI;
+    added_scan[id] = uint(NADDED);
 }

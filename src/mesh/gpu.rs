@@ -328,11 +328,14 @@ struct Scratch<'a> {
     point_mask: Buffer,
     point_scan: Buffer,
     cell_scan: Buffer,
-    /// MC33's per-cell added vertices (one element for the other algorithms).
+    /// MC33's triangles and added vertices per crossed cell (one element each for the other
+    /// algorithms).
+    tri_scan: Buffer,
     added_scan: Buffer,
     point_scanner: Scan,
     cell_scanner: Scan,
-    added_scanner: Option<Scan>,
+    /// MC33: the scans of `tri_scan` and `added_scan`.
+    mc33_scanners: Option<(Scan, Scan)>,
     readback: Buffer,
     timer: Option<Timer>,
 }
@@ -501,7 +504,8 @@ impl Extractor {
         while z0 < nc[2] {
             let z1 = (z0 + layers).min(nc[2]);
             let plan = SlabPlan::new(kind, z0, z1, nc[2], lp, lc);
-            let [vertices, triangles, added] = self.count(&mut scratch, &mut stats, kind, &plan)?;
+            let [vertices, triangles, added, crossed] =
+                self.count(&mut scratch, &mut stats, kind, &plan)?;
             let fits = (vertices + added) * 16 <= limit_bytes && triangles * 12 <= limit_bytes;
             if !fits {
                 if z1 - z0 == 1 {
@@ -522,7 +526,7 @@ impl Extractor {
                 return Err(MeshError::TooLarge { what: "indices" }.into());
             }
             let bases = [vbase, abase];
-            let counts = [vertices, triangles, added];
+            let counts = [vertices, triangles, added, crossed];
             let out = self.emit(&mut scratch, &mut stats, kind, &plan, opts, bases, counts)?;
             vbase += vertices;
             tbase += triangles;
@@ -584,9 +588,15 @@ impl Extractor {
         let point_scanner =
             Scan::new(ctx, &self.passes, "point scan", &point_scan, points as u64 + 1)?;
         let cell_scanner = Scan::new(ctx, &self.passes, "cell scan", &cell_scan, cells as u64 + 1)?;
-        let added_scan = storage("extract added scan", if mc33 { cells + 1 } else { 1 })?;
-        let added_scanner = if mc33 {
-            Some(Scan::new(ctx, &self.passes, "added scan", &added_scan, cells as u64 + 1)?)
+        let per_crossed = if mc33 { cells + 1 } else { 1 };
+        let tri_scan = storage("extract mc33 triangle scan", per_crossed)?;
+        let added_scan = storage("extract mc33 added scan", per_crossed)?;
+        let mc33_scanners = if mc33 {
+            let n = cells as u64 + 1;
+            Some((
+                Scan::new(ctx, &self.passes, "mc33 triangle scan", &tri_scan, n)?,
+                Scan::new(ctx, &self.passes, "mc33 added scan", &added_scan, n)?,
+            ))
         } else {
             None
         };
@@ -604,10 +614,11 @@ impl Extractor {
             point_mask,
             point_scan,
             cell_scan,
+            tri_scan,
             added_scan,
             point_scanner,
             cell_scanner,
-            added_scanner,
+            mc33_scanners,
             readback,
             timer: Timer::new(ctx)?,
         })
@@ -636,6 +647,7 @@ impl Extractor {
             Resource::Storage(i),
             Resource::Storage(&s.values),
             Resource::Storage(&s.added_scan),
+            Resource::Storage(&s.tri_scan),
         ])
     }
 
@@ -683,35 +695,29 @@ impl Extractor {
         Ok(())
     }
 
-    /// Classifies and scans one slab; returns its vertex (edge vertices for mc33), triangle and
-    /// mc33 added-vertex counts.
+    /// Classifies and scans one slab; returns its vertex (edge vertices for mc33), triangle,
+    /// mc33 added-vertex and mc33 crossed-cell counts.
     fn count(
         &self,
         s: &mut Scratch,
         stats: &mut ExtractStats,
         kind: Kind,
         plan: &SlabPlan,
-    ) -> Result<[u64; 3], GpuError> {
+    ) -> Result<[u64; 4], GpuError> {
         let ctx = &self.ctx;
         let p = &self.passes;
         let mode = match kind {
+            Kind::Edges { mc33: true, .. } => classify_mode::MC33,
             Kind::Edges { mt: false, .. } => classify_mode::MC,
             Kind::Edges { mt: true, .. } => classify_mode::MT,
             Kind::Dual { .. } => classify_mode::DUAL,
         };
         let values_set = self.bind(&p.values, s, None)?;
         let classify_set = self.bind(&p.classify, s, None)?;
-        let mc33 = match (&s.added_scanner, &p.mc33) {
-            (Some(_), Some(m)) => Some((&m.count, self.bind(&m.count, s, None)?)),
-            _ => None,
-        };
         self.submit(s, stats, "extract count", |cmd| {
             // The element after each array holds the total once scanned.
             fill_buffer(ctx, cmd, &s.point_scan, plan.points as u64 * 4, 4, 0);
             fill_buffer(ctx, cmd, &s.cell_scan, plan.cells as u64 * 4, 4, 0);
-            if s.added_scanner.is_some() {
-                fill_buffer(ctx, cmd, &s.added_scan, plan.cells as u64 * 4, 4, 0);
-            }
             memory_barrier(
                 ctx,
                 cmd,
@@ -726,56 +732,77 @@ impl Extractor {
             let push = plan.push(plan.points, plan.point_z0, 0, mode);
             record_items(cmd, &p.classify, &classify_set, push)?;
             compute_barrier(ctx, cmd);
-            if let Some((pipeline, set)) = &mc33 {
-                // Over classify's cell counts: the cells' mc33 triangles and added vertices.
-                let push = plan.push(plan.cells, plan.cell_z0, 0, 0);
-                record_items(cmd, pipeline, set, push)?;
-                compute_barrier(ctx, cmd);
-            }
             s.point_scanner.record(ctx, p, cmd, plan.points as u64 + 1)?;
             s.cell_scanner.record(ctx, p, cmd, plan.cells as u64 + 1)?;
-            if let Some(scanner) = &s.added_scanner {
-                scanner.record(ctx, p, cmd, plan.cells as u64 + 1)?;
-            }
-            memory_barrier(
-                ctx,
-                cmd,
-                (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
-                (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
-            );
             let counters = [
                 (&s.point_scan, plan.owned_point),
                 (&s.point_scan, plan.owned_point_end),
                 (&s.cell_scan, plan.owned_cell),
                 (&s.cell_scan, plan.owned_cell_end),
-                (&s.added_scan, plan.owned_cell),
-                (&s.added_scan, plan.owned_cell_end),
             ];
-            let counters = &counters[..if s.added_scanner.is_some() { 6 } else { 4 }];
-            for (n, &(buf, at)) in counters.iter().enumerate() {
-                copy_buffer(ctx, cmd, buf, at as u64 * 4, &s.readback, n as u64 * 4, 4);
+            record_counters(ctx, cmd, &counters, &s.readback);
+            Ok(())
+        })?;
+        let c: Vec<u32> = s.readback.read(4)?;
+        let point_owned = u64::from(c[1].wrapping_sub(c[0]));
+        let cell_owned = u64::from(c[3].wrapping_sub(c[2]));
+        Ok(match kind {
+            Kind::Edges { mc33: true, .. } => {
+                let [triangles, added] = self.count_mc33(s, stats, plan, cell_owned)?;
+                [point_owned, triangles, added, cell_owned]
             }
+            Kind::Edges { .. } => [point_owned, cell_owned, 0, 0],
+            Kind::Dual { .. } => [cell_owned, 2 * point_owned, 0, 0],
+        })
+    }
+
+    /// MC33, after [`Extractor::count`]: the triangles and added vertices of the slab's
+    /// `crossed` crossed cells, counted per cell (only crossed cells run the large mc33
+    /// shader) and scanned.
+    fn count_mc33(
+        &self,
+        s: &mut Scratch,
+        stats: &mut ExtractStats,
+        plan: &SlabPlan,
+        crossed: u64,
+    ) -> Result<[u64; 2], GpuError> {
+        if crossed == 0 {
+            return Ok([0, 0]);
+        }
+        let ctx = &self.ctx;
+        let p = &self.passes;
+        let (Some(passes), Some((tri_scanner, added_scanner))) = (&p.mc33, &s.mc33_scanners) else {
+            unreachable!("mc33 extraction without its passes and scans")
+        };
+        let set = self.bind(&passes.count, s, None)?;
+        self.submit(s, stats, "extract mc33 count", |cmd| {
+            fill_buffer(ctx, cmd, &s.tri_scan, crossed * 4, 4, 0);
+            fill_buffer(ctx, cmd, &s.added_scan, crossed * 4, 4, 0);
             memory_barrier(
                 ctx,
                 cmd,
                 (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
-                (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+                (
+                    vk::PipelineStageFlags::COMPUTE_SHADER,
+                    vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
+                ),
             );
+            let push = plan.push(crossed as usize, plan.z0, 0, 0);
+            record_items(cmd, &passes.count, &set, push)?;
+            compute_barrier(ctx, cmd);
+            tri_scanner.record(ctx, p, cmd, crossed + 1)?;
+            added_scanner.record(ctx, p, cmd, crossed + 1)?;
+            let at = crossed as usize;
+            record_counters(ctx, cmd, &[(&s.tri_scan, at), (&s.added_scan, at)], &s.readback);
             Ok(())
         })?;
-        let c: Vec<u32> = s.readback.read(6)?;
-        let point_owned = u64::from(c[1].wrapping_sub(c[0]));
-        let cell_owned = u64::from(c[3].wrapping_sub(c[2]));
-        let added = if s.added_scanner.is_some() { u64::from(c[5].wrapping_sub(c[4])) } else { 0 };
-        Ok(match kind {
-            Kind::Edges { .. } => [point_owned, cell_owned, added],
-            Kind::Dual { .. } => [cell_owned, 2 * point_owned, 0],
-        })
+        let c: Vec<u32> = s.readback.read(2)?;
+        Ok([u64::from(c[0]), u64::from(c[1])])
     }
 
     /// Writes one slab's vertices and triangles into new buffers sized for them. `bases`: the
     /// edge (or dual) vertices and the mc33 added vertices of the slabs before; `counts`: this
-    /// slab's vertices, triangles and mc33 added vertices.
+    /// slab's vertices, triangles, mc33 added vertices and mc33 crossed cells.
     #[allow(clippy::too_many_arguments)]
     fn emit(
         &self,
@@ -785,9 +812,9 @@ impl Extractor {
         plan: &SlabPlan,
         opts: &GpuExtractOptions,
         bases: [u64; 2],
-        counts: [u64; 3],
+        counts: [u64; 4],
     ) -> Result<SlabOutput, GpuError> {
-        let [vertices, triangles, added] = counts;
+        let [vertices, triangles, added, crossed] = counts;
         let mut out = output(&self.ctx, "slab", vertices + added, triangles)?;
         out.added = added;
         if vertices == 0 && triangles == 0 {
@@ -806,7 +833,8 @@ impl Extractor {
                     (true, ..) => &p.mt,
                     _ => &p.mc,
                 },
-                plan.push(triangles as usize, plan.z0, vb, 1),
+                // mc33: one invocation per crossed cell.
+                plan.push(if mc33 { crossed } else { triangles } as usize, plan.z0, vb, 1),
             ),
             Kind::Dual { .. } => (
                 &p.dual_cells,
@@ -955,4 +983,29 @@ fn output(
         added: 0,
         triangles,
     })
+}
+
+/// Copies the u32 at element `at` of each buffer into `readback`, in order, and makes them
+/// visible to the host.
+fn record_counters(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    counters: &[(&Buffer, usize)],
+    readback: &Buffer,
+) {
+    memory_barrier(
+        ctx,
+        cmd,
+        (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
+        (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
+    );
+    for (n, &(buf, at)) in counters.iter().enumerate() {
+        copy_buffer(ctx, cmd, buf, at as u64 * 4, readback, n as u64 * 4, 4);
+    }
+    memory_barrier(
+        ctx,
+        cmd,
+        (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
+        (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+    );
 }

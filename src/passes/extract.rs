@@ -11,15 +11,15 @@
 //! | `marching cubes` / `marching tetrahedra` | `mc.comp` / `mt.comp` | triangle | the triangle |
 //! | `dual cells` | `dual_cells.comp` | vertex | SN/DC: the vertex of an active cell |
 //! | `dual quads` | `dual_quads.comp` | quad | SN/DC: two triangles |
-//! | `mc33 count` | `mc33_count.comp` | cell | MC33: the cell's triangles and added vertices (f64) |
-//! | `mc33 emit` | `mc33_emit.comp` | triangle | MC33: a cell's triangles and added vertices (its first triangle's invocation) |
+//! | `mc33 count` | `mc33_count.comp` | crossed cell | MC33: the cell's triangles and added vertices (f64) |
+//! | `mc33 emit` | `mc33_emit.comp` | crossed cell | MC33: the cell's triangles and added vertices |
 //! | `mc33 fixup` | `mc33_fixup.comp` | index | MC33: added-vertex placeholders → final ids |
 //!
 //! The emit passes (the last four) find the owner of their output item (the point or cell
 //! whose scanned count range holds it) by bisection of the scan, so their work follows the
 //! output, not the grid.
 //!
-//! Every extraction pass binds the same eleven resources ([`EXTRACT_BINDINGS`]) and takes
+//! Every extraction pass binds the same twelve resources ([`EXTRACT_BINDINGS`]) and takes
 //! [`SlabPush`]; a pass that does not use a binding still gets a (dummy) buffer there.
 
 use std::sync::Arc;
@@ -41,10 +41,12 @@ pub const SCAN_BLOCK: u64 = 1024;
 const MAX_GROUPS_X: u32 = 65535;
 
 /// Bindings of every extraction pass, in order: params (uniform), grid (3D image), point masks,
-/// point scan, cell scan, tables, positions, normals, indices, values, added scan (storage).
-pub const EXTRACT_BINDINGS: [vk::DescriptorType; 11] = [
+/// point scan, cell scan, tables, positions, normals, indices, values, added scan, triangle scan
+/// (storage).
+pub const EXTRACT_BINDINGS: [vk::DescriptorType; 12] = [
     vk::DescriptorType::UNIFORM_BUFFER,
     vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+    vk::DescriptorType::STORAGE_BUFFER,
     vk::DescriptorType::STORAGE_BUFFER,
     vk::DescriptorType::STORAGE_BUFFER,
     vk::DescriptorType::STORAGE_BUFFER,
@@ -211,6 +213,7 @@ pub mod classify_mode {
     pub const MC: u32 = 0;
     pub const MT: u32 = 1;
     pub const DUAL: u32 = 2;
+    pub const MC33: u32 = 3;
 }
 
 /// The extraction pipelines.

@@ -36,15 +36,17 @@
 //!
 //! MC33 decides each cell's topology by tests (`mesh::mc33`), not by a table, and some cells
 //! get *added* vertices (contour centres, split tunnel rungs), numbered after all edge vertices.
-//! After classify (marching-cubes mode), `mc33 count` builds each crossed cell's surface in f64
-//! (`shaders/extract/mc33.glsl`, the reference's operations in its order) and overwrites the
-//! cell's triangle count; its added-vertex count goes to a third scan. `mc33 emit` (one
-//! invocation per triangle; the cell's first does the work) writes the triangles, and the added
-//! vertices after the slab's edge vertices; triangles name added vertex `n` (over the whole
-//! grid) `u32::MAX - n` until, with every slab emitted and the edge-vertex total known, the
-//! assembly puts all edge vertices first, then all added ones, and `mc33 fixup` resolves the
-//! placeholders. The passes need `shaderFloat64`; without it [`Extractor::extract`] returns
-//! [`GpuMeshError::Unsupported`].
+//! Classify (mode mc33) counts 1 per crossed cell, so the cell scan numbers the crossed cells;
+//! after a readback, `mc33 count` runs one invocation per crossed cell, builds its surface in
+//! f64 (`shaders/extract/mc33.glsl`, the reference's operations in its order) and writes its
+//! triangle and added-vertex counts, which two more scans turn into offsets. `mc33 emit` (one
+//! invocation per crossed cell again) builds it once more and writes the triangles, and the
+//! added vertices after the slab's edge vertices. (Only crossed cells run the large shader:
+//! lavapipe pays a fixed cost per invocation of it even where it skips the work.) Triangles name
+//! added vertex `n` (over the whole grid) `u32::MAX - n` until, with every slab emitted and the
+//! edge-vertex total known, the assembly puts all edge vertices first, then all added ones, and
+//! `mc33 fixup` resolves the placeholders. The passes need `shaderFloat64`; without it
+//! [`Extractor::extract`] returns [`GpuMeshError::Unsupported`].
 //!
 //! # Slabs
 //!
@@ -57,7 +59,7 @@
 //! slab's begin). Ids are `vertex_base + scan[owner] - scan[first owned]`, which is the
 //! neighbour's own numbering in both cases, so slabs join seamlessly. A slab whose output would
 //! not fit one binding is halved and redone. Memory: the per-slab scratch (12 bytes per point
-//! and 4 per cell, 8 for mc33, of at most one slab) plus the output, held twice while slabs are
+//! and 4 per cell, 12 for mc33, of at most one slab) plus the output, held twice while slabs are
 //! copied into one buffer (once with a single slab). Limits: a slab needs five point layers in one binding,
 //! so an x·y layer of more than a fifth of a binding (6.7 M points on lavapipe) is refused with
 //! an error, as is an axis beyond the device's 3D image size (4096 on lavapipe).

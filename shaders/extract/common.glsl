@@ -42,6 +42,7 @@ layout(std430, binding = 5) readonly buffer Tables {
     int mt_tets[6 * 4];
     int mt_tet_edges[6 * 2];
     int mt_triangles[16 * 6];
+    int mc_edge_index[8 * 8];  // Bourke edge between corners a and b at 8 a + b, else -1
 };
 
 // The slab's output: vertices (xyz, w = 1), normals (xyz, w = 0), triangles (3 global vertex

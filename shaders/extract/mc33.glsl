@@ -19,7 +19,9 @@ double ISO;        // the isovalue in f64
 ivec3 CELL;        // the cell (pad is 0 for mc33: padded = grid coordinates)
 double V[8];       // corner samples
 double G[8];       // inside-positive corner values: inside iff > 0
-int REG[8];        // union-find over corners: connected regions of inside / outside
+// Union-find over the corners (0..7) and the sweep's (sample s, section corner q) nodes
+// (8 + 4 s + q, at most 9 samples): the connected regions of inside and outside.
+int UF[44];
 int NEXT[12];      // the edge after each crossed edge along its contour
 int EF[12];        // faces containing each edge (bit = index in FACES)
 int CE[12];        // contours' edges, concatenated
@@ -30,7 +32,6 @@ dvec3 DIR[12];     // its inside -> outside direction
 int PA[4];         // pieces: first contour, and second (-1 for a disk)
 int PB[4];
 int NPIECE;
-int SP[36];        // sweep union-find over (sample, section corner), at most 9 samples
 double COST[784];  // tunnel DP over (n + 1)(m + 1) rungs x 4 x 4 spreads, n + m <= 12
 uint BACK[784];
 int BEST[36];      // the best tunnel walk's triangles (edge numbers)
@@ -50,42 +51,22 @@ double iso64() {
 }
 
 int edge_of(int a, int b) {
-    int lo = min(a, b);
-    int axis = findLSB(a ^ b);
-    for (int e = 0; e < 12; e++) {
-        if (mc_edges[2 * e] == lo && mc_edges[2 * e + 1] == axis) {
-            return e;
-        }
-    }
-    return 0;
+    return mc_edge_index[8 * a + b];
 }
 
-int find_reg(int x) {
-    while (REG[x] != x) {
-        x = REG[x];
+// (No path halving: the trees are tiny, and lavapipe's compiler lost unions made after a
+// halving `UF[x] = UF[UF[x]]` in this shader.)
+int find(int x) {
+    while (UF[x] != x) {
+        x = UF[x];
     }
     return x;
 }
 
-void union_reg(int a, int b) {
-    int ra = find_reg(a);
-    int rb = find_reg(b);
-    REG[max(ra, rb)] = min(ra, rb);
-}
-
-// (No path halving: the trees have at most 36 nodes, and lavapipe's compiler loses unions
-// made after a halving `SP[x] = SP[SP[x]]` in this shader.)
-int sfind(int x) {
-    while (SP[x] != x) {
-        x = SP[x];
-    }
-    return x;
-}
-
-void sunion(int a, int b) {
-    int ra = sfind(a);
-    int rb = sfind(b);
-    SP[max(ra, rb)] = min(ra, rb);
+void unite(int a, int b) {
+    int ra = find(a);
+    int rb = find(b);
+    UF[max(ra, rb)] = min(ra, rb);
 }
 
 bool share_face(int a, int b) {
@@ -115,7 +96,7 @@ void face_segments() {
         bool ambiguous = n_in == 2 && ins[0] == ins[2];
         for (int k = 0; k < 4; k++) {
             if (ins[k] == ins[(k + 1) & 3]) {
-                union_reg(c[k], c[(k + 1) & 3]);
+                unite(c[k], c[(k + 1) & 3]);
             }
         }
         if (ambiguous) {
@@ -124,9 +105,9 @@ void face_segments() {
             precise double saddle = G[c[a]] * G[c[a + 2]] - G[c[b]] * G[c[b + 2]];
             bool join_inside = saddle > 0.0;
             if (join_inside) {
-                union_reg(c[a], c[a + 2]);
+                unite(c[a], c[a + 2]);
             } else {
-                union_reg(c[b], c[b + 2]);
+                unite(c[b], c[b + 2]);
             }
             for (int k = 0; k < 4; k++) {
                 if (join_inside && !ins[k]) {
@@ -235,8 +216,8 @@ void sweep() {
     samples[ns++] = 0.5 * (prev + 1.0);
     samples[ns++] = 1.0;
 
-    for (int i = 0; i < 4 * ns; i++) {
-        SP[i] = i;
+    for (int i = 8; i < 8 + 4 * ns; i++) {
+        UF[i] = i;
     }
     bool prev_in[4] = bool[4](false, false, false, false);
     for (int s = 0; s < ns; s++) {
@@ -251,36 +232,32 @@ void sweep() {
         const ivec2 SQUARE[4] = ivec2[4](ivec2(0, 1), ivec2(1, 3), ivec2(3, 2), ivec2(2, 0));
         for (int k = 0; k < 4; k++) {
             if (ins[SQUARE[k].x] == ins[SQUARE[k].y]) {
-                sunion(4 * s + SQUARE[k].x, 4 * s + SQUARE[k].y);
+                unite(8 + 4 * s + SQUARE[k].x, 8 + 4 * s + SQUARE[k].y);
             }
         }
         if (ins[0] == ins[3] && ins[1] == ins[2] && ins[0] != ins[1]) {
             precise double s03 = gt[0] * gt[3] - gt[1] * gt[2];
             bool join_03 = ins[0] ? s03 > 0.0 : s03 >= 0.0;
             if (join_03) {
-                sunion(4 * s, 4 * s + 3);
+                unite(8 + 4 * s, 8 + 4 * s + 3);
             } else {
-                sunion(4 * s + 1, 4 * s + 2);
+                unite(8 + 4 * s + 1, 8 + 4 * s + 2);
             }
         }
         if (s > 0) {
             for (int q = 0; q < 4; q++) {
                 if (ins[q] == prev_in[q]) {
-                    sunion(4 * (s - 1) + q, 4 * s + q);
+                    unite(8 + 4 * (s - 1) + q, 8 + 4 * s + q);
                 }
             }
         }
         prev_in = ins;
     }
+    // Each corner is its node in the first or last section: corners joined through the
+    // interior end up in one region (`mc33::sweep` unites them pairwise; same partition).
     int last = ns - 1;
-    for (int c1 = 0; c1 < 8; c1++) {
-        for (int c2 = c1 + 1; c2 < 8; c2++) {
-            int n1 = (c1 & 4) == 0 ? (c1 & 3) : 4 * last + (c1 & 3);
-            int n2 = (c2 & 4) == 0 ? (c2 & 3) : 4 * last + (c2 & 3);
-            if (sfind(n1) == sfind(n2)) {
-                union_reg(c1, c2);
-            }
-        }
+    for (int c = 0; c < 8; c++) {
+        unite(c, 8 + ((c & 4) == 0 ? 0 : 4 * last) + (c & 3));
     }
 }
 
@@ -294,7 +271,7 @@ void group_pieces() {
         int b = a | (1 << mc_edges[2 * e + 1]);
         int ci = G[a] > 0.0 ? a : b;
         int co = ci == a ? b : a;
-        key[c] = find_reg(ci) * 8 + find_reg(co);
+        key[c] = find(ci) * 8 + find(co);
     }
     NPIECE = 0;
     for (int c = 0; c < NCONT; c++) {
@@ -589,14 +566,21 @@ void cell_mesh(ivec3 c) {
     for (int n = 0; n < 8; n++) {
         V[n] = double(value_at(c + offset_of(uint(n))));
         G[n] = sign * (V[n] - ISO);
-        REG[n] = n;
+        UF[n] = n;
     }
     NTRI = 0u;
     NADDED = 0;
     face_segments();
     trace_contours();
-    sweep();
-    group_pieces();
+    if (NCONT > 1) {
+        sweep();
+        group_pieces();
+    } else {
+        // One contour is one disk whatever the regions (the sweep only groups contours).
+        NPIECE = 1;
+        PA[0] = 0;
+        PB[0] = -1;
+    }
     edge_points();
     for (int p = 0; p < NPIECE; p++) {
         if (PB[p] < 0) {

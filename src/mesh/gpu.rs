@@ -913,43 +913,32 @@ impl Extractor {
             })?;
             out
         };
-        if added > 0 {
-            let fixup =
-                &self.passes.mc33.as_ref().expect("mc33 passes made the added vertices").fixup;
-            let set = self.bind(fixup, s, Some(&out))?;
-            let push = SlabPush {
-                count: (3 * triangles) as u32,
-                vertex_base: vertices as u32,
-                added_base: added as u32,
-                ..Default::default()
-            };
-            ctx.submit("extract mc33 fixup", |cmd| {
-                memory_barrier(
-                    ctx,
-                    cmd,
-                    (
-                        vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-                        vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
-                    ),
-                    (
-                        vk::PipelineStageFlags::COMPUTE_SHADER,
-                        vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
-                    ),
-                );
-                record_items(cmd, fixup, &set, push)
-            })?;
-        }
-        // Make the mesh visible to whatever reads it next (draws, copies, shaders).
+        // With mc33's added vertices, resolve their placeholders; then make the mesh visible to
+        // whatever reads it next (draws, copies, shaders).
+        let fixup = match &self.passes.mc33 {
+            Some(passes) if added > 0 => {
+                let push = SlabPush {
+                    count: (3 * triangles) as u32,
+                    vertex_base: vertices as u32,
+                    added_base: added as u32,
+                    ..Default::default()
+                };
+                Some((&passes.fixup, self.bind(&passes.fixup, s, Some(&out))?, push))
+            }
+            _ => None,
+        };
+        let writes = (
+            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+            vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
+        );
         ctx.submit("extract finish", |cmd| {
-            memory_barrier(
-                ctx,
-                cmd,
-                (
-                    vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-                    vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
-                ),
-                (vk::PipelineStageFlags::ALL_COMMANDS, vk::AccessFlags::MEMORY_READ),
-            );
+            if let Some((pipeline, set, push)) = &fixup {
+                let rw = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
+                memory_barrier(ctx, cmd, writes, (vk::PipelineStageFlags::COMPUTE_SHADER, rw));
+                record_items(cmd, pipeline, set, *push)?;
+            }
+            let reads = (vk::PipelineStageFlags::ALL_COMMANDS, vk::AccessFlags::MEMORY_READ);
+            memory_barrier(ctx, cmd, writes, reads);
             Ok(())
         })?;
         Ok(GpuMesh {

@@ -138,6 +138,9 @@ pub struct ExtractTables {
     pub mt_tets: [[i32; 4]; 6],
     pub mt_tet_edges: [[i32; 2]; 6],
     pub mt_triangles: [[i32; 6]; 16],
+    /// `mc_edge_index[8 a + b]`: the Bourke number of the cell edge between corners `a` and
+    /// `b`, -1 where they share no edge (MC33's face walks).
+    pub mc_edge_index: [i32; 64],
 }
 
 const _: () = {
@@ -146,7 +149,10 @@ const _: () = {
     assert!(std::mem::offset_of!(ExtractTables, mt_tets) == (4096 + 24 + 8) * 4);
     assert!(std::mem::offset_of!(ExtractTables, mt_tet_edges) == (4096 + 24 + 8 + 24) * 4);
     assert!(std::mem::offset_of!(ExtractTables, mt_triangles) == (4096 + 24 + 8 + 24 + 12) * 4);
-    assert!(std::mem::size_of::<ExtractTables>() == (4096 + 24 + 8 + 24 + 12 + 96) * 4);
+    assert!(
+        std::mem::offset_of!(ExtractTables, mc_edge_index) == (4096 + 24 + 8 + 24 + 12 + 96) * 4
+    );
+    assert!(std::mem::size_of::<ExtractTables>() == (4096 + 24 + 8 + 24 + 12 + 96 + 64) * 4);
 };
 
 impl ExtractTables {
@@ -168,6 +174,12 @@ impl ExtractTables {
         }
         for (row, src) in t.mt_triangles.iter_mut().zip(&tables::MT_TRIANGLES) {
             *row = src.map(i32::from);
+        }
+        t.mc_edge_index = [-1; 64];
+        for (e, &(corner, axis)) in tables::MC_EDGES.iter().enumerate() {
+            let (a, b) = (usize::from(corner), usize::from(corner | (1 << axis)));
+            t.mc_edge_index[8 * a + b] = e as i32;
+            t.mc_edge_index[8 * b + a] = e as i32;
         }
         t
     }

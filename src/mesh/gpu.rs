@@ -44,8 +44,8 @@
 //! added vertices after the slab's edge vertices. (Only crossed cells run the large shader:
 //! lavapipe pays a fixed cost per invocation of it even where it skips the work.) Triangles name
 //! added vertex `n` (over the whole grid) `u32::MAX - n` until, with every slab emitted and the
-//! edge-vertex total known, the assembly puts all edge vertices first, then all added ones, and
-//! `mc33 fixup` resolves the placeholders. The passes need `shaderFloat64`; without it
+//! edge-vertex total known, `mc33 fixup` resolves the placeholders in each slab's triangles and
+//! the assembly puts all edge vertices first, then all added ones. The passes need `shaderFloat64`; without it
 //! [`Extractor::extract`] returns [`GpuMeshError::Unsupported`].
 //!
 //! # Slabs
@@ -866,7 +866,7 @@ impl Extractor {
 
     /// The slabs' outputs as one mesh: the only slab's buffers, or all copied into new ones
     /// (vertices: every slab's edge or dual vertices, then every slab's mc33 added vertices).
-    /// For mc33 (`added` > 0), the triangles' added-vertex placeholders are then resolved.
+    /// For mc33 (`added` > 0), the triangles' added-vertex placeholders are resolved first.
     fn assemble(
         &self,
         s: &Scratch,
@@ -876,6 +876,32 @@ impl Extractor {
         added: u64,
     ) -> Result<GpuMesh, GpuError> {
         let ctx = &self.ctx;
+        let writes = (
+            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+            vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
+        );
+        // mc33: resolve the added-vertex placeholders in each slab's triangles (a slab's buffers
+        // fit one binding; the assembled mesh's need not).
+        if let Some(passes) = self.passes.mc33.as_ref().filter(|_| added > 0) {
+            let mut dispatches = Vec::new();
+            for piece in pieces.iter().filter(|p| p.triangles > 0) {
+                let push = SlabPush {
+                    count: (3 * piece.triangles) as u32,
+                    vertex_base: vertices as u32,
+                    added_base: added as u32,
+                    ..Default::default()
+                };
+                dispatches.push((self.bind(&passes.fixup, s, Some(piece))?, push));
+            }
+            ctx.submit("extract mc33 fixup", |cmd| {
+                let rw = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
+                memory_barrier(ctx, cmd, writes, (vk::PipelineStageFlags::COMPUTE_SHADER, rw));
+                for (set, push) in &dispatches {
+                    record_items(cmd, &passes.fixup, set, *push)?;
+                }
+                Ok(())
+            })?;
+        }
         let single = pieces.len() == 1;
         let out = if single {
             pieces.pop().expect("one slab")
@@ -885,7 +911,7 @@ impl Extractor {
                 memory_barrier(
                     ctx,
                     cmd,
-                    (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
+                    writes,
                     (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
                 );
                 let (mut v, mut a, mut t) = (0, vertices * 16, 0);
@@ -913,30 +939,8 @@ impl Extractor {
             })?;
             out
         };
-        // With mc33's added vertices, resolve their placeholders; then make the mesh visible to
-        // whatever reads it next (draws, copies, shaders).
-        let fixup = match &self.passes.mc33 {
-            Some(passes) if added > 0 => {
-                let push = SlabPush {
-                    count: (3 * triangles) as u32,
-                    vertex_base: vertices as u32,
-                    added_base: added as u32,
-                    ..Default::default()
-                };
-                Some((&passes.fixup, self.bind(&passes.fixup, s, Some(&out))?, push))
-            }
-            _ => None,
-        };
-        let writes = (
-            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-            vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
-        );
+        // Make the mesh visible to whatever reads it next (draws, copies, shaders).
         ctx.submit("extract finish", |cmd| {
-            if let Some((pipeline, set, push)) = &fixup {
-                let rw = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
-                memory_barrier(ctx, cmd, writes, (vk::PipelineStageFlags::COMPUTE_SHADER, rw));
-                record_items(cmd, pipeline, set, *push)?;
-            }
             let reads = (vk::PipelineStageFlags::ALL_COMMANDS, vk::AccessFlags::MEMORY_READ);
             memory_barrier(ctx, cmd, writes, reads);
             Ok(())

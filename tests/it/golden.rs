@@ -26,6 +26,12 @@ const METHODS: [&str; 3] = ["fixed-step", "analytic", "mesh"];
 /// Extra goldens of time-varying scenes at another time: (scene, time).
 const EXTRA_TIMES: [(&str, f64); 2] = [("cell-oscillating", 0.5), ("expr-waves", 1.0)];
 
+/// Extra mesh renders with every other extraction algorithm (the scenes' own is marching
+/// cubes): the tunnel cell, whose topology each algorithm gets differently, and the torus.
+/// Their method is `mesh-<algorithm>`.
+const EXTRA_MESH_SCENES: [&str; 2] = ["cell-tunnel", "torus"];
+const EXTRA_MESHES: [&str; 4] = ["mc33", "marching-tetrahedra", "surface-nets", "dual-contouring"];
+
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -81,6 +87,12 @@ pub fn goldens() -> Vec<Golden> {
                 }
             }
         }
+        if EXTRA_MESH_SCENES.contains(&scene.as_str()) {
+            for algo in EXTRA_MESHES {
+                let method = format!("mesh-{algo}");
+                out.push(Golden { scene: scene.clone(), method, time: 0.0 });
+            }
+        }
     }
     out
 }
@@ -94,12 +106,18 @@ pub fn render(g: &Golden, out: &Path, sets: &[String], env: &[(&str, &str)]) {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_isoview"));
     cmd.arg("render").arg(g.scene_path()).arg("-o").arg(out);
     cmd.args(["--time", &g.time.to_string()]);
+    // `mesh-<algorithm>`: the mesh render with that extraction algorithm.
+    let (method, mesh) = match g.method.strip_prefix("mesh-") {
+        Some(algo) => ("mesh", Some(format!("render.mesh=\"{algo}\""))),
+        None => (g.method.as_str(), None),
+    };
     for s in [
         format!("image.width={w}"),
         format!("image.height={h}"),
-        format!("render.method=\"{}\"", g.method),
+        format!("render.method=\"{method}\""),
     ]
     .iter()
+    .chain(&mesh)
     .chain(sets)
     {
         cmd.args(["--set", s]);

@@ -4,7 +4,8 @@
 // u32::MAX - a while the edge vertices are still being counted; its id is edges + a, after all
 // of them, as in the CPU reference.
 //
-// One invocation per index of the assembled mesh. Push constants: count = indices,
+// One dispatch per slab, one invocation per index of the slab's triangles (a slab's buffers
+// fit one binding; the assembled mesh's need not). Push constants: count = the slab's indices,
 // vertex_base = edge vertices of the whole mesh, added_base = added vertices of the whole mesh
 // (the mesh has fewer than u32::MAX vertices, so no edge vertex id reaches the placeholders).
 

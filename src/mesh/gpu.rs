@@ -45,8 +45,8 @@
 //! lavapipe pays a fixed cost per invocation of it even where it skips the work.) Triangles name
 //! added vertex `n` (over the whole grid) `u32::MAX - n` until, with every slab emitted and the
 //! edge-vertex total known, `mc33 fixup` resolves the placeholders in each slab's triangles and
-//! the assembly puts all edge vertices first, then all added ones. The passes need `shaderFloat64`; without it
-//! [`Extractor::extract`] returns [`GpuMeshError::Unsupported`].
+//! the assembly puts all edge vertices first, then all added ones. The passes need
+//! `shaderFloat64`; without it [`Extractor::extract`] returns [`GpuMeshError::Unsupported`].
 //!
 //! # Slabs
 //!
@@ -60,9 +60,9 @@
 //! neighbour's own numbering in both cases, so slabs join seamlessly. A slab whose output would
 //! not fit one binding is halved and redone. Memory: the per-slab scratch (12 bytes per point
 //! and 4 per cell, 12 for mc33, of at most one slab) plus the output, held twice while slabs are
-//! copied into one buffer (once with a single slab). Limits: a slab needs five point layers in one binding,
-//! so an x·y layer of more than a fifth of a binding (6.7 M points on lavapipe) is refused with
-//! an error, as is an axis beyond the device's 3D image size (4096 on lavapipe).
+//! copied into one buffer (once with a single slab). Limits: a slab needs five point layers in
+//! one binding, so an x·y layer of more than a fifth of a binding (6.7 M points on lavapipe) is
+//! refused with an error, as is an axis beyond the device's 3D image size (4096 on lavapipe).
 //!
 //! # Precision
 //!
@@ -458,7 +458,7 @@ impl Extractor {
                 Kind::Edges { mt: false, mc33: true }
             }
         };
-        let mc33 = kind == Kind::Edges { mt: false, mc33: true };
+        let mc33 = matches!(kind, Kind::Edges { mc33: true, .. });
         let ctx = self.ctx.clone();
         let pad = match kind {
             Kind::Edges { .. } => 0,
@@ -605,7 +605,7 @@ impl Extractor {
         let readback = Buffer::new(
             ctx,
             "extract counters readback",
-            24,
+            16,
             vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuToCpu,
         )?;

@@ -1,5 +1,5 @@
 //! `cargo bench --bench mesh` (or `./x bench`): isosurface extraction speed on 128³ and 256³
-//! grids (sphere, gyroid, noise): the GPU passes (`mesh::gpu`, marching cubes, surface nets and
+//! grids (sphere, gyroid, noise): the GPU passes (`passes::extract`, marching cubes, surface nets and
 //! mc33) on the current Vulkan device against the f64 CPU references (`mesh::extract`, one
 //! thread) and the crates `fast-surface-nets` (surface nets) and `isosurface` (marching cubes),
 //! all in the same run. Prints a markdown table; never asserts on time.
@@ -16,8 +16,8 @@ use std::time::Instant;
 use glam::DVec3;
 use isoview::field::{FieldSource, FieldSpec, Grid};
 use isoview::gpu::{Context, ContextOptions, Image3d};
-use isoview::mesh::gpu::{Extractor, GpuExtractOptions};
 use isoview::mesh::{extract, ExtractOptions, Mesh};
+use isoview::passes::extract::{Extractor, GpuExtractOptions};
 use isoview::scene::{Bounds, Inside, MeshAlgorithm, SdfShape};
 
 fn sdf_grid(shape: SdfShape, n: usize) -> Grid {

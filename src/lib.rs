@@ -1,16 +1,16 @@
 //! isoview: isosurfaces of trilinearly interpolated scalar fields, rendered with Vulkan compute.
 //!
-//! The pipeline, and the direction dependencies run:
+//! The pipeline, and the one direction dependencies run (no cycle: `tests/it/modules.rs`):
 //!
 //! ```text
-//!   scene (TOML -> validated Scene)   field (sources -> Grid of f32 samples)
-//!            \                          /
-//!             render (Renderer: uploads the grid, runs passes, reads back a Frame)
-//!                 |            \
-//!              passes           reference (f64 CPU versions of every method, for tests)
-//!                 |
-//!               gpu (Vulkan: device, buffers, images, pipelines; knows no isosurfaces)
-//!
+//!   vocab (Bounds, Inside, ...: plain types every stage speaks)
+//!     <- field (sources -> Grid of f32 samples) <- scene (TOML -> validated Scene)
+//!     <- mesh (CPU extraction references, export)
+//!     <- passes (one GPU pass per file with its shader; extract/driver: the mesh on the GPU)
+//!     <- render (Renderer: uploads the grid, runs passes in bands, reads back a Frame)
+//!     <- slice, cli
+//!   gpu = the isoview-gpu crate (Vulkan: device, buffers, images, pipelines; no isosurfaces)
+//!   reference (f64 CPU versions of every method, for tests)
 //!   output (Frame -> EXR / PNG, atomic writes)     compare (EXR vs EXR)
 //! ```
 
@@ -19,7 +19,8 @@ pub mod cli;
 pub mod compare;
 pub mod field;
 pub mod frame;
-pub mod gpu;
+/// The Vulkan backend, a crate of its own (`crates/gpu`): it cannot use isoview's modules.
+pub use isoview_gpu as gpu;
 pub mod mesh;
 pub mod output;
 pub mod passes;
@@ -27,6 +28,7 @@ pub mod reference;
 pub mod render;
 pub mod scene;
 pub mod slice;
+pub mod vocab;
 
 /// SPIR-V for every shader in `shaders/`, compiled by `build.rs`.
 pub mod shaders {

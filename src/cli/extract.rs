@@ -46,7 +46,7 @@ pub struct ExtractArgs {
 /// Where the extraction runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Backend {
-    /// Vulkan compute (`isoview::mesh::gpu`).
+    /// Vulkan compute (`isoview::passes::extract`).
     Gpu,
     /// The f64 CPU reference (`isoview::mesh::extract`).
     Cpu,
@@ -132,7 +132,7 @@ pub fn extract_cpu(scene: &Scene, grid: &Grid, opts: ExtractOptions) -> Result<M
         .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))
 }
 
-/// The GPU extraction (compute passes of [`mesh::gpu`]) on the Vulkan device `vulkan_device`,
+/// The GPU extraction (compute passes of [`passes::extract`]) on the Vulkan device `vulkan_device`,
 /// read back into a [`Mesh`], and where it ran. `opts.split` is honoured; `opts.keep_quads`
 /// needs the CPU quads, so `--quads` extracts on the CPU, with a note on stderr, as does `mc33`
 /// on a device without `shaderFloat64`.
@@ -161,8 +161,9 @@ fn extract_gpu(
     }
     let image =
         crate::gpu::Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values)?;
-    let gpu_opts = mesh::gpu::GpuExtractOptions { split: opts.split, ..Default::default() };
-    let gpu_mesh = mesh::gpu::Extractor::new(&ctx)
+    let gpu_opts =
+        crate::passes::extract::GpuExtractOptions { split: opts.split, ..Default::default() };
+    let gpu_mesh = crate::passes::extract::Extractor::new(&ctx)
         .and_then(|mut x| {
             x.extract(
                 grid,
@@ -174,7 +175,7 @@ fn extract_gpu(
             )
         })
         .map_err(|e| match e {
-            mesh::gpu::GpuMeshError::Gpu(g) => Failure::gpu(g),
+            crate::passes::extract::GpuMeshError::Gpu(g) => Failure::gpu(g),
             other => Failure::input(format!("{}: {other}", scene_name(scene))),
         })?;
     Ok((gpu_mesh.read()?, Backend::Gpu))

@@ -34,7 +34,7 @@ use std::sync::Arc;
 use glam::DVec3;
 
 use super::FieldError;
-use crate::scene::Bounds;
+use crate::vocab::Bounds;
 
 /// Fraction of the bounding box's longest side added as a margin on every side.
 pub const MARGIN: f64 = 0.05;

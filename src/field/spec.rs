@@ -9,7 +9,7 @@ use super::npy::{path_str, NpySource};
 use super::raw::{file_name, RawSource};
 use super::samples::{self, StorageOrder};
 use super::{FieldError, Grid, GridLimits};
-use crate::scene::{Bounds, SdfShape};
+use crate::vocab::{Bounds, SdfShape};
 
 /// Where a field's values come from, after validation.
 #[derive(Clone, Debug)]

@@ -5,7 +5,7 @@
 use glam::DVec3;
 
 use crate::field::Grid;
-use crate::scene::Inside;
+use crate::vocab::Inside;
 
 pub(crate) struct Field<'a> {
     pub grid: &'a Grid,

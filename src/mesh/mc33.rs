@@ -58,7 +58,7 @@ use super::edges::{offset, EdgeLayers, Vertices};
 use super::field::Field;
 use super::tables::MC_EDGES;
 use super::{Mesh, MeshError};
-use crate::scene::Inside;
+use crate::vocab::Inside;
 
 /// Edge families: x, y, z (as marching cubes).
 const FAMILIES: &[u8] = &[1, 2, 4];

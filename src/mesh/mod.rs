@@ -57,7 +57,6 @@ mod dual;
 mod edges;
 pub mod export;
 mod field;
-pub mod gpu;
 mod mc;
 mod mc33;
 mod mt;
@@ -67,7 +66,7 @@ pub mod tables;
 mod tests;
 
 use crate::field::Grid;
-use crate::scene::{Inside, MeshAlgorithm};
+use crate::vocab::{Inside, MeshAlgorithm};
 
 /// An indexed triangle mesh in world space.
 ///

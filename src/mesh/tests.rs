@@ -8,7 +8,7 @@ use super::stats::compute;
 use super::tables::*;
 use super::{extract, ExtractOptions, Mesh};
 use crate::field::Grid;
-use crate::scene::{Inside, MeshAlgorithm};
+use crate::vocab::{Inside, MeshAlgorithm};
 
 /// A grid over its own index space.
 fn grid(dims: [usize; 3], values: Vec<f32>) -> Grid {

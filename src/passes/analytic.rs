@@ -27,6 +27,6 @@ pub fn pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
         "analytic",
         shaders::ANALYTIC,
         &BINDINGS,
-        std::mem::size_of::<crate::render::params::Band>() as u32,
+        std::mem::size_of::<super::Band>() as u32,
     )
 }

@@ -22,8 +22,8 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
 use crate::gpu::{Buffer, ComputePipeline, Context, GpuError, Resource};
-use crate::mesh::gpu::GpuMesh;
 use crate::mesh::Mesh;
+use crate::passes::extract::GpuMesh;
 use crate::shaders;
 
 /// Invocations per workgroup of the raster pass.
@@ -119,7 +119,7 @@ impl MeshPipelines {
             "mesh_resolve",
             shaders::MESH_RESOLVE,
             &resolve_bindings,
-            std::mem::size_of::<crate::render::params::Band>() as u32,
+            std::mem::size_of::<super::Band>() as u32,
         )?;
         Ok(MeshPipelines { raster, resolve })
     }

@@ -2,6 +2,9 @@
 //! dispatch. A pass reads as name → shader → bindings → push constants → dispatch.
 
 pub mod analytic;
+mod band;
+pub use band::Band;
+
 pub mod bricks;
 pub mod extract;
 pub mod mesh_render;

@@ -8,8 +8,8 @@ use std::sync::Arc;
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
+use super::Band;
 use crate::gpu::{ComputePipeline, Context, GpuError};
-use crate::render::params::Band;
 use crate::shaders;
 
 /// Workgroup size (`local_size_x/y`), also the side of the contour tiles in pixels.

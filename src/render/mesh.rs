@@ -9,8 +9,8 @@ use super::{run_bands, GpuGrid, RenderError, Renderer};
 use crate::field::Grid;
 use crate::frame::{Frame, Pixel};
 use crate::gpu::{fill_buffer, memory_barrier, Buffer, MemoryLocation, Resource};
-use crate::mesh::gpu::{Extractor, GpuExtractOptions, GpuMesh};
 use crate::mesh::{self, ExtractOptions, Mesh};
+use crate::passes::extract::{Extractor, GpuExtractOptions, GpuMesh};
 use crate::passes::mesh_render::{
     self, MeshPipelines, RasterPush, COUNT_BYTES, NO_HIT_WORD, RESOLVE_GROUP, VIS_BYTES,
 };

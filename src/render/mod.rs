@@ -21,9 +21,10 @@ use crate::gpu::{
     Buffer, ComputePipeline, Context, GpuError, Image3d, MemoryLocation, Resource, Timer,
 };
 use crate::passes::mesh_render::MeshPipelines;
+use crate::passes::Band;
 use crate::passes::{analytic, bricks, raymarch};
 use crate::scene::{Method, Scene};
-use params::{Band, RenderParams};
+use params::RenderParams;
 
 /// Most rays in one dispatch (bounds the time of one submission on real GPUs too).
 pub const MAX_BAND_PIXELS: u64 = 1 << 20;
@@ -38,9 +39,9 @@ pub enum RenderError {
     Mesh(#[from] crate::mesh::MeshError),
 }
 
-impl From<crate::mesh::gpu::GpuMeshError> for RenderError {
-    fn from(e: crate::mesh::gpu::GpuMeshError) -> Self {
-        use crate::mesh::gpu::GpuMeshError;
+impl From<crate::passes::extract::GpuMeshError> for RenderError {
+    fn from(e: crate::passes::extract::GpuMeshError) -> Self {
+        use crate::passes::extract::GpuMeshError;
         match e {
             GpuMeshError::Gpu(g) => RenderError::Gpu(g),
             GpuMeshError::Mesh(m) => RenderError::Mesh(m),
@@ -132,7 +133,7 @@ pub struct Renderer {
     /// The mesh render's pipelines, built on the first mesh render (they need 64-bit atomics).
     mesh: Option<MeshPipelines>,
     /// The GPU mesh extraction, built on the first mesh render.
-    extractor: Option<crate::mesh::gpu::Extractor>,
+    extractor: Option<crate::passes::extract::Extractor>,
     /// GPU time of the last frame's ray passes, in milliseconds (None without timestamps).
     pub last_gpu_ms: Option<f64>,
     /// GPU time of building the brick min/max grid during the last frame, in milliseconds

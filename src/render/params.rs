@@ -38,14 +38,6 @@ const _: () = {
     assert!(std::mem::offset_of!(RenderParams, analytic) == 15 * 16);
 };
 
-/// Push constants of the ray passes: the band of rows being rendered.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct Band {
-    pub row_offset: u32,
-    pub rows: u32,
-}
-
 fn v4(v: DVec3, w: f32) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w]
 }

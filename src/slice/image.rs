@@ -15,7 +15,7 @@ use super::plane::PlaneGrid;
 use crate::gpu::record_readback;
 use crate::gpu::{Buffer, ComputePipeline, Context, GpuError, MemoryLocation, Resource};
 use crate::passes::slice::{self as pass, SliceParams, SlicePixel};
-use crate::render::params::Band;
+use crate::passes::Band;
 use crate::render::GpuGrid;
 use crate::scene::Inside;
 

@@ -1,4 +1,4 @@
-//! GPU extraction (`mesh::gpu`) against the CPU references (`mesh::extract`): on random grids,
+//! GPU extraction (`passes::extract`) against the CPU references (`mesh::extract`): on random grids,
 //! both inside modes, random isovalues and isovalues equal to samples, the GPU mesh has the
 //! reference's vertices in the same order (positions within 1e-5 of a cell plus f32 rounding of
 //! the coordinates, normals within 1e-3) and exactly its triangles; slabs of any depth join
@@ -10,8 +10,8 @@ use std::sync::Arc;
 use glam::DVec3;
 use isoview::field::Grid;
 use isoview::gpu::{Context, Image3d};
-use isoview::mesh::gpu::{ExtractStats, Extractor, GpuExtractOptions, GpuMeshError};
 use isoview::mesh::{extract, ExtractOptions, Mesh, QuadSplit};
+use isoview::passes::extract::{ExtractStats, Extractor, GpuExtractOptions, GpuMeshError};
 use isoview::scene::{Inside, MeshAlgorithm};
 
 use crate::common::*;
@@ -462,7 +462,7 @@ fn closed_form_plane_and_sphere() {
     let sphere = grid_from([24, 24, 24], DVec3::splat(-1.0), DVec3::ONE, |p| p.length() - 0.7);
     let h = sphere.spacing().x;
     for algo in GPU_ALGOS {
-        let m = isoview::mesh::gpu::extract(&ctx, &plane, 0.0, Inside::Below, algo)
+        let m = isoview::passes::extract::extract(&ctx, &plane, 0.0, Inside::Below, algo)
             .unwrap()
             .read()
             .unwrap();
@@ -477,7 +477,7 @@ fn closed_form_plane_and_sphere() {
             assert!((a.dot(p) - 0.1).abs() < 1e-5, "{}: {p} off the plane", algo.name());
             assert!((n - a.normalize()).length() < 1e-5, "{}: normal {n}", algo.name());
         }
-        let m = isoview::mesh::gpu::extract(&ctx, &sphere, 0.0, Inside::Below, algo)
+        let m = isoview::passes::extract::extract(&ctx, &sphere, 0.0, Inside::Below, algo)
             .unwrap()
             .read()
             .unwrap();

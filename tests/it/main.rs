@@ -14,6 +14,7 @@ mod layout;
 mod mesh;
 mod mesh_field;
 mod mesh_render;
+mod modules;
 mod output;
 mod render;
 mod scene;

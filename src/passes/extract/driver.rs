@@ -1,6 +1,6 @@
-//! Isosurface extraction on the GPU: the CPU references of this module's parent, reproduced
-//! index for index by compute passes ([`crate::passes::extract`], `shaders/extract/`), with the
-//! mesh left on the device.
+//! Isosurface extraction on the GPU: the CPU references of [`crate::mesh`], reproduced index
+//! for index by the compute passes of this module's parent (`shaders/extract/`), with the mesh
+//! left on the device.
 //!
 //! # Pass structure
 //!
@@ -76,17 +76,17 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::{Mesh, MeshError, QuadSplit};
+use super::{
+    classify_mode, compute_barrier, inside_threshold, record_items, ExtractParams, ExtractPasses,
+    ExtractTables, Mc33Passes, Scan, SlabPush,
+};
 use crate::field::Grid;
 use crate::gpu::{
     copy_buffer, fill_buffer, memory_barrier, Buffer, ComputePipeline, Context, Dispatch, GpuError,
     Image3d, MemoryLocation, Resource, Timer,
 };
-use crate::passes::extract::{
-    classify_mode, compute_barrier, inside_threshold, record_items, ExtractParams, ExtractPasses,
-    ExtractTables, Mc33Passes, Scan, SlabPush,
-};
-use crate::scene::{Inside, MeshAlgorithm};
+use crate::mesh::{Mesh, MeshError, QuadSplit};
+use crate::vocab::{Inside, MeshAlgorithm};
 
 /// Largest scratch buffer of a slab, in bytes, on devices whose binding limit is larger.
 const MAX_SCRATCH_BYTES: u64 = 256 << 20;

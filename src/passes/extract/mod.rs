@@ -1,5 +1,5 @@
 //! Isosurface extraction passes (`shaders/extract/`): classify → scan → emit, one slab of z
-//! layers at a time. [`crate::mesh::gpu`] drives them; this module owns the shaders, their
+//! layers at a time. [`driver`] drives them; this module owns the shaders, their
 //! bindings and push constants, the tables upload and the multi-level prefix sum.
 //!
 //! | pass | shader | one invocation per | writes |
@@ -21,6 +21,10 @@
 //!
 //! Every extraction pass binds the same twelve resources ([`EXTRACT_BINDINGS`]) and takes
 //! [`SlabPush`]; a pass that does not use a binding still gets a (dummy) buffer there.
+
+pub mod driver;
+
+pub use driver::{extract, ExtractStats, Extractor, GpuExtractOptions, GpuMesh, GpuMeshError};
 
 use std::sync::Arc;
 

@@ -7,8 +7,9 @@
 //   of its derivative, a crossing wherever the inside predicate changes between consecutive
 //   split points (values at cell faces carried from cell to cell), refined by Newton kept in
 //   the bracket; 7. hit attributes.
-// The walk goes on after the hit to count every crossing (the `crossings` channel); only the
-// wanted one (`P.analytic.x`, the k-th) is refined.
+// With `render.count_crossings` (`P.analytic.w`) the walk goes on after the hit to count every
+// crossing (the `crossings` channel; only the wanted one, `P.analytic.x`, the k-th, is refined);
+// without it the walk stops at the wanted crossing and `crossings` is -1 (no channel).
 //
 // Outputs: the hit's colour (shade()), normal, depth (the ray's t: distance, dir being a unit
 // vector), position, cell; `crossings`, every crossing with t > 0 inside the box; `steps`, the
@@ -90,11 +91,12 @@ void main() {
     r.position = vec3(0.0);
     r.steps = 0.0;
     r.cell = ivec3(-1);
-    r.crossings = 0;
+    r.crossings = P.analytic.w != 0u ? 0 : -1;  // -1: not counted (render.count_crossings)
 
     bool below = P.surface.y > 0.0;
     float iso = P.surface.x;
     uint wanted = max(P.analytic.x, 1u);
+    bool count_all = P.analytic.w != 0u;
 
     // 1. Index space (the eye's index-space position comes from the CPU, in f64).
     ivec3 ncell = P.dims.xyz - 1;
@@ -275,8 +277,11 @@ void main() {
                 r.position = eye + t * dir;
                 r.cell = cell;
                 r.rgba = vec4(shade(r.normal, dir, t, float(visited), vec3(cell) + q, cell), 1.0);
+                if (!count_all) break;
             }
         }
+        // Nothing after the hit changes the image unless every crossing is counted.
+        if (found && !count_all) break;
 
         // 6.6 Advance: step every crossed axis (ties step together: diagonal through an edge
         // or corner), carry the exit point and value into the next cell.
@@ -299,6 +304,6 @@ void main() {
     }
 
     r.steps = float(found ? visited : passes);
-    r.crossings = int(crossings);
+    r.crossings = count_all ? int(crossings) : -1;
     pixels[px_local.y * P.image.x + px_local.x] = r;
 }

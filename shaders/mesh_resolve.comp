@@ -7,7 +7,8 @@
 //          (inside -> outside; the triangle's geometric normal where they cancel);
 //   cell   the grid cell holding P (`cell_of`, as the ray passes);
 //   steps  triangles tested for this pixel (those whose widened screen box held it);
-//   crossings  triangles the ray hit at t > 0 (surface crossings, as analytic counts them);
+//   crossings  triangles the ray hit at t > 0 (surface crossings, as analytic counts them),
+//              or -1 unless `render.count_crossings`;
 //   RGB    `shade()`, A = 1 on a hit; the background on a miss.
 // Mirrors `reference::mesh` (f64).
 
@@ -52,7 +53,8 @@ void main() {
     r.position = vec3(0.0);
     r.steps = float(counts[2u * i]);
     r.cell = ivec3(-1);
-    r.crossings = int(counts[2u * i + 1u]);
+    // Counted only when asked for (`render.count_crossings`, P.analytic.w); -1: no channel.
+    r.crossings = P.analytic.w != 0u ? int(counts[2u * i + 1u]) : -1;
 
     uint64_t key = vis[i];
     if (key != NO_HIT) {

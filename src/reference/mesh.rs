@@ -6,7 +6,8 @@
 //! Brute force over all triangles (no acceleration): it is a reference for tests, not a
 //! renderer. Channels: Z = t, P = eye + t dir, N = vertex normals interpolated with the hit's
 //! barycentric weights (the geometric normal where they cancel), cell = the grid cell holding P,
-//! steps = triangles tested, crossings = triangles hit at t > 0.
+//! steps = triangles tested, crossings = triangles hit at t > 0 (-1 unless
+//! `render.count_crossings`).
 
 use glam::DVec3;
 
@@ -224,7 +225,7 @@ pub fn render(scene: &Scene, grid: &Grid, mesh: &Mesh) -> (Vec<Pixel>, Vec<MeshT
             let dir = cam.ray_dir(px, py);
             let tr = trace(mesh, &cam, &boxes, px, py);
             let mut p = Pixel::miss(scene.render.background, tr.tested as f32);
-            p.crossings = tr.hits as i32;
+            p.crossings = if scene.render.count_crossings { tr.hits as i32 } else { -1 };
             if let Some((tri, h)) = tr.hit {
                 let position = cam.eye + dir * h.t;
                 let u = to_grid(grid, position);

@@ -285,6 +285,10 @@ impl Renderer {
             }
             Method::Mesh => extra.push(("mesh".into(), r.mesh.name().to_string())),
         }
+        if r.method != Method::FixedStep {
+            // Whether the `crossings` channel was counted (it is absent when not).
+            extra.push(("count_crossings".into(), r.count_crossings.to_string()));
+        }
         FrameInfo {
             scene: scene.path.as_ref().map(|p| p.display().to_string()).unwrap_or_default(),
             eye: scene.camera.eye,

@@ -112,7 +112,12 @@ impl RenderParams {
             ],
             debug: [steps_scale(scene, grid) as f32, 0.0, 0.0, 0.0],
             eye_grid: v4((cam.eye - grid.min) / grid.spacing(), 0.0),
-            analytic: [r.crossing.max(1), r.skip as u32, crate::passes::bricks::BRICK as u32, 0],
+            analytic: [
+                r.crossing.max(1),
+                r.skip as u32,
+                crate::passes::bricks::BRICK as u32,
+                r.count_crossings as u32,
+            ],
         }
     }
 }

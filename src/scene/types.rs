@@ -152,6 +152,10 @@ pub struct RenderSettings {
     pub skip: bool,
     /// Analytic: which isovalue crossing along the ray is shown (1 = the first hit).
     pub crossing: u32,
+    /// Analytic and mesh: count every crossing along the whole ray for the `crossings` channel.
+    /// Off by default: the analytic walk then stops at the shown crossing (about twice as
+    /// fast), and the EXR has no `crossings` channel.
+    pub count_crossings: bool,
     pub mesh: MeshAlgorithm,
     pub shading: Shading,
     /// Linear RGBA of pixels whose ray misses.
@@ -161,7 +165,7 @@ pub struct RenderSettings {
 }
 
 impl Default for RenderSettings {
-    /// Analytic, 200 fixed steps, 10 Newton steps, skipping on, first crossing, marching cubes,
+    /// Analytic, 200 fixed steps, 10 Newton steps, skipping on, first crossing, no whole-ray crossing count, marching cubes,
     /// Lambert shading, transparent black background, colour (0.85, 0.65, 0.45).
     fn default() -> Self {
         RenderSettings {
@@ -170,6 +174,7 @@ impl Default for RenderSettings {
             newton_steps: 10,
             skip: true,
             crossing: 1,
+            count_crossings: false,
             mesh: MeshAlgorithm::MarchingCubes,
             shading: Shading::Lambert,
             background: [0.0, 0.0, 0.0, 0.0],

@@ -128,6 +128,7 @@ fn render(t: &View) -> Result<RenderSettings> {
         "newton_steps",
         "skip",
         "crossing",
+        "count_crossings",
         "mesh",
         "shading",
         "background",
@@ -147,6 +148,7 @@ fn render(t: &View) -> Result<RenderSettings> {
         crossing: t
             .or("crossing", d.crossing as i64, |s, k, n| integer(s, k, n, 1, MAX_CROSSING))?
             as u32,
+        count_crossings: t.or("count_crossings", d.count_crossings, read::boolean)?,
         mesh: t.or("mesh", d.mesh, |s, k, n| choice(s, k, n, &meshes))?,
         shading: t.or("shading", d.shading, |s, k, n| choice(s, k, n, &shadings))?,
         background: t.or("background", d.background, colour::<4>)?,

@@ -799,6 +799,40 @@ fn validation_layer_reports_nothing_for_an_analytic_render() {
     assert_eq!(validation_messages(), before, "validation warnings or errors (printed above)");
 }
 
+/// The default (`render.count_crossings = false`) stops the walk at the shown crossing: every
+/// channel but `crossings` is bit-identical to the counting walk (`steps` too: it counts passes
+/// up to the hit), `crossings` is -1 everywhere, and the reference agrees.
+#[test]
+fn stopping_at_the_hit_changes_only_crossings() {
+    let Some(ctx) = gpu() else { return };
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let mut rng = Rng::new(47);
+    let mut hits = 0;
+    for case in 0..6 {
+        let grid = smooth_grid(&mut rng, 12 + 5 * case);
+        let eye = random_eye(&mut rng, &grid, case % 3 == 2);
+        let mut counting = scene_for(&grid, eye, 40, Method::Analytic);
+        counting.surface.isovalue = rng.range(-0.3, 0.3);
+        counting.render.crossing = 1 + (case % 2) as u32;
+        counting.render.skip = case % 3 != 1;
+        let mut stopping = counting.clone();
+        stopping.render.count_crossings = false;
+        assert!(!isoview::scene::RenderSettings::default().count_crossings, "off by default");
+        let a = render(&mut renderer, &counting, &grid).pixels;
+        let b = render(&mut renderer, &stopping, &grid).pixels;
+        let reference = isoview::reference::analytic::render(&stopping, &grid);
+        for (i, ((a, b), r)) in a.iter().zip(&b).zip(&reference).enumerate() {
+            assert_eq!(b.crossings, -1, "case {case} pixel {i}");
+            assert_eq!(r.crossings, -1, "case {case} pixel {i}: reference");
+            let mut a = *a;
+            a.crossings = -1;
+            assert_eq!(bytemuck::bytes_of(&a), bytemuck::bytes_of(b), "case {case} pixel {i}");
+            hits += b.is_hit() as usize;
+        }
+    }
+    assert!(hits > 1000, "enough hits: {hits}");
+}
+
 #[test]
 fn scene_keys_skip_and_crossing() {
     use isoview::field::GridLimits;
@@ -816,6 +850,8 @@ fn scene_keys_skip_and_crossing() {
     let cell = "[field]\nsource = \"corners\"\nvalues = [-1, 1, 1, 1, 1, 1, 1, 1]\n";
     let s = parse(cell, &[]).unwrap();
     assert_eq!((s.render.skip, s.render.crossing), (true, 1));
+    assert!(!s.render.count_crossings);
+    assert!(parse(cell, &["render.count_crossings=true"]).unwrap().render.count_crossings);
     let s = parse(cell, &["render.skip=false", "render.crossing=3"]).unwrap();
     assert_eq!((s.render.skip, s.render.crossing), (false, 3));
     let text = format!("{cell}[render]\nskip = false\ncrossing = 2\n");

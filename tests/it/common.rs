@@ -73,7 +73,9 @@ pub fn grid_from(dims: [usize; 3], min: DVec3, max: DVec3, f: impl Fn(DVec3) -> 
 }
 
 /// A scene around `grid` at the contract's defaults, looking at the box's centre from `eye`,
-/// `size`² pixels, fixed-step with 64 steps or the given method.
+/// `size`² pixels, fixed-step with 64 steps or the given method, counting every crossing
+/// (`render.count_crossings`: the tests check the `crossings` channel against the references;
+/// `analytic::stopping_at_the_hit_changes_only_crossings` covers the default).
 pub fn scene_for(grid: &Grid, eye: DVec3, size: u32, method: Method) -> Scene {
     let mut scene = Scene::new(FieldSpec::from_grid(grid.clone()));
     scene.image = ImageSettings { width: size, height: size };
@@ -81,6 +83,7 @@ pub fn scene_for(grid: &Grid, eye: DVec3, size: u32, method: Method) -> Scene {
     scene.camera.target = 0.5 * (grid.min + grid.max);
     scene.render.method = method;
     scene.render.steps = 64;
+    scene.render.count_crossings = true;
     scene
 }
 

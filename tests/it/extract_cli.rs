@@ -183,7 +183,9 @@ fn render_method_mesh_writes_every_channel_and_says_how_it_was_made() {
     let dir = scratch("extract-render");
     let scene_path = write(&dir, "sphere.toml", SPHERE);
     let out = dir.join("mesh.exr");
-    let o = isoview(&["render", &scene_path, "-o", &out.display().to_string()], &[]);
+    let count = "render.count_crossings=true";
+    let o =
+        isoview(&["render", &scene_path, "-o", &out.display().to_string(), "--set", count], &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     let img = exr::read(&out).unwrap();
     let names: Vec<&str> = img.channel_names().collect();
@@ -197,7 +199,10 @@ fn render_method_mesh_writes_every_channel_and_says_how_it_was_made() {
     // The exact surface has the same channels, so `compare` measures the mesh's departure.
     let exact = dir.join("analytic.exr");
     let e = exact.display().to_string();
-    let o = isoview(&["render", &scene_path, "-o", &e, "--set", "render.method=analytic"], &[]);
+    let o = isoview(
+        &["render", &scene_path, "-o", &e, "--set", "render.method=analytic", "--set", count],
+        &[],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let o = isoview(&["compare", &e, &out.display().to_string()], &[]);
     assert_eq!(o.status.code(), Some(1), "differences, not an error: {}", stderr(&o));

@@ -308,7 +308,8 @@ pub fn options(scene: &Scene) -> AnalyticOptions {
 }
 
 /// The whole image, as the GPU's analytic pass produces it: `steps` is
-/// [`AnalyticHit::cells_visited`], `crossings` is [`AnalyticHit::crossings`]. (With
+/// [`AnalyticHit::cells_visited`], `crossings` is [`AnalyticHit::crossings`] with
+/// `render.count_crossings` and -1 without (the GPU then stops at the hit). (With
 /// `render.skip` on, the GPU's `steps` counts less work; every other channel is the same.)
 pub fn render(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
     let (iso, inside, opts) = (scene.surface.isovalue, scene.surface.inside, options(scene));
@@ -321,7 +322,8 @@ pub fn render(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
             grid_coords: DVec3::new(h.cell[0] as f64, h.cell[1] as f64, h.cell[2] as f64) + h.local,
             cell: h.cell.map(|c| c as usize),
         });
-        (hit, a.cells_visited, a.crossings as i32)
+        let crossings = if scene.render.count_crossings { a.crossings as i32 } else { -1 };
+        (hit, a.cells_visited, crossings)
     })
 }
 

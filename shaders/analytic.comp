@@ -76,6 +76,19 @@ bool brick_is_empty(ivec3 cell) {
     return mm.x - iso > tol || iso - mm.y > tol;
 }
 
+// The same test for one cell (`render.skip` too): every value the walk decides the predicate on
+// in the cell (the carried entry value, the exit value, the cubic at its split points) is a
+// convex combination of its 8 corners up to rounding, so a cell whose corners are clearly on one
+// side holds no crossing and its cubic need not be formed. Changes no output, `steps` included.
+bool cell_is_clear(Corners k, float iso) {
+    vec4 mn = min(k.lo, k.hi);
+    vec4 mx = max(k.lo, k.hi);
+    float lo = min(min(mn.x, mn.y), min(mn.z, mn.w));
+    float hi = max(max(mx.x, mx.y), max(mx.z, mx.w));
+    float tol = SKIP_MARGIN * (max(abs(lo), abs(hi)) + abs(iso));
+    return lo - iso > tol || iso - hi > tol;
+}
+
 void main() {
     uvec2 px_local = gl_GlobalInvocationID.xy;
     if (px_local.x >= P.image.x || px_local.y >= band.rows) return;
@@ -232,7 +245,7 @@ void main() {
         }
         float g_out = t_out == t_in ? g_in : trilerp(corners, q_out) - iso;
 
-        if (!jumped) {
+        if (!jumped && !(P.analytic.y != 0u && cell_is_clear(corners, iso))) {
             // 6.3 Cubic; 6.4 split points.
             vec4 cubic = cubic_along(corners, q_in, q_out, g_in);
             float r0, r1;

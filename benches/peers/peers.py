@@ -111,7 +111,7 @@ def median(xs):
 def render(iso, out, name, *sets):
     """`isoview render` REPEAT times: median GPU ms (Vulkan timestamps, printed by isoview; the
     brick build of the first analytic render is not in it), median whole-process s, the EXR."""
-    exr = out / f"{name}.{'-'.join(s.split('=')[1] for s in sets) or 'analytic'}.exr"
+    exr = out / f"{name}.{'-'.join(s.split('=')[1] for s in sets)}.exr"  # name.fixed-step-512.exr
     cmd = [iso, "render", out / f"{name}.toml", "-o", exr,
            "--set", f"image.width={SIZE}", "--set", f"image.height={SIZE}"]
     for s in sets:

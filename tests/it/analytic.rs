@@ -296,8 +296,9 @@ fn smooth_grid(rng: &mut Rng, n: usize) -> Grid {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn analytic_matches_reference_on_random_grids_and_cameras() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(31);
     let mut total = Stats::default();
@@ -337,8 +338,9 @@ fn single_cell(values: [f64; 8]) -> Grid {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn every_single_cell_sign_configuration() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(32);
     let mut total = Stats::default();
@@ -362,8 +364,9 @@ fn every_single_cell_sign_configuration() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn ambiguous_faces_and_tunnels() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(33);
     // (values, what the trilinear surface is), marching-cubes cases 3, 4, 6, 7, 10, 12, 13.
@@ -411,8 +414,9 @@ fn dyadic_grid_with_zeros(rng: &mut Rng, n: usize) -> Grid {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn rays_along_grid_planes_lines_and_diagonals() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(34);
     // Eye, target, up: integer eye positions and exact directions, so that with an odd image
@@ -474,8 +478,9 @@ fn rays_along_grid_planes_lines_and_diagonals() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn corner_equal_to_the_isovalue() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(35);
     // The contract: a value equal to the isovalue is outside. (values, inside, any inside at all)
@@ -519,8 +524,9 @@ fn corner_equal_to_the_isovalue() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn grazing_rays() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut total = Stats::default();
     // A sphere seen at its limb, close up: most rays pass near tangency.
@@ -545,8 +551,9 @@ fn grazing_rays() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn linear_field_renders_an_exact_plane() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     // f = x + 2y - z: the surface f = 0.1 is a plane with normal (1, 2, -1)/sqrt(6).
     let grid =
@@ -579,8 +586,9 @@ fn linear_field_renders_an_exact_plane() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn sphere_sdf_grid_renders_a_sphere() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let grid = grid_from([33, 33, 33], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.6);
     let scene = analytic_scene(&grid, DVec3::new(0.0, 0.0, 3.0), 64);
@@ -626,8 +634,9 @@ fn same_but_steps(a: &Pixel, b: &Pixel) -> bool {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn skipping_leaves_images_bit_identical() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(36);
     let torus = {
@@ -710,8 +719,9 @@ fn skipping_leaves_images_bit_identical() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn brick_grid_holds_each_bricks_min_and_max() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(37);
     for dims in [[2, 2, 2], [9, 9, 9], [19, 10, 26], [17, 33, 8]] {
@@ -741,8 +751,9 @@ fn brick_grid_holds_each_bricks_min_and_max() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn kth_crossing_matches_reference() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(38);
     let mut total = Stats::default();
@@ -782,10 +793,8 @@ fn kth_crossing_matches_reference() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn validation_layer_reports_nothing_for_an_analytic_render() {
-    if std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() == Ok("1") {
-        return;
-    }
     use isoview::gpu::{validation_messages, Context, ContextOptions};
     let ctx = Context::new(&ContextOptions { device: None, validation: true }).expect(
         "Vulkan with VK_LAYER_KHRONOS_validation (apt-get install vulkan-validationlayers)",

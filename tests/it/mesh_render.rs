@@ -96,8 +96,9 @@ fn render_mesh(renderer: &mut Renderer, scene: &Scene, grid: &Grid, mesh: &Mesh)
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn mesh_render_matches_reference_on_random_meshes_and_cameras() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(11);
     let (mut rays, mut hits, mut excused, mut steps_off) = (0, 0, 0, 0);
@@ -139,8 +140,9 @@ fn mesh_render_matches_reference_on_random_meshes_and_cameras() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn random_triangle_soup_and_a_camera_among_the_triangles_match_the_reference() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(5);
     let grid = grid_from([3, 3, 3], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.x);
@@ -169,8 +171,9 @@ fn random_triangle_soup_and_a_camera_among_the_triangles_match_the_reference() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn linear_field_mesh_renders_the_exact_plane() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     // f = x + 2y - z: every algorithm's mesh of f = 0.1 lies in the plane (dual methods inside
     // the grid; marching cubes exactly).
     let grid =
@@ -209,8 +212,9 @@ const SPHERE_GAP_TOL: [(MeshAlgorithm, f64); 2] =
     [(MeshAlgorithm::Mc33, 3e-4), (MeshAlgorithm::SurfaceNets, 1e-3)];
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn fine_sphere_mesh_render_agrees_with_fixed_step_and_analytic_within_the_stated_tolerance() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let grid = sphere_grid();
     let mut renderer = Renderer::new(&ctx).unwrap();
     for (algo, gap_tol) in SPHERE_GAP_TOL {
@@ -257,8 +261,9 @@ fn fine_sphere_mesh_render_agrees_with_fixed_step_and_analytic_within_the_stated
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn tall_images_render_the_mesh_in_bands_identically() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let grid = grid_from([9, 9, 9], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.7);
     let mut scene = scene_for(&grid, DVec3::new(0.3, 0.2, 3.0), 16, Method::Mesh);
     scene.image.width = 4096;
@@ -289,10 +294,8 @@ fn tall_images_render_the_mesh_in_bands_identically() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn validation_layer_reports_nothing_for_a_mesh_render() {
-    if std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() == Ok("1") {
-        return;
-    }
     use isoview::gpu::{validation_messages, Context, ContextOptions};
     let ctx = Context::new(&ContextOptions { device: None, validation: true }).expect(
         "Vulkan with VK_LAYER_KHRONOS_validation (apt-get install vulkan-validationlayers)",

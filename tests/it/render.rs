@@ -90,8 +90,9 @@ fn compare_with_reference(scene: &Scene, grid: &Grid, gpu: &[Pixel]) -> Agreemen
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn fixed_step_matches_reference_on_random_grids_and_cameras() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(7);
     let (mut rays, mut hits, mut excused) = (0, 0, 0);
@@ -120,8 +121,9 @@ fn fixed_step_matches_reference_on_random_grids_and_cameras() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn linear_field_renders_an_exact_plane() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     // f = x + 2y - z: the surface f = 0.1 is a plane with normal (1, 2, -1)/sqrt(6).
     let grid =
         grid_from([6, 5, 7], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.x + 2.0 * p.y - p.z);
@@ -142,8 +144,9 @@ fn linear_field_renders_an_exact_plane() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn sphere_sdf_grid_renders_a_sphere() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let grid = grid_from([33, 33, 33], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.6);
     let scene = scene_for(&grid, DVec3::new(0.0, 0.0, 3.0), 64, Method::FixedStep);
     let frame = Renderer::new(&ctx).unwrap().render(&scene, &grid, 0.0).unwrap();
@@ -171,8 +174,9 @@ fn sphere_sdf_grid_renders_a_sphere() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn tall_images_render_in_bands_identically() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let grid = grid_from([9, 9, 9], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.7);
     // 4096 wide: MAX_BAND_PIXELS (2^20) / 4096 = 256 rows per band, so 600 rows take 3 bands.
     let mut scene = scene_for(&grid, DVec3::new(0.3, 0.2, 3.0), 16, Method::FixedStep);
@@ -195,10 +199,8 @@ fn tall_images_render_in_bands_identically() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn validation_layer_reports_nothing_for_a_render() {
-    if std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() == Ok("1") {
-        return;
-    }
     use isoview::gpu::{validation_messages, Context, ContextOptions};
     let ctx = Context::new(&ContextOptions { device: None, validation: true }).expect(
         "Vulkan with VK_LAYER_KHRONOS_validation (apt-get install vulkan-validationlayers)",
@@ -213,8 +215,9 @@ fn validation_layer_reports_nothing_for_a_render() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn grids_larger_than_one_staging_slab_upload_in_pieces() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     // 300^3 f32 = 103 MiB: two 64 MiB staging slabs, and more than lavapipe's 128 MiB storage
     // buffer range would allow as one buffer of a slightly larger grid.
     let n = 300;

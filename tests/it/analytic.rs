@@ -1,6 +1,7 @@
 //! The analytic GPU pass (`shaders/analytic.comp`, f32) against its f64 reference
-//! (`reference::analytic`), renders with answers known in closed form, empty-space skipping
-//! (bit-identical images) and the k-th crossing.
+//! (`reference::analytic`), renders with answers known in closed form (the plane from a linear
+//! field and the render under validation, common to every method, are in `methods.rs`),
+//! empty-space skipping (bit-identical images) and the k-th crossing.
 //!
 //! # Metric
 //!
@@ -552,41 +553,6 @@ fn grazing_rays() {
 
 #[test]
 #[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
-fn linear_field_renders_an_exact_plane() {
-    let ctx = gpu();
-    let mut renderer = Renderer::new(&ctx).unwrap();
-    // f = x + 2y - z: the surface f = 0.1 is a plane with normal (1, 2, -1)/sqrt(6).
-    let grid =
-        grid_from([6, 5, 7], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.x + 2.0 * p.y - p.z);
-    for inside in Inside::ALL {
-        let mut scene = analytic_scene(&grid, DVec3::new(2.5, 1.0, 3.0), 48);
-        scene.surface.isovalue = 0.1;
-        scene.surface.inside = inside;
-        let frame = render(&mut renderer, &scene, &grid);
-        let sign = if inside == Inside::Below { 1.0 } else { -1.0 };
-        let n = DVec3::new(1.0, 2.0, -1.0).normalize() * sign;
-        let mut hits = 0;
-        for p in &frame.pixels {
-            if !p.is_hit() {
-                assert!(p.crossings == 0, "a ray that misses the plane crosses nothing: {p:?}");
-                continue;
-            }
-            hits += 1;
-            let pos = v3(p.position);
-            assert!(
-                (pos.dot(DVec3::new(1.0, 2.0, -1.0)) - 0.1).abs() < 1e-5,
-                "{pos} off the plane"
-            );
-            assert!((v3(p.normal) - n).length() < 1e-5, "normal {:?}", p.normal);
-            assert!(((pos - scene.camera.eye).length() - p.depth as f64).abs() < 1e-5);
-            assert_eq!(p.crossings, 1);
-        }
-        assert!(hits > 150, "the plane covers part of the image: {hits}");
-    }
-}
-
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn sphere_sdf_grid_renders_a_sphere() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -790,22 +756,6 @@ fn kth_crossing_matches_reference() {
     }
     total.check("k-th crossing");
     assert!(deeper > 1000, "second and third crossings exercised: {deeper}");
-}
-
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
-fn validation_layer_reports_nothing_for_an_analytic_render() {
-    use isoview::gpu::{validation_messages, Context, ContextOptions};
-    let ctx = Context::new(&ContextOptions { device: None, validation: true }).expect(
-        "Vulkan with VK_LAYER_KHRONOS_validation (apt-get install vulkan-validationlayers)",
-    );
-    let grid = grid_from([19, 18, 17], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.7);
-    let scene = scene_for(&grid, DVec3::new(0.3, 0.2, 3.0), 24, Method::Analytic);
-    let before = validation_messages();
-    let frame = Renderer::new(&ctx).unwrap().render(&scene, &grid, 0.0).unwrap();
-    drop(ctx);
-    assert!(frame.pixels.iter().any(|p| p.is_hit()));
-    assert_eq!(validation_messages(), before, "validation warnings or errors (printed above)");
 }
 
 #[test]

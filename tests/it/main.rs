@@ -16,6 +16,7 @@ mod layout;
 mod mesh;
 mod mesh_field;
 mod mesh_render;
+mod methods;
 mod modules;
 mod output;
 mod render;

@@ -53,8 +53,9 @@ const STORAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::STORAGE_BUFFER;
 /// Uploads a CPU mesh (through staging buffers) into device-local storage buffers in the layout
 /// of the GPU extraction's output.
 pub fn upload(ctx: &Arc<Context>, mesh: &Mesh) -> Result<GpuMesh, GpuError> {
-    let too_large = |what: &str| {
-        GpuError::Limit(format!("the mesh has too many {what} for one storage buffer"))
+    let too_large = |what: &str| GpuError::TooLarge {
+        what: format!("the number of the mesh's {what}"),
+        limit: "32-bit indices".into(),
     };
     let vertex_count = u32::try_from(mesh.vertex_count()).map_err(|_| too_large("vertices"))?;
     let triangle_count =
@@ -64,11 +65,10 @@ pub fn upload(ctx: &Arc<Context>, mesh: &Mesh) -> Result<GpuMesh, GpuError> {
     let normals: Vec<[f32; 4]> = mesh.normals.iter().map(|n| four(n, 0.0)).collect();
     let limit = ctx.info.max_storage_buffer_range;
     if (positions.len() * 16) as u64 > limit || (mesh.indices.len() * 4) as u64 > limit {
-        return Err(GpuError::Limit(format!(
-            "the mesh ({vertex_count} vertices, {triangle_count} triangles) exceeds the \
-             device's largest storage buffer ({} MiB)",
-            limit >> 20
-        )));
+        return Err(GpuError::TooLarge {
+            what: format!("the mesh ({vertex_count} vertices, {triangle_count} triangles)"),
+            limit: format!("the device's largest storage buffer ({} MiB)", limit >> 20),
+        });
     }
     Ok(GpuMesh::from_buffers(
         ctx,
@@ -91,12 +91,12 @@ impl MeshPipelines {
     /// atomics.
     pub fn new(ctx: &Arc<Context>) -> Result<Self, GpuError> {
         if !ctx.info.int64_atomics {
-            return Err(GpuError::Limit(format!(
-                "render.method = \"mesh\" needs 64-bit buffer atomics (shaderInt64 and \
-                 shaderBufferInt64Atomics), which {} does not offer; use another device \
-                 (--device) or method",
-                ctx.info.name
-            )));
+            return Err(GpuError::Unsupported {
+                what: "render.method = \"mesh\"".into(),
+                feature: "64-bit buffer atomics (shaderInt64 and shaderBufferInt64Atomics)".into(),
+                device: ctx.info.name.clone(),
+                instead: "use another device (--device) or method".into(),
+            });
         }
         use vk::DescriptorType as D;
         let raster = ComputePipeline::new(

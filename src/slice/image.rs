@@ -144,7 +144,7 @@ impl SliceRenderer {
         let ctx = &self.ctx;
         let (width, height) = (style.width, style.height);
         if width == 0 || height == 0 {
-            return Err(GpuError::Limit(format!("cannot draw an empty {width}x{height} slice")));
+            return Err(GpuError::Bug(format!("cannot draw an empty {width}x{height} slice")));
         }
         let t = tiles(plane, contours, style);
         let cells = plane.cells();

@@ -1,6 +1,7 @@
 //! The analytic GPU pass (`shaders/analytic.comp`, f32) against its f64 reference
-//! (`reference::analytic`), renders with answers known in closed form, empty-space skipping
-//! (bit-identical images) and the k-th crossing.
+//! (`reference::analytic`), renders with answers known in closed form (the plane from a linear
+//! field and the render under validation, common to every method, are in `methods.rs`),
+//! empty-space skipping (bit-identical images) and the k-th crossing.
 //!
 //! # Metric
 //!
@@ -296,8 +297,9 @@ fn smooth_grid(rng: &mut Rng, n: usize) -> Grid {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn analytic_matches_reference_on_random_grids_and_cameras() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(31);
     let mut total = Stats::default();
@@ -337,8 +339,9 @@ fn single_cell(values: [f64; 8]) -> Grid {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn every_single_cell_sign_configuration() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(32);
     let mut total = Stats::default();
@@ -362,8 +365,9 @@ fn every_single_cell_sign_configuration() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn ambiguous_faces_and_tunnels() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(33);
     // (values, what the trilinear surface is), marching-cubes cases 3, 4, 6, 7, 10, 12, 13.
@@ -411,8 +415,9 @@ fn dyadic_grid_with_zeros(rng: &mut Rng, n: usize) -> Grid {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn rays_along_grid_planes_lines_and_diagonals() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(34);
     // Eye, target, up: integer eye positions and exact directions, so that with an odd image
@@ -474,8 +479,9 @@ fn rays_along_grid_planes_lines_and_diagonals() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn corner_equal_to_the_isovalue() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(35);
     // The contract: a value equal to the isovalue is outside. (values, inside, any inside at all)
@@ -519,8 +525,9 @@ fn corner_equal_to_the_isovalue() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn grazing_rays() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut total = Stats::default();
     // A sphere seen at its limb, close up: most rays pass near tangency.
@@ -545,42 +552,9 @@ fn grazing_rays() {
 }
 
 #[test]
-fn linear_field_renders_an_exact_plane() {
-    let Some(ctx) = gpu() else { return };
-    let mut renderer = Renderer::new(&ctx).unwrap();
-    // f = x + 2y - z: the surface f = 0.1 is a plane with normal (1, 2, -1)/sqrt(6).
-    let grid =
-        grid_from([6, 5, 7], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.x + 2.0 * p.y - p.z);
-    for inside in Inside::ALL {
-        let mut scene = analytic_scene(&grid, DVec3::new(2.5, 1.0, 3.0), 48);
-        scene.surface.isovalue = 0.1;
-        scene.surface.inside = inside;
-        let frame = render(&mut renderer, &scene, &grid);
-        let sign = if inside == Inside::Below { 1.0 } else { -1.0 };
-        let n = DVec3::new(1.0, 2.0, -1.0).normalize() * sign;
-        let mut hits = 0;
-        for p in &frame.pixels {
-            if !p.is_hit() {
-                assert!(p.crossings == 0, "a ray that misses the plane crosses nothing: {p:?}");
-                continue;
-            }
-            hits += 1;
-            let pos = v3(p.position);
-            assert!(
-                (pos.dot(DVec3::new(1.0, 2.0, -1.0)) - 0.1).abs() < 1e-5,
-                "{pos} off the plane"
-            );
-            assert!((v3(p.normal) - n).length() < 1e-5, "normal {:?}", p.normal);
-            assert!(((pos - scene.camera.eye).length() - p.depth as f64).abs() < 1e-5);
-            assert_eq!(p.crossings, 1);
-        }
-        assert!(hits > 150, "the plane covers part of the image: {hits}");
-    }
-}
-
-#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn sphere_sdf_grid_renders_a_sphere() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let grid = grid_from([33, 33, 33], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.6);
     let scene = analytic_scene(&grid, DVec3::new(0.0, 0.0, 3.0), 64);
@@ -626,8 +600,9 @@ fn same_but_steps(a: &Pixel, b: &Pixel) -> bool {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn skipping_leaves_images_bit_identical() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(36);
     let torus = {
@@ -710,8 +685,9 @@ fn skipping_leaves_images_bit_identical() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn brick_grid_holds_each_bricks_min_and_max() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(37);
     for dims in [[2, 2, 2], [9, 9, 9], [19, 10, 26], [17, 33, 8]] {
@@ -741,8 +717,9 @@ fn brick_grid_holds_each_bricks_min_and_max() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn kth_crossing_matches_reference() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(38);
     let mut total = Stats::default();
@@ -782,29 +759,13 @@ fn kth_crossing_matches_reference() {
 }
 
 #[test]
-fn validation_layer_reports_nothing_for_an_analytic_render() {
-    if std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() == Ok("1") {
-        return;
-    }
-    use isoview::gpu::{validation_messages, Context, ContextOptions};
-    let ctx = Context::new(&ContextOptions { device: None, validation: true }).expect(
-        "Vulkan with VK_LAYER_KHRONOS_validation (apt-get install vulkan-validationlayers)",
-    );
-    let grid = grid_from([19, 18, 17], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.7);
-    let scene = scene_for(&grid, DVec3::new(0.3, 0.2, 3.0), 24, Method::Analytic);
-    let before = validation_messages();
-    let frame = Renderer::new(&ctx).unwrap().render(&scene, &grid, 0.0).unwrap();
-    drop(ctx);
-    assert!(frame.pixels.iter().any(|p| p.is_hit()));
-    assert_eq!(validation_messages(), before, "validation warnings or errors (printed above)");
-}
-
 /// The default (`render.count_crossings = false`) stops the walk at the shown crossing: every
 /// channel but `crossings` is bit-identical to the counting walk (`steps` too: it counts passes
 /// up to the hit), `crossings` is -1 everywhere, and the reference agrees.
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn stopping_at_the_hit_changes_only_crossings() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(47);
     let mut hits = 0;

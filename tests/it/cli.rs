@@ -27,15 +27,9 @@ method = "fixed-step"
 steps = 48
 "#;
 
-fn gpu_enabled() -> bool {
-    std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() != Ok("1")
-}
-
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn render_writes_every_channel_and_a_preview() {
-    if !gpu_enabled() {
-        return;
-    }
     let dir = scratch("cli-render");
     let scene = write(&dir, "sphere.toml", SPHERE);
     let out = dir.join("out.exr").display().to_string();
@@ -63,10 +57,8 @@ fn render_writes_every_channel_and_a_preview() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn set_overrides_change_the_render() {
-    if !gpu_enabled() {
-        return;
-    }
     let dir = scratch("cli-set");
     let scene = write(&dir, "sphere.toml", SPHERE);
     let a = dir.join("a.exr").display().to_string();
@@ -125,10 +117,8 @@ fn failed_runs_leave_existing_outputs_untouched() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn missing_output_folder_is_bad_input() {
-    if !gpu_enabled() {
-        return;
-    }
     let dir = scratch("cli-nodir");
     let good = write(&dir, "good.toml", SPHERE);
     let out = dir.join("no/such/dir/out.exr").display().to_string();
@@ -136,10 +126,8 @@ fn missing_output_folder_is_bad_input() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn frames_render_a_time_varying_field() {
-    if !gpu_enabled() {
-        return;
-    }
     let dir = scratch("cli-frames");
     let scene = write(
         &dir,
@@ -163,10 +151,8 @@ fn frames_render_a_time_varying_field() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn info_names_the_device() {
-    if !gpu_enabled() {
-        return;
-    }
     let o = isoview(&["info"], &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);

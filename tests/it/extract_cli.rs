@@ -176,10 +176,8 @@ fn empty_meshes_are_written_with_a_note() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn render_method_mesh_writes_every_channel_and_says_how_it_was_made() {
-    if std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() == Ok("1") {
-        return;
-    }
     let dir = scratch("extract-render");
     let scene_path = write(&dir, "sphere.toml", SPHERE);
     let out = dir.join("mesh.exr");

@@ -203,10 +203,8 @@ fn bless_from(actual: &Path, golden: &Path) {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn goldens_match() {
-    if std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() == Ok("1") {
-        return;
-    }
     let bless = std::env::var("ISOVIEW_BLESS").as_deref() == Ok("1");
     let out_dir = target_dir().join("golden-out");
     let report_dir = target_dir().join("isoview-report");
@@ -337,18 +335,14 @@ fn torus_verdict(name: &str, sets: &[String]) -> Verdict {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn goldens_pass_an_unchanged_render() {
-    if std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() == Ok("1") {
-        return;
-    }
     assert_eq!(torus_verdict("golden-same", &[]), Verdict::Identical);
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn goldens_catch_small_changes() {
-    if std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() == Ok("1") {
-        return;
-    }
     // The torus SDF spans about [-0.25, 0.9] on its grid: 1% of that range.
     assert_eq!(torus_verdict("golden-iso", &["surface.isovalue=0.0115".into()]), Verdict::Fail);
     // One pixel sideways: the eye and target move by one pixel's width at the target's

@@ -6,9 +6,11 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use std::sync::Arc;
 
 use glam::{DVec2, DVec3};
 use isoview::field::{FieldSpec, Grid, GridLimits};
+use isoview::gpu::Context;
 use isoview::output::exr;
 use isoview::reference::field;
 use isoview::render::GpuGrid;
@@ -415,8 +417,9 @@ fn style(plane: &PlaneGrid, width: u32, height: u32, isovalue: f64, inside: Insi
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn gpu_value_matches_the_reference_on_random_grids() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let renderer = SliceRenderer::new(&ctx).unwrap();
     let mut rng = Rng::new(23);
     let mut worst: f64 = 0.0;
@@ -453,8 +456,9 @@ fn gpu_value_matches_the_reference_on_random_grids() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn gpu_picture_colours_inside_red_and_draws_the_contour() {
-    let Some(ctx) = gpu() else { return };
+    let ctx = gpu();
     let scene = load_file("torus.toml", &[]);
     let (grid, plane, contours) = contours_of(&scene, Axis::Y, 0.0);
     let renderer = SliceRenderer::new(&ctx).unwrap();
@@ -480,7 +484,18 @@ fn gpu_picture_colours_inside_red_and_draws_the_contour() {
 
 #[test]
 fn every_shipped_scene_slices_on_every_axis() {
-    let ctx = gpu();
+    shipped_scene_slices(None);
+}
+
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn every_shipped_scene_slices_on_every_axis_on_the_gpu() {
+    shipped_scene_slices(Some(gpu()));
+}
+
+/// Contours of every shipped scene on two planes per axis stay on the plane's grid; with `ctx`,
+/// the GPU picture's values match the reference too.
+fn shipped_scene_slices(ctx: Option<Arc<Context>>) {
     let renderer = ctx.as_ref().map(|c| SliceRenderer::new(c).unwrap());
     let mut names: Vec<PathBuf> = std::fs::read_dir(root().join("scenes"))
         .unwrap()
@@ -615,11 +630,11 @@ fn assert_fails(o: &Output, code: i32, needle: &str) {
 }
 
 #[test]
-fn slice_command_writes_exr_png_json_and_svg() {
-    let dir = scratch("slice-cli");
+fn slice_command_input_errors_write_nothing() {
+    let dir = scratch("slice-cli-errors");
     let scene = root().join("scenes/torus.toml").display().to_string();
     let p = |name: &str| dir.join(name).display().to_string();
-    let (exr_path, png, json, svg) = (p("s.exr"), p("s.png"), p("s.json"), p("s.svg"));
+    let exr_path = p("s.exr");
 
     // Input errors: one line, exit 2, nothing written.
     let o = isoview(&["slice", &scene, "-o", &exr_path, "--axis", "y", "--at", "1.5"]);
@@ -640,10 +655,15 @@ fn slice_command_writes_exr_png_json_and_svg() {
     ]);
     assert_fails(&o, 2, "slice.max_depth: must be at least 0");
     assert!(!Path::new(&exr_path).exists());
+}
 
-    if std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() == Ok("1") {
-        return;
-    }
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn slice_command_writes_exr_png_json_and_svg() {
+    let dir = scratch("slice-cli");
+    let scene = root().join("scenes/torus.toml").display().to_string();
+    let p = |name: &str| dir.join(name).display().to_string();
+    let (exr_path, png, json, svg) = (p("s.exr"), p("s.png"), p("s.json"), p("s.svg"));
     let o = isoview(&[
         "slice",
         &scene,

@@ -32,7 +32,8 @@ impl Buffer {
             .size(size)
             .usage(usage)
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
-        // SAFETY: valid device; the buffer is destroyed in Drop (or below on failure).
+        // SAFETY: valid device; the buffer is destroyed below if the allocation fails, then by
+        // the `Buffer` that owns it from there on (in Drop, also on the error paths below).
         let raw = unsafe { device.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
         let requirements = unsafe { device.get_buffer_memory_requirements(raw) };
         let allocation = ctx.allocator.lock().unwrap_or_else(|p| p.into_inner()).allocate(
@@ -52,17 +53,20 @@ impl Buffer {
                 return Err(GpuError::Alloc { name: name.to_string(), source });
             }
         };
-        // SAFETY: memory and offset come from the allocation made for this buffer.
-        unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }
-            .vk("vkBindBufferMemory")?;
-        ctx.set_name(raw, name);
-        Ok(Buffer {
+        // SAFETY: the memory handle is only bound below; the allocation stays its owner.
+        let (memory, offset) = (unsafe { allocation.memory() }, allocation.offset());
+        // Owned from here: an error below drops it, destroying the buffer and freeing its memory.
+        let buffer = Buffer {
             raw,
             size,
             name: name.to_string(),
             allocation: Some(allocation),
             ctx: ctx.clone(),
-        })
+        };
+        // SAFETY: memory and offset come from the allocation made for this buffer.
+        unsafe { device.bind_buffer_memory(raw, memory, offset) }.vk("vkBindBufferMemory")?;
+        ctx.set_name(raw, name);
+        Ok(buffer)
     }
 
     /// A device-local buffer holding `data`, uploaded through a staging buffer (one submission
@@ -102,7 +106,7 @@ impl Buffer {
         self.allocation
             .as_ref()
             .and_then(|a| a.mapped_slice())
-            .ok_or_else(|| GpuError::Limit(format!("buffer `{}` is not host-visible", self.name)))
+            .ok_or_else(|| GpuError::Bug(format!("buffer `{}` is not host-visible", self.name)))
     }
 
     /// Copies `data` to the start of a host-visible buffer.
@@ -113,9 +117,9 @@ impl Buffer {
             .allocation
             .as_mut()
             .and_then(|a| a.mapped_slice_mut())
-            .ok_or_else(|| GpuError::Limit(format!("buffer `{name}` is not host-visible")))?;
+            .ok_or_else(|| GpuError::Bug(format!("buffer `{name}` is not host-visible")))?;
         if bytes.len() > slice.len() {
-            return Err(GpuError::Limit(format!(
+            return Err(GpuError::Bug(format!(
                 "{} bytes do not fit buffer `{name}` of {} bytes",
                 bytes.len(),
                 slice.len()
@@ -130,7 +134,7 @@ impl Buffer {
         let slice = self.mapped()?;
         let bytes = count * std::mem::size_of::<T>();
         if bytes > slice.len() {
-            return Err(GpuError::Limit(format!("read past the end of buffer `{}`", self.name)));
+            return Err(GpuError::Bug(format!("read past the end of buffer `{}`", self.name)));
         }
         // pod_collect_to_vec copies, so the mapped slice's alignment does not matter.
         Ok(bytemuck::pod_collect_to_vec(&slice[..bytes]))

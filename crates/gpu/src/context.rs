@@ -7,6 +7,7 @@ use ash::{ext, vk};
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
 use super::error::{GpuError, VkContext};
+use super::guard::Cleanup;
 
 /// How to pick and set up the device.
 #[derive(Clone, Debug, Default)]
@@ -146,6 +147,10 @@ impl Context {
             vk::Result::ERROR_INCOMPATIBLE_DRIVER => GpuError::NoDevice,
             result => GpuError::Vk { call: "vkCreateInstance", result },
         })?;
+        // Until the Context owns them, an error destroys what was created so far, in reverse
+        // order: allocator (dropped as a value), device, messenger, instance.
+        // SAFETY: nothing created from the instance outlives it: the guards below go first.
+        let instance_guard = Cleanup::new(|| unsafe { instance.destroy_instance(None) });
 
         let debug = if options.validation {
             let loader = ext::debug_utils::Instance::new(&entry, &instance);
@@ -167,45 +172,45 @@ impl Context {
         } else {
             None
         };
+        let debug_guard = Cleanup::new(|| {
+            if let Some((loader, messenger)) = &debug {
+                // SAFETY: created above from this instance, which is still alive.
+                unsafe { loader.destroy_debug_utils_messenger(*messenger, None) };
+            }
+        });
 
-        match Self::open_device(&instance, options) {
-            Ok((physical, device, queue_family, info)) => {
-                let allocator = Allocator::new(&AllocatorCreateDesc {
-                    instance: instance.clone(),
-                    device: device.clone(),
-                    physical_device: physical,
-                    debug_settings: Default::default(),
-                    buffer_device_address: false,
-                    allocation_sizes: Default::default(),
-                })
-                .map_err(|source| GpuError::Alloc { name: "allocator".into(), source })?;
-                // SAFETY: queue family and index 0 were requested at device creation.
-                let queue = unsafe { device.get_device_queue(queue_family, 0) };
-                let debug_device =
-                    options.validation.then(|| ext::debug_utils::Device::new(&instance, &device));
-                Ok(std::sync::Arc::new(Context {
-                    _entry: entry,
-                    instance,
-                    debug,
-                    debug_device,
-                    device,
-                    queue: Mutex::new(queue),
-                    queue_family,
-                    allocator: ManuallyDrop::new(Mutex::new(allocator)),
-                    info,
-                }))
-            }
-            Err(e) => {
-                // SAFETY: nothing was created from the instance but the messenger.
-                unsafe {
-                    if let Some((loader, messenger)) = debug {
-                        loader.destroy_debug_utils_messenger(messenger, None);
-                    }
-                    instance.destroy_instance(None);
-                }
-                Err(e)
-            }
-        }
+        let (physical, device, queue_family, info) = Self::open_device(&instance, options)?;
+        // SAFETY: nothing was created from the device yet but the allocator, which is dropped
+        // (as a value) before this guard runs.
+        let device_guard = Cleanup::new(|| unsafe { device.destroy_device(None) });
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device: physical,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })
+        .map_err(|source| GpuError::Alloc { name: "allocator".into(), source })?;
+        // SAFETY: queue family and index 0 were requested at device creation.
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let debug_device =
+            options.validation.then(|| ext::debug_utils::Device::new(&instance, &device));
+        // The Context owns them from here (its Drop destroys them).
+        device_guard.disarm();
+        debug_guard.disarm();
+        instance_guard.disarm();
+        Ok(std::sync::Arc::new(Context {
+            _entry: entry,
+            instance,
+            debug,
+            debug_device,
+            device,
+            queue: Mutex::new(queue),
+            queue_family,
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            info,
+        }))
     }
 
     fn open_device(

@@ -1,6 +1,8 @@
 use ash::vk;
 
-/// What went wrong on the Vulkan side. Display is one line saying what failed or what to install.
+/// What went wrong on the Vulkan side, by cause: no Vulkan or no device (install something), a
+/// failed Vulkan call or allocation, an input too large for the device, a missing device feature,
+/// or a bug. Display is one line saying what failed, what to install or what to change.
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
     #[error(
@@ -25,8 +27,18 @@ pub enum GpuError {
         #[source]
         source: gpu_allocator::AllocationError,
     },
-    #[error("{0}")]
-    Limit(String),
+    /// A size or count over what the device, one binding or one dispatch takes: the input is
+    /// too large for this device (a smaller grid, image or mesh, or another device, works).
+    /// `what` names the thing and its size, `limit` the limit and its value.
+    #[error("{what} does not fit {limit}")]
+    TooLarge { what: String, limit: String },
+    /// The device lacks a feature that `what` needs; `instead` says what to do.
+    #[error("{what} needs {feature}, which {device} does not offer; {instead}")]
+    Unsupported { what: String, feature: String, device: String, instead: String },
+    /// An internal invariant was violated (a caller broke a documented contract): a bug, not
+    /// something the user can change.
+    #[error("internal error (a bug in isoview): {0}")]
+    Bug(String),
 }
 
 /// Adds the name of the failing call to a raw `vk::Result`.

@@ -32,14 +32,14 @@ impl Image3d {
     ) -> Result<Self, GpuError> {
         let max = ctx.info.max_image_dimension_3d;
         if extent.iter().any(|&e| e > max) {
-            return Err(GpuError::Limit(format!(
-                "grid of {}x{}x{} points exceeds the device's 3D image limit of {max} per axis",
-                extent[0], extent[1], extent[2]
-            )));
+            return Err(GpuError::TooLarge {
+                what: format!("a grid of {}x{}x{} points", extent[0], extent[1], extent[2]),
+                limit: format!("the device's 3D images (at most {max} points per axis)"),
+            });
         }
         let texels = extent.iter().map(|&e| e as usize).product::<usize>();
         if values.len() != texels {
-            return Err(GpuError::Limit(format!(
+            return Err(GpuError::Bug(format!(
                 "image `{name}` needs {texels} values, got {}",
                 values.len()
             )));
@@ -56,7 +56,8 @@ impl Image3d {
             .usage(vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST)
             .sharing_mode(vk::SharingMode::EXCLUSIVE)
             .initial_layout(vk::ImageLayout::UNDEFINED);
-        // SAFETY: valid device; destroyed in Drop.
+        // SAFETY: valid device; destroyed below if the allocation fails, then by the `Image3d`
+        // that owns it (in Drop, also on every error path after that).
         let raw = unsafe { device.create_image(&info, None) }.vk("vkCreateImage")?;
         let requirements = unsafe { device.get_image_memory_requirements(raw) };
         let allocation = ctx.allocator.lock().unwrap_or_else(|p| p.into_inner()).allocate(
@@ -76,6 +77,10 @@ impl Image3d {
                 return Err(GpuError::Alloc { name: name.to_string(), source });
             }
         };
+        // SAFETY: the memory handle is only bound below; the allocation stays its owner.
+        let (memory, offset) = (unsafe { allocation.memory() }, allocation.offset());
+        // Owned from here: an error below drops it, destroying what was created so far (the null
+        // view and sampler are ignored by their destroy calls) and freeing the memory.
         let mut image = Image3d {
             raw,
             view: vk::ImageView::null(),
@@ -84,9 +89,8 @@ impl Image3d {
             allocation: Some(allocation),
             ctx: ctx.clone(),
         };
-        let a = image.allocation.as_ref().expect("allocation set above");
         // SAFETY: memory from the allocation made for this image.
-        unsafe { device.bind_image_memory(raw, a.memory(), a.offset()) }.vk("vkBindImageMemory")?;
+        unsafe { device.bind_image_memory(raw, memory, offset) }.vk("vkBindImageMemory")?;
         ctx.set_name(raw, name);
 
         let range = vk::ImageSubresourceRange::default()

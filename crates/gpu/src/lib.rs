@@ -5,11 +5,13 @@
 //!
 //! Ownership and drop order: every resource holds an `Arc<Context>` and frees its own
 //! allocation in `Drop`; the context drops the allocator, then the device, then the instance,
-//! so it is always the last to go.
+//! so it is always the last to go. A constructor that fails half-way destroys what it had
+//! created (the guards of `guard.rs`), so no error path leaks a Vulkan object.
 
 mod buffer;
 mod context;
 mod error;
+mod guard;
 mod image;
 mod pipeline;
 

@@ -3,6 +3,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::error::{GpuError, VkContext};
+use super::guard::Cleanup;
 use super::{Buffer, Context, Image3d};
 
 /// A compute pipeline: shader module, descriptor set layout (one set, bindings 0..n in order)
@@ -43,7 +44,7 @@ impl ComputePipeline {
     ) -> Result<Self, GpuError> {
         let device = &ctx.device;
         let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv))
-            .map_err(|e| GpuError::Limit(format!("shader `{name}` is not SPIR-V: {e}")))?;
+            .map_err(|e| GpuError::Bug(format!("shader `{name}` is not SPIR-V: {e}")))?;
         let layout_bindings: Vec<_> = bindings
             .iter()
             .enumerate()
@@ -55,17 +56,22 @@ impl ComputePipeline {
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
             .collect();
-        // SAFETY: valid device; every object is destroyed in Drop or on the error paths.
+        // SAFETY: valid device. Each object is guarded as soon as it exists: an error destroys
+        // what was created so far (in reverse order); the module goes on every path (the
+        // pipeline no longer needs it), the rest is owned by the returned pipeline's Drop.
         unsafe {
             let module = device
                 .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None)
                 .vk("vkCreateShaderModule")?;
+            let _module = Cleanup::new(|| device.destroy_shader_module(module, None));
             let set_layout = device
                 .create_descriptor_set_layout(
                     &vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings),
                     None,
                 )
                 .vk("vkCreateDescriptorSetLayout")?;
+            let set_layout_guard =
+                Cleanup::new(|| device.destroy_descriptor_set_layout(set_layout, None));
             let ranges = [vk::PushConstantRange::default()
                 .stage_flags(vk::ShaderStageFlags::COMPUTE)
                 .size(push_bytes)];
@@ -76,24 +82,21 @@ impl ComputePipeline {
             }
             let layout =
                 device.create_pipeline_layout(&layout_info, None).vk("vkCreatePipelineLayout")?;
+            let layout_guard = Cleanup::new(|| device.destroy_pipeline_layout(layout, None));
             let stage = vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module)
                 .name(c"main");
-            let created = device.create_compute_pipelines(
-                vk::PipelineCache::null(),
-                &[vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)],
-                None,
-            );
-            device.destroy_shader_module(module, None);
-            let raw = match created {
-                Ok(p) => p[0],
-                Err((_, result)) => {
-                    device.destroy_pipeline_layout(layout, None);
-                    device.destroy_descriptor_set_layout(set_layout, None);
-                    return Err(GpuError::Vk { call: "vkCreateComputePipelines", result });
-                }
-            };
+            let raw = device
+                .create_compute_pipelines(
+                    vk::PipelineCache::null(),
+                    &[vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)],
+                    None,
+                )
+                .map_err(|(_, result)| GpuError::Vk { call: "vkCreateComputePipelines", result })?
+                [0];
+            layout_guard.disarm();
+            set_layout_guard.disarm();
             ctx.set_name(raw, name);
             Ok(ComputePipeline {
                 name: name.to_string(),
@@ -110,12 +113,28 @@ impl ComputePipeline {
     /// Allocates and fills a descriptor set with `resources` (one per binding, in order).
     pub fn bind(&self, resources: &[Resource]) -> Result<Dispatch, GpuError> {
         if resources.len() != self.kinds.len() {
-            return Err(GpuError::Limit(format!(
+            return Err(GpuError::Bug(format!(
                 "pipeline `{}` takes {} bindings, got {}",
                 self.name,
                 self.kinds.len(),
                 resources.len()
             )));
+        }
+        let kind = |r: &Resource| match r {
+            Resource::Storage(_) => vk::DescriptorType::STORAGE_BUFFER,
+            Resource::Uniform(_) => vk::DescriptorType::UNIFORM_BUFFER,
+            Resource::Sampled(_) => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+        };
+        // Checked before anything is created.
+        for (i, r) in resources.iter().enumerate() {
+            if kind(r) != self.kinds[i] {
+                return Err(GpuError::Bug(format!(
+                    "pipeline `{}` binding {i} wants {:?}, got {:?}",
+                    self.name,
+                    self.kinds[i],
+                    kind(r)
+                )));
+            }
         }
         let device = &self.ctx.device;
         let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
@@ -125,7 +144,8 @@ impl ComputePipeline {
                 None => sizes.push(vk::DescriptorPoolSize { ty, descriptor_count: 1 }),
             }
         }
-        // SAFETY: valid device; the pool is destroyed with the Dispatch.
+        // SAFETY: valid device; the pool is destroyed with the Dispatch (built right after, so
+        // also when allocating the set fails).
         let pool = unsafe {
             device.create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes),
@@ -167,22 +187,11 @@ impl ComputePipeline {
             .collect();
         let mut writes = Vec::new();
         for (i, r) in resources.iter().enumerate() {
-            let (ty, is_image) = match r {
-                Resource::Storage(_) => (vk::DescriptorType::STORAGE_BUFFER, false),
-                Resource::Uniform(_) => (vk::DescriptorType::UNIFORM_BUFFER, false),
-                Resource::Sampled(_) => (vk::DescriptorType::COMBINED_IMAGE_SAMPLER, true),
-            };
-            if ty != self.kinds[i] {
-                return Err(GpuError::Limit(format!(
-                    "pipeline `{}` binding {i} wants {:?}, got {ty:?}",
-                    self.name, self.kinds[i]
-                )));
-            }
             let w = vk::WriteDescriptorSet::default()
                 .dst_set(set)
                 .dst_binding(i as u32)
-                .descriptor_type(ty);
-            writes.push(if is_image {
+                .descriptor_type(kind(r));
+            writes.push(if matches!(r, Resource::Sampled(_)) {
                 w.image_info(&image_infos[i])
             } else {
                 w.buffer_info(&buffer_infos[i])

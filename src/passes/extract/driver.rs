@@ -437,7 +437,7 @@ impl Extractor {
     ) -> Result<GpuMesh, GpuMeshError> {
         validate(grid, iso)?;
         if image.extent.map(|e| e as usize) != grid.dims {
-            return Err(GpuError::Limit(format!(
+            return Err(GpuError::Bug(format!(
                 "grid image {:?} does not match the grid's dimensions {:?}",
                 image.extent, grid.dims
             ))
@@ -478,10 +478,10 @@ impl Extractor {
         // `layers + 4` layers of samples.
         let by_limit = (limit_elems.saturating_sub(1) / lp).saturating_sub(4);
         if by_limit == 0 {
-            return Err(GpuError::Limit(format!(
-                "a z layer of {}x{} points does not fit one storage buffer ({limit_bytes} bytes)",
-                np[0], np[1]
-            ))
+            return Err(GpuError::TooLarge {
+                what: format!("a z layer of {}x{} points", np[0], np[1]),
+                limit: format!("one storage buffer ({limit_bytes} bytes)"),
+            }
             .into());
         }
         let mut layers = by_limit.min(nc[2]);
@@ -511,10 +511,12 @@ impl Extractor {
             let fits = (vertices + added) * 16 <= limit_bytes && triangles * 12 <= limit_bytes;
             if !fits {
                 if z1 - z0 == 1 {
-                    return Err(GpuError::Limit(format!(
-                        "the mesh of one z layer ({vertices} vertices, {triangles} triangles) \
-                         does not fit one storage buffer ({limit_bytes} bytes)"
-                    ))
+                    return Err(GpuError::TooLarge {
+                        what: format!(
+                            "the mesh of one z layer ({vertices} vertices, {triangles} triangles)"
+                        ),
+                        limit: format!("one storage buffer ({limit_bytes} bytes)"),
+                    }
                     .into());
                 }
                 layers = (z1 - z0) / 2;

@@ -313,10 +313,11 @@ impl Mc33Passes {
 pub fn groups_2d(groups: u64) -> Result<[u32; 2], GpuError> {
     let x = groups.clamp(1, u64::from(MAX_GROUPS_X));
     let y = groups.div_ceil(x).max(1);
-    let y = u32::try_from(y)
-        .ok()
-        .filter(|&y| y <= MAX_GROUPS_X)
-        .ok_or_else(|| GpuError::Limit(format!("{groups} workgroups exceed one dispatch")))?;
+    let y =
+        u32::try_from(y).ok().filter(|&y| y <= MAX_GROUPS_X).ok_or_else(|| GpuError::TooLarge {
+            what: format!("a pass of {groups} workgroups"),
+            limit: format!("one dispatch ({MAX_GROUPS_X} x {MAX_GROUPS_X} workgroups)"),
+        })?;
     Ok([x as u32, y])
 }
 
@@ -398,7 +399,7 @@ impl Scan {
         len: u64,
     ) -> Result<(), GpuError> {
         if len > self.capacity {
-            return Err(GpuError::Limit(format!(
+            return Err(GpuError::Bug(format!(
                 "scan of {len} elements exceeds its capacity {}",
                 self.capacity
             )));
@@ -427,8 +428,10 @@ impl Scan {
         len: u64,
     ) -> Result<(), GpuError> {
         let [x, y] = groups_2d(len.div_ceil(SCAN_BLOCK))?;
-        let count = u32::try_from(len)
-            .map_err(|_| GpuError::Limit(format!("scan of {len} elements exceeds u32")))?;
+        let count = u32::try_from(len).map_err(|_| GpuError::TooLarge {
+            what: format!("a scan of {len} elements"),
+            limit: "32-bit counts".into(),
+        })?;
         let push = ScanPush { groups_x: x, count };
         pipeline.record(cmd, set, bytemuck::bytes_of(&push), [x, y, 1]);
         compute_barrier(ctx, cmd);

@@ -106,10 +106,6 @@ impl FieldParams<'_, '_> {
 impl Params for FieldParams<'_, '_> {
     type Error = SceneError;
 
-    fn has(&self, key: &str) -> bool {
-        self.t.get(key).is_some()
-    }
-
     fn base_dir(&self) -> &Path {
         self.base_dir
     }

@@ -31,8 +31,6 @@ pub struct Rule<'r, T> {
 pub trait Params {
     type Error;
 
-    /// Whether `key` is present.
-    fn has(&self, key: &str) -> bool;
     /// The folder relative data paths are resolved against.
     fn base_dir(&self) -> &Path;
     /// The grid memory cap.

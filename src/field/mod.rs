@@ -2,8 +2,9 @@
 //!
 //! A [`Grid`] holds `f32` samples at the points of a regular lattice over an axis-aligned box.
 //! Inside each cell the field is the trilinear interpolant of the cell's 8 corner values; outside
-//! the box there is no field. Every source (`sdf`, `corners`, `npy`, `raw`, `expr`) produces a
-//! `Grid`; the renderer, the CPU references and the mesh extractors only ever see a `Grid`.
+//! the box there is no field. Every source (`sdf`, `corners`, `npy`, `raw`, `expr`, `mesh`: one
+//! module each under `source/`, registered in `source/mod.rs`) produces a `Grid`; the renderer,
+//! the CPU references and the mesh extractors only ever see a `Grid`.
 //!
 //! Conventions (the contract in `README.md`):
 //!
@@ -39,7 +40,9 @@ pub mod mesh_sdf;
 mod npy;
 mod raw;
 mod samples;
+mod source;
 mod spec;
+pub mod trilinear;
 
 pub use error::FieldError;
 pub use expr::ExprSource;
@@ -49,4 +52,5 @@ pub use mesh_sdf::{MeshSdf, MeshSource, TriangleMesh};
 pub use npy::NpySource;
 pub use raw::RawSource;
 pub use samples::{Endian, SampleType, StorageOrder};
-pub use spec::{FieldSource, FieldSpec};
+pub use source::{FieldSource, Need, Params, Parsed, PointField, Rule, SourceKind, Supports};
+pub use spec::FieldSpec;

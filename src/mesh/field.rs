@@ -47,12 +47,11 @@ pub(crate) fn trilinear_gradient(v: &[f64; 8], x: f64, y: f64, z: f64) -> DVec3 
     )
 }
 
-/// Value of the trilinear interpolant of corner values `v` at local `(x, y, z)`.
+/// Value of the trilinear interpolant of corner values `v` at local `(x, y, z)`: the one CPU
+/// implementation, [`crate::field::trilinear::trilerp`].
 #[cfg(test)]
 pub(crate) fn trilinear(v: &[f64; 8], x: f64, y: f64, z: f64) -> f64 {
-    let (mx, my, mz) = (1.0 - x, 1.0 - y, 1.0 - z);
-    mz * (my * (mx * v[0] + x * v[1]) + y * (mx * v[2] + x * v[3]))
-        + z * (my * (mx * v[4] + x * v[5]) + y * (mx * v[6] + x * v[7]))
+    crate::field::trilinear::trilerp(v, DVec3::new(x, y, z))
 }
 
 impl<'a> Field<'a> {

@@ -33,11 +33,7 @@ use glam::DVec3;
 
 use crate::field::Grid;
 
-/// `(1 - w) a + w b`: exact at `w = 0` (gives `a`) and `w = 1` (gives `b`).
-#[inline]
-pub fn lerp(a: f64, b: f64, w: f64) -> f64 {
-    (1.0 - w) * a + w * b
-}
+pub use crate::field::trilinear::{lerp, trilerp};
 
 /// Component-wise [`lerp`].
 #[inline]
@@ -48,18 +44,6 @@ pub fn lerp3(a: DVec3, b: DVec3, w: f64) -> DVec3 {
 /// The 8 corner values of cell `cell`, widened to `f64`, in corner order.
 pub fn cell_corners(grid: &Grid, cell: [usize; 3]) -> [f64; 8] {
     grid.corners(cell[0], cell[1], cell[2]).map(f64::from)
-}
-
-/// Value of the trilinear interpolant of `c` at cell-local `q` (x first, then y, then z).
-#[inline]
-pub fn trilerp(c: &[f64; 8], q: DVec3) -> f64 {
-    let x00 = lerp(c[0], c[1], q.x);
-    let x10 = lerp(c[2], c[3], q.x);
-    let x01 = lerp(c[4], c[5], q.x);
-    let x11 = lerp(c[6], c[7], q.x);
-    let y0 = lerp(x00, x10, q.y);
-    let y1 = lerp(x01, x11, q.y);
-    lerp(y0, y1, q.z)
 }
 
 /// Gradient of the trilinear interpolant of `c` at cell-local `q`, in cell-local units (value

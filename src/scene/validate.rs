@@ -10,7 +10,7 @@ use super::{
     Ambiguity, CameraSettings, ImageSettings, Inside, MeshAlgorithm, Method, RenderSettings, Scene,
     Shading, SliceSettings, SurfaceSettings,
 };
-use crate::field::{FieldSource, FieldSpec, GridLimits};
+use crate::field::{FieldSpec, GridLimits, SourceKind};
 
 /// Largest image side.
 pub const MAX_IMAGE_SIDE: i64 = 16384;
@@ -169,16 +169,16 @@ fn slice(t: &View, field: &FieldSpec) -> Result<SliceSettings> {
         width: t.or("width", None, |s, k, n| side(s, k, n).map(|w| Some(w as u32)))?,
         height: t.or("height", None, |s, k, n| side(s, k, n).map(|h| Some(h as u32)))?,
     };
-    let sampled = matches!(
-        field.source,
-        FieldSource::Sdf { .. } | FieldSource::Expr(_) | FieldSource::Corners(_)
-    );
-    if s.ambiguity == Ambiguity::Sample && !sampled {
+    // Asked of the source: "sample" needs one that can be evaluated off the grid.
+    if s.ambiguity == Ambiguity::Sample && !field.source.supports().point {
         return Err(t.err(
             SceneErrorKind::Value,
             "ambiguity",
-            "\"sample\" evaluates the field's source at cell centres, which needs an sdf, expr or \
-             corners source (this field is sampled data); use \"average\" or \"saddle\"",
+            format!(
+                "\"sample\" evaluates the field's source at cell centres, which needs an {} \
+                 source (this field is sampled data); use \"average\" or \"saddle\"",
+                SourceKind::names_where(|k| k.supports().point)
+            ),
         ));
     }
     Ok(s)

@@ -12,8 +12,8 @@
 //!   bilinear interpolant of the plane's values. Along an axis-aligned edge it is linear, so a
 //!   crossing is found exactly by linear interpolation, and every contour point lies on the
 //!   bilinear zero set.
-//! - **source** (`max_depth > 0` with an sdf, expr or corners source): the source itself,
-//!   evaluated at world points; crossings are found by bracketed root finding on the source
+//! - **source** (`max_depth > 0` with a source that can be evaluated anywhere: sdf, corners,
+//!   expr, mesh): the source itself, evaluated at world points; crossings are found by bracketed root finding on the source
 //!   along the edge, so refined contours follow the source beyond the grid's resolution.
 //!
 //! # Refinement
@@ -54,9 +54,8 @@ use glam::{DVec2, DVec3};
 use super::plane::PlaneGrid;
 use super::squares;
 use super::SliceError;
-use crate::field::{FieldSource, FieldSpec};
-use crate::reference::trilinear::trilerp;
-use crate::scene::{Ambiguity, Inside, SdfShape};
+use crate::field::SourceKind;
+use crate::scene::{Ambiguity, Inside};
 
 /// What to extract.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,45 +67,9 @@ pub struct ContourOptions {
     pub max_depth: u32,
 }
 
-/// A field's source as a function of world position, for `ambiguity = "sample"` and refinement.
-pub struct SourceField<'a> {
-    pub eval: Box<dyn Fn(DVec3) -> f64 + Sync + 'a>,
-    /// An upper bound of the gradient's length (world units), if known.
-    pub lipschitz: Option<f64>,
-}
-
-impl<'a> SourceField<'a> {
-    /// The source of `spec` at `time`, for sdf, expr, corners and mesh sources (None for
-    /// sampled data).
-    pub fn from_spec(spec: &'a FieldSpec, time: f64) -> Option<SourceField<'a>> {
-        match &spec.source {
-            FieldSource::Sdf { shape, center } => Some(SourceField {
-                eval: Box::new(move |p| shape.distance(p - *center)),
-                lipschitz: Some(match shape {
-                    SdfShape::Gyroid { .. } => 2.0 * 3f64.sqrt(),
-                    _ => 1.0,
-                }),
-            }),
-            FieldSource::Expr(e) => {
-                Some(SourceField { eval: Box::new(move |p| e.eval(p, time)), lipschitz: None })
-            }
-            FieldSource::Corners(v) => {
-                let (lo, size) = (spec.bounds.min, spec.bounds.max - spec.bounds.min);
-                Some(SourceField {
-                    eval: Box::new(move |p| trilerp(v, (p - lo) / size)),
-                    lipschitz: None,
-                })
-            }
-            FieldSource::Mesh(m) => {
-                // Not 1-Lipschitz in general: the winding-number sign of an open mesh can flip
-                // away from the surface.
-                let sdf = crate::field::MeshSdf::new(&m.mesh);
-                Some(SourceField { eval: Box::new(move |p| sdf.distance(p)), lipschitz: None })
-            }
-            FieldSource::Npy(_) | FieldSource::Raw(_) | FieldSource::Grid(_) => None,
-        }
-    }
-}
+/// A field's source as a function of world position, for `ambiguity = "sample"` and refinement
+/// (the source builds it: [`crate::field::FieldSource::point`]).
+pub use crate::field::PointField as SourceField;
 
 /// One contour: an open polyline from box side to box side, or a closed loop.
 #[derive(Clone, Debug, PartialEq)]
@@ -374,11 +337,10 @@ pub fn extract(
     opts: &ContourOptions,
 ) -> Result<ContourSet, SliceError> {
     if opts.ambiguity == Ambiguity::Sample && source.is_none() {
-        return Err(SliceError::Input(
-            "slice.ambiguity = \"sample\" needs a field source that can be evaluated (sdf, expr \
-             or corners)"
-                .into(),
-        ));
+        return Err(SliceError::Input(format!(
+            "slice.ambiguity = \"sample\" needs a field source that can be evaluated ({})",
+            SourceKind::names_where(|k| k.supports().point)
+        )));
     }
     if opts.max_depth > crate::scene::MAX_SLICE_DEPTH as u32 {
         return Err(SliceError::Input(format!(

@@ -19,8 +19,8 @@
 use glam::{DVec2, DVec3};
 
 use super::SliceError;
+use crate::field::trilinear::lerp;
 use crate::field::Grid;
-use crate::reference::trilinear::lerp;
 
 /// A slicing axis.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

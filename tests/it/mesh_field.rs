@@ -271,3 +271,61 @@ fn bad_mesh_files_and_keys_fail_with_one_line() {
     let e = capped.unwrap_err().to_string();
     assert!(e.starts_with("t.toml:4:14: field.resolution:") && e.contains("over the cap"), "{e}");
 }
+
+/// A closed prism of `sides` sides around the z axis through `(cx, cy)`, radius `r` at its
+/// vertices, from `z = -half` to `z = half`, as OBJ text (vertex numbers from `first`).
+fn prism_obj(cx: f64, cy: f64, r: f64, half: f64, sides: usize, first: usize) -> String {
+    let mut s = String::new();
+    for z in [-half, half] {
+        for n in 0..sides {
+            let a = std::f64::consts::TAU * n as f64 / sides as f64;
+            s += &format!("v {} {} {z}\n", cx + r * a.cos(), cy + r * a.sin());
+        }
+    }
+    let (bottom, top) = (|n: usize| first + n % sides, |n: usize| first + sides + n % sides);
+    for n in 0..sides {
+        s += &format!("f {} {} {}\n", bottom(n), bottom(n + 1), top(n + 1));
+        s += &format!("f {} {} {}\n", bottom(n), top(n + 1), top(n));
+    }
+    for n in 1..sides - 1 {
+        s += &format!("f {} {} {}\n", bottom(0), bottom(n + 1), bottom(n));
+        s += &format!("f {} {} {}\n", top(0), top(n), top(n + 1));
+    }
+    s
+}
+
+/// `slice.ambiguity = "sample"` on a mesh field (#16: it was refused as "sampled data"): the
+/// mesh's signed distance decides the ambiguous cell. Two long prisms of radius 0.6 about
+/// (-0.5, -0.5) and (0.5, 0.5): their grid (23 points along z, cubic cells of side 1, 5 cells
+/// across x and y) has grid points on both axes, and the plane z = 0 one ambiguous cell between
+/// them whose corner average is inside (-0.1) and whose centre is outside both (+0.107), as in
+/// `slice::a_saddle_under_each_ambiguity_rule`.
+#[test]
+fn sample_ambiguity_evaluates_a_mesh_field() {
+    use isoview::slice::{self as slicing, Axis, PlaneGrid, SourceField};
+    let d = dir("sample");
+    let sides = 256;
+    let obj = prism_obj(-0.5, -0.5, 0.6, 10.0, sides, 1)
+        + &prism_obj(0.5, 0.5, 0.6, 10.0, sides, 2 * sides + 1);
+    std::fs::write(d.join("prisms.obj"), obj).unwrap();
+    let field = "source = \"mesh\"\npath = \"prisms.obj\"\nresolution = 23\n";
+    for (rule, loops, joined) in [("average", 1, 1), ("sample", 2, 0), ("saddle", 1, 1)] {
+        let s = load(&d, &format!("{field}[slice]\nambiguity = \"{rule}\"\n"))
+            .unwrap_or_else(|e| panic!("{rule}: {e}"));
+        assert_eq!(s.field.resolution, [6, 6, 23], "{rule}");
+        assert!(s.field.source.supports().point);
+        let grid = sample(&s);
+        assert!((grid.spacing() - DVec3::ONE).abs().max_element() < 1e-9, "{:?}", grid.spacing());
+        let plane = PlaneGrid::new(&grid, Axis::Z, 0.0).unwrap();
+        let set = slicing::scene_contours(&s, &plane, 0.0).unwrap();
+        assert_eq!(set.counts(), (loops, 0), "{rule}");
+        assert_eq!((set.stats.ambiguous, set.stats.joined), (1, joined), "{rule}");
+        if rule == "sample" {
+            // The decision came from the mesh's distance at the cell's centre.
+            let source = SourceField::from_spec(&s.field, 0.0).unwrap();
+            let centre = (source.eval)(DVec3::ZERO);
+            assert!((centre - (0.5f64.sqrt() - 0.6)).abs() < 1e-3, "{centre}");
+            assert_eq!(set.stats.evaluations, 1);
+        }
+    }
+}

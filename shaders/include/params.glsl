@@ -20,13 +20,6 @@ struct RenderParams {
                        // z: brick size in cells (the min/max grid of the skipping)
 };
 
-const uint METHOD_FIXED_STEP = 0u;
-const uint METHOD_ANALYTIC = 1u;
-const uint METHOD_MESH = 2u;
-
-const uint SHADE_LAMBERT = 0u;
-const uint SHADE_NORMAL = 1u;
-const uint SHADE_DEPTH = 2u;
-const uint SHADE_STEPS = 3u;
-const uint SHADE_CELLS = 4u;
-const uint SHADE_SOLID = 5u;
+// The method codes (METHOD_FIXED_STEP, METHOD_ANALYTIC, METHOD_MESH) and shading codes
+// (SHADE_LAMBERT, SHADE_NORMAL, SHADE_DEPTH, SHADE_STEPS, SHADE_CELLS, SHADE_SOLID) are
+// #defines from build.rs's table of shared constants (Rust: `isoview::shaders::consts`).

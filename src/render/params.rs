@@ -6,6 +6,7 @@ use glam::DVec3;
 use crate::camera::Camera;
 use crate::field::Grid;
 use crate::scene::{Inside, Method, Scene, Shading};
+use crate::shaders::consts;
 
 /// std140 mirror of `struct RenderParams` (vec4 members only, so std140 = C layout).
 /// Field meanings are documented on the GLSL side.
@@ -42,22 +43,24 @@ fn v4(v: DVec3, w: f32) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w]
 }
 
+/// `RenderParams.method.x`: the shaders' `METHOD_*` (one definition, in build.rs).
 pub fn method_code(m: Method) -> u32 {
     match m {
-        Method::FixedStep => 0,
-        Method::Analytic => 1,
-        Method::Mesh => 2,
+        Method::FixedStep => consts::METHOD_FIXED_STEP,
+        Method::Analytic => consts::METHOD_ANALYTIC,
+        Method::Mesh => consts::METHOD_MESH,
     }
 }
 
+/// `RenderParams.method.y`: the shaders' `SHADE_*` (one definition, in build.rs).
 pub fn shading_code(s: Shading) -> u32 {
     match s {
-        Shading::Lambert => 0,
-        Shading::Normal => 1,
-        Shading::Depth => 2,
-        Shading::Steps => 3,
-        Shading::Cells => 4,
-        Shading::Solid => 5,
+        Shading::Lambert => consts::SHADE_LAMBERT,
+        Shading::Normal => consts::SHADE_NORMAL,
+        Shading::Depth => consts::SHADE_DEPTH,
+        Shading::Steps => consts::SHADE_STEPS,
+        Shading::Cells => consts::SHADE_CELLS,
+        Shading::Solid => consts::SHADE_SOLID,
     }
 }
 
@@ -80,7 +83,7 @@ pub fn steps_scale(scene: &Scene, grid: &Grid) -> f64 {
     match scene.render.method {
         Method::FixedStep => scene.render.steps as f64,
         Method::Mesh => MESH_STEPS_SCALE,
-        _ => (grid.cells().iter().sum::<usize>() + 1) as f64,
+        Method::Analytic => (grid.cells().iter().sum::<usize>() + 1) as f64,
     }
 }
 

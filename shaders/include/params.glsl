@@ -13,7 +13,9 @@ struct RenderParams {
     ivec4 dims;        // xyz: grid points per axis
     uvec4 image;       // x: width, y: height
     uvec4 method;      // x: method (0 fixed-step, 1 analytic, 2 mesh), y: shading, z: steps, w: newton steps
-    vec4 surface;      // x: isovalue, y: +1 if below is inside, -1 if above; z, w: depth-shading near, far
+    vec4 surface;      // x: the exact inside threshold t (v < t, or v > t, equals the f64
+                       // comparison with the isovalue: render::params::surface_threshold),
+                       // y: +1 if below is inside, -1 if above; z, w: depth-shading near, far
     vec4 debug;        // x: step count that maps to the top of the colormap
     vec4 eye_grid;     // xyz: the eye in index space, (eye - box_min) / spacing, computed in f64
     uvec4 analytic;    // x: which crossing is the hit (>= 1), y: 1 = empty-space skipping,

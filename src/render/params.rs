@@ -64,6 +64,15 @@ pub fn shading_code(s: Shading) -> u32 {
     }
 }
 
+/// `RenderParams.surface.x`, what the ray passes compare samples with: the exact f32 inside
+/// threshold `t` (`passes::extract::inside_threshold`, the one place it is computed), so
+/// that `v < t` (inside = below) or `v > t` (above) equals the f64 comparison of every f32
+/// `v` with the isovalue, as in extraction and the f64 references (README "Conventions").
+/// Where the isovalue is an f32 (every shipped scene) it is the isovalue itself.
+pub fn surface_threshold(isovalue: f64, inside: Inside) -> f32 {
+    crate::passes::extract::inside_threshold(isovalue, inside == Inside::Below)
+}
+
 /// Distances from the eye that map to white and black in `depth` shading: the near and far
 /// side of the grid box's bounding sphere.
 pub fn depth_range(eye: DVec3, grid: &Grid) -> (f64, f64) {
@@ -108,7 +117,7 @@ impl RenderParams {
             image: [scene.image.width, scene.image.height, 0, 0],
             method: [method_code(r.method), shading_code(r.shading), r.steps, r.newton_steps],
             surface: [
-                scene.surface.isovalue as f32,
+                surface_threshold(scene.surface.isovalue, scene.surface.inside),
                 if scene.surface.inside == Inside::Below { 1.0 } else { -1.0 },
                 near as f32,
                 far as f32,
@@ -116,6 +125,33 @@ impl RenderParams {
             debug: [steps_scale(scene, grid) as f32, 0.0, 0.0, 0.0],
             eye_grid: v4((cam.eye - grid.min) / grid.spacing(), 0.0),
             analytic: [r.crossing.max(1), r.skip as u32, crate::passes::bricks::BRICK as u32, 0],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_ray_passes_threshold_is_the_exact_inside_rule() {
+        // 0.7 rounds down to f32 (0.69999999 < 0.7), 0.3 rounds up; 0.25 is exact.
+        for iso in [0.7, 0.3, 0.25, -0.7, 1e-40, 0.0] {
+            for inside in [Inside::Below, Inside::Above] {
+                let t = surface_threshold(iso, inside);
+                let near = iso as f32;
+                for v in [
+                    near,
+                    f32::from_bits(near.to_bits() + 1),
+                    f32::from_bits(near.to_bits().wrapping_sub(1)),
+                ] {
+                    let gpu = if inside == Inside::Below { v < t } else { v > t };
+                    assert_eq!(gpu, inside.contains(f64::from(v), iso), "{iso} {inside:?} {v}");
+                }
+                if iso == 0.25 || iso == 0.0 {
+                    assert_eq!(t, near, "an f32 isovalue is its own threshold");
+                }
+            }
         }
     }
 }

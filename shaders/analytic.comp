@@ -34,7 +34,7 @@
 
 #extension GL_GOOGLE_include_directive : require
 
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = RAY_GROUP, local_size_y = RAY_GROUP) in;  // build.rs
 
 #include "params.glsl"
 #include "pixel.glsl"

@@ -7,7 +7,7 @@
 
 #extension GL_GOOGLE_include_directive : require
 
-layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+layout(local_size_x = BRICKS_GROUP, local_size_y = BRICKS_GROUP, local_size_z = BRICKS_GROUP) in;  // build.rs
 
 layout(binding = 0) uniform sampler3D u_grid;
 layout(std430, binding = 1) writeonly buffer Bricks { vec2 bricks[]; };

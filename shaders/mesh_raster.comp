@@ -15,7 +15,7 @@
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #extension GL_EXT_shader_atomic_int64 : require
 
-layout(local_size_x = 64) in;
+layout(local_size_x = RASTER_GROUP) in;  // build.rs
 
 #include "params.glsl"
 

@@ -11,7 +11,7 @@
 
 #extension GL_GOOGLE_include_directive : require
 
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = SLICE_GROUP, local_size_y = SLICE_GROUP) in;  // build.rs
 
 // Mirrors `passes::slice::SliceParams` (std140, vec4 members only).
 struct SliceParams {
@@ -44,7 +44,7 @@ layout(std430, binding = 5) readonly buffer TileSegments { uint tile_segments[];
 layout(std430, binding = 6) readonly buffer Segments { vec4 segments[]; };
 layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 
-const uint TILE = 8u;
+const uint TILE = uint(SLICE_GROUP);
 
 float grid_value(ivec3 p) {
     return texelFetch(u_grid, p, 0).r;

@@ -1,6 +1,24 @@
-//! What a render produces: one [`Pixel`] record per image pixel, and the facts that say how it
-//! was made. `Pixel` is written by the compute shaders (`shaders/include/pixel.glsl`) and read
-//! back as is, so its layout is fixed, asserted here and tested on the GPU.
+//! What a render produces: one [`Pixel`] record per image pixel, the facts that say how it
+//! was made, and the **channel table** ([`Channel`]) that says, once, what each output channel
+//! is: its EXR name, its comparison class, its value on a miss, when it is written, and which
+//! member of [`Pixel`] holds it. The EXR writer and reader (`output::exr`), `compare`'s
+//! classes and the CPU references all read that table.
+//!
+//! `Pixel` is written by the compute shaders (`shaders/include/pixel.glsl`) and read back as
+//! is, so its layout is fixed, asserted here and checked against the compiled shaders
+//! (`tests/it/layout.rs`).
+//!
+//! # Adding a channel
+//!
+//! 1. a member of [`Pixel`] (here) and of `struct Pixel` in `shaders/include/pixel.glsl`;
+//! 2. a row of the table below (name, class, miss value, when written, the `Pixel` member);
+//! 3. the shaders' lines that fill it, and the CPU references' (`reference::shade::pixel`,
+//!    a struct literal: a member it does not fill is a compile error).
+//!
+//! A `Pixel` member without a table row fails the size assertion below; a table row without
+//! a member fails to compile; a GLSL struct that differs fails `layout::shared_structs_*`.
+
+use std::fmt;
 
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -39,22 +57,213 @@ const _: () = {
 };
 
 impl Pixel {
-    /// The record of a ray that hit nothing, over `background`.
+    /// The record of a ray that hit nothing, over `background`: every channel's [`Miss`]
+    /// value from the table, `steps` as counted.
     pub fn miss(background: [f32; 4], steps: f32) -> Self {
-        Pixel {
-            rgba: background,
-            normal: [0.0; 3],
-            depth: f32::INFINITY,
-            position: [0.0; 3],
-            steps,
-            cell: [-1; 3],
-            crossings: -1,
+        let mut p = Pixel::zeroed();
+        for c in Channel::ALL {
+            let v = match c.miss() {
+                Miss::Background(i) => background[i],
+                Miss::Value(v) => v,
+                Miss::Counted => steps,
+            };
+            c.set(&mut p, v);
         }
+        p
     }
 
     /// Whether the ray hit the surface.
     pub fn is_hit(&self) -> bool {
         self.depth.is_finite()
+    }
+}
+
+/// The kind of quantity a channel holds, which picks `compare`'s thresholds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ChannelClass {
+    /// `R`, `G`, `B`, `A` (also in a layer: `beauty.R`).
+    Colour,
+    /// `Z`, `ZBack` (also `depth.Z`).
+    Depth,
+    /// `N.*`, `normal.*`, `Normal.*`.
+    Normal,
+    /// `P.*`, `position.*`, `Position.*`.
+    Position,
+    /// `steps`, `crossings`, `cell.*`, and every UINT channel: exact by default.
+    Integer,
+    /// Anything else.
+    Other,
+}
+
+impl ChannelClass {
+    pub const ALL: [ChannelClass; 6] = [
+        ChannelClass::Colour,
+        ChannelClass::Depth,
+        ChannelClass::Normal,
+        ChannelClass::Position,
+        ChannelClass::Integer,
+        ChannelClass::Other,
+    ];
+
+    /// The name used on the command line (`--fail-class depth=1e-3`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ChannelClass::Colour => "colour",
+            ChannelClass::Depth => "depth",
+            ChannelClass::Normal => "normal",
+            ChannelClass::Position => "position",
+            ChannelClass::Integer => "integer",
+            ChannelClass::Other => "other",
+        }
+    }
+
+    /// Parses a class name (`color` is accepted for `colour`).
+    pub fn parse(s: &str) -> Option<ChannelClass> {
+        match s {
+            "color" => Some(ChannelClass::Colour),
+            _ => ChannelClass::ALL.into_iter().find(|c| c.name() == s),
+        }
+    }
+}
+
+impl fmt::Display for ChannelClass {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A channel's value where the ray hit nothing ([`Pixel::miss`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Miss {
+    /// Component `i` of `render.background` (R, G, B, A).
+    Background(usize),
+    /// This value.
+    Value(f32),
+    /// Counted anyway (the work the ray did).
+    Counted,
+}
+
+/// When the EXR writer includes a channel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Written {
+    /// In every file.
+    Always,
+    /// Only when some pixel holds a count (a value >= 0); -1 means "not counted", and a file
+    /// without the channel reads back as -1 everywhere.
+    WhereCounted,
+}
+
+/// How a `Pixel` member's type converts to and from the EXR's 32-bit float samples.
+trait Sample: Copy {
+    fn to_f32(self) -> f32;
+    fn from_f32(v: f32) -> Self;
+}
+
+impl Sample for f32 {
+    fn to_f32(self) -> f32 {
+        self
+    }
+    fn from_f32(v: f32) -> Self {
+        v
+    }
+}
+
+impl Sample for i32 {
+    fn to_f32(self) -> f32 {
+        self as f32
+    }
+    fn from_f32(v: f32) -> Self {
+        v as i32
+    }
+}
+
+/// Declares [`Channel`] from the table: one row per channel, every property in the row, so a
+/// row cannot leave one out and no property is written anywhere else.
+macro_rules! channel_table {
+    ($(
+        $(#[doc = $doc:literal])*
+        $variant:ident = $name:literal, $class:ident, $miss:expr, $written:ident,
+            $member:ident $([$i:literal])?;
+    )+) => {
+        /// One output channel of a render (the rows of the EXR table in the README).
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        pub enum Channel {
+            $($(#[doc = $doc])* $variant,)+
+        }
+
+        impl Channel {
+            /// Every channel, in the order of the [`Pixel`] members (files store them sorted
+            /// by name).
+            pub const ALL: [Channel; [$($name),+].len()] = [$(Channel::$variant),+];
+
+            /// The EXR channel name.
+            pub const fn name(self) -> &'static str {
+                match self { $(Channel::$variant => $name,)+ }
+            }
+
+            /// What kind of quantity it holds (picks `compare`'s thresholds).
+            pub const fn class(self) -> ChannelClass {
+                match self { $(Channel::$variant => ChannelClass::$class,)+ }
+            }
+
+            /// Its value on a miss.
+            pub const fn miss(self) -> Miss {
+                use Miss::*;
+                match self { $(Channel::$variant => $miss,)+ }
+            }
+
+            /// When the EXR writer includes it.
+            pub const fn written(self) -> Written {
+                match self { $(Channel::$variant => Written::$written,)+ }
+            }
+
+            /// Its value in `p`, as the EXR stores it (32-bit float).
+            pub fn get(self, p: &Pixel) -> f32 {
+                match self { $(Channel::$variant => Sample::to_f32(p.$member $([$i])?),)+ }
+            }
+
+            /// Sets its member of `p` from the EXR's float value.
+            pub fn set(self, p: &mut Pixel, v: f32) {
+                match self { $(Channel::$variant => p.$member $([$i])? = Sample::from_f32(v),)+ }
+            }
+        }
+    };
+}
+
+channel_table! {
+    /// Shaded colour, linear Rec.709.
+    R = "R", Colour, Background(0), Always, rgba[0];
+    G = "G", Colour, Background(1), Always, rgba[1];
+    B = "B", Colour, Background(2), Always, rgba[2];
+    /// Coverage: 1 on a hit.
+    A = "A", Colour, Background(3), Always, rgba[3];
+    /// World-space unit normal, inside to outside.
+    NX = "N.X", Normal, Value(0.0), Always, normal[0];
+    NY = "N.Y", Normal, Value(0.0), Always, normal[1];
+    NZ = "N.Z", Normal, Value(0.0), Always, normal[2];
+    /// Distance along the ray from the eye to the hit.
+    Z = "Z", Depth, Value(f32::INFINITY), Always, depth;
+    /// World-space hit position.
+    PX = "P.X", Position, Value(0.0), Always, position[0];
+    PY = "P.Y", Position, Value(0.0), Always, position[1];
+    PZ = "P.Z", Position, Value(0.0), Always, position[2];
+    /// Samples (fixed-step), cells (analytic) or triangles (mesh) visited.
+    Steps = "steps", Integer, Counted, Always, steps;
+    /// Index of the grid cell hit.
+    CellX = "cell.X", Integer, Value(-1.0), Always, cell[0];
+    CellY = "cell.Y", Integer, Value(-1.0), Always, cell[1];
+    CellZ = "cell.Z", Integer, Value(-1.0), Always, cell[2];
+    /// Isovalue crossings along the ray, where the method counts them.
+    Crossings = "crossings", Integer, Value(-1.0), WhereCounted, crossings;
+}
+
+// Every member of `Pixel` is one 4-byte channel: a member without a table row fails here.
+const _: () = assert!(Channel::ALL.len() * 4 == std::mem::size_of::<Pixel>());
+
+impl Channel {
+    /// The channel named `name` (as written in the EXR).
+    pub fn from_name(name: &str) -> Option<Channel> {
+        Channel::ALL.into_iter().find(|c| c.name() == name)
     }
 }
 

@@ -14,14 +14,11 @@
 //          the crossed cells and the mc33 passes run over them only
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
-layout(local_size_x = 64) in;
+layout(local_size_x = EXTRACT_GROUP) in;  // build.rs
 
 #include "common.glsl"
 
-const uint MODE_MC = 0u;
-const uint MODE_MT = 1u;
-const uint MODE_DUAL = 2u;
-const uint MODE_MC33 = 3u;
+// MODE_MC, MODE_MT, MODE_DUAL, MODE_MC33: #defines from build.rs (`classify_mode` in Rust).
 
 // What the cell with inside-corner mask `mask` (bit n for corner n) owns.
 uint cell_count(uint mask) {

@@ -7,7 +7,7 @@
 // field's normal there, or, for a padding cell of dual contouring, the box's outward normal.
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
-layout(local_size_x = 64) in;
+layout(local_size_x = EXTRACT_GROUP) in;  // build.rs
 
 #include "common.glsl"
 #include "dual.glsl"

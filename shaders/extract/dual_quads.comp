@@ -11,7 +11,7 @@
 // (q0-q2 when |q2 - q0|² <= |q3 - q1|², else q1-q3).
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
-layout(local_size_x = 64) in;
+layout(local_size_x = EXTRACT_GROUP) in;  // build.rs
 
 #include "common.glsl"
 #include "dual.glsl"

@@ -9,7 +9,7 @@
 // from the gradient.
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
-layout(local_size_x = 64) in;
+layout(local_size_x = EXTRACT_GROUP) in;  // build.rs
 
 #include "common.glsl"
 

@@ -8,7 +8,7 @@
 // work, so a dispatch over every cell took ten times the marching-cubes time.
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
-layout(local_size_x = 64) in;
+layout(local_size_x = EXTRACT_GROUP) in;  // build.rs
 
 #include "common.glsl"
 #include "mc33.glsl"

@@ -9,7 +9,7 @@
 // mc33.glsl).
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
-layout(local_size_x = 64) in;
+layout(local_size_x = EXTRACT_GROUP) in;  // build.rs
 
 #include "common.glsl"
 #include "mc33.glsl"

@@ -10,7 +10,7 @@
 // (the mesh has fewer than u32::MAX vertices, so no edge vertex id reaches the placeholders).
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
-layout(local_size_x = 64) in;
+layout(local_size_x = EXTRACT_GROUP) in;  // build.rs
 
 #include "common.glsl"
 

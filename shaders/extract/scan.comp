@@ -8,7 +8,7 @@
 // those before it. (Few invocations with more serial work each: barriers are what costs most on
 // lavapipe, and 64 invocations still fill a GPU's workgroup.) Integer adds, so the result does not depend on the order of the work.
 
-layout(local_size_x = 64) in;
+layout(local_size_x = EXTRACT_GROUP) in;  // build.rs
 
 layout(std430, binding = 0) buffer Data { uint data[]; };
 layout(std430, binding = 1) buffer Sums { uint sums[]; };
@@ -18,15 +18,15 @@ layout(push_constant) uniform Push {
     uint count;     // elements in `data`
 } C;
 
-const uint PER = 16u;
-const uint N = 64u;
+const uint PER = SCAN_PER;  // build.rs
+const uint N = uint(EXTRACT_GROUP);
 
 shared uint sh[2][N];
 
 void main() {
     uint block = gl_WorkGroupID.x + gl_WorkGroupID.y * C.groups_x;
     uint lid = gl_LocalInvocationID.x;
-    uint base = block * 1024u + lid * PER;
+    uint base = block * SCAN_BLOCK + lid * PER;
     uint v[PER];
     uint total = 0u;
     for (uint i = 0u; i < PER; i++) {

@@ -2,7 +2,7 @@
 // Extraction pass `scan add`: adds the scanned block sums to the block-scanned `data`
 // (`scan.comp`): element i gets sums[i / 1024].
 
-layout(local_size_x = 64) in;
+layout(local_size_x = EXTRACT_GROUP) in;  // build.rs
 
 layout(std430, binding = 0) buffer Data { uint data[]; };
 layout(std430, binding = 1) readonly buffer Sums { uint sums[]; };
@@ -14,9 +14,9 @@ layout(push_constant) uniform Push {
 
 void main() {
     uint block = gl_WorkGroupID.x + gl_WorkGroupID.y * C.groups_x;
-    uint base = block * 1024u + gl_LocalInvocationID.x * 16u;
+    uint base = block * SCAN_BLOCK + gl_LocalInvocationID.x * SCAN_PER;
     uint add = sums[block];
-    for (uint i = 0u; i < 16u; i++) {
+    for (uint i = 0u; i < SCAN_PER; i++) {
         if (base + i < C.count) {
             data[base + i] += add;
         }

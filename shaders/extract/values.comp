@@ -6,7 +6,7 @@
 // One invocation per padded point of layers C.value_z0 ... (C.z0 = C.value_z0).
 
 // Before the include: common.glsl reads gl_WorkGroupSize.
-layout(local_size_x = 64) in;
+layout(local_size_x = EXTRACT_GROUP) in;  // build.rs
 
 #include "common.glsl"
 

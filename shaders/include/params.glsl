@@ -13,20 +13,15 @@ struct RenderParams {
     ivec4 dims;        // xyz: grid points per axis
     uvec4 image;       // x: width, y: height
     uvec4 method;      // x: method (0 fixed-step, 1 analytic, 2 mesh), y: shading, z: steps, w: newton steps
-    vec4 surface;      // x: isovalue, y: +1 if below is inside, -1 if above; z, w: depth-shading near, far
+    vec4 surface;      // x: the exact inside threshold t (v < t, or v > t, equals the f64
+                       // comparison with the isovalue: render::params::surface_threshold),
+                       // y: +1 if below is inside, -1 if above; z, w: depth-shading near, far
     vec4 debug;        // x: step count that maps to the top of the colormap
     vec4 eye_grid;     // xyz: the eye in index space, (eye - box_min) / spacing, computed in f64
     uvec4 analytic;    // x: which crossing is the hit (>= 1), y: 1 = empty-space skipping,
                        // z: brick size in cells (the min/max grid of the skipping)
 };
 
-const uint METHOD_FIXED_STEP = 0u;
-const uint METHOD_ANALYTIC = 1u;
-const uint METHOD_MESH = 2u;
-
-const uint SHADE_LAMBERT = 0u;
-const uint SHADE_NORMAL = 1u;
-const uint SHADE_DEPTH = 2u;
-const uint SHADE_STEPS = 3u;
-const uint SHADE_CELLS = 4u;
-const uint SHADE_SOLID = 5u;
+// The method codes (METHOD_FIXED_STEP, METHOD_ANALYTIC, METHOD_MESH) and shading codes
+// (SHADE_LAMBERT, SHADE_NORMAL, SHADE_DEPTH, SHADE_STEPS, SHADE_CELLS, SHADE_SOLID) are
+// #defines from build.rs's table of shared constants (Rust: `isoview::shaders::consts`).

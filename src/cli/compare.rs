@@ -65,6 +65,11 @@ pub struct CompareArgs {
     /// Compare only these channels (comma-separated); others may differ between the files.
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]
     pub channels: Vec<String>,
+    /// Accept channels only B has (e.g. a channel added since A was made): they are named in
+    /// a note and not compared; the channels both have are. Without it such files are a
+    /// channel mismatch (exit 2).
+    #[arg(long, conflicts_with = "channels")]
+    pub new_channels: bool,
 }
 
 fn non_negative(s: &str) -> Result<f64, String> {
@@ -97,6 +102,7 @@ impl CompareArgs {
             flip: !self.no_flip,
             flip_fail: self.flip_fail,
             only: (!self.channels.is_empty()).then(|| self.channels.clone()),
+            new_channels: self.new_channels,
         }
     }
 }

@@ -4,7 +4,8 @@
 //! # What is compared
 //!
 //! Both images must have the same size and the same channel names (or contain every channel
-//! of [`Thresholds::only`]). Each channel is compared value by value:
+//! of [`Thresholds::only`]; with [`Thresholds::new_channels`], B may have channels A lacks,
+//! reported and not compared). Each channel is compared value by value:
 //!
 //! - NaN equals NaN only; +inf equals +inf, -inf equals -inf. A non-finite value against
 //!   anything it does not equal (NaN vs 1, +inf vs 3.5) is a *non-finite mismatch*: it is over
@@ -62,6 +63,8 @@ pub use output::{heat_map_rgba8, write_diff_exr, write_heat_map_png};
 use std::fmt;
 use std::path::PathBuf;
 
+use crate::frame::Channel;
+pub use crate::frame::ChannelClass;
 use crate::output::exr::{ExrImage, SampleKind};
 use crate::output::OutputError;
 
@@ -93,78 +96,36 @@ fn list_or_none(names: &[String]) -> String {
     }
 }
 
-/// The kind of quantity a channel holds, which picks its thresholds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum ChannelClass {
-    /// `R`, `G`, `B`, `A` (also in a layer: `beauty.R`).
-    Colour,
-    /// `Z`, `ZBack` (also `depth.Z`).
-    Depth,
-    /// `N.*`, `normal.*`, `Normal.*`.
-    Normal,
-    /// `P.*`, `position.*`, `Position.*`.
-    Position,
-    /// `steps`, `crossings`, `cell.*`, and every UINT channel: exact by default.
-    Integer,
-    /// Anything else.
-    Other,
-}
-
 impl ChannelClass {
-    pub const ALL: [ChannelClass; 6] = [
-        ChannelClass::Colour,
-        ChannelClass::Depth,
-        ChannelClass::Normal,
-        ChannelClass::Position,
-        ChannelClass::Integer,
-        ChannelClass::Other,
-    ];
-
-    /// The class of a channel from its full name (split at the last `.` into layer and base)
-    /// and its sample type in the file.
+    /// The class of a channel from its full name and its sample type in the file: a UINT
+    /// channel is integer; a channel isoview writes has its class from the channel table
+    /// ([`Channel`]); any other name is classed by its base (after the last `.`) and layer.
     pub fn of(name: &str, kind: SampleKind) -> ChannelClass {
         if kind == SampleKind::U32 {
             return ChannelClass::Integer;
         }
-        let (layer, base) = match name.rfind('.') {
-            Some(i) => (&name[..i], &name[i + 1..]),
-            None => ("", name),
-        };
-        let group = layer.rsplit('.').next().unwrap_or("");
-        match (group, base) {
-            (_, "steps" | "crossings") | ("cell", _) => ChannelClass::Integer,
-            ("N" | "normal" | "Normal", _) => ChannelClass::Normal,
-            ("P" | "position" | "Position", _) => ChannelClass::Position,
-            (_, "Z" | "ZBack") => ChannelClass::Depth,
-            (_, "R" | "G" | "B" | "A") => ChannelClass::Colour,
-            _ => ChannelClass::Other,
-        }
-    }
-
-    /// The name used on the command line (`--fail-class depth=1e-3`).
-    pub fn name(self) -> &'static str {
-        match self {
-            ChannelClass::Colour => "colour",
-            ChannelClass::Depth => "depth",
-            ChannelClass::Normal => "normal",
-            ChannelClass::Position => "position",
-            ChannelClass::Integer => "integer",
-            ChannelClass::Other => "other",
-        }
-    }
-
-    /// Parses a class name (`color` is accepted for `colour`).
-    pub fn parse(s: &str) -> Option<ChannelClass> {
-        match s {
-            "color" => Some(ChannelClass::Colour),
-            _ => ChannelClass::ALL.into_iter().find(|c| c.name() == s),
+        match Channel::from_name(name) {
+            Some(c) => c.class(),
+            None => class_by_name(name),
         }
     }
 }
 
-impl fmt::Display for ChannelClass {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
+/// The class a channel name suggests (split at the last `.` into layer and base), for EXRs
+/// from other writers.
+fn class_by_name(name: &str) -> ChannelClass {
+    let (layer, base) = match name.rfind('.') {
+        Some(i) => (&name[..i], &name[i + 1..]),
+        None => ("", name),
+    };
+    let group = layer.rsplit('.').next().unwrap_or("");
+    match (group, base) {
+        (_, "steps" | "crossings") | ("cell", _) => ChannelClass::Integer,
+        ("N" | "normal" | "Normal", _) => ChannelClass::Normal,
+        ("P" | "position" | "Position", _) => ChannelClass::Position,
+        (_, "Z" | "ZBack") => ChannelClass::Depth,
+        (_, "R" | "G" | "B" | "A") => ChannelClass::Colour,
+        _ => ChannelClass::Other,
     }
 }
 
@@ -193,8 +154,13 @@ pub struct Thresholds {
     /// Fail when the FLIP mean is over this (implies `flip`).
     pub flip_fail: Option<f64>,
     /// Compare only these channels (each must be in both images); `None`: all, and the
-    /// channel sets must be equal.
+    /// channel sets must be equal (but see `new_channels`).
     pub only: Option<Vec<String>>,
+    /// Accept channels that only B (the image under test) has: they are listed in
+    /// [`Report::new_channels`] and not compared, and the channels both have are. A channel
+    /// only A (the reference) has is still a mismatch. For goldens made before a channel was
+    /// added; `compare --new-channels`.
+    pub new_channels: bool,
 }
 
 impl Default for Thresholds {
@@ -211,6 +177,7 @@ impl Default for Thresholds {
             flip: true,
             flip_fail: None,
             only: None,
+            new_channels: false,
         }
     }
 }
@@ -311,6 +278,8 @@ pub struct Report {
     pub thresholds: Thresholds,
     /// One entry per compared channel, in A's order.
     pub channels: Vec<ChannelStats>,
+    /// Channels only B has, not compared ([`Thresholds::new_channels`]); empty otherwise.
+    pub new_channels: Vec<String>,
     /// Coverage mismatches, where coverage could be determined.
     pub coverage: Option<Coverage>,
     pub failing_pixels: usize,
@@ -447,6 +416,13 @@ impl fmt::Display for Report {
                 c.nonfinite
             )?;
         }
+        if !self.new_channels.is_empty() {
+            writeln!(
+                f,
+                "note: not in A, not compared (new channels): {}",
+                self.new_channels.join(", ")
+            )?;
+        }
         if let Some(cov) = &self.coverage {
             writeln!(
                 f,
@@ -498,12 +474,13 @@ fn tolerance(a: f32, b: f32, abs: f64, rel: f64) -> f64 {
     abs.max(rel * f64::from(a.abs().max(b.abs())))
 }
 
-/// The channels to compare: names present in both (all of A's when the sets are equal).
+/// The channels to compare (names present in both: all of A's when the sets are equal), and
+/// the channels only B has when [`Thresholds::new_channels`] accepts them.
 fn select_channels(
     a: &ExrImage,
     b: &ExrImage,
     t: &Thresholds,
-) -> Result<Vec<String>, CompareError> {
+) -> Result<(Vec<String>, Vec<String>), CompareError> {
     let names = |img: &ExrImage| img.channel_names().map(str::to_string).collect::<Vec<_>>();
     match &t.only {
         Some(only) => {
@@ -518,14 +495,14 @@ fn select_channels(
             }
             let mut v = only.clone();
             v.dedup();
-            Ok(v)
+            Ok((v, Vec::new()))
         }
         None => {
             let only_a: Vec<String> =
                 names(a).into_iter().filter(|n| b.channel(n).is_none()).collect();
             let only_b: Vec<String> =
                 names(b).into_iter().filter(|n| a.channel(n).is_none()).collect();
-            if !only_a.is_empty() || !only_b.is_empty() {
+            if !only_a.is_empty() || (!only_b.is_empty() && !t.new_channels) {
                 return Err(CompareError::ChannelMismatch {
                     a: a.path.clone(),
                     only_a,
@@ -533,7 +510,7 @@ fn select_channels(
                     only_b,
                 });
             }
-            Ok(names(a))
+            Ok((names(a), only_b))
         }
     }
 }
@@ -556,7 +533,7 @@ pub fn compare(a: &ExrImage, b: &ExrImage, t: &Thresholds) -> Result<Report, Com
             b_size: (b.width, b.height),
         });
     }
-    let names = select_channels(a, b, t)?;
+    let (names, new_channels) = select_channels(a, b, t)?;
     let (w, h) = (a.width, a.height);
     let n = w * h;
     let rel = t.fail_relative;
@@ -722,6 +699,7 @@ pub fn compare(a: &ExrImage, b: &ExrImage, t: &Thresholds) -> Result<Report, Com
         height: h,
         thresholds: t.clone(),
         channels: stats,
+        new_channels,
         coverage: coverage_counts,
         failing_pixels: failing,
         forgiven_pixels: forgiven,
@@ -757,7 +735,7 @@ fn coverage_masks(a: &ExrImage, b: &ExrImage) -> Option<(String, Vec<bool>, Vec<
             cb.values.iter().map(|&v| hit(v)).collect(),
         ))
     };
-    pick("Z", f32::is_finite).or_else(|| pick("A", |v| v > 0.0))
+    pick(Channel::Z.name(), f32::is_finite).or_else(|| pick(Channel::A.name(), |v| v > 0.0))
 }
 
 /// The shift-window rule of the module docs for failing pixel `i`.
@@ -830,6 +808,11 @@ mod tests {
             assert_eq!(C::of(name, f), class, "{name}");
         }
         assert_eq!(C::of("id", SampleKind::U32), C::Integer);
+        // isoview's own channels take their class from the table; the names alone say the same.
+        for c in Channel::ALL {
+            assert_eq!(C::of(c.name(), f), c.class(), "{c:?}");
+            assert_eq!(class_by_name(c.name()), c.class(), "{c:?}");
+        }
         assert_eq!(C::parse("color"), Some(C::Colour));
         assert_eq!(C::parse("depth"), Some(C::Depth));
         assert_eq!(C::parse("nope"), None);

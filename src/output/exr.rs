@@ -3,7 +3,8 @@
 //! # Writing ([`write_frame`])
 //!
 //! One part, scan lines, ZIP (16 lines per block), increasing line order, every channel a
-//! 32-bit float, `dataWindow == displayWindow == (0,0)-(w-1,h-1)`, row 0 at the top:
+//! 32-bit float, `dataWindow == displayWindow == (0,0)-(w-1,h-1)`, row 0 at the top. The
+//! channels are the rows of the channel table, [`crate::frame::Channel`]:
 //!
 //! | channel | meaning | on a miss |
 //! | --- | --- | --- |
@@ -66,7 +67,7 @@ use exr::prelude::SmallVec;
 use glam::DVec3;
 
 use super::{atomic, OutputError};
-use crate::frame::{Frame, FrameInfo};
+use crate::frame::{Channel, Frame, FrameInfo, Pixel, Written};
 
 /// Names of the header attributes isoview writes.
 pub mod attr {
@@ -84,27 +85,6 @@ pub mod attr {
     /// Prefix of the `FrameInfo::extra` pairs: `isoview/extra/<key>`.
     pub const EXTRA_PREFIX: &str = "isoview/extra/";
 }
-
-/// Channel names isoview writes, in the order of [`crate::frame::Pixel`] (the file stores them
-/// sorted by name). `crossings` is written only where some pixel counted crossings.
-pub const CHANNELS: [&str; 16] = [
-    "R",
-    "G",
-    "B",
-    "A",
-    "N.X",
-    "N.Y",
-    "N.Z",
-    "Z",
-    "P.X",
-    "P.Y",
-    "P.Z",
-    "steps",
-    "cell.X",
-    "cell.Y",
-    "cell.Z",
-    "crossings",
-];
 
 /// Encodes `frame` as described in the module docs and writes it atomically to `path`.
 pub fn write_frame(path: &Path, frame: &Frame) -> Result<(), OutputError> {
@@ -125,40 +105,28 @@ pub fn encode_frame(path: &Path, frame: &Frame) -> Result<Vec<u8>, OutputError> 
         ));
     }
 
-    // Planar channels, in the order of `CHANNELS`.
-    let with_crossings = frame.pixels.iter().any(|p| p.crossings >= 0);
-    let count = if with_crossings { 16 } else { 15 };
-    let mut planes: Vec<Vec<f32>> = (0..count).map(|_| Vec::with_capacity(w * h)).collect();
-    for p in &frame.pixels {
-        let values = [
-            p.rgba[0],
-            p.rgba[1],
-            p.rgba[2],
-            p.rgba[3],
-            p.normal[0],
-            p.normal[1],
-            p.normal[2],
-            p.depth,
-            p.position[0],
-            p.position[1],
-            p.position[2],
-            p.steps,
-            p.cell[0] as f32,
-            p.cell[1] as f32,
-            p.cell[2] as f32,
-            p.crossings as f32,
-        ];
-        for (plane, v) in planes.iter_mut().zip(values) {
-            plane.push(v);
-        }
-    }
-    let channels: Vec<AnyChannel<FlatSamples>> = CHANNELS
-        .iter()
-        .zip(planes)
-        .map(|(name, plane)| AnyChannel::new(*name, FlatSamples::F32(plane)))
+    // One planar channel per row of the channel table that this frame writes.
+    let channels: Vec<AnyChannel<FlatSamples>> = written_channels(frame)
+        .into_iter()
+        .map(|c| {
+            let plane: Vec<f32> = frame.pixels.iter().map(|p| c.get(p)).collect();
+            AnyChannel::new(c.name(), FlatSamples::F32(plane))
+        })
         .collect();
     let attributes = layer_attributes(path, &frame.info, w, h)?;
     encode(path, w, h, channels, attributes)
+}
+
+/// The channels [`write_frame`] writes for `frame`, in table order: every [`Written::Always`]
+/// channel, and each [`Written::WhereCounted`] one where some pixel holds a count (>= 0).
+pub fn written_channels(frame: &Frame) -> Vec<Channel> {
+    Channel::ALL
+        .into_iter()
+        .filter(|c| match c.written() {
+            Written::Always => true,
+            Written::WhereCounted => frame.pixels.iter().any(|p| c.get(p) >= 0.0),
+        })
+        .collect()
 }
 
 /// Writes arbitrary 32-bit float channels (each `width * height` values, row 0 at the top)
@@ -449,6 +417,31 @@ impl ExrImage {
     /// Channel names, in file order.
     pub fn channel_names(&self) -> impl Iterator<Item = &str> {
         self.channels.iter().map(|c| c.name.as_str())
+    }
+
+    /// The pixels of an EXR that isoview wrote, read back through the channel table: every
+    /// [`Written::Always`] channel must be there; a missing [`Written::WhereCounted`] one
+    /// reads as -1 (not counted). Errors name the file and the missing channel.
+    pub fn frame_pixels(&self) -> Result<Vec<Pixel>, OutputError> {
+        let n = self.width * self.height;
+        let mut pixels = vec![Pixel::default(); n];
+        for c in Channel::ALL {
+            match (self.channel(c.name()), c.written()) {
+                (Some(ch), _) => {
+                    for (p, &v) in pixels.iter_mut().zip(&ch.values) {
+                        c.set(p, v);
+                    }
+                }
+                (None, Written::WhereCounted) => pixels.iter_mut().for_each(|p| c.set(p, -1.0)),
+                (None, Written::Always) => {
+                    return Err(OutputError::invalid(
+                        &self.path,
+                        format!("not an isoview render: no channel {:?}", c.name()),
+                    ))
+                }
+            }
+        }
+        Ok(pixels)
     }
 }
 

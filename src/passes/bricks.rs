@@ -20,10 +20,10 @@ use crate::gpu::{
 use crate::shaders;
 
 /// Cells per brick edge.
-pub const BRICK: usize = 8;
+pub const BRICK: usize = shaders::consts::BRICK as usize;
 
 /// Workgroup size of `bricks.comp` along each axis.
-const GROUP: u32 = 4;
+const GROUP: u32 = shaders::consts::BRICKS_GROUP;
 
 /// Push constants of `bricks.comp`.
 #[repr(C)]

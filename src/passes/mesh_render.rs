@@ -27,9 +27,9 @@ use crate::passes::extract::GpuMesh;
 use crate::shaders;
 
 /// Invocations per workgroup of the raster pass.
-pub const RASTER_GROUP: u32 = 64;
+pub const RASTER_GROUP: u32 = shaders::consts::RASTER_GROUP;
 /// Workgroup side of the resolve pass (8 x 8 pixels, as the ray passes).
-pub const RESOLVE_GROUP: u32 = 8;
+pub const RESOLVE_GROUP: u32 = shaders::consts::RAY_GROUP;
 /// Bytes per pixel of the visibility buffer (one u64 key).
 pub const VIS_BYTES: u64 = 8;
 /// Bytes per pixel of the counts buffer (tested, hits: two u32).

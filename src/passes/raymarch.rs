@@ -10,7 +10,7 @@ use crate::gpu::{ComputePipeline, Context, GpuError};
 use crate::shaders;
 
 /// Workgroup size of the ray shaders (`local_size_x/y`).
-pub const GROUP: u32 = 8;
+pub const GROUP: u32 = shaders::consts::RAY_GROUP;
 
 /// Bindings shared by the ray passes: params (uniform), grid (3D image), pixels (storage),
 /// colormap (storage).

@@ -13,7 +13,7 @@ use crate::gpu::{ComputePipeline, Context, GpuError};
 use crate::shaders;
 
 /// Workgroup size (`local_size_x/y`), also the side of the contour tiles in pixels.
-pub const GROUP: u32 = 8;
+pub const GROUP: u32 = shaders::consts::SLICE_GROUP;
 
 /// params (uniform), grid (3D image), pixels, colormap, tile starts, tile segment lists,
 /// segments (storage).

@@ -224,26 +224,20 @@ pub fn render(scene: &Scene, grid: &Grid, mesh: &Mesh) -> (Vec<Pixel>, Vec<MeshT
         for px in 0..scene.image.width {
             let dir = cam.ray_dir(px, py);
             let tr = trace(mesh, &cam, &boxes, px, py);
-            let mut p = Pixel::miss(scene.render.background, tr.tested as f32);
-            p.crossings = if scene.render.count_crossings { tr.hits as i32 } else { -1 };
-            if let Some((tri, h)) = tr.hit {
+            let hit = tr.hit.map(|(tri, h)| {
                 let position = cam.eye + dir * h.t;
                 let u = to_grid(grid, position);
-                let hit = RayHit {
+                RayHit {
                     t: h.t,
                     position,
                     normal: interpolated_normal(mesh, tri, h.bary, dir),
                     grid_coords: u,
                     cell: cell_of(grid, u),
-                };
-                let c = shader.shade(&hit, dir, tr.tested as f64);
-                p.rgba = [c.x as f32, c.y as f32, c.z as f32, 1.0];
-                p.normal = hit.normal.as_vec3().to_array();
-                p.depth = h.t as f32;
-                p.position = position.as_vec3().to_array();
-                p.cell = hit.cell.map(|c| c as i32);
-            }
-            pixels.push(p);
+                }
+            });
+            let background = scene.render.background;
+            let crossings = if scene.render.count_crossings { tr.hits as i32 } else { -1 };
+            pixels.push(shader.pixel(hit.as_ref(), dir, tr.tested, crossings, background));
             traces.push(tr);
         }
     }

@@ -79,6 +79,37 @@ impl Shader {
     }
 }
 
+impl Shader {
+    /// The record every reference writes for a ray along `dir` that found `hit` after
+    /// `steps` samples, cells or triangles and counted `crossings` (-1: not counted): the
+    /// channels of the channel table (`crate::frame::Channel`). A struct literal, so a new
+    /// `Pixel` member is a compile error here until the references fill it.
+    pub fn pixel(
+        &self,
+        hit: Option<&RayHit>,
+        dir: DVec3,
+        steps: u32,
+        crossings: i32,
+        background: [f32; 4],
+    ) -> Pixel {
+        match hit {
+            None => Pixel { crossings, ..Pixel::miss(background, steps as f32) },
+            Some(h) => {
+                let c = self.shade(h, dir, steps as f64);
+                Pixel {
+                    rgba: [c.x as f32, c.y as f32, c.z as f32, 1.0],
+                    normal: h.normal.as_vec3().to_array(),
+                    depth: h.t as f32,
+                    position: h.position.as_vec3().to_array(),
+                    steps: steps as f32,
+                    cell: h.cell.map(|c| c as i32),
+                    crossings,
+                }
+            }
+        }
+    }
+}
+
 /// Renders every pixel with `trace(origin, dir) -> (hit, steps, crossings)`.
 pub fn render_with<F>(scene: &Scene, grid: &Grid, mut trace: F) -> Vec<Pixel>
 where
@@ -91,17 +122,7 @@ where
         for px in 0..scene.image.width {
             let dir = cam.ray_dir(px, py);
             let (hit, steps, crossings) = trace(cam.eye, dir);
-            let mut p = Pixel::miss(scene.render.background, steps as f32);
-            p.crossings = crossings;
-            if let Some(h) = hit {
-                let c = shader.shade(&h, dir, steps as f64);
-                p.rgba = [c.x as f32, c.y as f32, c.z as f32, 1.0];
-                p.normal = h.normal.as_vec3().to_array();
-                p.depth = h.t as f32;
-                p.position = h.position.as_vec3().to_array();
-                p.cell = h.cell.map(|c| c as i32);
-            }
-            out.push(p);
+            out.push(shader.pixel(hit.as_ref(), dir, steps, crossings, scene.render.background));
         }
     }
     out

@@ -6,6 +6,7 @@ use glam::DVec3;
 use crate::camera::Camera;
 use crate::field::Grid;
 use crate::scene::{Inside, Method, Scene, Shading};
+use crate::shaders::consts;
 
 /// std140 mirror of `struct RenderParams` (vec4 members only, so std140 = C layout).
 /// Field meanings are documented on the GLSL side.
@@ -42,23 +43,34 @@ fn v4(v: DVec3, w: f32) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w]
 }
 
+/// `RenderParams.method.x`: the shaders' `METHOD_*` (one definition, in build.rs).
 pub fn method_code(m: Method) -> u32 {
     match m {
-        Method::FixedStep => 0,
-        Method::Analytic => 1,
-        Method::Mesh => 2,
+        Method::FixedStep => consts::METHOD_FIXED_STEP,
+        Method::Analytic => consts::METHOD_ANALYTIC,
+        Method::Mesh => consts::METHOD_MESH,
     }
 }
 
+/// `RenderParams.method.y`: the shaders' `SHADE_*` (one definition, in build.rs).
 pub fn shading_code(s: Shading) -> u32 {
     match s {
-        Shading::Lambert => 0,
-        Shading::Normal => 1,
-        Shading::Depth => 2,
-        Shading::Steps => 3,
-        Shading::Cells => 4,
-        Shading::Solid => 5,
+        Shading::Lambert => consts::SHADE_LAMBERT,
+        Shading::Normal => consts::SHADE_NORMAL,
+        Shading::Depth => consts::SHADE_DEPTH,
+        Shading::Steps => consts::SHADE_STEPS,
+        Shading::Cells => consts::SHADE_CELLS,
+        Shading::Solid => consts::SHADE_SOLID,
     }
+}
+
+/// `RenderParams.surface.x`, what the ray passes compare samples with: the exact f32 inside
+/// threshold `t` (`passes::extract::inside_threshold`, the one place it is computed), so
+/// that `v < t` (inside = below) or `v > t` (above) equals the f64 comparison of every f32
+/// `v` with the isovalue, as in extraction and the f64 references (README "Conventions").
+/// Where the isovalue is an f32 (every shipped scene) it is the isovalue itself.
+pub fn surface_threshold(isovalue: f64, inside: Inside) -> f32 {
+    crate::passes::extract::inside_threshold(isovalue, inside == Inside::Below)
 }
 
 /// Distances from the eye that map to white and black in `depth` shading: the near and far
@@ -80,7 +92,7 @@ pub fn steps_scale(scene: &Scene, grid: &Grid) -> f64 {
     match scene.render.method {
         Method::FixedStep => scene.render.steps as f64,
         Method::Mesh => MESH_STEPS_SCALE,
-        _ => (grid.cells().iter().sum::<usize>() + 1) as f64,
+        Method::Analytic => (grid.cells().iter().sum::<usize>() + 1) as f64,
     }
 }
 
@@ -105,7 +117,7 @@ impl RenderParams {
             image: [scene.image.width, scene.image.height, 0, 0],
             method: [method_code(r.method), shading_code(r.shading), r.steps, r.newton_steps],
             surface: [
-                scene.surface.isovalue as f32,
+                surface_threshold(scene.surface.isovalue, scene.surface.inside),
                 if scene.surface.inside == Inside::Below { 1.0 } else { -1.0 },
                 near as f32,
                 far as f32,
@@ -118,6 +130,33 @@ impl RenderParams {
                 crate::passes::bricks::BRICK as u32,
                 r.count_crossings as u32,
             ],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_ray_passes_threshold_is_the_exact_inside_rule() {
+        // 0.7 rounds down to f32 (0.69999999 < 0.7), 0.3 rounds up; 0.25 is exact.
+        for iso in [0.7, 0.3, 0.25, -0.7, 1e-40, 0.0] {
+            for inside in [Inside::Below, Inside::Above] {
+                let t = surface_threshold(iso, inside);
+                let near = iso as f32;
+                for v in [
+                    near,
+                    f32::from_bits(near.to_bits() + 1),
+                    f32::from_bits(near.to_bits().wrapping_sub(1)),
+                ] {
+                    let gpu = if inside == Inside::Below { v < t } else { v > t };
+                    assert_eq!(gpu, inside.contains(f64::from(v), iso), "{iso} {inside:?} {v}");
+                }
+                if iso == 0.25 || iso == 0.0 {
+                    assert_eq!(t, near, "an f32 isovalue is its own threshold");
+                }
+            }
         }
     }
 }

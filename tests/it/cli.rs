@@ -158,3 +158,48 @@ fn info_names_the_device() {
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("device") && text.contains("max storage buffer"), "{text}");
 }
+
+/// One cell whose x = 0 face holds 0.7 rounded to f32 (0.699999988..., just below 0.7) and
+/// whose x = 1 face holds 1: with isovalue 0.7 and inside = below, the x = 0 face is inside
+/// (0.69999999 < 0.7 in f64: the f64 references and extraction say so), so the ray along +x
+/// through the face's centre crosses the surface right at the face. Comparing samples with
+/// `0.7 as f32` instead of the exact inside threshold made that face outside and the ray a
+/// miss in both ray passes.
+const JUST_BELOW: &str = r#"
+[image]
+width = 9
+height = 9
+
+[camera]
+eye = [-1.0, 0.5, 0.5]
+target = [0.5, 0.5, 0.5]
+
+[field]
+source = "corners"
+values = [0.699999988079071044921875, 1.0, 0.699999988079071044921875, 1.0,
+          0.699999988079071044921875, 1.0, 0.699999988079071044921875, 1.0]
+
+[surface]
+isovalue = 0.7
+"#;
+
+#[test]
+fn ray_passes_use_the_exact_inside_threshold() {
+    if !gpu_enabled() {
+        return;
+    }
+    let dir = scratch("cli-threshold");
+    let scene = write(&dir, "just-below.toml", JUST_BELOW);
+    for method in ["analytic", "fixed-step"] {
+        let out = dir.join(format!("{method}.exr")).display().to_string();
+        let set = format!("render.method=\"{method}\"");
+        let o = isoview(&["render", &scene, "-o", &out, "--set", &set], &[]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let img = exr::read(Path::new(&out)).unwrap();
+        let centre = 4 * 9 + 4;
+        let (a, z) =
+            (img.channel("A").unwrap().values[centre], img.channel("Z").unwrap().values[centre]);
+        assert_eq!(a, 1.0, "{method}: the centre ray must hit the x = 0 face");
+        assert!((z - 1.0).abs() < 1e-5, "{method}: hit at depth {z}, expected 1 (the face)");
+    }
+}

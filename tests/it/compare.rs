@@ -477,3 +477,31 @@ fn tiny_and_thin_images_compare() {
         assert!(r.flip.is_some(), "{w}x{h}");
     }
 }
+
+#[test]
+fn new_channels_in_b_are_a_mismatch_unless_asked_for() {
+    let dir = scratch("cmp-new-channels");
+    let (old, new) = (dir.join("old.exr"), dir.join("new.exr"));
+    let mut no_crossings = test_frame(8, 6);
+    no_crossings.pixels.iter_mut().for_each(|p| p.crossings = -1);
+    out_exr::write_frame(&old, &no_crossings).unwrap();
+    out_exr::write_frame(&new, &test_frame(8, 6)).unwrap();
+    // Today's contract: different channel sets are bad input.
+    let (code, _, err) = run(&[s(&old), s(&new)]);
+    assert_eq!(code, 2);
+    assert!(err.contains("channel mismatch") && err.contains("crossings"), "{err}");
+    // --new-channels: B's extra channel is named, the others compared (equal here).
+    let (code, out, err) = run(&[s(&old), s(&new), "--new-channels"]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("not in A, not compared (new channels): crossings"), "{out}");
+    assert!(out.contains("15 channels compared") && out.contains("PASS: identical"), "{out}");
+    // A channel only A has is still a mismatch.
+    let (code, _, err) = run(&[s(&new), s(&old), "--new-channels"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("channel mismatch") && err.contains("crossings"), "{err}");
+    // The compared channels still fail on a difference.
+    let mut moved = test_frame(8, 6);
+    moved.pixels[9].depth += 0.5;
+    out_exr::write_frame(&new, &moved).unwrap();
+    assert_eq!(run(&[s(&old), s(&new), "--new-channels"]).0, 1);
+}

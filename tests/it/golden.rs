@@ -135,6 +135,10 @@ pub fn render(g: &Golden, out: &Path, sets: &[String], env: &[(&str, &str)]) {
 /// renders are bit-identical across LP_NUM_THREADS 1 and 2 and with
 /// GALLIUM_OVERRIDE_CPU_CAPS=sse4.1 (no AVX/FMA codegen), so the floor applies. Integer
 /// channels are exact and no pixel may fail.
+///
+/// A channel the renderer writes that a golden lacks (one added since the golden was made) is
+/// named in a note and left out; every channel both have is compared. A channel the golden
+/// has and the render lacks is a failure.
 pub fn golden_thresholds() -> Thresholds {
     Thresholds {
         fail: 1e-6,
@@ -143,6 +147,7 @@ pub fn golden_thresholds() -> Thresholds {
         fail_percent: 0.0,
         warn: 1e-6,
         flip: true,
+        new_channels: true,
         ..Thresholds::default()
     }
 }
@@ -214,6 +219,7 @@ fn goldens_match() {
     let mut outcomes = Vec::new();
     let mut failures = Vec::new();
     let mut blessed = Vec::new();
+    let mut notes = Vec::new();
     for g in goldens() {
         let name = g.name();
         let actual_path = out_dir.join(format!("{name}-actual.exr"));
@@ -265,6 +271,13 @@ fn goldens_match() {
                 continue;
             }
         };
+        if !report.new_channels.is_empty() {
+            notes.push(format!(
+                "{name}: the golden lacks {} (written by the renderer now): compared on the \
+                 other channels; re-bless to record them",
+                report.new_channels.join(", ")
+            ));
+        }
         let diff_png = out_dir.join(format!("{name}-diff.png"));
         compare::write_heat_map_png(&diff_png, &report).unwrap();
         std::fs::copy(&diff_png, report_dir.join(format!("{name}-diff.png"))).unwrap();
@@ -303,6 +316,9 @@ fn goldens_match() {
     for b in &blessed {
         eprintln!("blessed {b}");
     }
+    for n in &notes {
+        eprintln!("note: {n}");
+    }
     assert!(
         failures.is_empty(),
         "{} golden(s) failed (report: {}):\n{}",
@@ -322,6 +338,30 @@ fn no_stale_goldens() {
             assert!(expected.contains(&p), "{} is not rendered by any golden", p.display());
         }
     }
+}
+
+/// A golden made before a channel existed: the channel is reported, the others compared, and
+/// a change in them still fails. (GPU-free: the "render" is a golden read from disk.)
+#[test]
+fn a_golden_lacking_a_new_channel_is_compared_on_the_others() {
+    let g = Golden { scene: "torus".into(), method: "analytic".into(), time: 0.0 };
+    let actual = exr::read(&g.path()).unwrap();
+    assert!(actual.channel("crossings").is_some(), "analytic goldens have crossings");
+    let mut old = actual.clone();
+    old.channels.retain(|c| c.name != "crossings" && c.name != "steps");
+    let r = compare::compare(&old, &actual, &golden_thresholds()).unwrap();
+    assert_eq!(r.verdict, Verdict::Identical);
+    assert_eq!(r.new_channels, ["crossings", "steps"]);
+    assert_eq!(r.channels.len(), actual.channels.len() - 2);
+    assert!(r.to_string().contains("new channels): crossings, steps"), "{r}");
+    // The channels both have are still compared.
+    let mut changed = actual.clone();
+    changed.channels.iter_mut().find(|c| c.name == "N.X").unwrap().values[0] += 1e-3;
+    let r = compare::compare(&old, &changed, &golden_thresholds()).unwrap();
+    assert_eq!(r.verdict, Verdict::Fail);
+    // A channel the golden has and the render lost fails to compare at all.
+    let err = compare::compare(&actual, &old, &golden_thresholds()).unwrap_err().to_string();
+    assert!(err.contains("channel mismatch") && err.contains("crossings"), "{err}");
 }
 
 /// Renders the torus golden with `sets` and compares it with the golden's thresholds.

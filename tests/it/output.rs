@@ -4,8 +4,8 @@ use std::path::Path;
 
 use exr::prelude::*;
 use glam::DVec3;
-use isoview::frame::{Frame, FrameInfo, Pixel};
-use isoview::output::exr::{self as out_exr, attr, SampleKind, CHANNELS};
+use isoview::frame::{Channel, Frame, FrameInfo, Pixel};
+use isoview::output::exr::{self as out_exr, attr, SampleKind};
 use isoview::output::{atomic, png};
 
 pub use crate::common::scratch;
@@ -95,11 +95,12 @@ fn exr_round_trip_of_every_channel_and_attribute() {
 
     assert_eq!((img.width, img.height), (7, 5));
     assert_eq!(img.parts, vec![String::new()]);
-    let mut want: Vec<&str> = CHANNELS.to_vec();
+    let names: Vec<&str> = Channel::ALL.iter().map(|c| c.name()).collect();
+    let mut want = names.clone();
     want.sort();
     let got: Vec<&str> = img.channel_names().collect();
     assert_eq!(got, want, "all 16 channels, stored sorted by name");
-    for name in CHANNELS {
+    for name in names {
         let c = img.channel(name).unwrap();
         assert_eq!(c.kind, SampleKind::F32, "{name}");
         for (i, p) in frame.pixels.iter().enumerate() {
@@ -110,6 +111,10 @@ fn exr_round_trip_of_every_channel_and_attribute() {
     // Miss column: Z = +inf, N = P = 0, cell = -1.
     assert_eq!(img.channel("Z").unwrap().values[0], f32::INFINITY);
     assert_eq!(img.channel("cell.Y").unwrap().values[7], -1.0);
+    // Read back through the channel table: the same pixels, bit for bit.
+    let back = img.frame_pixels().unwrap();
+    let bits = |p: &[Pixel]| bytemuck::cast_slice::<Pixel, u32>(p).to_vec();
+    assert_eq!(bits(&back), bits(&frame.pixels));
 
     let a = |name: &str| img.attribute(name).unwrap_or_else(|| panic!("no {name}"));
     assert_eq!(a(attr::VERSION), isoview::VERSION);
@@ -148,6 +153,61 @@ fn crossings_channel_only_when_some_pixel_counts_them() {
     let img = out_exr::read(&path).unwrap();
     assert!(img.channel("crossings").is_none());
     assert_eq!(img.channels.len(), 15);
+    // Read back, a missing `crossings` is "not counted" again.
+    assert_eq!(img.frame_pixels().unwrap(), frame.pixels);
+}
+
+#[test]
+fn the_channel_table_matches_the_contract() {
+    // The interface contract's channels, names, order of the Pixel members and miss values.
+    let rows: Vec<(&str, &str)> =
+        Channel::ALL.iter().map(|c| (c.name(), c.class().name())).collect();
+    assert_eq!(
+        rows,
+        [
+            ("R", "colour"),
+            ("G", "colour"),
+            ("B", "colour"),
+            ("A", "colour"),
+            ("N.X", "normal"),
+            ("N.Y", "normal"),
+            ("N.Z", "normal"),
+            ("Z", "depth"),
+            ("P.X", "position"),
+            ("P.Y", "position"),
+            ("P.Z", "position"),
+            ("steps", "integer"),
+            ("cell.X", "integer"),
+            ("cell.Y", "integer"),
+            ("cell.Z", "integer"),
+            ("crossings", "integer"),
+        ]
+    );
+    let miss = Pixel::miss([0.1, 0.2, 0.3, 0.4], 9.0);
+    assert_eq!(
+        miss,
+        Pixel {
+            rgba: [0.1, 0.2, 0.3, 0.4],
+            normal: [0.0; 3],
+            depth: f32::INFINITY,
+            position: [0.0; 3],
+            steps: 9.0,
+            cell: [-1; 3],
+            crossings: -1,
+        }
+    );
+    for c in Channel::ALL {
+        assert_eq!(c.get(&miss).to_bits(), channel_of(&miss, c.name()).to_bits(), "{c:?}");
+    }
+}
+
+#[test]
+fn an_exr_without_a_contract_channel_is_not_a_frame() {
+    let dir = scratch("not-a-frame");
+    let path = dir.join("f.exr");
+    out_exr::write_channels(&path, 2, 1, vec![("R".into(), vec![0.0, 1.0])], &[]).unwrap();
+    let err = out_exr::read(&path).unwrap().frame_pixels().unwrap_err().to_string();
+    assert!(err.contains("f.exr") && err.contains("\"G\""), "{err}");
 }
 
 #[test]

@@ -38,9 +38,9 @@ use crate::mesh::tables;
 use crate::shaders;
 
 /// Workgroup size of the extraction passes (`local_size_x`).
-pub const GROUP: u32 = 64;
+pub const GROUP: u32 = shaders::consts::EXTRACT_GROUP;
 /// Elements scanned by one workgroup of `scan.comp` (64 invocations × 16).
-pub const SCAN_BLOCK: u64 = 1024;
+pub const SCAN_BLOCK: u64 = shaders::consts::SCAN_BLOCK as u64;
 /// Most workgroups along one dispatch axis that every Vulkan device accepts.
 const MAX_GROUPS_X: u32 = 65535;
 
@@ -226,10 +226,11 @@ fn next_toward(t: f32, sign: f32) -> f32 {
 
 /// Modes of `classify.comp`.
 pub mod classify_mode {
-    pub const MC: u32 = 0;
-    pub const MT: u32 = 1;
-    pub const DUAL: u32 = 2;
-    pub const MC33: u32 = 3;
+    use crate::shaders::consts;
+    pub const MC: u32 = consts::MODE_MC;
+    pub const MT: u32 = consts::MODE_MT;
+    pub const DUAL: u32 = consts::MODE_DUAL;
+    pub const MC33: u32 = consts::MODE_MC33;
 }
 
 /// The extraction pipelines.

@@ -184,10 +184,8 @@ isovalue = 0.7
 "#;
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn ray_passes_use_the_exact_inside_threshold() {
-    if !gpu_enabled() {
-        return;
-    }
     let dir = scratch("cli-threshold");
     let scene = write(&dir, "just-below.toml", JUST_BELOW);
     for method in ["analytic", "fixed-step"] {

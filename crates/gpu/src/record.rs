@@ -249,8 +249,20 @@ impl<'a> Recorder<'a> {
         };
     }
 
-    /// Records `c` after the barrier its reads and writes need.
+    /// Records `c` after the barrier its reads and writes need. Debug builds check that every
+    /// buffer bound in `c.set` is declared as a read or a write (an undeclared one would miss
+    /// its barriers).
     pub fn dispatch(&mut self, c: &Compute) {
+        if cfg!(debug_assertions) {
+            let declared = |raw: vk::Buffer| c.reads.iter().chain(c.writes).any(|b| b.raw == raw);
+            for (raw, name) in &c.set.buffers {
+                assert!(
+                    declared(*raw),
+                    "pass `{}` binds buffer `{name}` but declares neither a read nor a write of it",
+                    c.pipeline.name
+                );
+            }
+        }
         let access = |b: &&Buffer, write| Access { buffer: b.raw, stage: Stage::Compute, write };
         let accesses: Vec<Access> = (c.reads.iter().map(|b| access(b, false)))
             .chain(c.writes.iter().map(|b| access(b, true)))

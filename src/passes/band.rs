@@ -1,7 +1,22 @@
-//! The band of image rows one dispatch of a ray, mesh or slice pass covers: images are
-//! rendered in bands so that each band's output fits one storage-buffer binding.
+//! Bands of image rows: every ray, mesh and slice pass writes one record per pixel of a band,
+//! and [`Bands`] runs a picture's passes band by band. Bands keep the pixel buffer under the
+//! device's `maxStorageBufferRange` (128 MiB on lavapipe) and each dispatch under
+//! [`MAX_BAND_PIXELS`] pixels, so pictures of any size are drawn in pieces.
+//!
+//! Per band, one submission: the passes that write the band's pixels to the start of
+//! [`Bands::out`] (timed with GPU timestamps where the device has them), the copy of the band
+//! into a host-visible buffer, then the host reads it. Barriers come from the passes'
+//! declared reads and writes (`gpu::Recorder`).
 
+use std::sync::Arc;
+
+use ash::vk;
 use bytemuck::{Pod, Zeroable};
+
+use crate::gpu::{Buffer, Context, GpuError, MemoryLocation, Recorder, Timer, Tracker};
+
+/// Most pixels in one dispatch (bounds the time of one submission on real GPUs too).
+pub const MAX_BAND_PIXELS: u64 = 1 << 20;
 
 /// Push constants of the ray passes: the band of rows being rendered.
 #[repr(C)]
@@ -9,4 +24,93 @@ use bytemuck::{Pod, Zeroable};
 pub struct Band {
     pub row_offset: u32,
     pub rows: u32,
+}
+
+/// Rows per band for an image `width` × `height` whose pixels take `pixel_bytes` each: as many as
+/// fit one storage-buffer binding and [`MAX_BAND_PIXELS`], at least one.
+pub fn band_rows(ctx: &Context, width: u32, height: u32, pixel_bytes: u64) -> u32 {
+    let row_bytes = width as u64 * pixel_bytes;
+    let rows_by_range = ctx.info.max_storage_buffer_range / row_bytes;
+    let rows_by_count = MAX_BAND_PIXELS / width as u64;
+    rows_by_range.min(rows_by_count).clamp(1, height as u64) as u32
+}
+
+/// A picture of `width` × `height` records of type `P`, drawn band by band into [`Bands::out`].
+pub struct Bands<P> {
+    pub width: u32,
+    pub height: u32,
+    /// Rows of the largest band.
+    pub rows: u32,
+    /// The band's records, row 0 of the band first (storage, copy source).
+    pub out: Buffer,
+    readback: Buffer,
+    ctx: Arc<Context>,
+    _pixel: std::marker::PhantomData<P>,
+}
+
+impl<P: Pod> Bands<P> {
+    /// The band buffers of a picture; `name` names the pixel buffer ("pixels").
+    pub fn new(ctx: &Arc<Context>, name: &str, width: u32, height: u32) -> Result<Self, GpuError> {
+        let pixel_bytes = std::mem::size_of::<P>() as u64;
+        let rows = band_rows(ctx, width, height, pixel_bytes);
+        let out = Buffer::new(
+            ctx,
+            name,
+            rows as u64 * width as u64 * pixel_bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        let readback = Buffer::new(
+            ctx,
+            &format!("{name} readback"),
+            out.size,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
+        let ctx = ctx.clone();
+        Ok(Bands { width, height, rows, out, readback, ctx, _pixel: std::marker::PhantomData })
+    }
+
+    /// Pixels of the largest band (what per-pixel scratch buffers must hold).
+    pub fn band_pixels(&self) -> u64 {
+        self.rows as u64 * self.width as u64
+    }
+
+    /// Runs `record` for each band (it records the passes that write the band's records to the
+    /// start of [`Bands::out`]), submission `pass` per band. Returns the picture's records, row 0
+    /// first, and the summed GPU time of the passes in milliseconds (None without timestamps).
+    pub fn run(
+        &self,
+        pass: &str,
+        mut record: impl FnMut(&mut Recorder, Band) -> Result<(), GpuError>,
+    ) -> Result<(Vec<P>, Option<f64>), GpuError> {
+        let ctx = &self.ctx;
+        let timer = Timer::new(ctx)?;
+        let mut gpu_ms = timer.as_ref().map(|_| 0.0);
+        let mut pixels = Vec::with_capacity(self.width as usize * self.height as usize);
+        let mut row = 0;
+        while row < self.height {
+            let rows = self.rows.min(self.height - row);
+            let band = Band { row_offset: row, rows };
+            let count = (rows * self.width) as usize;
+            let bytes = count as u64 * std::mem::size_of::<P>() as u64;
+            ctx.record(pass, &mut Tracker::default(), |rec| {
+                if let Some(t) = &timer {
+                    t.begin(rec.cmd());
+                }
+                record(rec, band)?;
+                if let Some(t) = &timer {
+                    t.end(rec.cmd());
+                }
+                rec.readback(&self.out, &self.readback, bytes);
+                Ok(())
+            })?;
+            if let (Some(t), Some(ms)) = (&timer, gpu_ms.as_mut()) {
+                *ms += t.elapsed_ms()?;
+            }
+            pixels.extend(self.readback.read::<P>(count)?);
+            row += rows;
+        }
+        Ok((pixels, gpu_ms))
+    }
 }

@@ -14,8 +14,8 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
 use crate::gpu::{
-    memory_barrier, Buffer, ComputePipeline, Context, GpuError, Image3d, MemoryLocation, Resource,
-    Timer,
+    grid_groups, Buffer, Compute, ComputePipeline, Context, GpuError, Image3d, MemoryLocation,
+    Resource, Timer, Tracker,
 };
 use crate::shaders;
 
@@ -99,26 +99,25 @@ pub fn build(
         bricks: [counts[0] as i32, counts[1] as i32, counts[2] as i32, BRICK as i32],
     };
     let timer = Timer::new(ctx)?;
-    ctx.submit(&pipeline.name, |cmd| {
+    ctx.record(&pipeline.name, &mut Tracker::default(), |rec| {
         if let Some(t) = &timer {
-            t.begin(cmd);
+            t.begin(rec.cmd());
         }
-        pipeline.record(
-            cmd,
-            &set,
-            bytemuck::bytes_of(&shape),
-            counts.map(|c| (c as u32).div_ceil(GROUP)),
-        );
+        // One invocation per brick, GROUP³ bricks per workgroup.
+        let counts = counts.map(|c| c as u32);
+        rec.dispatch(&Compute {
+            pipeline,
+            set: &set,
+            push: bytemuck::bytes_of(&shape),
+            groups: grid_groups(counts, [GROUP; 3]),
+            reads: &[],
+            writes: &[&bricks],
+        });
         if let Some(t) = &timer {
-            t.end(cmd);
+            t.end(rec.cmd());
         }
         // The ray passes of later submissions read the bricks.
-        memory_barrier(
-            ctx,
-            cmd,
-            (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
-            (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_READ),
-        );
+        rec.release();
         Ok(())
     })?;
     let ms = timer.as_ref().map(Timer::elapsed_ms).transpose()?;

@@ -14,14 +14,19 @@
 //! desktop drivers have them). Mesh buffers have the layout of the GPU extraction's output
 //! (`GpuMesh`): positions and normals as one `vec4` per vertex, indices as three `u32` per
 //! triangle, counter-clockwise seen from outside. [`upload`] puts a CPU
-//! [`Mesh`] into that layout. The f64 mirror is `reference::mesh`.
+//! [`Mesh`] into that layout. The f64 mirror is `reference::mesh`. [`MeshPass`] records both
+//! passes of a band.
 
 use std::sync::Arc;
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
-use crate::gpu::{Buffer, ComputePipeline, Context, GpuError, Resource};
+use super::Band;
+use crate::gpu::{
+    grid_groups, spread_groups, Buffer, Compute, ComputePipeline, Context, Dispatch, GpuError,
+    Image3d, MemoryLocation, Recorder, Resource,
+};
 use crate::mesh::Mesh;
 use crate::passes::extract::GpuMesh;
 use crate::shaders;
@@ -124,27 +129,116 @@ impl MeshPipelines {
         Ok(MeshPipelines { raster, resolve })
     }
 
-    /// Bindings of the raster pass, in order.
-    pub fn raster_resources<'a>(
-        params: &'a Buffer,
-        mesh: &'a GpuMesh,
-        vis: &'a Buffer,
-        counts: &'a Buffer,
-    ) -> [Resource<'a>; 5] {
-        [
-            Resource::Uniform(params),
-            Resource::Storage(&mesh.positions),
-            Resource::Storage(&mesh.indices),
-            Resource::Storage(vis),
-            Resource::Storage(counts),
-        ]
-    }
-
     /// Workgroups of the raster pass for `triangles` (2D: at most 65535 groups per row) and the
     /// invocations per row.
-    pub fn raster_groups(triangles: u32) -> ([u32; 3], u32) {
-        let groups = triangles.div_ceil(RASTER_GROUP).max(1);
-        let x = groups.min(65535);
-        ([x, groups.div_ceil(x), 1], x * RASTER_GROUP)
+    pub fn raster_groups(triangles: u32) -> Result<([u32; 3], u32), GpuError> {
+        let groups = spread_groups(u64::from(triangles.div_ceil(RASTER_GROUP)))?;
+        Ok((groups, groups[0] * RASTER_GROUP))
+    }
+}
+
+/// What the mesh render reads for one picture, and the band of pixels it writes.
+pub struct MeshInputs<'a> {
+    /// `RenderParams` (uniform).
+    pub params: &'a Buffer,
+    pub grid: &'a Image3d,
+    pub mesh: &'a GpuMesh,
+    pub colormap: &'a Buffer,
+    /// The band's `Pixel`s, written.
+    pub pixels: &'a Buffer,
+}
+
+/// The two mesh passes bound to their inputs, with their per-pixel scratch (visibility keys and
+/// counts) for bands of up to `band_pixels` pixels; records one band at a time.
+pub struct MeshPass<'a> {
+    pipes: &'a MeshPipelines,
+    inputs: MeshInputs<'a>,
+    vis: Buffer,
+    counts: Buffer,
+    raster: Dispatch,
+    resolve: Dispatch,
+}
+
+impl<'a> MeshPass<'a> {
+    pub fn new(
+        ctx: &Arc<Context>,
+        pipes: &'a MeshPipelines,
+        inputs: MeshInputs<'a>,
+        band_pixels: u64,
+    ) -> Result<Self, GpuError> {
+        let scratch = |name: &str, bytes: u64| {
+            Buffer::new(
+                ctx,
+                name,
+                bytes,
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuOnly,
+            )
+        };
+        let vis = scratch("mesh visibility", band_pixels * VIS_BYTES)?;
+        let counts = scratch("mesh counts", band_pixels * COUNT_BYTES)?;
+        let i = &inputs;
+        let raster = pipes.raster.bind(&[
+            Resource::Uniform(i.params),
+            Resource::Storage(&i.mesh.positions),
+            Resource::Storage(&i.mesh.indices),
+            Resource::Storage(&vis),
+            Resource::Storage(&counts),
+        ])?;
+        let resolve = pipes.resolve.bind(&[
+            Resource::Uniform(i.params),
+            Resource::Sampled(i.grid),
+            Resource::Storage(i.pixels),
+            Resource::Storage(i.colormap),
+            Resource::Storage(&i.mesh.positions),
+            Resource::Storage(&i.mesh.normals),
+            Resource::Storage(&i.mesh.indices),
+            Resource::Storage(&vis),
+            Resource::Storage(&counts),
+        ])?;
+        Ok(MeshPass { pipes, inputs, vis, counts, raster, resolve })
+    }
+
+    /// Records the band: clear the scratch (no hit, nothing counted), raster (one invocation
+    /// per triangle, none without triangles), resolve (one per pixel, [`RESOLVE_GROUP`]² per
+    /// workgroup).
+    pub fn record(&self, rec: &mut Recorder, width: u32, band: Band) -> Result<(), GpuError> {
+        let (i, mesh) = (&self.inputs, self.inputs.mesh);
+        rec.fill(&self.vis, 0, self.vis.size, NO_HIT_WORD);
+        rec.fill(&self.counts, 0, self.counts.size, 0);
+        if mesh.triangle_count > 0 {
+            let (groups, threads_x) = MeshPipelines::raster_groups(mesh.triangle_count)?;
+            let push = RasterPush {
+                row_offset: band.row_offset,
+                rows: band.rows,
+                triangle_count: mesh.triangle_count,
+                threads_x,
+            };
+            rec.dispatch(&Compute {
+                pipeline: &self.pipes.raster,
+                set: &self.raster,
+                push: bytemuck::bytes_of(&push),
+                groups,
+                reads: &[i.params, &mesh.positions, &mesh.indices],
+                writes: &[&self.vis, &self.counts],
+            });
+        }
+        rec.dispatch(&Compute {
+            pipeline: &self.pipes.resolve,
+            set: &self.resolve,
+            push: bytemuck::bytes_of(&band),
+            groups: grid_groups([width, band.rows, 1], [RESOLVE_GROUP, RESOLVE_GROUP, 1]),
+            reads: &[
+                i.params,
+                i.colormap,
+                &mesh.positions,
+                &mesh.normals,
+                &mesh.indices,
+                &self.vis,
+                &self.counts,
+            ],
+            writes: &[i.pixels],
+        });
+        Ok(())
     }
 }

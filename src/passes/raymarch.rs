@@ -1,12 +1,17 @@
 //! Fixed-step ray marching (`shaders/raymarch.comp`): one invocation per pixel of a band of
 //! rows, writing one `Pixel` each. The algorithm is documented in the shader and mirrored by
-//! `reference::fixed_step`.
+//! `reference::fixed_step`. [`RayPass`] records this pass and the analytic one (same workgroups,
+//! push constants and outputs).
 
 use std::sync::Arc;
 
 use ash::vk;
 
-use crate::gpu::{ComputePipeline, Context, GpuError};
+use super::Band;
+use crate::gpu::{
+    grid_groups, Buffer, Compute, ComputePipeline, Context, Dispatch, GpuError, Image3d, Recorder,
+    Resource,
+};
 use crate::shaders;
 
 /// Workgroup size of the ray shaders (`local_size_x/y`).
@@ -29,4 +34,58 @@ pub fn pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
         &RAY_BINDINGS,
         std::mem::size_of::<super::Band>() as u32,
     )
+}
+
+/// What a ray pass (this one or [`super::analytic`]) reads and writes.
+pub struct RayInputs<'a> {
+    /// `RenderParams` (uniform).
+    pub params: &'a Buffer,
+    pub grid: &'a Image3d,
+    /// The band's `Pixel`s, written.
+    pub pixels: &'a Buffer,
+    pub colormap: &'a Buffer,
+    /// The brick min/max grid ([`super::bricks`]): the analytic pass's fifth binding.
+    pub bricks: Option<&'a Buffer>,
+}
+
+/// A ray pass bound to its inputs; records one band at a time.
+pub struct RayPass<'a> {
+    pipeline: &'a ComputePipeline,
+    set: Dispatch,
+    inputs: RayInputs<'a>,
+}
+
+impl<'a> RayPass<'a> {
+    pub fn new(pipeline: &'a ComputePipeline, inputs: RayInputs<'a>) -> Result<Self, GpuError> {
+        let mut resources = vec![
+            Resource::Uniform(inputs.params),
+            Resource::Sampled(inputs.grid),
+            Resource::Storage(inputs.pixels),
+            Resource::Storage(inputs.colormap),
+        ];
+        resources.extend(inputs.bricks.map(Resource::Storage));
+        let set = pipeline.bind(&resources)?;
+        Ok(RayPass { pipeline, set, inputs })
+    }
+
+    /// The pass's name (its pipeline's).
+    pub fn name(&self) -> &str {
+        &self.pipeline.name
+    }
+
+    /// Records the band: one invocation per pixel, [`GROUP`]² pixels per workgroup, the band as
+    /// push constants.
+    pub fn record(&self, rec: &mut Recorder, width: u32, band: Band) {
+        let i = &self.inputs;
+        let mut reads = vec![i.params, i.colormap];
+        reads.extend(i.bricks);
+        rec.dispatch(&Compute {
+            pipeline: self.pipeline,
+            set: &self.set,
+            push: bytemuck::bytes_of(&band),
+            groups: grid_groups([width, band.rows, 1], [GROUP, GROUP, 1]),
+            reads: &reads,
+            writes: &[i.pixels],
+        });
+    }
 }

@@ -1,6 +1,6 @@
 //! The slice pass (`shaders/slice.comp`): one invocation per pixel of a band of rows of a
 //! slice picture, writing the field's value on the plane, its colour from a diverging colormap
-//! centred on the isovalue, and the contour lines over it. `slice::image` runs it;
+//! centred on the isovalue, and the contour lines over it. `slice::image` runs it ([`SlicePass`]);
 //! `slice::reference` is its f64 mirror.
 
 use std::sync::Arc;
@@ -9,7 +9,10 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
 use super::Band;
-use crate::gpu::{ComputePipeline, Context, GpuError};
+use crate::gpu::{
+    grid_groups, Buffer, Compute, ComputePipeline, Context, Dispatch, GpuError, Image3d, Recorder,
+    Resource,
+};
 use crate::shaders;
 
 /// Workgroup size (`local_size_x/y`), also the side of the contour tiles in pixels.
@@ -70,4 +73,60 @@ pub fn pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
         &BINDINGS,
         std::mem::size_of::<Band>() as u32,
     )
+}
+
+/// What the slice pass reads, and the band of pixels it writes.
+pub struct SliceInputs<'a> {
+    /// [`SliceParams`] (uniform).
+    pub params: &'a Buffer,
+    pub grid: &'a Image3d,
+    /// The band's [`SlicePixel`]s, written.
+    pub pixels: &'a Buffer,
+    pub colormap: &'a Buffer,
+    /// The contour segments bucketed by tile (CSR): tile starts, tile segment lists, segments.
+    pub tile_starts: &'a Buffer,
+    pub tile_segments: &'a Buffer,
+    pub segments: &'a Buffer,
+}
+
+/// The slice pass bound to its inputs; records one band at a time.
+pub struct SlicePass<'a> {
+    pipeline: &'a ComputePipeline,
+    set: Dispatch,
+    inputs: SliceInputs<'a>,
+}
+
+impl<'a> SlicePass<'a> {
+    pub fn new(pipeline: &'a ComputePipeline, inputs: SliceInputs<'a>) -> Result<Self, GpuError> {
+        let i = &inputs;
+        let set = pipeline.bind(&[
+            Resource::Uniform(i.params),
+            Resource::Sampled(i.grid),
+            Resource::Storage(i.pixels),
+            Resource::Storage(i.colormap),
+            Resource::Storage(i.tile_starts),
+            Resource::Storage(i.tile_segments),
+            Resource::Storage(i.segments),
+        ])?;
+        Ok(SlicePass { pipeline, set, inputs })
+    }
+
+    /// The pass's name (its pipeline's).
+    pub fn name(&self) -> &str {
+        &self.pipeline.name
+    }
+
+    /// Records the band: one invocation per pixel, [`GROUP`]² pixels (one contour tile) per
+    /// workgroup, the band as push constants.
+    pub fn record(&self, rec: &mut Recorder, width: u32, band: Band) {
+        let i = &self.inputs;
+        rec.dispatch(&Compute {
+            pipeline: self.pipeline,
+            set: &self.set,
+            push: bytemuck::bytes_of(&band),
+            groups: grid_groups([width, band.rows, 1], [GROUP, GROUP, 1]),
+            reads: &[i.params, i.colormap, i.tile_starts, i.tile_segments, i.segments],
+            writes: &[i.pixels],
+        });
+    }
 }

@@ -1,11 +1,7 @@
 //! Rendering a scene: upload the grid as a 3D image, run the method's ray pass over bands of
-//! rows, read the pixels back into a [`Frame`]. The analytic pass also reads the grid's brick
-//! min/max grid (empty-space skipping), built on the GPU the first time an analytic render uses
-//! an uploaded grid and kept with it.
-//!
-//! Bands keep every storage buffer under the device's `maxStorageBufferRange` (128 MiB on
-//! lavapipe) and every dispatch to at most [`MAX_BAND_PIXELS`] rays, so images of any size are
-//! rendered in pieces.
+//! rows ([`crate::passes::Bands`]), read the pixels back into a [`Frame`]. The analytic pass
+//! also reads the grid's brick min/max grid (empty-space skipping), built on the GPU the first
+//! time an analytic render uses an uploaded grid and kept with it.
 
 pub mod mesh;
 pub mod params;
@@ -16,18 +12,15 @@ use ash::vk;
 
 use crate::field::Grid;
 use crate::frame::{Frame, FrameInfo, Pixel};
-use crate::gpu::record_readback;
-use crate::gpu::{
-    Buffer, ComputePipeline, Context, GpuError, Image3d, MemoryLocation, Resource, Timer,
-};
+use crate::gpu::{Buffer, ComputePipeline, Context, GpuError, Image3d};
 use crate::passes::mesh_render::MeshPipelines;
-use crate::passes::Band;
+use crate::passes::raymarch::{RayInputs, RayPass};
+use crate::passes::Bands;
 use crate::passes::{analytic, bricks, raymarch};
 use crate::scene::{Method, Scene};
 use params::RenderParams;
 
-/// Most rays in one dispatch (bounds the time of one submission on real GPUs too).
-pub const MAX_BAND_PIXELS: u64 = 1 << 20;
+pub use crate::passes::band::{band_rows, MAX_BAND_PIXELS};
 
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
@@ -48,55 +41,6 @@ impl From<crate::passes::extract::GpuMeshError> for RenderError {
             GpuMeshError::Unsupported(what) => RenderError::Unsupported(what),
         }
     }
-}
-
-/// Rows per band for an image `width` × `height` whose pixels take `pixel_bytes` each: as many as
-/// fit one storage-buffer binding and [`MAX_BAND_PIXELS`], at least one.
-pub fn band_rows(ctx: &Context, width: u32, height: u32, pixel_bytes: u64) -> u32 {
-    let row_bytes = width as u64 * pixel_bytes;
-    let rows_by_range = ctx.info.max_storage_buffer_range / row_bytes;
-    let rows_by_count = MAX_BAND_PIXELS / width as u64;
-    rows_by_range.min(rows_by_count).clamp(1, height as u64) as u32
-}
-
-/// Runs a frame's passes band by band: for each band of at most `band_rows` rows, `record`
-/// records the passes that write the band's pixels to the start of `out` (timed with GPU
-/// timestamps where the device has them), then the band is copied to `readback` and read. Returns
-/// the frame's pixels and the summed GPU time of the passes in milliseconds.
-pub(super) fn run_bands(
-    ctx: &Arc<Context>,
-    pass: &str,
-    (width, height, band_rows): (u32, u32, u32),
-    out: &Buffer,
-    readback: &Buffer,
-    mut record: impl FnMut(vk::CommandBuffer, Band),
-) -> Result<(Vec<Pixel>, Option<f64>), GpuError> {
-    let timer = Timer::new(ctx)?;
-    let mut gpu_ms = timer.as_ref().map(|_| 0.0);
-    let mut pixels = Vec::with_capacity(width as usize * height as usize);
-    let mut row = 0;
-    while row < height {
-        let rows = band_rows.min(height - row);
-        let band = Band { row_offset: row, rows };
-        let bytes = (rows * width) as u64 * std::mem::size_of::<Pixel>() as u64;
-        ctx.submit(pass, |cmd| {
-            if let Some(t) = &timer {
-                t.begin(cmd);
-            }
-            record(cmd, band);
-            if let Some(t) = &timer {
-                t.end(cmd);
-            }
-            record_readback(ctx, cmd, out, readback, bytes);
-            Ok(())
-        })?;
-        if let (Some(t), Some(ms)) = (&timer, gpu_ms.as_mut()) {
-            *ms += t.elapsed_ms()?;
-        }
-        pixels.extend(readback.read::<Pixel>((rows * width) as usize)?);
-        row += rows;
-    }
-    Ok((pixels, gpu_ms))
 }
 
 /// A grid uploaded to the device.
@@ -216,10 +160,6 @@ impl Renderer {
             self.last_bricks_ms = ms;
         }
         let (width, height) = (scene.image.width, scene.image.height);
-        let pixel_bytes = std::mem::size_of::<Pixel>() as u64;
-        let row_bytes = width as u64 * pixel_bytes;
-        let band_rows = band_rows(ctx, width, height, pixel_bytes);
-
         let params = RenderParams::new(scene, grid);
         let params_buf = Buffer::upload(
             ctx,
@@ -227,43 +167,25 @@ impl Renderer {
             std::slice::from_ref(&params),
             vk::BufferUsageFlags::UNIFORM_BUFFER,
         )?;
-        let out = Buffer::new(
-            ctx,
-            "pixels",
-            band_rows as u64 * row_bytes,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::GpuOnly,
-        )?;
-        let readback = Buffer::new(
-            ctx,
-            "pixels readback",
-            out.size,
-            vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuToCpu,
-        )?;
-        let mut resources = vec![
-            Resource::Uniform(&params_buf),
-            Resource::Sampled(&gpu_grid.image),
-            Resource::Storage(&out),
-            Resource::Storage(&self.colormap),
-        ];
-        if let (Method::Analytic, Some(b)) = (scene.render.method, gpu_grid.bricks.get()) {
-            resources.push(Resource::Storage(b));
-        }
-        let set = pipeline.bind(&resources)?;
-
-        let groups_x = width.div_ceil(raymarch::GROUP);
-        let (pixels, gpu_ms) = run_bands(
-            ctx,
-            &pipeline.name,
-            (width, height, band_rows),
-            &out,
-            &readback,
-            |cmd, band| {
-                let groups = [groups_x, band.rows.div_ceil(raymarch::GROUP), 1];
-                pipeline.record(cmd, &set, bytemuck::bytes_of(&band), groups);
+        let bands = Bands::<Pixel>::new(ctx, "pixels", width, height)?;
+        let bricks = match scene.render.method {
+            Method::Analytic => gpu_grid.bricks.get(),
+            _ => None,
+        };
+        let pass = RayPass::new(
+            pipeline,
+            RayInputs {
+                params: &params_buf,
+                grid: &gpu_grid.image,
+                pixels: &bands.out,
+                colormap: &self.colormap,
+                bricks,
             },
         )?;
+        let (pixels, gpu_ms) = bands.run(pass.name(), |rec, band| {
+            pass.record(rec, width, band);
+            Ok(())
+        })?;
         self.last_gpu_ms = gpu_ms;
         Ok(Frame { width, height, pixels, info: self.frame_info(scene, grid, time) })
     }

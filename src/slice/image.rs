@@ -1,9 +1,6 @@
 //! The slice picture on the GPU: uploads the grid, the colormap and the contour segments
 //! (bucketed into 8x8-pixel tiles), runs the slice pass over bands of rows and reads back one
-//! [`SlicePixel`] per pixel.
-//!
-//! Bands keep the pixel buffer under the device's `maxStorageBufferRange` and each dispatch
-//! under [`crate::render::MAX_BAND_PIXELS`] pixels, as the renderer does.
+//! [`SlicePixel`] per pixel, with the renderer's band loop ([`crate::passes::Bands`]).
 
 use std::sync::Arc;
 
@@ -12,10 +9,9 @@ use glam::DVec2;
 
 use super::contour::Contour;
 use super::plane::PlaneGrid;
-use crate::gpu::record_readback;
-use crate::gpu::{Buffer, ComputePipeline, Context, GpuError, MemoryLocation, Resource};
-use crate::passes::slice::{self as pass, SliceParams, SlicePixel};
-use crate::passes::Band;
+use crate::gpu::{Buffer, ComputePipeline, Context, GpuError};
+use crate::passes::slice::{self as pass, SliceInputs, SliceParams, SlicePass, SlicePixel};
+use crate::passes::Bands;
 use crate::render::GpuGrid;
 use crate::scene::Inside;
 
@@ -177,51 +173,23 @@ impl SliceRenderer {
         let members = Buffer::upload(ctx, "slice tile segments", &t.members, storage)?;
         let segments = Buffer::upload(ctx, "slice segments", &t.segments, storage)?;
 
-        let pixel_bytes = std::mem::size_of::<SlicePixel>() as u64;
-        let row_bytes = width as u64 * pixel_bytes;
-        let band_rows = crate::render::band_rows(ctx, width, height, pixel_bytes);
-        let out = Buffer::new(
-            ctx,
-            "slice pixels",
-            band_rows as u64 * row_bytes,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::GpuOnly,
+        let bands = Bands::<SlicePixel>::new(ctx, "slice pixels", width, height)?;
+        let pass = SlicePass::new(
+            &self.pipeline,
+            SliceInputs {
+                params: &params_buf,
+                grid: &grid.image,
+                pixels: &bands.out,
+                colormap: &self.colormap,
+                tile_starts: &start,
+                tile_segments: &members,
+                segments: &segments,
+            },
         )?;
-        let readback = Buffer::new(
-            ctx,
-            "slice pixels readback",
-            out.size,
-            vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuToCpu,
-        )?;
-        let set = self.pipeline.bind(&[
-            Resource::Uniform(&params_buf),
-            Resource::Sampled(&grid.image),
-            Resource::Storage(&out),
-            Resource::Storage(&self.colormap),
-            Resource::Storage(&start),
-            Resource::Storage(&members),
-            Resource::Storage(&segments),
-        ])?;
-
-        let mut pixels = Vec::with_capacity(width as usize * height as usize);
-        let mut row = 0;
-        while row < height {
-            let rows = band_rows.min(height - row);
-            let band = Band { row_offset: row, rows };
-            ctx.submit(&self.pipeline.name, |cmd| {
-                self.pipeline.record(
-                    cmd,
-                    &set,
-                    bytemuck::bytes_of(&band),
-                    [width.div_ceil(pass::GROUP), rows.div_ceil(pass::GROUP), 1],
-                );
-                record_readback(ctx, cmd, &out, &readback, rows as u64 * row_bytes);
-                Ok(())
-            })?;
-            pixels.extend(readback.read::<SlicePixel>((rows * width) as usize)?);
-            row += rows;
-        }
+        let (pixels, _) = bands.run(pass.name(), |rec, band| {
+            pass.record(rec, width, band);
+            Ok(())
+        })?;
         Ok(SliceImage { width, height, pixels })
     }
 }

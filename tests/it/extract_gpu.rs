@@ -405,7 +405,7 @@ fn mc33_every_cell_configuration_matches_the_reference() {
 #[test]
 #[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn scan_is_an_exclusive_prefix_sum() {
-    use isoview::gpu::{copy_buffer, memory_barrier, vk, Buffer, MemoryLocation};
+    use isoview::gpu::{vk, Buffer, MemoryLocation, Tracker};
     use isoview::passes::extract::{ExtractPasses, Scan};
     let ctx = gpu();
     let passes = ExtractPasses::new(&ctx).unwrap();
@@ -421,28 +421,10 @@ fn scan_is_an_exclusive_prefix_sum() {
         let buf = Buffer::new(&ctx, "data", bytes, usage, MemoryLocation::GpuOnly).unwrap();
         let down = Buffer::new(&ctx, "down", bytes, usage, MemoryLocation::GpuToCpu).unwrap();
         let scan = Scan::new(&ctx, &passes, "test", &buf, len as u64 + 7).unwrap();
-        ctx.submit("scan test", |cmd| {
-            copy_buffer(&ctx, cmd, &up, 0, &buf, 0, bytes);
-            memory_barrier(
-                &ctx,
-                cmd,
-                (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
-                (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_READ),
-            );
-            scan.record(&ctx, &passes, cmd, len as u64)?;
-            memory_barrier(
-                &ctx,
-                cmd,
-                (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
-                (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
-            );
-            copy_buffer(&ctx, cmd, &buf, 0, &down, 0, bytes);
-            memory_barrier(
-                &ctx,
-                cmd,
-                (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
-                (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
-            );
+        ctx.record("scan test", &mut Tracker::default(), |rec| {
+            rec.copy(&up, 0, &buf, 0, bytes);
+            scan.record(rec, &passes, &buf, len as u64)?;
+            rec.readback(&buf, &down, bytes);
             Ok(())
         })
         .unwrap();

@@ -1,7 +1,8 @@
 //! A small Vulkan compute backend on ash + gpu-allocator. It knows nothing of isosurfaces:
 //! a [`Context`] (instance, device, queue, allocator), RAII [`Buffer`]s and [`Image3d`]s with
-//! debug names, [`ComputePipeline`]s from SPIR-V, and one-shot command submission with
-//! timestamp queries.
+//! debug names, [`ComputePipeline`]s from SPIR-V, one-shot command submission with timestamp
+//! queries, and a [`Recorder`] that derives barriers from the buffers each command declares it
+//! reads and writes (plus the workgroup arithmetic, [`grid_groups`] and [`spread_groups`]).
 //!
 //! Ownership and drop order: every resource holds an `Arc<Context>` and frees its own
 //! allocation in `Drop`; the context drops the allocator, then the device, then the instance,
@@ -14,6 +15,7 @@ mod error;
 mod guard;
 mod image;
 mod pipeline;
+mod record;
 
 pub use buffer::Buffer;
 pub use context::{validation_messages, Context, ContextOptions, DeviceInfo};
@@ -23,6 +25,9 @@ pub use image::Image3d;
 pub use pipeline::{
     copy_buffer, fill_buffer, memory_barrier, record_readback, ComputePipeline, Dispatch, Resource,
     Timer,
+};
+pub use record::{
+    grid_groups, spread_groups, Access, Barrier, Compute, Recorder, Stage, Tracker, MAX_GROUPS_X,
 };
 
 pub use ash::vk;

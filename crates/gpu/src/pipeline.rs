@@ -30,6 +30,9 @@ pub enum Resource<'a> {
 pub struct Dispatch {
     set: vk::DescriptorSet,
     pool: vk::DescriptorPool,
+    /// The buffers bound, so that a recorder can check that a pass declares each one as a
+    /// read or a write.
+    pub(crate) buffers: Vec<(vk::Buffer, String)>,
     ctx: Arc<Context>,
 }
 
@@ -153,7 +156,15 @@ impl ComputePipeline {
             )
         }
         .vk("vkCreateDescriptorPool")?;
-        let mut dispatch = Dispatch { set: vk::DescriptorSet::null(), pool, ctx: self.ctx.clone() };
+        let buffers = resources
+            .iter()
+            .filter_map(|r| match r {
+                Resource::Storage(b) | Resource::Uniform(b) => Some((b.raw, b.name.clone())),
+                Resource::Sampled(_) => None,
+            })
+            .collect();
+        let mut dispatch =
+            Dispatch { set: vk::DescriptorSet::null(), pool, buffers, ctx: self.ctx.clone() };
         let layouts = [self.set_layout];
         // SAFETY: pool and layout are valid.
         let set = unsafe {

@@ -76,20 +76,17 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::plan::{self, Kind, SlabCounts, SlabPlan, Slabs, Step, TRIANGLE_BYTES, VERTEX_BYTES};
 use super::{
-    classify_mode, compute_barrier, inside_threshold, record_items, ExtractParams, ExtractPasses,
-    ExtractTables, Mc33Passes, Scan, SlabPush,
+    classify_mode, ExtractIo, ExtractPass, ExtractPasses, ExtractTables, GpuMeshError, Mc33Passes,
+    Scan, SlabPush,
 };
 use crate::field::Grid;
 use crate::gpu::{
-    copy_buffer, fill_buffer, memory_barrier, Buffer, ComputePipeline, Context, Dispatch, GpuError,
-    Image3d, MemoryLocation, Resource, Timer,
+    Buffer, Context, GpuError, Image3d, MemoryLocation, Recorder, Stage, Timer, Tracker,
 };
-use crate::mesh::{Mesh, MeshError, QuadSplit};
+use crate::mesh::{Mesh, QuadSplit};
 use crate::vocab::{Inside, MeshAlgorithm};
-
-/// Largest scratch buffer of a slab, in bytes, on devices whose binding limit is larger.
-const MAX_SCRATCH_BYTES: u64 = 256 << 20;
 
 /// A mesh on the device, for the mesh renderer: positions `(x, y, z, 1)` and normals
 /// `(x, y, z, 0)` as vec4 per vertex (world space, normals unit and inside → outside), indices
@@ -120,8 +117,8 @@ impl GpuMesh {
     /// Copies the mesh back to the host (through staging buffers).
     pub fn read(&self) -> Result<Mesh, GpuError> {
         let ctx = &self.ctx;
-        let v_bytes = u64::from(self.vertex_count) * 16;
-        let i_bytes = u64::from(self.triangle_count) * 12;
+        let v_bytes = u64::from(self.vertex_count) * VERTEX_BYTES;
+        let i_bytes = u64::from(self.triangle_count) * TRIANGLE_BYTES;
         let staging = |name: &str, bytes: u64| {
             Buffer::new(
                 ctx,
@@ -134,20 +131,17 @@ impl GpuMesh {
         let positions = staging("mesh positions readback", v_bytes)?;
         let normals = staging("mesh normals readback", v_bytes)?;
         let indices = staging("mesh indices readback", i_bytes)?;
-        ctx.submit("read mesh", |cmd| {
+        ctx.record("read mesh", &mut Tracker::default(), |rec| {
             if v_bytes > 0 {
-                copy_buffer(ctx, cmd, &self.positions, 0, &positions, 0, v_bytes);
-                copy_buffer(ctx, cmd, &self.normals, 0, &normals, 0, v_bytes);
+                rec.copy(&self.positions, 0, &positions, 0, v_bytes);
+                rec.copy(&self.normals, 0, &normals, 0, v_bytes);
+                rec.host_read(&positions);
+                rec.host_read(&normals);
             }
             if i_bytes > 0 {
-                copy_buffer(ctx, cmd, &self.indices, 0, &indices, 0, i_bytes);
+                rec.copy(&self.indices, 0, &indices, 0, i_bytes);
+                rec.host_read(&indices);
             }
-            memory_barrier(
-                ctx,
-                cmd,
-                (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
-                (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
-            );
             Ok(())
         })?;
         let n = self.vertex_count as usize;
@@ -159,20 +153,6 @@ impl GpuMesh {
             quads: None,
         })
     }
-}
-
-/// Why a GPU extraction failed.
-#[derive(Debug, thiserror::Error)]
-pub enum GpuMeshError {
-    #[error(transparent)]
-    Gpu(#[from] GpuError),
-    #[error(transparent)]
-    Mesh(#[from] MeshError),
-    #[error(
-        "render.mesh = \"{0}\" needs 64-bit floats (shaderFloat64) on the GPU, which this device \
-         lacks; extract it on the CPU (--device cpu)"
-    )]
-    Unsupported(&'static str),
 }
 
 /// Options of [`Extractor::extract`].
@@ -213,113 +193,13 @@ pub struct Extractor {
     pub last: ExtractStats,
 }
 
-/// How an algorithm maps onto the passes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Kind {
-    /// Vertices on lattice edges (points own them), triangles per cell; `mc33` also adds
-    /// vertices per cell, numbered after all edge vertices.
-    Edges { mt: bool, mc33: bool },
-    /// Vertices per cell, quads per lattice edge (points own them); `pad` layers of outside
-    /// points around the grid (dual contouring).
-    Dual { pad: usize },
-}
-
-/// Which layers a slab holds and owns. Indices are into the slab's point / cell buffers.
-#[derive(Clone, Copy, Debug)]
-struct SlabPlan {
-    /// First owned cell layer (padded); the owned points start at layer `z0` too.
-    z0: usize,
-    point_z0: usize,
-    points: usize,
-    cell_z0: usize,
-    cells: usize,
-    owned_point: usize,
-    owned_point_end: usize,
-    owned_cell: usize,
-    owned_cell_end: usize,
-    /// Samples held: padded point layers from `value_z0`, `values` points (one layer around
-    /// the point layers, for the gradients of the cells on either side of them).
-    value_z0: usize,
-    values: usize,
-}
-
-impl SlabPlan {
-    fn new(kind: Kind, z0: usize, z1: usize, cell_layers: usize, lp: usize, lc: usize) -> Self {
-        let mut plan = SlabPlan::layers(kind, z0, z1, cell_layers, lp, lc);
-        let point_end = plan.point_z0 + plan.points / lp;
-        plan.value_z0 = plan.point_z0.saturating_sub(1);
-        plan.values = ((point_end + 1).min(cell_layers + 1) - plan.value_z0) * lp;
-        plan
-    }
-
-    fn layers(kind: Kind, z0: usize, z1: usize, cell_layers: usize, lp: usize, lc: usize) -> Self {
-        match kind {
-            Kind::Edges { .. } => {
-                // Points of layer z1 are read for their ids; the last slab owns them too.
-                let owned_layers = z1 - z0 + usize::from(z1 == cell_layers);
-                SlabPlan {
-                    z0,
-                    point_z0: z0,
-                    points: (z1 - z0 + 1) * lp,
-                    cell_z0: z0,
-                    cells: (z1 - z0) * lc,
-                    owned_point: 0,
-                    owned_point_end: owned_layers * lp,
-                    owned_cell: 0,
-                    owned_cell_end: (z1 - z0) * lc,
-                    value_z0: 0,
-                    values: 0,
-                }
-            }
-            Kind::Dual { .. } => {
-                // Cells of layer z0 - 1 are read for their ids (quads of point layer z0).
-                let zs = z0.saturating_sub(1);
-                SlabPlan {
-                    z0,
-                    point_z0: zs,
-                    points: (z1 - zs + 1) * lp,
-                    cell_z0: zs,
-                    cells: (z1 - zs) * lc,
-                    owned_point: (z0 - zs) * lp,
-                    owned_point_end: (z1 - zs) * lp,
-                    owned_cell: (z0 - zs) * lc,
-                    owned_cell_end: (z1 - zs) * lc,
-                    value_z0: 0,
-                    values: 0,
-                }
-            }
-        }
-    }
-
-    fn push(&self, count: usize, z0: usize, vertex_base: u32, mode: u32) -> SlabPush {
-        SlabPush {
-            groups_x: 0,
-            count: count as u32,
-            z0: z0 as i32,
-            point_z0: self.point_z0 as i32,
-            cell_z0: self.cell_z0 as i32,
-            owned_point: self.owned_point as u32,
-            owned_cell: self.owned_cell as u32,
-            vertex_base,
-            mode,
-            value_z0: self.value_z0 as i32,
-            owned_point_end: self.owned_point_end as u32,
-            owned_cell_end: self.owned_cell_end as u32,
-            added_base: 0,
-            added_offset: 0,
-        }
-    }
-}
-
 /// One slab's output: `vertices` vertices (for mc33, `added` of them, at the end, added per
 /// cell) and `triangles` triangles.
 struct SlabOutput {
     positions: Buffer,
     normals: Buffer,
     indices: Buffer,
-    vertices: u64,
-    added: u64,
-    triangles: u64,
+    counts: SlabCounts,
 }
 
 /// The per-extraction resources shared by all slabs.
@@ -342,36 +222,35 @@ struct Scratch<'a> {
     timer: Option<Timer>,
 }
 
-fn validate(grid: &Grid, iso: f64) -> Result<(), MeshError> {
-    if !iso.is_finite() {
-        return Err(MeshError::BadIsovalue(iso));
-    }
-    let want = grid.dims.iter().product::<usize>();
-    if grid.dims.iter().any(|&n| n < 2) || grid.values.len() != want {
-        return Err(MeshError::BadGrid { dims: grid.dims, got: grid.values.len(), want });
-    }
-    Ok(())
+/// What changes over an extraction's submissions.
+struct Run {
+    /// The last writer of every buffer, across the submissions.
+    tracker: Tracker,
+    stats: ExtractStats,
 }
 
-fn v4(v: glam::DVec3) -> [f32; 4] {
-    [v.x as f32, v.y as f32, v.z as f32, 0.0]
-}
-
-/// The constants of an extraction (`Params` in `common.glsl`).
-fn params(grid: &Grid, iso: f64, inside: Inside, pad: usize) -> ExtractParams {
-    let below = inside == Inside::Below;
-    let hi = iso as f32;
-    ExtractParams {
-        dims: [grid.dims[0] as i32, grid.dims[1] as i32, grid.dims[2] as i32, pad as i32],
-        box_min: v4(grid.min),
-        spacing: v4(grid.spacing()),
-        iso: [
-            inside_threshold(iso, below),
-            hi,
-            (iso - f64::from(hi)) as f32,
-            if below { 1.0 } else { -1.0 },
-        ],
-        iso_bits: [iso.to_bits() as u32, (iso.to_bits() >> 32) as u32, 0, 0],
+impl Scratch<'_> {
+    /// Records and submits `record` as `pass`, adding its GPU time to the stats. Barriers come
+    /// from the recorded passes' declared accesses, tracked across submissions. Descriptor sets
+    /// the commands use must outlive this call (bind before it).
+    fn submit<F>(&self, ctx: &Context, run: &mut Run, pass: &str, record: F) -> Result<(), GpuError>
+    where
+        F: FnOnce(&mut Recorder) -> Result<(), GpuError>,
+    {
+        ctx.record(pass, &mut run.tracker, |rec| {
+            if let Some(t) = &self.timer {
+                t.begin(rec.cmd());
+            }
+            record(rec)?;
+            if let Some(t) = &self.timer {
+                t.end(rec.cmd());
+            }
+            Ok(())
+        })?;
+        if let (Some(t), Some(ms)) = (&self.timer, run.stats.gpu_ms.as_mut()) {
+            *ms += t.elapsed_ms()?;
+        }
+        Ok(())
     }
 }
 
@@ -384,7 +263,7 @@ pub fn extract(
     inside: Inside,
     algo: MeshAlgorithm,
 ) -> Result<GpuMesh, GpuMeshError> {
-    validate(grid, iso)?;
+    plan::validate(grid, iso)?;
     let image = Image3d::upload(ctx, "grid", grid.dims.map(|d| d as u32), &grid.values)?;
     Extractor::new(ctx)?.extract(grid, &image, iso, inside, algo, &GpuExtractOptions::default())
 }
@@ -392,27 +271,12 @@ pub fn extract(
 impl Extractor {
     pub fn new(ctx: &Arc<Context>) -> Result<Self, GpuMeshError> {
         let passes = ExtractPasses::new(ctx)?;
-        let data = ExtractTables::new();
-        let bytes = std::mem::size_of::<ExtractTables>() as u64;
-        let mut staging = Buffer::new(
-            ctx,
-            "extract tables staging",
-            bytes,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::CpuToGpu,
-        )?;
-        staging.write(std::slice::from_ref(&data))?;
-        let tables = Buffer::new(
+        let tables = Buffer::upload(
             ctx,
             "extract tables",
-            bytes,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
+            std::slice::from_ref(&ExtractTables::new()),
+            vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
-        ctx.submit("upload extract tables", |cmd| {
-            copy_buffer(ctx, cmd, &staging, 0, &tables, 0, bytes);
-            Ok(())
-        })?;
         let dummy = Buffer::new(
             ctx,
             "extract dummy output",
@@ -435,7 +299,7 @@ impl Extractor {
         algo: MeshAlgorithm,
         opts: &GpuExtractOptions,
     ) -> Result<GpuMesh, GpuMeshError> {
-        validate(grid, iso)?;
+        plan::validate(grid, iso)?;
         if image.extent.map(|e| e as usize) != grid.dims {
             return Err(GpuError::Bug(format!(
                 "grid image {:?} does not match the grid's dimensions {:?}",
@@ -443,137 +307,52 @@ impl Extractor {
             ))
             .into());
         }
-        let kind = match algo {
-            MeshAlgorithm::MarchingCubes => Kind::Edges { mt: false, mc33: false },
-            MeshAlgorithm::MarchingTetrahedra => Kind::Edges { mt: true, mc33: false },
-            MeshAlgorithm::SurfaceNets => Kind::Dual { pad: 0 },
-            MeshAlgorithm::DualContouring => Kind::Dual { pad: 1 },
-            MeshAlgorithm::Mc33 => {
-                if self.passes.mc33.is_none() {
-                    self.passes.mc33 = Mc33Passes::new(&self.ctx)?;
-                }
-                if self.passes.mc33.is_none() {
-                    return Err(GpuMeshError::Unsupported("mc33"));
-                }
-                Kind::Edges { mt: false, mc33: true }
+        let kind = Kind::new(algo);
+        if kind.mc33() {
+            if self.passes.mc33.is_none() {
+                self.passes.mc33 = Mc33Passes::new(&self.ctx)?;
             }
-        };
-        let mc33 = matches!(kind, Kind::Edges { mc33: true, .. });
-        let ctx = self.ctx.clone();
-        let pad = match kind {
-            Kind::Edges { .. } => 0,
-            Kind::Dual { pad } => pad,
-        };
-        let np = grid.dims.map(|n| n + 2 * pad);
-        let nc = np.map(|n| n - 1);
-        let (lp, lc) = (np[0] * np[1], nc[0] * nc[1]);
-
-        let limit_bytes = opts
-            .max_binding_bytes
-            .unwrap_or(ctx.info.max_storage_buffer_range)
-            .min(ctx.info.max_storage_buffer_range)
-            .min(MAX_SCRATCH_BYTES);
-        let limit_elems = (limit_bytes / 4) as usize;
-        // Slab depth: a slab holds at most `layers + 2` point layers (plus one total) and
-        // `layers + 4` layers of samples.
-        let by_limit = (limit_elems.saturating_sub(1) / lp).saturating_sub(4);
-        if by_limit == 0 {
-            return Err(GpuError::TooLarge {
-                what: format!("a z layer of {}x{} points", np[0], np[1]),
-                limit: format!("one storage buffer ({limit_bytes} bytes)"),
+            if self.passes.mc33.is_none() {
+                return Err(GpuMeshError::Unsupported("mc33"));
             }
-            .into());
         }
-        let mut layers = by_limit.min(nc[2]);
-        if let Some(m) = opts.max_slab_layers {
-            layers = layers.min(m.max(1));
-        }
-
-        let mut scratch = self.scratch(
-            image,
-            &params(grid, iso, inside, pad),
-            (layers + 2) * lp,
-            (layers + 1) * lc,
-            (layers + 4) * lp,
-            mc33,
-        )?;
-        let mut stats =
-            ExtractStats { gpu_ms: scratch.timer.as_ref().map(|_| 0.0), ..Default::default() };
+        let range = self.ctx.info.max_storage_buffer_range;
+        let binding_bytes = opts.max_binding_bytes.unwrap_or(range).min(range);
+        let mut slabs = Slabs::new(kind, grid.dims, binding_bytes, opts.max_slab_layers)?;
+        let params = plan::params(grid, iso, inside, kind.pad());
+        let (s, mut run) = self.scratch(image, &params, slabs.scratch(), kind.mc33())?;
         let mut pieces = Vec::new();
-        // Edge vertices, triangles and (mc33) added vertices of the slabs so far.
-        let (mut vbase, mut tbase, mut abase) = (0u64, 0u64, 0u64);
-        let mut z0 = 0;
-        while z0 < nc[2] {
-            let z1 = (z0 + layers).min(nc[2]);
-            let plan = SlabPlan::new(kind, z0, z1, nc[2], lp, lc);
-            let [vertices, triangles, added, crossed] =
-                self.count(&mut scratch, &mut stats, kind, &plan)?;
-            let fits = (vertices + added) * 16 <= limit_bytes && triangles * 12 <= limit_bytes;
-            if !fits {
-                if z1 - z0 == 1 {
-                    return Err(GpuError::TooLarge {
-                        what: format!(
-                            "the mesh of one z layer ({vertices} vertices, {triangles} triangles)"
-                        ),
-                        limit: format!("one storage buffer ({limit_bytes} bytes)"),
-                    }
-                    .into());
+        while let Some(slab) = slabs.next() {
+            let counts = self.count(&s, &mut run, kind, &slab)?;
+            match slabs.counted(&slab, counts)? {
+                Step::Redo => {}
+                Step::Emit { bases } => {
+                    pieces.push(self.emit(&s, &mut run, kind, &slab, opts, bases, counts)?)
                 }
-                layers = (z1 - z0) / 2;
-                stats.retries += 1;
-                continue;
             }
-            if vbase + vertices + abase + added >= u64::from(u32::MAX) {
-                return Err(MeshError::TooLarge { what: "vertices" }.into());
-            }
-            if 3 * (tbase + triangles) >= u64::from(u32::MAX) {
-                return Err(MeshError::TooLarge { what: "indices" }.into());
-            }
-            let bases = [vbase, abase];
-            let counts = [vertices, triangles, added, crossed];
-            let out = self.emit(&mut scratch, &mut stats, kind, &plan, opts, bases, counts)?;
-            vbase += vertices;
-            tbase += triangles;
-            abase += added;
-            pieces.push(out);
-            stats.slabs += 1;
-            z0 = z1;
         }
-        let mesh = self.assemble(&scratch, pieces, vbase, tbase, abase)?;
-        self.last = stats;
+        run.stats.slabs = slabs.slabs;
+        run.stats.retries = slabs.retries;
+        let mesh = self.assemble(&s, &mut run, pieces, slabs.totals)?;
+        self.last = run.stats;
         Ok(mesh)
     }
 
     fn scratch<'a>(
         &self,
         image: &'a Image3d,
-        params: &ExtractParams,
-        points: usize,
-        cells: usize,
-        values: usize,
+        params: &super::ExtractParams,
+        sizes: plan::ScratchSizes,
         mc33: bool,
-    ) -> Result<Scratch<'a>, GpuError> {
+    ) -> Result<(Scratch<'a>, Run), GpuError> {
         let ctx = &self.ctx;
-        let bytes = std::mem::size_of::<ExtractParams>() as u64;
-        let mut staging = Buffer::new(
-            ctx,
-            "extract params staging",
-            bytes,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::CpuToGpu,
-        )?;
-        staging.write(std::slice::from_ref(params))?;
-        let params_buf = Buffer::new(
+        let plan::ScratchSizes { points, cells, values } = sizes;
+        let params = Buffer::upload(
             ctx,
             "extract params",
-            bytes,
-            vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
+            std::slice::from_ref(params),
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
         )?;
-        ctx.submit("upload extract params", |cmd| {
-            copy_buffer(ctx, cmd, &staging, 0, &params_buf, 0, bytes);
-            Ok(())
-        })?;
         let storage = |name: &str, elems: usize| {
             Buffer::new(
                 ctx,
@@ -611,9 +390,15 @@ impl Extractor {
             vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuToCpu,
         )?;
-        Ok(Scratch {
+        // The uploads were submitted on their own: the first passes that read them wait.
+        let mut tracker = Tracker::default();
+        tracker.written(&params, Stage::Transfer);
+        tracker.written(&self.tables, Stage::Transfer);
+        let timer = Timer::new(ctx)?;
+        let stats = ExtractStats { gpu_ms: timer.as_ref().map(|_| 0.0), ..Default::default() };
+        let scratch = Scratch {
             image,
-            params: params_buf,
+            params,
             values,
             point_mask,
             point_scan,
@@ -624,91 +409,42 @@ impl Extractor {
             cell_scanner,
             mc33_scanners,
             readback,
-            timer: Timer::new(ctx)?,
-        })
+            timer,
+        };
+        Ok((scratch, Run { tracker, stats }))
     }
 
-    /// Binds the extraction resources for `pipeline`, with `out` as the output buffers.
-    fn bind(
-        &self,
-        pipeline: &ComputePipeline,
-        s: &Scratch,
-        out: Option<&SlabOutput>,
-    ) -> Result<Dispatch, GpuError> {
-        let (p, n, i) = match out {
+    /// The extraction resources, with `out` as the output buffers (the dummy before a slab's
+    /// output exists).
+    fn io<'a>(&'a self, s: &'a Scratch, out: Option<&'a SlabOutput>) -> ExtractIo<'a> {
+        let (positions, normals, indices) = match out {
             Some(o) => (&o.positions, &o.normals, &o.indices),
             None => (&self.dummy, &self.dummy, &self.dummy),
         };
-        pipeline.bind(&[
-            Resource::Uniform(&s.params),
-            Resource::Sampled(s.image),
-            Resource::Storage(&s.point_mask),
-            Resource::Storage(&s.point_scan),
-            Resource::Storage(&s.cell_scan),
-            Resource::Storage(&self.tables),
-            Resource::Storage(p),
-            Resource::Storage(n),
-            Resource::Storage(i),
-            Resource::Storage(&s.values),
-            Resource::Storage(&s.added_scan),
-            Resource::Storage(&s.tri_scan),
-        ])
-    }
-
-    /// Submits `record`, adding its GPU time to `stats`.
-    fn submit<F>(
-        &self,
-        s: &Scratch,
-        stats: &mut ExtractStats,
-        pass: &str,
-        record: F,
-    ) -> Result<(), GpuError>
-    where
-        F: FnOnce(vk::CommandBuffer) -> Result<(), GpuError>,
-    {
-        let ctx = &self.ctx;
-        ctx.submit(pass, |cmd| {
-            if let Some(t) = &s.timer {
-                t.begin(cmd);
-            }
-            // Writes of earlier submissions (the scans, the slab before) become visible.
-            memory_barrier(
-                ctx,
-                cmd,
-                (
-                    vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-                    vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
-                ),
-                (
-                    vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-                    vk::AccessFlags::SHADER_READ
-                        | vk::AccessFlags::SHADER_WRITE
-                        | vk::AccessFlags::TRANSFER_READ
-                        | vk::AccessFlags::TRANSFER_WRITE,
-                ),
-            );
-            record(cmd)?;
-            if let Some(t) = &s.timer {
-                t.end(cmd);
-            }
-            Ok(())
-        })?;
-        if let (Some(t), Some(ms)) = (&s.timer, stats.gpu_ms.as_mut()) {
-            *ms += t.elapsed_ms()?;
+        ExtractIo {
+            params: &s.params,
+            grid: s.image,
+            point_mask: &s.point_mask,
+            point_scan: &s.point_scan,
+            cell_scan: &s.cell_scan,
+            tables: &self.tables,
+            positions,
+            normals,
+            indices,
+            values: &s.values,
+            added_scan: &s.added_scan,
+            tri_scan: &s.tri_scan,
         }
-        Ok(())
     }
 
-    /// Classifies and scans one slab; returns its vertex (edge vertices for mc33), triangle,
-    /// mc33 added-vertex and mc33 crossed-cell counts.
+    /// Classifies and scans one slab; returns its counts (mc33: after its count pass).
     fn count(
         &self,
-        s: &mut Scratch,
-        stats: &mut ExtractStats,
+        s: &Scratch,
+        run: &mut Run,
         kind: Kind,
-        plan: &SlabPlan,
-    ) -> Result<[u64; 4], GpuError> {
-        let ctx = &self.ctx;
+        slab: &SlabPlan,
+    ) -> Result<SlabCounts, GpuError> {
         let p = &self.passes;
         let mode = match kind {
             Kind::Edges { mc33: true, .. } => classify_mode::MC33,
@@ -716,48 +452,31 @@ impl Extractor {
             Kind::Edges { mt: true, .. } => classify_mode::MT,
             Kind::Dual { .. } => classify_mode::DUAL,
         };
-        let values_set = self.bind(&p.values, s, None)?;
-        let classify_set = self.bind(&p.classify, s, None)?;
-        self.submit(s, stats, "extract count", |cmd| {
+        let values = p.values.bind(self.io(s, None))?;
+        let classify = p.classify.bind(self.io(s, None))?;
+        s.submit(&self.ctx, run, "extract count", |rec| {
             // The element after each array holds the total once scanned.
-            fill_buffer(ctx, cmd, &s.point_scan, plan.points as u64 * 4, 4, 0);
-            fill_buffer(ctx, cmd, &s.cell_scan, plan.cells as u64 * 4, 4, 0);
-            memory_barrier(
-                ctx,
-                cmd,
-                (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
-                (
-                    vk::PipelineStageFlags::COMPUTE_SHADER,
-                    vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
-                ),
-            );
-            record_items(cmd, &p.values, &values_set, plan.push(plan.values, plan.value_z0, 0, 0))?;
-            compute_barrier(ctx, cmd);
-            let push = plan.push(plan.points, plan.point_z0, 0, mode);
-            record_items(cmd, &p.classify, &classify_set, push)?;
-            compute_barrier(ctx, cmd);
-            s.point_scanner.record(ctx, p, cmd, plan.points as u64 + 1)?;
-            s.cell_scanner.record(ctx, p, cmd, plan.cells as u64 + 1)?;
+            rec.fill(&s.point_scan, slab.points as u64 * 4, 4, 0);
+            rec.fill(&s.cell_scan, slab.cells as u64 * 4, 4, 0);
+            values.record(rec, slab.push(slab.values, slab.value_z0, 0, 0))?;
+            classify.record(rec, slab.push(slab.points, slab.point_z0, 0, mode))?;
+            s.point_scanner.record(rec, p, &s.point_scan, slab.points as u64 + 1)?;
+            s.cell_scanner.record(rec, p, &s.cell_scan, slab.cells as u64 + 1)?;
             let counters = [
-                (&s.point_scan, plan.owned_point),
-                (&s.point_scan, plan.owned_point_end),
-                (&s.cell_scan, plan.owned_cell),
-                (&s.cell_scan, plan.owned_cell_end),
+                (&s.point_scan, slab.owned_point),
+                (&s.point_scan, slab.owned_point_end),
+                (&s.cell_scan, slab.owned_cell),
+                (&s.cell_scan, slab.owned_cell_end),
             ];
-            record_counters(ctx, cmd, &counters, &s.readback);
+            record_counters(rec, &counters, &s.readback);
             Ok(())
         })?;
-        let c: Vec<u32> = s.readback.read(4)?;
-        let point_owned = u64::from(c[1].wrapping_sub(c[0]));
-        let cell_owned = u64::from(c[3].wrapping_sub(c[2]));
-        Ok(match kind {
-            Kind::Edges { mc33: true, .. } => {
-                let [triangles, added] = self.count_mc33(s, stats, plan, cell_owned)?;
-                [point_owned, triangles, added, cell_owned]
-            }
-            Kind::Edges { .. } => [point_owned, cell_owned, 0, 0],
-            Kind::Dual { .. } => [cell_owned, 2 * point_owned, 0, 0],
-        })
+        let (point_owned, cell_owned) = plan::owned(&s.readback.read::<u32>(4)?);
+        let mut counts = kind.counts(point_owned, cell_owned);
+        if kind.mc33() {
+            [counts.triangles, counts.added] = self.count_mc33(s, run, slab, counts.crossed)?;
+        }
+        Ok(counts)
     }
 
     /// MC33, after [`Extractor::count`]: the triangles and added vertices of the slab's
@@ -765,39 +484,27 @@ impl Extractor {
     /// shader) and scanned.
     fn count_mc33(
         &self,
-        s: &mut Scratch,
-        stats: &mut ExtractStats,
-        plan: &SlabPlan,
+        s: &Scratch,
+        run: &mut Run,
+        slab: &SlabPlan,
         crossed: u64,
     ) -> Result<[u64; 2], GpuError> {
         if crossed == 0 {
             return Ok([0, 0]);
         }
-        let ctx = &self.ctx;
         let p = &self.passes;
         let (Some(passes), Some((tri_scanner, added_scanner))) = (&p.mc33, &s.mc33_scanners) else {
             unreachable!("mc33 extraction without its passes and scans")
         };
-        let set = self.bind(&passes.count, s, None)?;
-        self.submit(s, stats, "extract mc33 count", |cmd| {
-            fill_buffer(ctx, cmd, &s.tri_scan, crossed * 4, 4, 0);
-            fill_buffer(ctx, cmd, &s.added_scan, crossed * 4, 4, 0);
-            memory_barrier(
-                ctx,
-                cmd,
-                (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
-                (
-                    vk::PipelineStageFlags::COMPUTE_SHADER,
-                    vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
-                ),
-            );
-            let push = plan.push(crossed as usize, plan.z0, 0, 0);
-            record_items(cmd, &passes.count, &set, push)?;
-            compute_barrier(ctx, cmd);
-            tri_scanner.record(ctx, p, cmd, crossed + 1)?;
-            added_scanner.record(ctx, p, cmd, crossed + 1)?;
+        let count = passes.count.bind(self.io(s, None))?;
+        s.submit(&self.ctx, run, "extract mc33 count", |rec| {
+            rec.fill(&s.tri_scan, crossed * 4, 4, 0);
+            rec.fill(&s.added_scan, crossed * 4, 4, 0);
+            count.record(rec, slab.push(crossed as usize, slab.z0, 0, 0))?;
+            tri_scanner.record(rec, p, &s.tri_scan, crossed + 1)?;
+            added_scanner.record(rec, p, &s.added_scan, crossed + 1)?;
             let at = crossed as usize;
-            record_counters(ctx, cmd, &[(&s.tri_scan, at), (&s.added_scan, at)], &s.readback);
+            record_counters(rec, &[(&s.tri_scan, at), (&s.added_scan, at)], &s.readback);
             Ok(())
         })?;
         let c: Vec<u32> = s.readback.read(2)?;
@@ -805,64 +512,61 @@ impl Extractor {
     }
 
     /// Writes one slab's vertices and triangles into new buffers sized for them. `bases`: the
-    /// edge (or dual) vertices and the mc33 added vertices of the slabs before; `counts`: this
-    /// slab's vertices, triangles, mc33 added vertices and mc33 crossed cells.
+    /// edge (or dual) vertices and the mc33 added vertices of the slabs before.
     #[allow(clippy::too_many_arguments)]
     fn emit(
         &self,
-        s: &mut Scratch,
-        stats: &mut ExtractStats,
+        s: &Scratch,
+        run: &mut Run,
         kind: Kind,
-        plan: &SlabPlan,
+        slab: &SlabPlan,
         opts: &GpuExtractOptions,
         bases: [u64; 2],
-        counts: [u64; 4],
+        counts: SlabCounts,
     ) -> Result<SlabOutput, GpuError> {
-        let [vertices, triangles, added, crossed] = counts;
-        let mut out = output(&self.ctx, "slab", vertices + added, triangles)?;
-        out.added = added;
+        let SlabCounts { vertices, triangles, added, crossed } = counts;
+        let out = output(&self.ctx, "slab", vertices + added, triangles, added)?;
         if vertices == 0 && triangles == 0 {
             return Ok(out);
         }
-        let ctx = &self.ctx;
         let p = &self.passes;
         let vb = bases[0] as u32;
         // One invocation per vertex, then per triangle (per quad for the dual methods).
-        let (first, first_push, second, mut second_push) = match kind {
-            Kind::Edges { mt, mc33 } => (
-                &p.edge_vertices,
-                plan.push(vertices as usize, plan.z0, vb, u32::from(mt)),
-                match (mt, mc33, &p.mc33) {
-                    (_, true, Some(m)) => &m.emit,
-                    (true, ..) => &p.mt,
-                    _ => &p.mc,
-                },
-                // mc33: one invocation per crossed cell.
-                plan.push(if mc33 { crossed } else { triangles } as usize, plan.z0, vb, 1),
-            ),
-            Kind::Dual { .. } => (
-                &p.dual_cells,
-                plan.push(vertices as usize, plan.z0, vb, 1),
-                &p.dual_quads,
-                plan.push(
-                    triangles as usize / 2,
-                    plan.z0,
-                    vb,
-                    u32::from(opts.split == QuadSplit::Shorter),
+        let (first, first_push, second, mut second_push): (&ExtractPass, _, &ExtractPass, _) =
+            match kind {
+                Kind::Edges { mt, mc33 } => (
+                    &p.edge_vertices,
+                    slab.push(vertices as usize, slab.z0, vb, u32::from(mt)),
+                    match (mt, mc33, &p.mc33) {
+                        (_, true, Some(m)) => &m.emit,
+                        (true, ..) => &p.mt,
+                        _ => &p.mc,
+                    },
+                    // mc33: one invocation per crossed cell.
+                    slab.push(if mc33 { crossed } else { triangles } as usize, slab.z0, vb, 1),
                 ),
-            ),
-        };
+                Kind::Dual { .. } => (
+                    &p.dual_cells,
+                    slab.push(vertices as usize, slab.z0, vb, 1),
+                    &p.dual_quads,
+                    slab.push(
+                        triangles as usize / 2,
+                        slab.z0,
+                        vb,
+                        u32::from(opts.split == QuadSplit::Shorter),
+                    ),
+                ),
+            };
         second_push.added_base = bases[1] as u32;
         second_push.added_offset = vertices as u32;
-        let first_set = self.bind(first, s, Some(&out))?;
-        let second_set = self.bind(second, s, Some(&out))?;
-        self.submit(s, stats, "extract emit", |cmd| {
-            record_items(cmd, first, &first_set, first_push)?;
-            // The dual quads read the vertex positions just written.
-            compute_barrier(ctx, cmd);
-            record_items(cmd, second, &second_set, second_push)?;
-            Ok(())
+        let first = first.bind(self.io(s, Some(&out)))?;
+        let second = second.bind(self.io(s, Some(&out)))?;
+        s.submit(&self.ctx, run, "extract emit", |rec| {
+            first.record(rec, first_push)?;
+            // The dual quads read the vertex positions just written (a declared read).
+            second.record(rec, second_push)
         })?;
+        drop((first, second));
         Ok(out)
     }
 
@@ -872,79 +576,62 @@ impl Extractor {
     fn assemble(
         &self,
         s: &Scratch,
+        run: &mut Run,
         mut pieces: Vec<SlabOutput>,
-        vertices: u64,
-        triangles: u64,
-        added: u64,
+        totals: SlabCounts,
     ) -> Result<GpuMesh, GpuError> {
         let ctx = &self.ctx;
-        let writes = (
-            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-            vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
-        );
+        let SlabCounts { vertices, triangles, added, .. } = totals;
         // mc33: resolve the added-vertex placeholders in each slab's triangles (a slab's buffers
         // fit one binding; the assembled mesh's need not).
         if let Some(passes) = self.passes.mc33.as_ref().filter(|_| added > 0) {
-            let mut dispatches = Vec::new();
-            for piece in pieces.iter().filter(|p| p.triangles > 0) {
+            let mut fixups = Vec::new();
+            for piece in pieces.iter().filter(|p| p.counts.triangles > 0) {
                 let push = SlabPush {
-                    count: (3 * piece.triangles) as u32,
+                    count: (3 * piece.counts.triangles) as u32,
                     vertex_base: vertices as u32,
                     added_base: added as u32,
                     ..Default::default()
                 };
-                dispatches.push((self.bind(&passes.fixup, s, Some(piece))?, push));
+                fixups.push((passes.fixup.bind(self.io(s, Some(piece)))?, push));
             }
-            ctx.submit("extract mc33 fixup", |cmd| {
-                let rw = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
-                memory_barrier(ctx, cmd, writes, (vk::PipelineStageFlags::COMPUTE_SHADER, rw));
-                for (set, push) in &dispatches {
-                    record_items(cmd, &passes.fixup, set, *push)?;
+            s.submit(ctx, run, "extract mc33 fixup", |rec| {
+                for (fixup, push) in &fixups {
+                    fixup.record(rec, *push)?;
                 }
                 Ok(())
             })?;
         }
-        let single = pieces.len() == 1;
-        let out = if single {
+        let out = if pieces.len() == 1 {
             pieces.pop().expect("one slab")
         } else {
-            let out = output(ctx, "mesh", vertices + added, triangles)?;
-            ctx.submit("extract assemble", |cmd| {
-                memory_barrier(
-                    ctx,
-                    cmd,
-                    writes,
-                    (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
-                );
-                let (mut v, mut a, mut t) = (0, vertices * 16, 0);
-                for piece in &pieces {
-                    let own = piece.vertices - piece.added;
-                    let (vb, ab, tb) = (own * 16, piece.added * 16, piece.triangles * 12);
+            let out = output(ctx, "mesh", vertices + added, triangles, added)?;
+            let counts: Vec<SlabCounts> = pieces.iter().map(|p| p.counts).collect();
+            let copies = plan::assembly(&counts, vertices);
+            s.submit(ctx, run, "extract assemble", |rec| {
+                for (piece, c) in pieces.iter().zip(&copies) {
                     for (src, dst) in
                         [(&piece.positions, &out.positions), (&piece.normals, &out.normals)]
                     {
-                        if vb > 0 {
-                            copy_buffer(ctx, cmd, src, 0, dst, v, vb);
+                        if c.vertex_bytes > 0 {
+                            rec.copy(src, 0, dst, c.vertex_at, c.vertex_bytes);
                         }
-                        if ab > 0 {
-                            copy_buffer(ctx, cmd, src, vb, dst, a, ab);
+                        if c.added_bytes > 0 {
+                            rec.copy(src, c.vertex_bytes, dst, c.added_at, c.added_bytes);
                         }
                     }
-                    if tb > 0 {
-                        copy_buffer(ctx, cmd, &piece.indices, 0, &out.indices, t, tb);
+                    if c.triangle_bytes > 0 {
+                        let (i, at) = (&piece.indices, c.triangle_at);
+                        rec.copy(i, 0, &out.indices, at, c.triangle_bytes);
                     }
-                    v += vb;
-                    a += ab;
-                    t += tb;
                 }
                 Ok(())
             })?;
             out
         };
         // Make the mesh visible to whatever reads it next (draws, copies, shaders).
-        ctx.submit("extract finish", |cmd| {
-            let reads = (vk::PipelineStageFlags::ALL_COMMANDS, vk::AccessFlags::MEMORY_READ);
-            memory_barrier(ctx, cmd, writes, reads);
+        ctx.record("extract finish", &mut run.tracker, |rec| {
+            rec.release();
             Ok(())
         })?;
         Ok(GpuMesh {
@@ -958,13 +645,14 @@ impl Extractor {
     }
 }
 
-/// Output buffers for `vertices` and `triangles`, usable as storage, vertex / index buffers and
-/// copy sources and destinations.
+/// Output buffers for `vertices` (the last `added` of them mc33 added ones) and `triangles`,
+/// usable as storage, vertex / index buffers and copy sources and destinations.
 fn output(
     ctx: &Arc<Context>,
     what: &str,
     vertices: u64,
     triangles: u64,
+    added: u64,
 ) -> Result<SlabOutput, GpuError> {
     let copy = vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
     let vertex = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::VERTEX_BUFFER | copy;
@@ -973,36 +661,18 @@ fn output(
         Buffer::new(ctx, &format!("{what} {name}"), bytes, usage, MemoryLocation::GpuOnly)
     };
     Ok(SlabOutput {
-        positions: buf("positions", vertices * 16, vertex)?,
-        normals: buf("normals", vertices * 16, vertex)?,
-        indices: buf("indices", triangles * 12, index)?,
-        vertices,
-        added: 0,
-        triangles,
+        positions: buf("positions", vertices * VERTEX_BYTES, vertex)?,
+        normals: buf("normals", vertices * VERTEX_BYTES, vertex)?,
+        indices: buf("indices", triangles * TRIANGLE_BYTES, index)?,
+        counts: SlabCounts { vertices, triangles, added, crossed: 0 },
     })
 }
 
 /// Copies the u32 at element `at` of each buffer into `readback`, in order, and makes them
 /// visible to the host.
-fn record_counters(
-    ctx: &Context,
-    cmd: vk::CommandBuffer,
-    counters: &[(&Buffer, usize)],
-    readback: &Buffer,
-) {
-    memory_barrier(
-        ctx,
-        cmd,
-        (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
-        (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
-    );
+fn record_counters(rec: &mut Recorder, counters: &[(&Buffer, usize)], readback: &Buffer) {
     for (n, &(buf, at)) in counters.iter().enumerate() {
-        copy_buffer(ctx, cmd, buf, at as u64 * 4, readback, n as u64 * 4, 4);
+        rec.copy(buf, at as u64 * 4, readback, n as u64 * 4, 4);
     }
-    memory_barrier(
-        ctx,
-        cmd,
-        (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
-        (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
-    );
+    rec.host_read(readback);
 }

@@ -19,12 +19,16 @@
 //! whose scanned count range holds it) by bisection of the scan, so their work follows the
 //! output, not the grid.
 //!
-//! Every extraction pass binds the same twelve resources ([`EXTRACT_BINDINGS`]) and takes
-//! [`SlabPush`]; a pass that does not use a binding still gets a (dummy) buffer there.
+//! Every extraction pass binds the same twelve resources ([`EXTRACT_BINDINGS`], given by
+//! [`ExtractIo`]) and takes [`SlabPush`]; a pass that does not use a binding still gets a
+//! (dummy) buffer there. Each [`ExtractPass`] declares which of them it writes (the table
+//! above); it reads the others, and the recorder derives the barriers between passes from that.
+//! [`plan`] holds the GPU-free slab arithmetic, [`driver`] records and submits.
 
 pub mod driver;
+pub mod plan;
 
-pub use driver::{extract, ExtractStats, Extractor, GpuExtractOptions, GpuMesh, GpuMeshError};
+pub use driver::{extract, ExtractStats, Extractor, GpuExtractOptions, GpuMesh};
 
 use std::sync::Arc;
 
@@ -32,17 +36,30 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
 use crate::gpu::{
-    memory_barrier, Buffer, ComputePipeline, Context, Dispatch, GpuError, MemoryLocation, Resource,
+    spread_groups, Buffer, Compute, ComputePipeline, Context, Dispatch, GpuError, Image3d,
+    MemoryLocation, Recorder, Resource,
 };
-use crate::mesh::tables;
+use crate::mesh::{tables, MeshError};
 use crate::shaders;
+
+/// Why a GPU extraction failed.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuMeshError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    #[error(
+        "render.mesh = \"{0}\" needs 64-bit floats (shaderFloat64) on the GPU, which this device \
+         lacks; extract it on the CPU (--device cpu)"
+    )]
+    Unsupported(&'static str),
+}
 
 /// Workgroup size of the extraction passes (`local_size_x`).
 pub const GROUP: u32 = shaders::consts::EXTRACT_GROUP;
 /// Elements scanned by one workgroup of `scan.comp` (64 invocations × 16).
 pub const SCAN_BLOCK: u64 = shaders::consts::SCAN_BLOCK as u64;
-/// Most workgroups along one dispatch axis that every Vulkan device accepts.
-const MAX_GROUPS_X: u32 = 65535;
 
 /// Bindings of every extraction pass, in order: params (uniform), grid (3D image), point masks,
 /// point scan, cell scan, tables, positions, normals, indices, values, added scan, triangle scan
@@ -233,15 +250,135 @@ pub mod classify_mode {
     pub const MC33: u32 = consts::MODE_MC33;
 }
 
+/// A buffer binding of the extraction passes that some pass writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Slot {
+    PointMask,
+    PointScan,
+    CellScan,
+    Positions,
+    Normals,
+    Indices,
+    Values,
+    AddedScan,
+    TriScan,
+}
+
+/// The resources of an extraction pass, in the roles of [`EXTRACT_BINDINGS`].
+#[derive(Clone, Copy)]
+pub struct ExtractIo<'a> {
+    pub params: &'a Buffer,
+    pub grid: &'a Image3d,
+    pub point_mask: &'a Buffer,
+    pub point_scan: &'a Buffer,
+    pub cell_scan: &'a Buffer,
+    pub tables: &'a Buffer,
+    pub positions: &'a Buffer,
+    pub normals: &'a Buffer,
+    pub indices: &'a Buffer,
+    pub values: &'a Buffer,
+    pub added_scan: &'a Buffer,
+    pub tri_scan: &'a Buffer,
+}
+
+impl<'a> ExtractIo<'a> {
+    fn slot(&self, slot: Slot) -> &'a Buffer {
+        match slot {
+            Slot::PointMask => self.point_mask,
+            Slot::PointScan => self.point_scan,
+            Slot::CellScan => self.cell_scan,
+            Slot::Positions => self.positions,
+            Slot::Normals => self.normals,
+            Slot::Indices => self.indices,
+            Slot::Values => self.values,
+            Slot::AddedScan => self.added_scan,
+            Slot::TriScan => self.tri_scan,
+        }
+    }
+
+    /// The storage buffers, in binding order.
+    fn storage(&self) -> [&'a Buffer; 10] {
+        [
+            self.point_mask,
+            self.point_scan,
+            self.cell_scan,
+            self.tables,
+            self.positions,
+            self.normals,
+            self.indices,
+            self.values,
+            self.added_scan,
+            self.tri_scan,
+        ]
+    }
+}
+
+/// One extraction pass: its pipeline and the bindings it writes.
+pub struct ExtractPass {
+    pub pipeline: ComputePipeline,
+    writes: &'static [Slot],
+}
+
+/// An extraction pass bound to its resources.
+pub struct BoundExtract<'a> {
+    pass: &'a ExtractPass,
+    set: Dispatch,
+    io: ExtractIo<'a>,
+}
+
+impl ExtractPass {
+    fn new(
+        ctx: &Arc<Context>,
+        name: &str,
+        spirv: &[u8],
+        writes: &'static [Slot],
+    ) -> Result<Self, GpuError> {
+        let push = std::mem::size_of::<SlabPush>() as u32;
+        let pipeline = ComputePipeline::new(ctx, name, spirv, &EXTRACT_BINDINGS, push)?;
+        Ok(ExtractPass { pipeline, writes })
+    }
+
+    pub fn bind<'a>(&'a self, io: ExtractIo<'a>) -> Result<BoundExtract<'a>, GpuError> {
+        let mut resources = vec![Resource::Uniform(io.params), Resource::Sampled(io.grid)];
+        resources.extend(io.storage().map(Resource::Storage));
+        Ok(BoundExtract { pass: self, set: self.pipeline.bind(&resources)?, io })
+    }
+}
+
+impl BoundExtract<'_> {
+    /// Records the pass over `push.count` items (one invocation each, [`GROUP`] per workgroup,
+    /// spread over x and y); nothing when there are none.
+    pub fn record(&self, rec: &mut Recorder, mut push: SlabPush) -> Result<(), GpuError> {
+        if push.count == 0 {
+            return Ok(());
+        }
+        let groups = spread_groups(u64::from(push.count).div_ceil(u64::from(GROUP)))?;
+        push.groups_x = groups[0];
+        let writes: Vec<&Buffer> = self.pass.writes.iter().map(|&w| self.io.slot(w)).collect();
+        let mut reads = vec![self.io.params];
+        let written = |b: &&Buffer| writes.iter().any(|w| w.raw == b.raw);
+        reads.extend(self.io.storage().into_iter().filter(|b| !written(b)));
+        rec.dispatch(&Compute {
+            pipeline: &self.pass.pipeline,
+            set: &self.set,
+            push: bytemuck::bytes_of(&push),
+            groups,
+            reads: &reads,
+            writes: &writes,
+        });
+        Ok(())
+    }
+}
+
 /// The extraction pipelines.
 pub struct ExtractPasses {
-    pub values: ComputePipeline,
-    pub classify: ComputePipeline,
-    pub edge_vertices: ComputePipeline,
-    pub mc: ComputePipeline,
-    pub mt: ComputePipeline,
-    pub dual_cells: ComputePipeline,
-    pub dual_quads: ComputePipeline,
+    pub values: ExtractPass,
+    pub classify: ExtractPass,
+    pub edge_vertices: ExtractPass,
+    pub mc: ExtractPass,
+    pub mt: ExtractPass,
+    pub dual_cells: ExtractPass,
+    pub dual_quads: ExtractPass,
     /// The MC33 passes, made on first use ([`Mc33Passes::new`]: their shaders are large, and
     /// compiling them cost lavapipe about a second that the other algorithms need not pay).
     pub mc33: Option<Mc33Passes>,
@@ -251,20 +388,30 @@ pub struct ExtractPasses {
 
 impl ExtractPasses {
     pub fn new(ctx: &Arc<Context>) -> Result<Self, GpuError> {
-        let push = std::mem::size_of::<SlabPush>() as u32;
-        let extract = |name: &str, spirv: &[u8]| {
-            ComputePipeline::new(ctx, name, spirv, &EXTRACT_BINDINGS, push)
-        };
+        use Slot::*;
+        let extract = |name, spirv, writes| ExtractPass::new(ctx, name, spirv, writes);
         let scan_bindings = [vk::DescriptorType::STORAGE_BUFFER; 2];
         let scan_push = std::mem::size_of::<ScanPush>() as u32;
         Ok(ExtractPasses {
-            values: extract("extract values", shaders::EXTRACT_VALUES)?,
-            classify: extract("extract classify", shaders::EXTRACT_CLASSIFY)?,
-            edge_vertices: extract("extract edge vertices", shaders::EXTRACT_EDGE_VERTICES)?,
-            mc: extract("extract marching cubes", shaders::EXTRACT_MC)?,
-            mt: extract("extract marching tetrahedra", shaders::EXTRACT_MT)?,
-            dual_cells: extract("extract dual cells", shaders::EXTRACT_DUAL_CELLS)?,
-            dual_quads: extract("extract dual quads", shaders::EXTRACT_DUAL_QUADS)?,
+            values: extract("extract values", shaders::EXTRACT_VALUES, &[Values])?,
+            classify: extract(
+                "extract classify",
+                shaders::EXTRACT_CLASSIFY,
+                &[PointMask, PointScan, CellScan],
+            )?,
+            edge_vertices: extract(
+                "extract edge vertices",
+                shaders::EXTRACT_EDGE_VERTICES,
+                &[Positions, Normals],
+            )?,
+            mc: extract("extract marching cubes", shaders::EXTRACT_MC, &[Indices])?,
+            mt: extract("extract marching tetrahedra", shaders::EXTRACT_MT, &[Indices])?,
+            dual_cells: extract(
+                "extract dual cells",
+                shaders::EXTRACT_DUAL_CELLS,
+                &[Positions, Normals],
+            )?,
+            dual_quads: extract("extract dual quads", shaders::EXTRACT_DUAL_QUADS, &[Indices])?,
             mc33: None,
             scan: ComputePipeline::new(
                 ctx,
@@ -286,69 +433,33 @@ impl ExtractPasses {
 
 /// The MC33 pipelines (their shaders use f64).
 pub struct Mc33Passes {
-    pub count: ComputePipeline,
-    pub emit: ComputePipeline,
-    pub fixup: ComputePipeline,
+    pub count: ExtractPass,
+    pub emit: ExtractPass,
+    pub fixup: ExtractPass,
 }
 
 impl Mc33Passes {
     /// The pipelines, or None where the device has no `shaderFloat64`.
     pub fn new(ctx: &Arc<Context>) -> Result<Option<Self>, GpuError> {
+        use Slot::*;
         if !ctx.info.float64 {
             return Ok(None);
         }
-        let push = std::mem::size_of::<SlabPush>() as u32;
-        let extract = |name: &str, spirv: &[u8]| {
-            ComputePipeline::new(ctx, name, spirv, &EXTRACT_BINDINGS, push)
-        };
+        let extract = |name, spirv, writes| ExtractPass::new(ctx, name, spirv, writes);
         Ok(Some(Mc33Passes {
-            count: extract("extract mc33 count", shaders::EXTRACT_MC33_COUNT)?,
-            emit: extract("extract mc33 emit", shaders::EXTRACT_MC33_EMIT)?,
-            fixup: extract("extract mc33 fixup", shaders::EXTRACT_MC33_FIXUP)?,
+            count: extract(
+                "extract mc33 count",
+                shaders::EXTRACT_MC33_COUNT,
+                &[TriScan, AddedScan],
+            )?,
+            emit: extract(
+                "extract mc33 emit",
+                shaders::EXTRACT_MC33_EMIT,
+                &[Positions, Normals, Indices],
+            )?,
+            fixup: extract("extract mc33 fixup", shaders::EXTRACT_MC33_FIXUP, &[Indices])?,
         }))
     }
-}
-
-/// Workgroups for `groups` groups of 1D work, spread over x and y: `(x, y)` with `x * y >=
-/// groups` and `x <= 65535`.
-pub fn groups_2d(groups: u64) -> Result<[u32; 2], GpuError> {
-    let x = groups.clamp(1, u64::from(MAX_GROUPS_X));
-    let y = groups.div_ceil(x).max(1);
-    let y =
-        u32::try_from(y).ok().filter(|&y| y <= MAX_GROUPS_X).ok_or_else(|| GpuError::TooLarge {
-            what: format!("a pass of {groups} workgroups"),
-            limit: format!("one dispatch ({MAX_GROUPS_X} x {MAX_GROUPS_X} workgroups)"),
-        })?;
-    Ok([x as u32, y])
-}
-
-/// Records `pipeline` over `push.count` items (one invocation each); nothing when there are none.
-pub fn record_items(
-    cmd: vk::CommandBuffer,
-    pipeline: &ComputePipeline,
-    set: &Dispatch,
-    mut push: SlabPush,
-) -> Result<(), GpuError> {
-    if push.count == 0 {
-        return Ok(());
-    }
-    let [x, y] = groups_2d(u64::from(push.count).div_ceil(u64::from(GROUP)))?;
-    push.groups_x = x;
-    pipeline.record(cmd, set, bytemuck::bytes_of(&push), [x, y, 1]);
-    Ok(())
-}
-
-/// Compute writes → compute reads and writes.
-pub fn compute_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
-    memory_barrier(
-        ctx,
-        cmd,
-        (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
-        (
-            vk::PipelineStageFlags::COMPUTE_SHADER,
-            vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
-        ),
-    );
 }
 
 /// An exclusive prefix sum, in place, over up to `capacity` u32 of one buffer: `scan.comp` on
@@ -356,7 +467,7 @@ pub fn compute_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
 /// remains, then `scan add` back down. Holds the block-sum buffers and descriptor sets.
 pub struct Scan {
     /// Block-sum buffers, level 1 up.
-    _levels: Vec<Buffer>,
+    levels: Vec<Buffer>,
     /// Per level: (scan set, add set) over (level l, level l + 1).
     sets: Vec<(Dispatch, Dispatch)>,
     capacity: u64,
@@ -387,16 +498,16 @@ impl Scan {
             let bind = [Resource::Storage(lower), Resource::Storage(upper)];
             sets.push((passes.scan.bind(&bind)?, passes.scan_add.bind(&bind)?));
         }
-        Ok(Scan { _levels: levels, sets, capacity })
+        Ok(Scan { levels, sets, capacity })
     }
 
-    /// Records the scan of the first `len` elements (`len <= capacity`); writes and reads are
-    /// fenced by barriers before and after.
+    /// Records the scan of the first `len` elements (`len <= capacity`) of `data` (the buffer
+    /// the scan was made for).
     pub fn record(
         &self,
-        ctx: &Context,
+        rec: &mut Recorder,
         passes: &ExtractPasses,
-        cmd: vk::CommandBuffer,
+        data: &Buffer,
         len: u64,
     ) -> Result<(), GpuError> {
         if len > self.capacity {
@@ -409,33 +520,37 @@ impl Scan {
             return Ok(());
         }
         let lens = level_lengths(len);
+        let level = |l: usize| if l == 0 { data } else { &self.levels[l - 1] };
         // Up: scan each level with more than one element, writing block sums one level up.
         for (l, &n) in lens[..lens.len() - 1].iter().enumerate() {
-            self.dispatch(ctx, &passes.scan, &self.sets[l].0, cmd, n)?;
+            let (set, rw) = (&self.sets[l].0, [level(l), level(l + 1)]);
+            Self::dispatch(rec, &passes.scan, set, n, &[], &rw)?;
         }
         // Down: add the scanned sums of level l + 1 to level l (a single block's offset is 0).
         for l in (0..lens.len().saturating_sub(2)).rev() {
-            self.dispatch(ctx, &passes.scan_add, &self.sets[l].1, cmd, lens[l])?;
+            let set = &self.sets[l].1;
+            Self::dispatch(rec, &passes.scan_add, set, lens[l], &[level(l + 1)], &[level(l)])?;
         }
         Ok(())
     }
 
+    /// One level: [`SCAN_BLOCK`] elements per workgroup, spread over x and y.
     fn dispatch(
-        &self,
-        ctx: &Context,
+        rec: &mut Recorder,
         pipeline: &ComputePipeline,
         set: &Dispatch,
-        cmd: vk::CommandBuffer,
         len: u64,
+        reads: &[&Buffer],
+        writes: &[&Buffer],
     ) -> Result<(), GpuError> {
-        let [x, y] = groups_2d(len.div_ceil(SCAN_BLOCK))?;
+        let groups = spread_groups(len.div_ceil(SCAN_BLOCK))?;
         let count = u32::try_from(len).map_err(|_| GpuError::TooLarge {
             what: format!("a scan of {len} elements"),
             limit: "32-bit counts".into(),
         })?;
-        let push = ScanPush { groups_x: x, count };
-        pipeline.record(cmd, set, bytemuck::bytes_of(&push), [x, y, 1]);
-        compute_barrier(ctx, cmd);
+        let push = ScanPush { groups_x: groups[0], count };
+        let push = bytemuck::bytes_of(&push);
+        rec.dispatch(&Compute { pipeline, set, push, groups, reads, writes });
         Ok(())
     }
 }
@@ -497,13 +612,5 @@ mod tests {
         assert_eq!(level_lengths(1024), [1024, 1]);
         assert_eq!(level_lengths(1025), [1025, 2, 1]);
         assert_eq!(level_lengths(1 << 30), [1 << 30, 1 << 20, 1 << 10, 1]);
-    }
-
-    #[test]
-    fn groups_spread_over_two_axes() {
-        assert_eq!(groups_2d(1).unwrap(), [1, 1]);
-        assert_eq!(groups_2d(65535).unwrap(), [65535, 1]);
-        assert_eq!(groups_2d(65536).unwrap(), [65535, 2]);
-        assert!(groups_2d(65535u64 * 65535 + 1).is_err());
     }
 }

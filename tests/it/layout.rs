@@ -299,7 +299,7 @@ fn differences(rust: &Mirror, glsl: &(Vec<Member>, u32), shader: &str) -> Vec<St
 fn every_shared_struct_matches_its_glsl_in_every_shader() {
     use isoview::frame::Pixel;
     use isoview::passes::bricks::Shape;
-    use isoview::passes::extract::{ExtractParams, ExtractTables, SlabPush};
+    use isoview::passes::extract::{ExtractParams, ExtractTables, ScanPush, SlabPush};
     use isoview::passes::mesh_render::RasterPush;
     use isoview::passes::slice::{SliceParams, SlicePixel};
 
@@ -370,6 +370,12 @@ fn every_shared_struct_matches_its_glsl_in_every_shader() {
             "Push",
             &extract,
             10,
+        ),
+        (
+            rust_struct!(ScanPush { groups_x, count }),
+            "Push",
+            &|p: &str| p.starts_with("extract/scan"),
+            2,
         ),
         (
             rust_struct!(ExtractTables {

@@ -140,12 +140,12 @@ pub struct SlabPush {
 
 const _: () = assert!(std::mem::size_of::<SlabPush>() == 56);
 
-/// Push constants of the scan passes.
+/// Push constants of the scan passes (`Push` in `scan.comp` and `scan_add.comp`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-struct ScanPush {
-    groups_x: u32,
-    count: u32,
+pub struct ScanPush {
+    pub groups_x: u32,
+    pub count: u32,
 }
 
 /// The lookup tables of [`crate::mesh::tables`] as the shaders read them: `Tables` in

@@ -13,6 +13,7 @@ mod golden;
 mod layout;
 mod mesh;
 mod mesh_field;
+mod mesh_parallel;
 mod mesh_render;
 mod modules;
 mod output;

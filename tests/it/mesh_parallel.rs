@@ -181,3 +181,65 @@ fn parallel_rejects_what_the_reference_rejects_and_handles_empty_meshes() {
         }
     }
 }
+
+const GYROID: &str = r#"
+[field]
+source = "sdf"
+shape = "gyroid"
+scale = 6.0
+thickness = 0.05
+resolution = [33, 30, 27]
+bounds = { min = [-1.0, -1.0, -1.0], max = [1.0, 1.0, 1.0] }
+
+[render]
+mesh = "marching-cubes"
+"#;
+
+/// `isoview extract` without `--device` (auto): on a Vulkan device whose type is CPU
+/// (lavapipe) it extracts on the CPU and says so, writing the very file `--device cpu` writes
+/// (the reference's mesh); on a GPU it extracts on the GPU and says so. `--device auto` is the
+/// same as no `--device`; `--device gpu` still runs the GPU passes.
+#[test]
+fn extract_auto_picks_the_cpu_on_a_cpu_vulkan_device() {
+    let Some(ctx) = gpu() else { return };
+    let on_cpu_device = ctx.info.device_type.starts_with("CPU");
+    drop(ctx);
+    let dir = scratch("extract-auto");
+    let scene_path = dir.join("gyroid.toml");
+    std::fs::write(&scene_path, GYROID).unwrap();
+    let scene_path = scene_path.display().to_string();
+    let out = |name: &str| dir.join(name).display().to_string();
+    let (auto, auto2, cpu, gpu_file) =
+        (out("auto.ply"), out("auto2.ply"), out("cpu.ply"), out("gpu.ply"));
+    for algo in ["marching-cubes", "surface-nets", "mc33"] {
+        let set = format!("render.mesh={algo}");
+        let o = isoview(&["extract", &scene_path, "-o", &auto, "--set", &set], &[]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let err = stderr(&o);
+        if on_cpu_device {
+            assert!(err.contains(&format!("({algo} on cpu; auto: the Vulkan device ")), "{err}");
+            assert!(err.contains("is a CPU)"), "{err}");
+        } else {
+            assert!(err.contains(&format!("({algo} on gpu; auto: the Vulkan device ")), "{err}");
+        }
+        let o = isoview(
+            &["extract", &scene_path, "-o", &auto2, "--device", "auto", "--set", &set],
+            &[],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(std::fs::read(&auto).unwrap(), std::fs::read(&auto2).unwrap());
+        let o =
+            isoview(&["extract", &scene_path, "-o", &cpu, "--device", "cpu", "--set", &set], &[]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(stderr(&o).contains(&format!("({algo} on cpu)")), "{}", stderr(&o));
+        if on_cpu_device {
+            assert_eq!(std::fs::read(&auto).unwrap(), std::fs::read(&cpu).unwrap(), "{algo}");
+        }
+        let o = isoview(
+            &["extract", &scene_path, "-o", &gpu_file, "--device", "gpu", "--set", &set],
+            &[],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(stderr(&o).contains(&format!("({algo} on gpu)")), "{}", stderr(&o));
+    }
+}

@@ -107,6 +107,16 @@ impl Padded<'_, '_> {
     /// The vertex of padded cell `c`, if active: its index-space position and the index-space
     /// inside → outside direction summed over its crossed edges.
     fn cell_vertex(&self, c: [usize; 3]) -> Option<(DVec3, DVec3)> {
+        // A cell is active iff its corners are not all on one side (its edges connect all 8
+        // corners): 8 inside tests settle the common case of a cell far from the surface
+        // before the 12 edges are looked at.
+        let first = self.inside(c);
+        let mixed = (1..8usize).any(|n| {
+            self.inside([c[0] + (n & 1), c[1] + ((n >> 1) & 1), c[2] + ((n >> 2) & 1)]) != first
+        });
+        if !mixed {
+            return None;
+        }
         let mut sum = DVec3::ZERO;
         let mut dir = DVec3::ZERO;
         let mut n = 0u32;

@@ -1,8 +1,10 @@
 //! `cargo bench --bench mesh` (or `./x bench`): isosurface extraction speed on 128³ and 256³
 //! grids (sphere, gyroid, noise): the GPU passes (`passes::extract`, marching cubes, surface nets and
-//! mc33) on the current Vulkan device against the f64 CPU references (`mesh::extract`, one
-//! thread) and the crates `fast-surface-nets` (surface nets) and `isosurface` (marching cubes),
-//! all in the same run. Prints a markdown table; never asserts on time.
+//! mc33) on the current Vulkan device and the multi-threaded CPU extraction
+//! (`mesh::extract_parallel`, all cores, rayon) against the f64 CPU references
+//! (`mesh::extract`, one thread) and the crates `fast-surface-nets` (surface nets) and
+//! `isosurface` (marching cubes), all in the same run. Prints markdown tables; never asserts on
+//! time (it asserts that the parallel mesh equals the reference's).
 //!
 //! Voxels are cells, `(n - 1)³` for `n³` grid points. GPU times are wall-clock around
 //! `Extractor::extract` with the grid already uploaded: they include the host readback of the
@@ -16,7 +18,7 @@ use std::time::Instant;
 use glam::DVec3;
 use isoview::field::{FieldSource, FieldSpec, Grid};
 use isoview::gpu::{Context, ContextOptions, Image3d};
-use isoview::mesh::{extract, ExtractOptions, Mesh};
+use isoview::mesh::{extract, extract_parallel, ExtractOptions, Mesh};
 use isoview::passes::extract::{Extractor, GpuExtractOptions};
 use isoview::scene::{Bounds, Inside, MeshAlgorithm, SdfShape};
 
@@ -176,6 +178,18 @@ fn main() {
                     cpu.vertex_count(),
                     cpu.triangle_count(),
                 );
+                let (s, par) = time(|| {
+                    extract_parallel(grid, 0.0, Inside::Below, algo, ExtractOptions::default())
+                        .unwrap()
+                });
+                assert!(par == cpu, "parallel vs reference: {} {field} {n}", algo.name());
+                row(
+                    format!("isoview CPU parallel {}", algo.name()),
+                    s,
+                    None,
+                    par.vertex_count(),
+                    par.triangle_count(),
+                );
                 let (s, (v, t, ms)) = time(|| {
                     let m = extractor
                         .extract(grid, &image, 0.0, Inside::Below, algo, &opts)
@@ -236,5 +250,39 @@ fn main() {
             r.triangles,
             r.reference / r.seconds,
         );
+    }
+
+    // The parallel CPU path beside the reference, the GPU passes and the peer crate.
+    let ms = |field: &str, n: usize, method: &str| {
+        rows.iter()
+            .find(|r| r.field == field && r.n == n && r.method == method)
+            .map(|r| r.seconds * 1e3)
+    };
+    println!();
+    println!("| field | grid | algorithm | CPU parallel ms | CPU reference ms | GPU ms | peer ms | reference / parallel | GPU / parallel | peer / parallel |");
+    println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    for &n in &sizes {
+        for field in ["sphere", "gyroid", "noise"] {
+            for (algo, peer) in [
+                ("marching-cubes", Some("isosurface 0.0.4 marching cubes")),
+                ("surface-nets", Some("fast-surface-nets 0.2.1")),
+                ("mc33", None),
+            ] {
+                let Some(par) = ms(field, n, &format!("isoview CPU parallel {algo}")) else {
+                    continue;
+                };
+                let reference = ms(field, n, &format!("isoview CPU {algo}")).unwrap_or(f64::NAN);
+                let gpu = ms(field, n, &format!("isoview GPU {algo}")).unwrap_or(f64::NAN);
+                let peer = peer.and_then(|p| ms(field, n, p));
+                let fmt = |x: Option<f64>| x.map_or_else(|| "–".into(), |x| format!("{x:.1}"));
+                println!(
+                    "| {field} | {n}³ | {algo} | {par:.1} | {reference:.1} | {gpu:.1} | {} | {:.2} | {:.2} | {} |",
+                    fmt(peer),
+                    reference / par,
+                    gpu / par,
+                    peer.map_or_else(|| "–".into(), |p| format!("{:.2}", p / par)),
+                );
+            }
+        }
     }
 }

@@ -1,14 +1,22 @@
-//! `isoview extract SCENE.toml -o MESH.{ply,obj,stl} [--set K=V]... [--device gpu|cpu] [--stats]
-//! [--time T] [--quads]`
+//! `isoview extract SCENE.toml -o MESH.{ply,obj,stl} [--set K=V]... [--device auto|gpu|cpu]
+//! [--stats] [--time T] [--quads]`
 //!
 //! Samples the scene's field, extracts the isosurface with `render.mesh` (marching-cubes, mc33,
 //! surface-nets, dual-contouring, marching-tetrahedra) and writes it atomically in the format of
 //! the output's extension: binary PLY with normals, OBJ with normals, or binary STL.
 //!
 //! `--device` is also isoview's global option naming the Vulkan device. For `extract` the words
-//! `gpu` and `cpu` written on the command line choose where the extraction runs (the contract's
-//! `--device gpu|cpu`); any other value names the Vulkan device, as for every other subcommand,
-//! and implies `gpu`. With `--device gpu|cpu` the Vulkan device comes from `ISOVIEW_DEVICE`.
+//! `auto`, `gpu` and `cpu` written on the command line choose where the extraction runs; any
+//! other value names the Vulkan device, as for every other subcommand, and implies `gpu`. With
+//! `--device auto|gpu|cpu` the Vulkan device comes from `ISOVIEW_DEVICE`.
+//!
+//! * `cpu`: the multi-threaded CPU extraction (`mesh::extract_parallel`, all cores, rayon), whose
+//!   mesh is the f64 reference's (`mesh::extract`) bit for bit.
+//! * `gpu`: the Vulkan compute passes (`passes::extract`) on the Vulkan device.
+//! * `auto` (the default): opens the Vulkan device and extracts on the CPU when its type is CPU
+//!   (lavapipe, where the compute passes are software on the same cores and slower than the
+//!   CPU path), or when there is no usable Vulkan device; else on the GPU. The summary line on
+//!   stderr says which and why.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -46,15 +54,19 @@ pub struct ExtractArgs {
 /// Where the extraction runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Backend {
+    /// The CPU when the Vulkan device is a CPU or missing, else the GPU (the default).
+    Auto,
     /// Vulkan compute (`isoview::passes::extract`).
     Gpu,
-    /// The f64 CPU reference (`isoview::mesh::extract`).
+    /// The multi-threaded CPU extraction (`isoview::mesh::extract_parallel`), equal to the f64
+    /// reference `isoview::mesh::extract` bit for bit.
     Cpu,
 }
 
 impl Backend {
     pub fn name(self) -> &'static str {
         match self {
+            Backend::Auto => "auto",
             Backend::Gpu => "gpu",
             Backend::Cpu => "cpu",
         }
@@ -74,8 +86,9 @@ pub fn resolve_device(
     match device {
         Some(d) if from_command_line && d.eq_ignore_ascii_case("cpu") => (Backend::Cpu, env),
         Some(d) if from_command_line && d.eq_ignore_ascii_case("gpu") => (Backend::Gpu, env),
+        Some(d) if from_command_line && d.eq_ignore_ascii_case("auto") => (Backend::Auto, env),
         Some(d) => (Backend::Gpu, Some(d.to_string())),
-        None => (Backend::Gpu, env),
+        None => (Backend::Auto, env),
     }
 }
 
@@ -97,9 +110,13 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
     let started = Instant::now();
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let opts = ExtractOptions { keep_quads: args.quads, ..Default::default() };
-    let (mesh, ran_on) = match backend {
-        Backend::Cpu => (extract_cpu(&scene, &grid, opts)?, Backend::Cpu),
-        Backend::Gpu => extract_gpu(cli, vulkan_device, &scene, &grid, opts)?,
+    let (mesh, ran_on, why) = match backend {
+        Backend::Cpu => (extract_cpu(&scene, &grid, opts)?, Backend::Cpu, String::new()),
+        Backend::Gpu => {
+            let (mesh, ran_on) = extract_gpu(cli, vulkan_device, &scene, &grid, opts)?;
+            (mesh, ran_on, String::new())
+        }
+        Backend::Auto => extract_auto(cli, vulkan_device, &scene, &grid, opts)?,
     };
     let elapsed = started.elapsed().as_secs_f64() * 1e3;
     write_mesh(&args.output, &mesh, format)?;
@@ -108,7 +125,7 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
         println!("{}", mesh::stats::compute(&mesh));
     }
     eprintln!(
-        "isoview: {} vertices, {} triangles ({} on {}) in {elapsed:.0} ms -> {}",
+        "isoview: {} vertices, {} triangles ({} on {}{why}) in {elapsed:.0} ms -> {}",
         mesh.vertex_count(),
         mesh.triangle_count(),
         scene.render.mesh.name(),
@@ -126,10 +143,106 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
     Ok(0)
 }
 
-/// The f64 CPU reference extraction.
+/// The CPU extraction on all cores: the f64 reference's mesh, bit for bit.
 pub fn extract_cpu(scene: &Scene, grid: &Grid, opts: ExtractOptions) -> Result<Mesh, Failure> {
-    mesh::extract(grid, scene.surface.isovalue, scene.surface.inside, scene.render.mesh, opts)
+    let s = &scene.surface;
+    mesh::extract_parallel(grid, s.isovalue, s.inside, scene.render.mesh, opts)
         .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))
+}
+
+/// `--device auto`: the CPU extraction when the Vulkan device is a CPU (lavapipe) or there is
+/// none, else the GPU's; returns the mesh, where it ran and the reason, worded for the summary
+/// line. Knowing the device type costs opening the device (instance, device and allocator:
+/// tens of milliseconds on lavapipe), which the GPU path needs anyway.
+fn extract_auto(
+    cli: &Cli,
+    vulkan_device: Option<String>,
+    scene: &Scene,
+    grid: &Grid,
+    opts: ExtractOptions,
+) -> Result<(Mesh, Backend, String), Failure> {
+    if opts.keep_quads {
+        let why = "; auto: --quads needs the CPU extraction".to_string();
+        return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu, why));
+    }
+    // The cheap probe first: a CPU device needs no device opened.
+    if let Some(name) = probe_cpu_device(vulkan_device.as_deref()) {
+        let why = format!("; auto: the Vulkan device {name} is a CPU");
+        return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu, why));
+    }
+    let ctx = match open_context(cli, vulkan_device) {
+        Ok(ctx) => ctx,
+        Err(e) => {
+            let why = format!("; auto: no usable Vulkan device ({e})");
+            return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu, why));
+        }
+    };
+    // `DeviceInfo::device_type` is the gpu crate's wording of `vk::PhysicalDeviceType::CPU`.
+    if ctx.info.device_type.starts_with("CPU") {
+        let why = format!("; auto: the Vulkan device {} is a CPU", ctx.info.name);
+        drop(ctx);
+        return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu, why));
+    }
+    let why = format!("; auto: the Vulkan device {} is a {}", ctx.info.name, ctx.info.device_type);
+    let (mesh, ran_on) = extract_on(ctx, scene, grid, opts)?;
+    Ok((mesh, ran_on, why))
+}
+
+/// The name of the Vulkan device that `gpu::Context::new` would pick for `wanted` (the first
+/// whose name contains it, case-insensitively, else the best-ranked type: discrete, integrated,
+/// virtual, CPU) if that device's type is CPU; None otherwise or when Vulkan cannot say. Costs
+/// one instance and no device (a few tens of ms on lavapipe; opening the device costs 150–300 ms);
+/// the context's own device type is checked again when this says no.
+//
+// A stopgap in the CLI: this belongs in the gpu crate beside `Context::new`'s selection.
+fn probe_cpu_device(wanted: Option<&str>) -> Option<String> {
+    use ash::vk;
+    // SAFETY: loading the system's libvulkan, as `gpu::Context::new` does.
+    let entry = unsafe { ash::Entry::load() }.ok()?;
+    let app = vk::ApplicationInfo::default()
+        .application_name(c"isoview")
+        .api_version(vk::API_VERSION_1_2);
+    let create = vk::InstanceCreateInfo::default().application_info(&app);
+    // SAFETY: the create info and the strings it points to outlive the call.
+    let instance = unsafe { entry.create_instance(&create, None) }.ok()?;
+    // SAFETY: a valid instance; its physical devices live as long as it does.
+    let devices = unsafe { instance.enumerate_physical_devices() }.unwrap_or_default();
+    let props: Vec<vk::PhysicalDeviceProperties> = devices
+        .iter()
+        // SAFETY: `pd` comes from this instance.
+        .map(|&pd| unsafe { instance.get_physical_device_properties(pd) })
+        .collect();
+    // SAFETY: nothing created from the instance outlives it.
+    unsafe { instance.destroy_instance(None) };
+    let name = |p: &vk::PhysicalDeviceProperties| {
+        p.device_name_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+    };
+    let rank = |t: vk::PhysicalDeviceType| match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    };
+    let chosen = match wanted {
+        Some(w) => {
+            let w = w.to_lowercase();
+            props.iter().find(|p| name(p).to_lowercase().contains(&w))
+        }
+        None => props.iter().min_by_key(|p| rank(p.device_type)),
+    }?;
+    (chosen.device_type == vk::PhysicalDeviceType::CPU).then(|| name(chosen))
+}
+
+/// Opens the Vulkan device `vulkan_device` (None: isoview's pick).
+fn open_context(
+    cli: &Cli,
+    vulkan_device: Option<String>,
+) -> Result<std::sync::Arc<crate::gpu::Context>, crate::gpu::GpuError> {
+    crate::gpu::Context::new(&crate::gpu::ContextOptions {
+        device: vulkan_device,
+        validation: cli.validation,
+    })
 }
 
 /// The GPU extraction (compute passes of [`passes::extract`]) on the Vulkan device `vulkan_device`,
@@ -147,10 +260,16 @@ fn extract_gpu(
         eprintln!("isoview: note: --quads extracts on the CPU (the GPU extraction has no quads)");
         return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu));
     }
-    let ctx = crate::gpu::Context::new(&crate::gpu::ContextOptions {
-        device: vulkan_device,
-        validation: cli.validation,
-    })?;
+    extract_on(open_context(cli, vulkan_device)?, scene, grid, opts)
+}
+
+/// The GPU extraction on `ctx` (see [`extract_gpu`]); `opts.keep_quads` must be false.
+fn extract_on(
+    ctx: std::sync::Arc<crate::gpu::Context>,
+    scene: &Scene,
+    grid: &Grid,
+    opts: ExtractOptions,
+) -> Result<(Mesh, Backend), Failure> {
     if scene.render.mesh == crate::scene::MeshAlgorithm::Mc33 && !ctx.info.float64 {
         eprintln!(
             "isoview: note: mc33 is extracted on the CPU ({} has no 64-bit floats, which the \
@@ -196,7 +315,12 @@ mod tests {
 
     #[test]
     fn device_words_choose_the_backend_and_other_values_name_the_vulkan_device() {
-        assert_eq!(resolve_device(None, false, None), (Backend::Gpu, None));
+        assert_eq!(resolve_device(None, false, None), (Backend::Auto, None));
+        assert_eq!(
+            resolve_device(None, false, Some("llvmpipe")),
+            (Backend::Auto, Some("llvmpipe".into()))
+        );
+        assert_eq!(resolve_device(Some("Auto"), true, None), (Backend::Auto, None));
         assert_eq!(resolve_device(Some("cpu"), true, None), (Backend::Cpu, None));
         assert_eq!(
             resolve_device(Some("GPU"), true, Some("llvmpipe")),

@@ -40,11 +40,14 @@
 //! * **Quads** in increasing edge id `3 * p + axis` (`p` the padded point number for dual
 //!   contouring); the two triangles of a quad are consecutive.
 
+use std::ops::Range;
+
 use glam::DVec3;
 
 use super::edges::Vertices;
 use super::field::Field;
-use super::{to_u32, ExtractOptions, Mesh, MeshError, QuadSplit};
+use super::slabs::{self, Part};
+use super::{ExtractOptions, Mesh, MeshError, QuadSplit};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Boundary {
@@ -104,6 +107,16 @@ impl Padded<'_, '_> {
     /// The vertex of padded cell `c`, if active: its index-space position and the index-space
     /// inside → outside direction summed over its crossed edges.
     fn cell_vertex(&self, c: [usize; 3]) -> Option<(DVec3, DVec3)> {
+        // A cell is active iff its corners are not all on one side (its edges connect all 8
+        // corners): 8 inside tests settle the common case of a cell far from the surface
+        // before the 12 edges are looked at.
+        let first = self.inside(c);
+        let mixed = (1..8usize).any(|n| {
+            self.inside([c[0] + (n & 1), c[1] + ((n >> 1) & 1), c[2] + ((n >> 2) & 1)]) != first
+        });
+        if !mixed {
+            return None;
+        }
         let mut sum = DVec3::ZERO;
         let mut dir = DVec3::ZERO;
         let mut n = 0u32;
@@ -142,15 +155,41 @@ impl Padded<'_, '_> {
     }
 }
 
+/// The reference: the whole (padded) grid as one slab.
 pub(crate) fn extract(
     f: &Field,
     boundary: Boundary,
     opts: ExtractOptions,
 ) -> Result<Mesh, MeshError> {
-    let pad = match boundary {
+    let layers = cell_layers(f, boundary);
+    slabs::run(f, layers, layers, opts.keep_quads, |cells| extract_slab(f, boundary, opts, cells))
+}
+
+/// Padding of the grid for `boundary`.
+fn padding(boundary: Boundary) -> usize {
+    match boundary {
         Boundary::Open => 0,
         Boundary::Closed => 1,
-    };
+    }
+}
+
+/// Cell layers along z of the (padded) grid.
+pub(crate) fn cell_layers(f: &Field, boundary: Boundary) -> usize {
+    f.dims[2] + 2 * padding(boundary) - 1
+}
+
+/// The vertices of (padded) cell layers `cells` and the quads of the crossed edges starting in
+/// point layers `cells.start + 1 ..= cells.end` (from point layer 0 in the first slab, to the
+/// last in the last one), numbered locally (see `slabs`). The quads of a slab's top point layer
+/// need the cells of the layer above, which the next slab owns: they are numbered after the
+/// slab's own vertices and given positions (the quad split reads them) but no normals.
+pub(crate) fn extract_slab(
+    f: &Field,
+    boundary: Boundary,
+    opts: ExtractOptions,
+    cells: Range<usize>,
+) -> Result<Part, MeshError> {
+    let pad = padding(boundary);
     let np = f.dims.map(|n| n + 2 * pad);
     let nc = np.map(|n| n - 1);
     let g = Padded { f, pad, nc };
@@ -162,15 +201,18 @@ pub(crate) fn extract(
     let layer = nc[0] * nc[1];
     let mut ids = [vec![u32::MAX; layer], vec![u32::MAX; layer]];
 
-    for qz in 0..np[2] {
+    let points_end = if cells.end == nc[2] { np[2] } else { cells.end + 1 };
+    for qz in cells.start..points_end {
         // Number the active cells of cell layer qz.
         if qz < nc[2] {
+            let own = qz < cells.end;
             let slot = &mut ids[qz % 2];
             for cy in 0..nc[1] {
                 for cx in 0..nc[0] {
                     let c = [cx, cy, qz];
                     slot[cx + nc[0] * cy] = match g.cell_vertex(c) {
                         None => u32::MAX,
+                        Some((u, _)) if !own => verts.push_borrowed(f, u)?,
                         Some((u, dir)) => match g.padding_normal(c) {
                             None => verts.push(f, u, dir)?,
                             Some(n) => {
@@ -182,6 +224,10 @@ pub(crate) fn extract(
                     };
                 }
             }
+        }
+        // The quads of point layer `cells.start` belong to the slab below.
+        if qz == cells.start && qz > 0 {
+            continue;
         }
         // Quads of the crossed edges that start in point layer qz.
         for qy in 0..np[1] {
@@ -215,13 +261,7 @@ pub(crate) fn extract(
             }
         }
     }
-    to_u32(indices.len(), "indices")?;
-    Ok(Mesh {
-        positions: verts.positions,
-        normals: verts.normals,
-        indices,
-        quads: opts.keep_quads.then_some(quads),
-    })
+    Ok(Part { verts, indices, quads, centres: Vec::new() })
 }
 
 /// Appends the two triangles of `quad` per `rule`.

@@ -28,6 +28,21 @@ impl Vertices {
         self.normals.push(f.normal(u, fallback));
         Ok(id)
     }
+
+    /// Appends the position of a vertex that belongs to the next slab, without a normal,
+    /// returning its id: the dual methods' quad split reads it. [`Vertices::drop_borrowed`]
+    /// removes these before the slab's vertices are joined.
+    pub fn push_borrowed(&mut self, f: &Field, u: DVec3) -> Result<u32, MeshError> {
+        let id = to_u32(self.positions.len(), "vertices")?;
+        self.positions.push(f.world(u));
+        Ok(id)
+    }
+
+    /// Drops the positions appended by [`Vertices::push_borrowed`] (they follow every vertex
+    /// with a normal).
+    pub fn drop_borrowed(&mut self) {
+        self.positions.truncate(self.normals.len());
+    }
 }
 
 /// Offset of an edge family given as corner bits (x = 1, y = 2, z = 4).
@@ -54,6 +69,30 @@ impl<'f, 'g> EdgeLayers<'f, 'g> {
     /// order.
     pub fn build(&mut self, k: usize, verts: &mut Vertices) -> Result<(), MeshError> {
         let f = self.f;
+        self.layer(k, |u, out_dir| verts.push(f, u, out_dir))
+    }
+
+    /// Numbers the crossed edges that start in point layer `k` from `first` on, in edge-id
+    /// order, without creating their vertices: the layer belongs to the next slab, whose own
+    /// numbering of it starts where this slab's vertices end (see `slabs`).
+    pub fn number(&mut self, k: usize, first: usize) -> Result<(), MeshError> {
+        let mut next = first;
+        self.layer(k, |_, _| {
+            let id = to_u32(next, "vertices")?;
+            next += 1;
+            Ok(id)
+        })
+    }
+
+    /// Gives each crossed edge starting in point layer `k`, in edge-id order, the id that
+    /// `vertex(u, out_dir)` returns for its crossing point `u` (index space) and its inside →
+    /// outside direction.
+    fn layer(
+        &mut self,
+        k: usize,
+        mut vertex: impl FnMut(DVec3, DVec3) -> Result<u32, MeshError>,
+    ) -> Result<(), MeshError> {
+        let f = self.f;
         let [nx, ny, nz] = f.dims;
         let nf = self.families.len();
         let ids = &mut self.ids[k % 2];
@@ -77,7 +116,7 @@ impl<'f, 'g> EdgeLayers<'f, 'g> {
                     let dv = DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64);
                     let u = DVec3::new(i as f64, j as f64, k as f64) + s * dv;
                     let out_dir = if ina { dv } else { -dv };
-                    ids[slot] = verts.push(f, u, out_dir)?;
+                    ids[slot] = vertex(u, out_dir)?;
                 }
             }
         }

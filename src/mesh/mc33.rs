@@ -52,10 +52,13 @@
 //! interpolant's level set in the cell, tunnels included, where plain marching cubes is wrong
 //! in about a fifth of the ambiguous cells.
 
+use std::ops::Range;
+
 use glam::DVec3;
 
 use super::edges::{offset, EdgeLayers, Vertices};
 use super::field::Field;
+use super::slabs::{self, Part};
 use super::tables::MC_EDGES;
 use super::{Mesh, MeshError};
 use crate::vocab::Inside;
@@ -493,8 +496,18 @@ fn tube(p: &[usize], q: &[usize], pos: &dyn Fn(usize) -> DVec3) -> Vec<[Vert; 3]
     out
 }
 
+/// The reference: the whole grid as one slab.
 pub(crate) fn extract(f: &Field) -> Result<Mesh, MeshError> {
+    let layers = f.dims[2] - 1;
+    slabs::run(f, layers, layers, false, |cells| extract_slab(f, cells))
+}
+
+/// The edge vertices of the edges starting in point layers `cells` (and in the last point
+/// layer if `cells` ends at the grid's top), the added vertices and the triangles of cell
+/// layers `cells`, numbered locally (see `slabs`).
+pub(crate) fn extract_slab(f: &Field, cells: Range<usize>) -> Result<Part, MeshError> {
     let [nx, ny, nz] = f.dims;
+    let top = cells.end == nz - 1;
     let mut verts = Vertices::default();
     let mut indices = Vec::new();
     // Added vertices (index-space position, fallback normal direction), numbered after all
@@ -505,9 +518,13 @@ pub(crate) fn extract(f: &Field) -> Result<Mesh, MeshError> {
         Inside::Below => -1.0,
         Inside::Above => 1.0,
     };
-    edges.build(0, &mut verts)?;
-    for k in 0..nz - 1 {
-        edges.build(k + 1, &mut verts)?;
+    edges.build(cells.start, &mut verts)?;
+    for k in cells.clone() {
+        if k + 1 < cells.end || top {
+            edges.build(k + 1, &mut verts)?;
+        } else {
+            edges.number(k + 1, verts.positions.len())?;
+        }
         for j in 0..ny - 1 {
             for i in 0..nx - 1 {
                 let mask = f.corner_mask(i, j, k);
@@ -590,17 +607,5 @@ pub(crate) fn extract(f: &Field) -> Result<Mesh, MeshError> {
             }
         }
     }
-    let base = verts.positions.len();
-    super::to_u32(base + centres.len(), "vertices")?;
-    for &(u, dir) in &centres {
-        verts.push(f, u, dir)?;
-    }
-    if !centres.is_empty() {
-        let first = u32::MAX - centres.len() as u32;
-        for x in indices.iter_mut().filter(|x| **x > first) {
-            *x = base as u32 + (u32::MAX - *x);
-        }
-    }
-    super::to_u32(indices.len(), "indices")?;
-    Ok(Mesh { positions: verts.positions, normals: verts.normals, indices, quads: None })
+    Ok(Part { verts, indices, quads: Vec::new(), centres })
 }

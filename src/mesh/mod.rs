@@ -52,6 +52,10 @@
 //! | `mc33` | as marching cubes | the trilinear interpolant's topology per cell (Chernyaev's MC33 cases) | `mc33` |
 //!
 //! Each module's documentation states its exact rules.
+//!
+//! [`extract`] is the single-threaded reference; [`extract_parallel`] runs the same per-cell
+//! code on slabs of cell layers on all `rayon` threads and joins them into the same mesh, bit
+//! for bit (`slabs`).
 
 mod dual;
 mod edges;
@@ -60,6 +64,7 @@ mod field;
 mod mc;
 mod mc33;
 mod mt;
+mod slabs;
 pub mod stats;
 pub mod tables;
 #[cfg(test)]
@@ -136,7 +141,7 @@ pub enum MeshError {
 }
 
 /// Extracts the isosurface `{x : f(x) = iso}` of `grid`'s trilinear interpolant as an indexed
-/// triangle mesh, inside per `inside`, with algorithm `algo`.
+/// triangle mesh, inside per `inside`, with algorithm `algo`: the single-threaded reference.
 pub fn extract(
     grid: &Grid,
     iso: f64,
@@ -144,13 +149,7 @@ pub fn extract(
     algo: MeshAlgorithm,
     opts: ExtractOptions,
 ) -> Result<Mesh, MeshError> {
-    if !iso.is_finite() {
-        return Err(MeshError::BadIsovalue(iso));
-    }
-    let want = grid.dims.iter().product::<usize>();
-    if grid.dims.iter().any(|&n| n < 2) || grid.values.len() != want {
-        return Err(MeshError::BadGrid { dims: grid.dims, got: grid.values.len(), want });
-    }
+    check(grid, iso)?;
     let f = field::Field::new(grid, iso, inside);
     match algo {
         MeshAlgorithm::MarchingCubes => mc::extract(&f),
@@ -159,6 +158,68 @@ pub fn extract(
         MeshAlgorithm::DualContouring => dual::extract(&f, dual::Boundary::Closed, opts),
         MeshAlgorithm::Mc33 => mc33::extract(&f),
     }
+}
+
+/// [`extract`] on all threads of the current `rayon` pool: the grid is cut into slabs of cell
+/// layers along z, extracted in parallel by the reference's own per-cell code and joined in
+/// order, so the mesh is [`extract`]'s, bit for bit (same vertex numbering, positions,
+/// normals, triangles and quads). Slab depth: about 8 slabs per thread, at least 4 layers.
+pub fn extract_parallel(
+    grid: &Grid,
+    iso: f64,
+    inside: Inside,
+    algo: MeshAlgorithm,
+    opts: ExtractOptions,
+) -> Result<Mesh, MeshError> {
+    extract_in_slabs(grid, iso, inside, algo, opts, None)
+}
+
+/// [`extract_parallel`] with slabs of `depth` cell layers (`None`: the default depth). The
+/// dual methods count the padded cell layers of `dual-contouring` (one more at each end).
+pub fn extract_in_slabs(
+    grid: &Grid,
+    iso: f64,
+    inside: Inside,
+    algo: MeshAlgorithm,
+    opts: ExtractOptions,
+    depth: Option<usize>,
+) -> Result<Mesh, MeshError> {
+    check(grid, iso)?;
+    let f = field::Field::new(grid, iso, inside);
+    let f = &f;
+    let layers = match algo {
+        MeshAlgorithm::SurfaceNets => dual::cell_layers(f, dual::Boundary::Open),
+        MeshAlgorithm::DualContouring => dual::cell_layers(f, dual::Boundary::Closed),
+        _ => grid.dims[2] - 1,
+    };
+    let depth = depth.unwrap_or_else(|| slabs::default_depth(layers));
+    match algo {
+        MeshAlgorithm::MarchingCubes => {
+            slabs::run(f, layers, depth, false, |c| mc::extract_slab(f, c))
+        }
+        MeshAlgorithm::MarchingTetrahedra => {
+            slabs::run(f, layers, depth, false, |c| mt::extract_slab(f, c))
+        }
+        MeshAlgorithm::Mc33 => slabs::run(f, layers, depth, false, |c| mc33::extract_slab(f, c)),
+        MeshAlgorithm::SurfaceNets => slabs::run(f, layers, depth, opts.keep_quads, |c| {
+            dual::extract_slab(f, dual::Boundary::Open, opts, c)
+        }),
+        MeshAlgorithm::DualContouring => slabs::run(f, layers, depth, opts.keep_quads, |c| {
+            dual::extract_slab(f, dual::Boundary::Closed, opts, c)
+        }),
+    }
+}
+
+/// Rejects a non-finite isovalue and a grid whose samples do not match its dimensions.
+fn check(grid: &Grid, iso: f64) -> Result<(), MeshError> {
+    if !iso.is_finite() {
+        return Err(MeshError::BadIsovalue(iso));
+    }
+    let want = grid.dims.iter().product::<usize>();
+    if grid.dims.iter().any(|&n| n < 2) || grid.values.len() != want {
+        return Err(MeshError::BadGrid { dims: grid.dims, got: grid.values.len(), want });
+    }
+    Ok(())
 }
 
 /// Converts a vertex or index count to `u32`, or fails.

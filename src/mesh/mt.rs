@@ -21,22 +21,39 @@
 //!
 //! [`MT_FAMILIES`]: super::tables::MT_FAMILIES
 
+use std::ops::Range;
+
 use super::edges::{EdgeLayers, Vertices};
 use super::field::Field;
+use super::slabs::{self, Part};
 use super::tables::{MT_TETS, MT_TET_EDGES, MT_TRIANGLES};
 use super::{Mesh, MeshError};
 
 /// Edge families of marching tetrahedra: offset bits 1..=7.
 const FAMILIES: &[u8] = &[1, 2, 3, 4, 5, 6, 7];
 
+/// The reference: the whole grid as one slab.
 pub(crate) fn extract(f: &Field) -> Result<Mesh, MeshError> {
+    let layers = f.dims[2] - 1;
+    slabs::run(f, layers, layers, false, |cells| extract_slab(f, cells))
+}
+
+/// The vertices of the edges starting in point layers `cells` (and in the last point layer if
+/// `cells` ends at the grid's top) and the triangles of cell layers `cells`, numbered locally
+/// (see `slabs`).
+pub(crate) fn extract_slab(f: &Field, cells: Range<usize>) -> Result<Part, MeshError> {
     let [nx, ny, nz] = f.dims;
+    let top = cells.end == nz - 1;
     let mut verts = Vertices::default();
     let mut indices = Vec::new();
     let mut edges = EdgeLayers::new(f, FAMILIES);
-    edges.build(0, &mut verts)?;
-    for k in 0..nz - 1 {
-        edges.build(k + 1, &mut verts)?;
+    edges.build(cells.start, &mut verts)?;
+    for k in cells.clone() {
+        if k + 1 < cells.end || top {
+            edges.build(k + 1, &mut verts)?;
+        } else {
+            edges.number(k + 1, verts.positions.len())?;
+        }
         for j in 0..ny - 1 {
             for i in 0..nx - 1 {
                 let mask = f.corner_mask(i, j, k);
@@ -60,6 +77,5 @@ pub(crate) fn extract(f: &Field) -> Result<Mesh, MeshError> {
             }
         }
     }
-    super::to_u32(indices.len(), "indices")?;
-    Ok(Mesh { positions: verts.positions, normals: verts.normals, indices, quads: None })
+    Ok(Part { verts, indices, ..Default::default() })
 }

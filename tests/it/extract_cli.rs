@@ -85,12 +85,12 @@ fn stats_device_and_overrides() {
     ] {
         assert!(text.contains(needle), "{needle} missing from {text}");
     }
-    // The global flag before the subcommand gives the same file; the default device (gpu)
-    // the same triangles, with f32 positions within 1e-5 of the reference's.
+    // The global flag before the subcommand gives the same file; `--device gpu` the same
+    // triangles, with f32 positions within 1e-5 of the reference's.
     let o = isoview(&["--device", "cpu", "extract", &scene_path, "-o", &path(&c)], &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&c).unwrap());
-    let o = isoview(&["extract", &scene_path, "-o", &path(&b)], &[]);
+    let o = isoview(&["extract", &scene_path, "-o", &path(&b), "--device", "gpu"], &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("mc33 on gpu"), "{}", stderr(&o));
     let (cpu, gpu) = (TriangleMesh::read(&a).unwrap(), TriangleMesh::read(&b).unwrap());

@@ -15,6 +15,7 @@ mod gpu_errors;
 mod layout;
 mod mesh;
 mod mesh_field;
+mod mesh_parallel;
 mod mesh_render;
 mod methods;
 mod modules;

@@ -52,8 +52,9 @@ impl From<GpuError> for Failure {
 pub struct Cli {
     /// Vulkan device to use: a case-insensitive part of its name (default: a discrete GPU, else
     /// an integrated one, else lavapipe). Also read from ISOVIEW_DEVICE. For `extract`,
-    /// `--device gpu` or `--device cpu` chooses where the extraction runs (the Vulkan device then
-    /// comes from ISOVIEW_DEVICE); any other value names the Vulkan device.
+    /// `--device auto|gpu|cpu` chooses where the extraction runs (auto, the default: on the CPU
+    /// when the Vulkan device is a CPU such as lavapipe; the Vulkan device then comes from
+    /// ISOVIEW_DEVICE); any other value names the Vulkan device.
     #[arg(long, global = true, env = "ISOVIEW_DEVICE")]
     pub device: Option<String>,
     /// Whether `device` was written on the command line (not read from ISOVIEW_DEVICE).
@@ -71,7 +72,8 @@ pub enum Command {
     /// Render a scene to a float EXR with AOVs (and optionally a PNG preview).
     Render(render::RenderArgs),
     /// Extract the isosurface as a mesh (.ply, .obj, .stl) with `render.mesh`'s algorithm.
-    /// `--device gpu|cpu` picks where it runs; the Vulkan device then comes from ISOVIEW_DEVICE.
+    /// `--device auto|gpu|cpu` picks where it runs (auto: the CPU when the Vulkan device is one);
+    /// the Vulkan device then comes from ISOVIEW_DEVICE.
     Extract(extract::ExtractArgs),
     /// Compare two float EXRs channel by channel (exit 1 on a difference over the thresholds).
     Compare(compare::CompareArgs),

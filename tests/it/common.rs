@@ -139,3 +139,31 @@ pub fn write(dir: &std::path::Path, name: &str, text: &str) -> String {
     std::fs::write(&p, text).unwrap();
     p.display().to_string()
 }
+
+/// An extraction input: a grid, an isovalue and the inside rule.
+pub struct Case {
+    pub grid: Grid,
+    pub iso: f64,
+    pub inside: Inside,
+}
+
+/// Random values in [-1, 1], a third of them from {-0.5, 0, 0.25, 0.5} (so samples equal the
+/// isovalue and crossings sit on grid points); isovalues uniform, from that set, or 0.1 (not an
+/// f32). Dims 2..=max_dim per axis.
+pub fn random_case(rng: &mut Rng, max_dim: usize) -> Case {
+    const SET: [f32; 4] = [-0.5, 0.0, 0.25, 0.5];
+    let dims = [0; 3].map(|_| 2 + (rng.next_u64() % (max_dim as u64 - 1)) as usize);
+    let mut grid = random_grid(rng, dims);
+    for v in &mut grid.values {
+        if rng.next_u64() % 3 == 0 {
+            *v = SET[(rng.next_u64() % 4) as usize];
+        }
+    }
+    let iso = match rng.next_u64() % 3 {
+        0 => rng.range(-0.6, 0.6),
+        1 => f64::from(SET[(rng.next_u64() % 4) as usize]),
+        _ => 0.1,
+    };
+    let inside = Inside::ALL[(rng.next_u64() % 2) as usize];
+    Case { grid, iso, inside }
+}

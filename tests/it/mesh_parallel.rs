@@ -7,7 +7,6 @@
 //! vertex order, positions and normals (compared as bits), triangles and quads.
 
 use glam::DVec3;
-use isoview::field::Grid;
 use isoview::mesh::{extract, extract_in_slabs, extract_parallel, ExtractOptions, Mesh, QuadSplit};
 use isoview::scene::{Inside, MeshAlgorithm};
 
@@ -23,32 +22,6 @@ const ALGOS: [MeshAlgorithm; 5] = [
 
 /// Slab depths tried: thin slabs (every layer a seam), odd depths, the default, one slab.
 const DEPTHS: [Option<usize>; 6] = [Some(1), Some(2), Some(3), Some(7), None, Some(1000)];
-
-struct Case {
-    grid: Grid,
-    iso: f64,
-    inside: Inside,
-}
-
-/// Random values in [-1, 1], a third of them from {-0.5, 0, 0.25, 0.5}; isovalues uniform,
-/// from that set (samples on the isovalue), or 0.1 (not an f32). Dims 2..=max_dim per axis.
-fn random_case(rng: &mut Rng, max_dim: usize) -> Case {
-    const SET: [f32; 4] = [-0.5, 0.0, 0.25, 0.5];
-    let dims = [0; 3].map(|_| 2 + (rng.next_u64() % (max_dim as u64 - 1)) as usize);
-    let mut grid = random_grid(rng, dims);
-    for v in &mut grid.values {
-        if rng.next_u64() % 3 == 0 {
-            *v = SET[(rng.next_u64() % 4) as usize];
-        }
-    }
-    let iso = match rng.next_u64() % 3 {
-        0 => rng.range(-0.6, 0.6),
-        1 => f64::from(SET[(rng.next_u64() % 4) as usize]),
-        _ => 0.1,
-    };
-    let inside = Inside::ALL[(rng.next_u64() % 2) as usize];
-    Case { grid, iso, inside }
-}
 
 fn pool(threads: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("rayon pool")

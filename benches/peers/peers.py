@@ -4,7 +4,7 @@ Jobs (each prints one markdown table; all go to OUT/results.md):
   1. ray tracing: `isoview render` (analytic, 512x512) vs Mitsuba 3 `sdfgrid`
      `scene.ray_intersect` on the same pixel-centre rays, with hit and depth agreement;
   2. analytic vs fixed-step (steps = 512) on the 256^3 gyroid;
-  3. extraction, whole process: `isoview extract` (default device, --device cpu) vs
+  3. extraction, whole process: `isoview extract` (default device, --device cpu, --device gpu) vs
      np.load + scikit-image marching_cubes + trimesh PLY, timed from outside the same way;
   4. extraction alone: VTK vtkFlyingEdges3D (Update() only) and skimage marching_cubes.
 Times are medians of PEERS_REPEAT runs (default 5). Nothing is asserted about them.
@@ -239,7 +239,7 @@ def job_extract_process(iso, out):
 
     def isoview(*dev):
         runs = [timed([iso, "extract", scene, "-o", out / "isoview.ply", *dev]) for _ in range(REPEAT)]
-        m = re.search(r"(\d+) vertices, (\d+) triangles \(.* on (\w+)\) in (\d+) ms", runs[-1][2])
+        m = re.search(r"(\d+) vertices, (\d+) triangles \(\S+ on (\w+)[;)].* in (\d+) ms", runs[-1][2])
         if not m:
             sys.exit(f"peers: unexpected isoview extract output: {runs[-1][2]}")
         return median([r[0] for r in runs]), int(m[1]), int(m[2]), m[3], median(
@@ -248,6 +248,7 @@ def job_extract_process(iso, out):
     rows = []
     d_wall, d_v, d_t, d_on, d_own = isoview()
     c_wall, c_v, c_t, c_on, c_own = isoview("--device", "cpu")
+    g_wall, g_v, g_t, g_on, g_own = isoview("--device", "gpu")
     runs = [timed([sys.executable, HERE / "skimage_extract.py", npy, out / "skimage.ply", str(LO), str(HI)])
             for _ in range(REPEAT)]
     s_wall = median([r[0] for r in runs])
@@ -256,6 +257,8 @@ def job_extract_process(iso, out):
                  f"{d_v:,}", f"{d_t:,}", f"**{d_wall / s_wall:.2f}×**"])
     rows.append([f"`isoview extract --device cpu` (ran on {c_on})", f"{c_wall:.2f}", f"{c_own:.0f}",
                  f"{c_v:,}", f"{c_t:,}", f"{c_wall / s_wall:.2f}×"])
+    rows.append([f"`isoview extract --device gpu` (ran on {g_on})", f"{g_wall:.2f}", f"{g_own:.0f}",
+                 f"{g_v:,}", f"{g_t:,}", f"{g_wall / s_wall:.2f}×"])
     rows.append(["python: np.load + skimage `marching_cubes` + trimesh PLY", f"{s_wall:.2f}", "",
                  f"{s_v:,}", f"{s_t:,}", "1.00×"])
     return table("Marching cubes, gyroid 256³ npy → binary PLY, whole process (started and timed the same way)",

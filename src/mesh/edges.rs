@@ -8,6 +8,8 @@
 //! edges starting in point layer `k + 1` before it emits the triangles of cell layer `k`,
 //! keeping two layers of ids, so memory is `O(nx * ny)`.
 
+use std::ops::Range;
+
 use glam::DVec3;
 
 use super::field::Field;
@@ -82,6 +84,23 @@ impl<'f, 'g> EdgeLayers<'f, 'g> {
             next += 1;
             Ok(id)
         })
+    }
+
+    /// Readies the edges of cell layer `k` of the slab of cell layers `cells` (point layer
+    /// `cells.start` already built): point layer `k + 1` is built when the slab owns it (inside
+    /// the slab, or the grid's top layer), else only numbered after this slab's vertices, as
+    /// the next slab, which owns it, numbers it (see `slabs`).
+    pub fn enter_cell_layer(
+        &mut self,
+        k: usize,
+        cells: &Range<usize>,
+        verts: &mut Vertices,
+    ) -> Result<(), MeshError> {
+        if k + 1 < cells.end || cells.end == self.f.dims[2] - 1 {
+            self.build(k + 1, verts)
+        } else {
+            self.number(k + 1, verts.positions.len())
+        }
     }
 
     /// Gives each crossed edge starting in point layer `k`, in edge-id order, the id that

@@ -49,18 +49,13 @@ pub(crate) fn extract(f: &Field) -> Result<Mesh, MeshError> {
 /// `cells` ends at the grid's top) and the triangles of cell layers `cells`, numbered locally
 /// (see `slabs`).
 pub(crate) fn extract_slab(f: &Field, cells: Range<usize>) -> Result<Part, MeshError> {
-    let [nx, ny, nz] = f.dims;
-    let top = cells.end == nz - 1;
+    let [nx, ny, _] = f.dims;
     let mut verts = Vertices::default();
     let mut indices = Vec::new();
     let mut edges = EdgeLayers::new(f, FAMILIES);
     edges.build(cells.start, &mut verts)?;
     for k in cells.clone() {
-        if k + 1 < cells.end || top {
-            edges.build(k + 1, &mut verts)?;
-        } else {
-            edges.number(k + 1, verts.positions.len())?;
-        }
+        edges.enter_cell_layer(k, &cells, &mut verts)?;
         for j in 0..ny - 1 {
             for i in 0..nx - 1 {
                 let case = case_index(f.corner_mask(i, j, k));

@@ -506,8 +506,7 @@ pub(crate) fn extract(f: &Field) -> Result<Mesh, MeshError> {
 /// layer if `cells` ends at the grid's top), the added vertices and the triangles of cell
 /// layers `cells`, numbered locally (see `slabs`).
 pub(crate) fn extract_slab(f: &Field, cells: Range<usize>) -> Result<Part, MeshError> {
-    let [nx, ny, nz] = f.dims;
-    let top = cells.end == nz - 1;
+    let [nx, ny, _] = f.dims;
     let mut verts = Vertices::default();
     let mut indices = Vec::new();
     // Added vertices (index-space position, fallback normal direction), numbered after all
@@ -520,11 +519,7 @@ pub(crate) fn extract_slab(f: &Field, cells: Range<usize>) -> Result<Part, MeshE
     };
     edges.build(cells.start, &mut verts)?;
     for k in cells.clone() {
-        if k + 1 < cells.end || top {
-            edges.build(k + 1, &mut verts)?;
-        } else {
-            edges.number(k + 1, verts.positions.len())?;
-        }
+        edges.enter_cell_layer(k, &cells, &mut verts)?;
         for j in 0..ny - 1 {
             for i in 0..nx - 1 {
                 let mask = f.corner_mask(i, j, k);

@@ -27,6 +27,7 @@ fn sdf_grid(shape: SdfShape, n: usize) -> Grid {
         source: FieldSource::Sdf { shape, center: DVec3::ZERO },
         resolution: [n, n, n],
         bounds: Bounds { min: DVec3::splat(-1.0), max: DVec3::splat(1.0) },
+        placement: Default::default(),
     };
     spec.sample(0.0).expect("sdf grid")
 }

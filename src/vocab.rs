@@ -93,3 +93,107 @@ pub enum SdfShape {
     Torus { major_radius: f64, minor_radius: f64 },
     Gyroid { scale: f64, thickness: f64 },
 }
+
+/// Where the grid sits in world space when its axes are not the world's: a rigid map (a
+/// rotation, possibly with a reflection) about `pivot`, the world position of point (0, 0, 0).
+///
+/// Every method works in the grid's own frame, where the grid is the axis-aligned box of its
+/// `Bounds` (origin plus spacing times index); `world = pivot + axes * (p - pivot)`. A scan's
+/// header (NIfTI sform/qform, NRRD `space directions`, MetaImage `TransformMatrix`) gives the
+/// axes; spacing stays in the box, so `axes` is orthonormal and distances, angles and hence
+/// depths, shading and step counts are the same in both frames: only positions and normals
+/// move (README "Physical space"). Sheared axes are refused where a reader builds the
+/// placement ([`Placement::from_axes`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placement {
+    pub pivot: DVec3,
+    /// Columns: the world directions of the grid's x, y and z axes (unit, orthogonal).
+    pub axes: glam::DMat3,
+}
+
+impl Placement {
+    /// The grid's axes are the world's.
+    pub const IDENTITY: Placement = Placement { pivot: DVec3::ZERO, axes: glam::DMat3::IDENTITY };
+
+    /// How far from orthonormal a header's axes may be (dot products, lengths) before they are
+    /// called sheared: headers store direction cosines in f32 or as decimal text.
+    pub const ORTHO_TOLERANCE: f64 = 1e-4;
+
+    /// A placement from a header's axis directions (any lengths: they are normalised), or why
+    /// not: axes that are parallel, or not orthogonal within [`Placement::ORTHO_TOLERANCE`].
+    /// Nearly orthogonal axes are made exactly orthonormal (Gram-Schmidt, handedness kept).
+    pub fn from_axes(pivot: DVec3, axes: [DVec3; 3]) -> Result<Placement, String> {
+        let mut u = [DVec3::ZERO; 3];
+        for (k, a) in axes.iter().enumerate() {
+            let len = a.length();
+            if !len.is_finite() || len == 0.0 {
+                return Err(format!("axis {} has no direction ({a})", "xyz".as_bytes()[k] as char));
+            }
+            u[k] = *a / len;
+        }
+        for (a, b) in [(0, 1), (0, 2), (1, 2)] {
+            let d = u[a].dot(u[b]);
+            if d.abs() > Self::ORTHO_TOLERANCE {
+                return Err(format!(
+                    "the grid's axes are sheared (axes {} and {} meet at {:.4} degrees); \
+                     set [field] bounds to place it axis-aligned",
+                    "xyz".as_bytes()[a] as char,
+                    "xyz".as_bytes()[b] as char,
+                    d.clamp(-1.0, 1.0).acos().to_degrees()
+                ));
+            }
+        }
+        let x = u[0];
+        let y = (u[1] - x * x.dot(u[1])).normalize();
+        let mut z = x.cross(y);
+        if z.dot(u[2]) < 0.0 {
+            z = -z; // a reflection: keep the header's handedness
+        }
+        let axes = glam::DMat3::from_cols(x, y, z);
+        Ok(Placement { pivot, axes })
+    }
+
+    /// Whether this is the identity (nothing to transform: the output is exactly as before).
+    pub fn is_identity(&self) -> bool {
+        self.axes == glam::DMat3::IDENTITY
+    }
+
+    /// Whether the axes are a reflection (a mesh's triangle winding must then be reversed to
+    /// keep its normals pointing out).
+    pub fn mirrors(&self) -> bool {
+        self.axes.determinant() < 0.0
+    }
+
+    /// A point of the grid's frame in world space.
+    pub fn point_to_world(&self, p: DVec3) -> DVec3 {
+        if self.is_identity() {
+            return p;
+        }
+        self.pivot + self.axes * (p - self.pivot)
+    }
+
+    /// A world point in the grid's frame.
+    pub fn point_to_grid(&self, p: DVec3) -> DVec3 {
+        if self.is_identity() {
+            return p;
+        }
+        self.pivot + self.axes.transpose() * (p - self.pivot)
+    }
+
+    /// A direction or normal of the grid's frame in world space (the axes are orthonormal, so
+    /// normals transform like directions).
+    pub fn vector_to_world(&self, v: DVec3) -> DVec3 {
+        self.axes * v
+    }
+
+    /// A world direction in the grid's frame.
+    pub fn vector_to_grid(&self, v: DVec3) -> DVec3 {
+        self.axes.transpose() * v
+    }
+}
+
+impl Default for Placement {
+    fn default() -> Self {
+        Placement::IDENTITY
+    }
+}

@@ -5,7 +5,7 @@ use glam::DVec3;
 
 use super::source::show3;
 use super::{ExprSource, FieldError, FieldSource, Grid, GridLimits};
-use crate::vocab::{Bounds, SdfShape};
+use crate::vocab::{Bounds, Placement, SdfShape};
 
 /// A validated `[field]` table: the source, and the lattice it is sampled on.
 #[derive(Clone, Debug)]
@@ -15,12 +15,20 @@ pub struct FieldSpec {
     /// dims.
     pub resolution: [usize; 3],
     pub bounds: Bounds,
+    /// Where the grid's frame sits in world space (identity unless a file's header orients
+    /// it); every method works in the grid's frame and maps its outputs through this.
+    pub placement: Placement,
 }
 
 impl FieldSpec {
     /// One cell over `bounds` with the given corner values (`source = "corners"`).
     pub fn corners(values: [f64; 8], bounds: Bounds) -> FieldSpec {
-        FieldSpec { source: FieldSource::Corners(values), resolution: [2, 2, 2], bounds }
+        FieldSpec {
+            source: FieldSource::Corners(values),
+            resolution: [2, 2, 2],
+            bounds,
+            placement: Placement::IDENTITY,
+        }
     }
 
     /// A signed-distance shape centred at `center`, sampled at `resolution` points over `bounds`.
@@ -30,7 +38,12 @@ impl FieldSpec {
         resolution: [usize; 3],
         bounds: Bounds,
     ) -> FieldSpec {
-        FieldSpec { source: FieldSource::Sdf { shape, center }, resolution, bounds }
+        FieldSpec {
+            source: FieldSource::Sdf { shape, center },
+            resolution,
+            bounds,
+            placement: Placement::IDENTITY,
+        }
     }
 
     /// A grid already in memory, as it is (its dims and box become the lattice).
@@ -39,6 +52,7 @@ impl FieldSpec {
             resolution: grid.dims,
             bounds: Bounds { min: grid.min, max: grid.max },
             source: FieldSource::Grid(std::sync::Arc::new(grid)),
+            placement: Placement::IDENTITY,
         }
     }
 
@@ -48,7 +62,12 @@ impl FieldSpec {
         resolution: [usize; 3],
         bounds: Bounds,
     ) -> Result<FieldSpec, FieldError> {
-        Ok(FieldSpec { source: FieldSource::Expr(ExprSource::parse(text)?), resolution, bounds })
+        Ok(FieldSpec {
+            source: FieldSource::Expr(ExprSource::parse(text)?),
+            resolution,
+            bounds,
+            placement: Placement::IDENTITY,
+        })
     }
 
     /// Samples the field at time `time` (only `expr` fields depend on it), under the memory

@@ -18,6 +18,7 @@ use super::tree::{Origin, Source};
 use super::validate::show_vec;
 use super::Bounds;
 use crate::field::{FieldError, FieldSpec, GridLimits, Need, Params, Rule, SourceKind};
+use crate::vocab::Placement;
 
 const COMMON: [&str; 2] = ["source", "bounds"];
 
@@ -74,12 +75,14 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
     })?;
 
     let parsed = kind.parse(&FieldParams { t: &t, base_dir, limits })?;
-    let bounds = match (parsed.bounds, t.get("bounds")) {
-        (Some(b), _) => b,
-        (None, None) => Bounds::index_space(parsed.resolution),
-        (None, Some(_)) => bounds(&t.table("bounds")?)?,
+    // A `bounds` key wins over a file header's box and orientation (kinds that set their own
+    // box refuse the key above); without either, the grid's index space.
+    let (bounds, placement) = match (t.get("bounds"), parsed.bounds) {
+        (Some(_), _) => (bounds(&t.table("bounds")?)?, Placement::IDENTITY),
+        (None, Some(b)) => (b, parsed.placement.unwrap_or_default()),
+        (None, None) => (Bounds::index_space(parsed.resolution), Placement::IDENTITY),
     };
-    Ok(FieldSpec { source: parsed.source, resolution: parsed.resolution, bounds })
+    Ok(FieldSpec { source: parsed.source, resolution: parsed.resolution, bounds, placement })
 }
 
 /// The `[field]` table as a source's [`Params`].

@@ -20,7 +20,12 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
         "values",
         Need::Required("8 corner values v000, v100, v010, v110, v001, v101, v011, v111"),
     )?;
-    Ok(Parsed { source: FieldSource::Corners(values), resolution: [2, 2, 2], bounds: None })
+    Ok(Parsed {
+        source: FieldSource::Corners(values),
+        resolution: [2, 2, 2],
+        bounds: None,
+        placement: None,
+    })
 }
 
 /// The grid's points sample the interpolant: the one trilinear implementation, the same as

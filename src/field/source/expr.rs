@@ -23,7 +23,7 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
         other => p.data_error("expression", other),
     })?;
     let resolution = params::resolution(p)?;
-    Ok(Parsed { source: FieldSource::Expr(expr), resolution, bounds: None })
+    Ok(Parsed { source: FieldSource::Expr(expr), resolution, bounds: None, placement: None })
 }
 
 /// The samples at `time`; a non-finite one is reported with its world position.

@@ -34,7 +34,12 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
     p.limits()
         .check(dims.map(|d| d as u64), "field.resolution")
         .map_err(|e| p.data_error("resolution", e))?;
-    Ok(Parsed { source: FieldSource::Mesh(mesh), resolution: dims, bounds: Some(bounds) })
+    Ok(Parsed {
+        source: FieldSource::Mesh(mesh),
+        resolution: dims,
+        bounds: Some(bounds),
+        placement: None,
+    })
 }
 
 pub(super) fn sample(m: &MeshSource, grid: &Grid) -> Vec<f32> {

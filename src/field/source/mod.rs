@@ -50,7 +50,7 @@ use glam::DVec3;
 pub use params::{Need, Params, Rule};
 
 use super::{samples, ExprSource, FieldError, Grid, GridLimits, MeshSource, NpySource, RawSource};
-use crate::vocab::{Bounds, SdfShape};
+use crate::vocab::{Bounds, Placement, SdfShape};
 
 /// Declares [`SourceKind`] and its `ALL` from one list, so a kind cannot be left out of `ALL`.
 macro_rules! source_kinds {
@@ -166,8 +166,11 @@ pub struct Parsed {
     /// Grid points along x, y, z.
     pub resolution: [usize; 3],
     /// The box, for a kind that sets its own ([`SourceKind::own_box`]); else `bounds` or the
-    /// index space.
+    /// index space. With a [`Parsed::placement`], the box in the grid's own frame.
     pub bounds: Option<Bounds>,
+    /// Where the grid's axes point in world space, for a file whose header says so (None:
+    /// the world's axes). A `bounds` key in the scene overrides both.
+    pub placement: Option<Placement>,
 }
 
 /// Where a field's values come from, after validation.

@@ -18,7 +18,7 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
     let path = params::data_path(p)?;
     let npy = NpySource::open(&path, p.limits()).map_err(|e| p.data_error("path", e))?;
     let resolution = npy.dims;
-    Ok(Parsed { source: FieldSource::Npy(npy), resolution, bounds: None })
+    Ok(Parsed { source: FieldSource::Npy(npy), resolution, bounds: None, placement: None })
 }
 
 pub(super) fn sample(

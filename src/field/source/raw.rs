@@ -27,7 +27,7 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
         // Too large, truncated or too long: the dims are the likeliest mistake.
         _ => p.data_error("dims", e),
     })?;
-    Ok(Parsed { source: FieldSource::Raw(raw), resolution: dims, bounds: None })
+    Ok(Parsed { source: FieldSource::Raw(raw), resolution: dims, bounds: None, placement: None })
 }
 
 pub(super) fn sample(

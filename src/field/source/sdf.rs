@@ -71,7 +71,12 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
     let shape = shape(p)?;
     let center = p.vec3("center", Need::Or(DVec3::ZERO), None)?;
     let resolution = params::resolution(p)?;
-    Ok(Parsed { source: FieldSource::Sdf { shape, center }, resolution, bounds: None })
+    Ok(Parsed {
+        source: FieldSource::Sdf { shape, center },
+        resolution,
+        bounds: None,
+        placement: None,
+    })
 }
 
 /// The shape and its parameters; parameters of other shapes are errors.

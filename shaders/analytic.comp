@@ -91,8 +91,8 @@ bool cell_is_clear(Corners k, float iso) {
 
 void main() {
     uvec2 px_local = gl_GlobalInvocationID.xy;
-    if (px_local.x >= P.image.x || px_local.y >= band.rows) return;
-    uvec2 px = uvec2(px_local.x, px_local.y + band.row_offset);
+    if (px_local.x >= P.image.w || px_local.y >= band.rows) return;
+    uvec2 px = uvec2(px_local.x, px_local.y + band.row_offset) * P.image.z;
     vec3 eye = P.eye.xyz;
     vec3 dir = ray_dir(px);
     float INF = uintBitsToFloat(0x7f800000u);
@@ -139,7 +139,7 @@ void main() {
         if (far < t_exit) t_exit = far;
     }
     if (!usable || !(t_enter <= t_exit && t_exit > 0.0 && t_exit < INF)) {
-        pixels[px_local.y * P.image.x + px_local.x] = r;
+        pixels[px_local.y * P.image.w + px_local.x] = r;
         return;
     }
     float t_lo = max(t_enter, 0.0);
@@ -318,5 +318,5 @@ void main() {
 
     r.steps = float(found ? visited : passes);
     r.crossings = count_all ? int(crossings) : -1;
-    pixels[px_local.y * P.image.x + px_local.x] = r;
+    pixels[px_local.y * P.image.w + px_local.x] = r;
 }

@@ -29,8 +29,8 @@ const int REFINE_BISECTIONS = 8;
 
 void main() {
     uvec2 local = gl_GlobalInvocationID.xy;
-    if (local.x >= P.image.x || local.y >= band.rows) return;
-    uvec2 px = uvec2(local.x, local.y + band.row_offset);
+    if (local.x >= P.image.w || local.y >= band.rows) return;
+    uvec2 px = uvec2(local.x, local.y + band.row_offset) * P.image.z;
     vec3 o = P.eye.xyz;
     vec3 d = ray_dir(px);
 
@@ -79,5 +79,5 @@ void main() {
         }
         r.steps = float(count);
     }
-    pixels[local.y * P.image.x + local.x] = r;
+    pixels[local.y * P.image.w + local.x] = r;
 }

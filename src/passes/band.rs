@@ -51,8 +51,20 @@ pub struct Bands<P> {
 impl<P: Pod> Bands<P> {
     /// The band buffers of a picture; `name` names the pixel buffer ("pixels").
     pub fn new(ctx: &Arc<Context>, name: &str, width: u32, height: u32) -> Result<Self, GpuError> {
+        Self::with_max_rows(ctx, name, width, height, u32::MAX)
+    }
+
+    /// [`Bands::new`] with at most `max_rows` rows per band (at least one): smaller bands let
+    /// a caller stop between them sooner ([`Bands::run_until`]).
+    pub fn with_max_rows(
+        ctx: &Arc<Context>,
+        name: &str,
+        width: u32,
+        height: u32,
+        max_rows: u32,
+    ) -> Result<Self, GpuError> {
         let pixel_bytes = std::mem::size_of::<P>() as u64;
-        let rows = band_rows(ctx, width, height, pixel_bytes);
+        let rows = band_rows(ctx, width, height, pixel_bytes).min(max_rows.max(1));
         let out = Buffer::new(
             ctx,
             name,
@@ -82,8 +94,22 @@ impl<P: Pod> Bands<P> {
     pub fn run(
         &self,
         pass: &str,
-        mut record: impl FnMut(&mut Recorder, Band) -> Result<(), GpuError>,
+        record: impl FnMut(&mut Recorder, Band) -> Result<(), GpuError>,
     ) -> Result<(Vec<P>, Option<f64>), GpuError> {
+        // Never None: the hook always goes on.
+        let picture = self.run_until(pass, |_, _| true, record)?;
+        Ok(picture.unwrap_or_default())
+    }
+
+    /// [`Bands::run`] that hands each finished band's records to `after_band` and stops, with
+    /// `None`, as soon as it answers false (the bands already drawn are dropped): stale work
+    /// is abandoned at a band boundary, and finished bands can be shown or sent on.
+    pub fn run_until(
+        &self,
+        pass: &str,
+        mut after_band: impl FnMut(Band, &[P]) -> bool,
+        mut record: impl FnMut(&mut Recorder, Band) -> Result<(), GpuError>,
+    ) -> Result<Option<(Vec<P>, Option<f64>)>, GpuError> {
         let ctx = &self.ctx;
         let timer = Timer::new(ctx)?;
         let mut gpu_ms = timer.as_ref().map(|_| 0.0);
@@ -108,9 +134,13 @@ impl<P: Pod> Bands<P> {
             if let (Some(t), Some(ms)) = (&timer, gpu_ms.as_mut()) {
                 *ms += t.elapsed_ms()?;
             }
+            let start = pixels.len();
             pixels.extend(self.readback.read::<P>(count)?);
+            if !after_band(band, &pixels[start..]) {
+                return Ok(None);
+            }
             row += rows;
         }
-        Ok((pixels, gpu_ms))
+        Ok(Some((pixels, gpu_ms)))
     }
 }

@@ -30,6 +30,31 @@ pub enum RenderError {
     Unsupported(&'static str),
     #[error("render.method = \"mesh\": {0}")]
     Mesh(#[from] crate::mesh::MeshError),
+    /// [`Progressive::after_band`] said stop (a newer state made this frame stale).
+    #[error("the render was abandoned between bands")]
+    Cancelled,
+}
+
+/// How [`Renderer::render_progressive`] draws a frame: which pixels, in what bands, and
+/// whether to go on after each band.
+pub struct Progressive<'a> {
+    /// Draw every `stride`-th pixel of every `stride`-th row (1: the whole image). Pixel (i, j)
+    /// of the frame is pixel (stride i, stride j) of the whole image, bit for bit (same ray).
+    pub stride: u32,
+    /// Rows of the drawn picture per band, at most (smaller bands: earlier stops).
+    pub band_rows: u32,
+    /// Called with each finished band (rows of the drawn picture, its records); false abandons
+    /// the frame with [`RenderError::Cancelled`].
+    pub after_band: &'a mut dyn FnMut(crate::passes::Band, &[Pixel]) -> bool,
+}
+
+impl Progressive<'_> {
+    /// The picture drawn for a `width` × `height` image: ceil(width / stride) × ceil(height /
+    /// stride).
+    pub fn picture_size(stride: u32, width: u32, height: u32) -> (u32, u32) {
+        let s = stride.max(1);
+        (width.div_ceil(s), height.div_ceil(s))
+    }
 }
 
 impl From<crate::passes::extract::GpuMeshError> for RenderError {
@@ -147,10 +172,35 @@ impl Renderer {
         gpu_grid: &GpuGrid,
         time: f64,
     ) -> Result<Frame, RenderError> {
+        let mut go_on = |_: crate::passes::Band, _: &[Pixel]| true;
+        let whole = Progressive { stride: 1, band_rows: u32::MAX, after_band: &mut go_on };
+        self.render_progressive(scene, grid, gpu_grid, time, whole)
+    }
+
+    /// [`Renderer::render_uploaded`] of every `how.stride`-th pixel, band by band, asking
+    /// `how.after_band` after each band whether to go on. The mesh method draws the whole
+    /// image and then keeps every stride-th pixel (one band).
+    pub fn render_progressive(
+        &mut self,
+        scene: &Scene,
+        grid: &Grid,
+        gpu_grid: &GpuGrid,
+        time: f64,
+        how: Progressive<'_>,
+    ) -> Result<Frame, RenderError> {
+        let stride = how.stride.max(1);
         let pipeline = match scene.render.method {
             Method::FixedStep => &self.raymarch,
             Method::Analytic => &self.analytic,
-            Method::Mesh => return self.render_scene_mesh(scene, grid, gpu_grid, time),
+            Method::Mesh => {
+                let whole = self.render_scene_mesh(scene, grid, gpu_grid, time)?;
+                let frame = subsample(whole, stride);
+                let band = crate::passes::Band { row_offset: 0, rows: frame.height };
+                return match (how.after_band)(band, &frame.pixels) {
+                    true => Ok(frame),
+                    false => Err(RenderError::Cancelled),
+                };
+            }
         };
         let ctx = &self.ctx;
         self.last_bricks_ms = None;
@@ -159,15 +209,18 @@ impl Renderer {
             let _ = gpu_grid.bricks.set(built);
             self.last_bricks_ms = ms;
         }
-        let (width, height) = (scene.image.width, scene.image.height);
-        let params = RenderParams::new(scene, grid);
+        let (width, height) =
+            Progressive::picture_size(stride, scene.image.width, scene.image.height);
+        let mut params = RenderParams::new(scene, grid);
+        params.image[2] = stride;
+        params.image[3] = width;
         let params_buf = Buffer::upload(
             ctx,
             "params",
             std::slice::from_ref(&params),
             vk::BufferUsageFlags::UNIFORM_BUFFER,
         )?;
-        let bands = Bands::<Pixel>::new(ctx, "pixels", width, height)?;
+        let bands = Bands::<Pixel>::with_max_rows(ctx, "pixels", width, height, how.band_rows)?;
         let bricks = match scene.render.method {
             Method::Analytic => gpu_grid.bricks.get(),
             _ => None,
@@ -182,12 +235,17 @@ impl Renderer {
                 bricks,
             },
         )?;
-        let (pixels, gpu_ms) = bands.run(pass.name(), |rec, band| {
+        let drawn = bands.run_until(pass.name(), how.after_band, |rec, band| {
             pass.record(rec, width, band);
             Ok(())
         })?;
+        let (pixels, gpu_ms) = drawn.ok_or(RenderError::Cancelled)?;
         self.last_gpu_ms = gpu_ms;
-        Ok(Frame { width, height, pixels, info: self.frame_info(scene, grid, time) })
+        let mut info = self.frame_info(scene, grid, time);
+        if stride > 1 {
+            info.extra.push(("stride".into(), stride.to_string()));
+        }
+        Ok(Frame { width, height, pixels, info })
     }
 
     fn frame_info(&self, scene: &Scene, grid: &Grid, time: f64) -> FrameInfo {
@@ -225,4 +283,22 @@ impl Renderer {
             extra,
         }
     }
+}
+
+/// Every `stride`-th pixel of every `stride`-th row of `frame` (the picture a strided ray
+/// pass draws).
+fn subsample(frame: Frame, stride: u32) -> Frame {
+    if stride <= 1 {
+        return frame;
+    }
+    let (width, height) = Progressive::picture_size(stride, frame.width, frame.height);
+    let mut pixels = Vec::with_capacity(width as usize * height as usize);
+    for j in 0..height {
+        for i in 0..width {
+            pixels.push(*frame.pixel(i * stride, j * stride));
+        }
+    }
+    let mut info = frame.info;
+    info.extra.push(("stride".into(), stride.to_string()));
+    Frame { width, height, pixels, info }
 }

@@ -114,7 +114,8 @@ impl RenderParams {
             background: r.background,
             color: [r.color[0], r.color[1], r.color[2], 1.0],
             dims: [nx as i32, ny as i32, nz as i32, 0],
-            image: [scene.image.width, scene.image.height, 0, 0],
+            // The whole image (stride 1); `Renderer::render_strided` draws every s-th pixel.
+            image: [scene.image.width, scene.image.height, 1, scene.image.width],
             method: [method_code(r.method), shading_code(r.shading), r.steps, r.newton_steps],
             surface: [
                 surface_threshold(scene.surface.isovalue, scene.surface.inside),

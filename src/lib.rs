@@ -24,6 +24,7 @@ pub use isoview_gpu as gpu;
 pub mod mesh;
 pub mod output;
 pub mod passes;
+pub mod probe;
 pub mod reference;
 pub mod render;
 pub mod scene;

@@ -6,13 +6,8 @@
 
 use std::path::PathBuf;
 
-use glam::DVec3;
-use serde_json::{json, Value};
-
 use super::{Cli, Failure};
-use crate::camera::Camera;
-use crate::reference::analytic::{self, AnalyticOptions, CellVisit};
-use crate::reference::fixed_step;
+use crate::probe::PixelProbe;
 use crate::scene;
 
 #[derive(clap::Args, Debug)]
@@ -40,39 +35,6 @@ pub struct ProbeArgs {
     pub json: bool,
 }
 
-fn parse_pixel(s: &str, width: u32, height: u32) -> Result<(u32, u32), String> {
-    let (x, y) = s.split_once(',').ok_or_else(|| format!("--pixel {s}: expected X,Y"))?;
-    let parse = |v: &str| {
-        v.trim().parse::<u32>().map_err(|_| format!("--pixel {s}: `{v}` is not a pixel index"))
-    };
-    let (x, y) = (parse(x)?, parse(y)?);
-    if x >= width || y >= height {
-        return Err(format!("--pixel {s}: outside the {width}x{height} image"));
-    }
-    Ok((x, y))
-}
-
-fn v3(v: DVec3) -> Value {
-    json!([v.x, v.y, v.z])
-}
-
-fn visit_json(v: &CellVisit) -> Value {
-    json!({
-        "cell": v.cell,
-        "corners": v.corners,
-        "t": [v.t_in, v.t_out],
-        "local_in": v3(v.q_in),
-        "local_out": v3(v.q_out),
-        "cubic": v.coefficients,
-        "derivative_roots": v.derivative_roots,
-        "splits": v.splits.iter().map(|s| json!({"u": s.u, "g": s.g, "inside": s.inside})).collect::<Vec<_>>(),
-        "roots": v.roots.iter().map(|r| json!({
-            "crossing": r.crossing, "u": r.u, "t": r.t, "entering": r.entering,
-            "exact": r.exact, "bracket": [r.bracket.0, r.bracket.1], "newton_iterates": r.iterates,
-        })).collect::<Vec<_>>(),
-    })
-}
-
 pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
     if let Some(s) = &args.slice {
         let segment = args.segment.as_deref();
@@ -80,59 +42,24 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
     }
     let scene = scene::load(&args.scene, &args.sets).map_err(Failure::input)?;
     let pixel = args.pixel.as_deref().ok_or_else(|| Failure::input("--pixel X,Y is missing"))?;
-    let (px, py) =
-        parse_pixel(pixel, scene.image.width, scene.image.height).map_err(Failure::input)?;
+    let (px, py) = crate::probe::parse_pixel(pixel, scene.image.width, scene.image.height)
+        .map_err(Failure::input)?;
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
-    let cam = Camera::new(&scene.camera, &scene.image);
-    let dir = cam.ray_dir(px, py);
-    let (iso, inside) = (scene.surface.isovalue, scene.surface.inside);
-    let opts = AnalyticOptions { newton_steps: scene.render.newton_steps, ..Default::default() };
-    let (exact, visits) = analytic::trace_detailed(&grid, iso, inside, cam.eye, dir, &opts);
-    let fixed = fixed_step::march(&grid, iso, inside, cam.eye, dir, scene.render.steps);
-
-    let distance = match (&exact.hit, &fixed.hit) {
-        (Some(a), Some(f)) => Some((a.position - f.position).length()),
-        _ => None,
-    };
-    let report = json!({
-        "scene": args.scene.display().to_string(),
-        "pixel": [px, py],
-        "image": [scene.image.width, scene.image.height],
-        "isovalue": iso,
-        "inside": format!("{inside:?}").to_lowercase(),
-        "ray": {"origin": v3(cam.eye), "direction": v3(dir)},
-        "box_span": exact.span.map(|(a, b)| json!([a, b])),
-        "analytic": {
-            "newton_steps": opts.newton_steps,
-            "hit": exact.hit.as_ref().map(|h| json!({
-                "t": h.t, "position": v3(h.position), "normal": v3(h.normal), "cell": h.cell,
-                "local": v3(h.local),
-            })),
-            "cells_visited": exact.cells_visited,
-            "crossings": exact.crossings,
-            "inside_at_start": exact.inside_at_start,
-            "cells": visits.iter().map(visit_json).collect::<Vec<_>>(),
-        },
-        "fixed_step": {
-            "steps": scene.render.steps,
-            "samples_taken": fixed.steps,
-            "hit": fixed.hit.as_ref().map(|h| json!({
-                "t": h.t, "position": v3(h.position), "normal": v3(h.normal), "cell": h.cell,
-            })),
-            "closest_sample_to_isovalue": fixed.margin,
-        },
-        "hit_distance": distance,
-    });
+    let probe = PixelProbe::new(&scene, &grid, px, py);
     if args.json {
+        let report = probe.json(&scene, &args.scene.display().to_string());
         println!("{}", serde_json::to_string_pretty(&report).map_err(Failure::input)?);
         return Ok(0);
     }
+    let PixelProbe { eye, dir, options: opts, exact, visits, fixed, .. } = &probe;
+    let distance = probe.hit_distance();
+    let (iso, inside) = (scene.surface.isovalue, scene.surface.inside);
 
     println!(
         "pixel ({px}, {py}) of {}x{}, isovalue {iso}, inside {inside:?}",
         scene.image.width, scene.image.height
     );
-    println!("ray    origin {:.6}  direction {:.6}", cam.eye, dir);
+    println!("ray    origin {:.6}  direction {:.6}", eye, dir);
     match exact.span {
         Some((a, b)) => println!("box    t in [{a:.6}, {b:.6}]"),
         None => println!("box    the ray misses the grid box"),
@@ -142,7 +69,7 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
         "analytic (newton_steps = {}): {} crossing(s), {} cell(s) visited",
         opts.newton_steps, exact.crossings, exact.cells_visited
     );
-    for v in &visits {
+    for v in visits {
         let c = &v.corners;
         println!(
             "  cell {:?}  t [{:.6}, {:.6}]  corners v000 {:.5} v100 {:.5} v010 {:.5} v110 {:.5} v001 {:.5} v101 {:.5} v011 {:.5} v111 {:.5}",

@@ -10,7 +10,7 @@ use serde_json::{json, Value};
 use super::{Cli, Failure};
 use crate::render::GpuGrid;
 use crate::scene;
-use crate::slice::{self, export, Axis, PlaneGrid, SliceRenderer, SliceStyle};
+use crate::slice::{self, export, Axis, PlaneGrid, SliceRenderer};
 
 #[derive(clap::Args, Debug)]
 pub struct SliceArgs {
@@ -72,25 +72,10 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
     }
     let scene = scene::load(&args.scene, &args.sets).map_err(Failure::input)?;
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
-    let plane = PlaneGrid::new(&grid, args.axis, args.at).map_err(Failure::input)?;
-    let set = slice::scene_contours(&scene, &plane, args.time).map_err(Failure::input)?;
-    let (width, height) = slice::picture_size(
-        &plane,
-        scene.slice.width,
-        scene.slice.height,
-        scene.image.width,
-        scene::MAX_IMAGE_SIDE as u32,
-    );
+    let slice::Planned { plane, set, style } =
+        slice::plan(&scene, &grid, args.axis, args.at, args.time).map_err(Failure::input)?;
+    let (width, height) = (style.width, style.height);
     let iso = scene.surface.isovalue;
-    let style = SliceStyle {
-        width,
-        height,
-        isovalue: iso,
-        inside: scene.surface.inside,
-        half_range: slice::image::colormap_half_range(&plane, iso),
-        line_width: 1.5,
-        line_color: [0.0, 0.0, 0.0, 1.0],
-    };
 
     let ctx = cli.gpu()?;
     let renderer = SliceRenderer::new(&ctx)?;
@@ -112,12 +97,7 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
         export::write_json(p, &plane, iso, &set.contours).map_err(Failure::input)?;
     }
     if let Some(p) = &args.svg {
-        let title = format!(
-            "isoview slice {} = {} of {}, isovalue {iso}",
-            plane.axis.name(),
-            plane.at,
-            args.scene.display()
-        );
+        let title = slice::svg_title(&plane, &args.scene.display().to_string(), iso);
         export::write_svg(p, &plane, &set.contours, width, height, &title)
             .map_err(Failure::input)?;
     }

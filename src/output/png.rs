@@ -51,8 +51,17 @@ pub fn write_preview(path: &Path, frame: &Frame) -> Result<(), OutputError> {
             format!("frame has {} pixels, expected {w}x{h} = {}", frame.pixels.len(), w * h),
         ));
     }
-    let rgba: Vec<u8> = frame.pixels.iter().flat_map(|p| to_srgb8(p.rgba)).collect();
-    write_rgba8(path, frame.width, frame.height, &rgba)
+    write_rgba8(path, frame.width, frame.height, &preview_rgba8(frame))
+}
+
+/// The frame's beauty as 8-bit sRGB RGBA, row 0 at the top (what [`write_preview`] encodes).
+pub fn preview_rgba8(frame: &Frame) -> Vec<u8> {
+    frame.pixels.iter().flat_map(|p| to_srgb8(p.rgba)).collect()
+}
+
+/// The PNG bytes [`write_preview`] writes (`path` only names the file in errors).
+pub fn encode_preview(path: &Path, frame: &Frame) -> Result<Vec<u8>, OutputError> {
+    encode_rgba8(path, frame.width, frame.height, &preview_rgba8(frame))
 }
 
 /// Writes 8-bit RGBA pixels (row-major, row 0 at the top) as a PNG, atomically.
@@ -63,11 +72,28 @@ pub fn write_rgba8(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<
             format!("{} bytes do not make a non-empty {width}x{height} RGBA8 image", rgba.len()),
         ));
     }
+    let bytes = encode_rgba8(path, width, height, rgba)?;
+    atomic::write_bytes(path, &bytes)
+}
+
+/// The PNG bytes [`write_rgba8`] writes (`path` only names the file in errors).
+pub fn encode_rgba8(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgba: &[u8],
+) -> Result<Vec<u8>, OutputError> {
+    if width == 0 || height == 0 || rgba.len() != width as usize * height as usize * 4 {
+        return Err(OutputError::invalid(
+            path,
+            format!("{} bytes do not make a non-empty {width}x{height} RGBA8 image", rgba.len()),
+        ));
+    }
     let mut bytes = Vec::new();
     PngEncoder::new(&mut bytes)
         .write_image(rgba, width, height, ExtendedColorType::Rgba8)
         .map_err(|source| OutputError::Png { path: path.to_path_buf(), source })?;
-    atomic::write_bytes(path, &bytes)
+    Ok(bytes)
 }
 
 #[cfg(test)]

@@ -149,6 +149,14 @@ pub fn write_exr(
 
 /// Writes the picture's colour as an 8-bit sRGB PNG.
 pub fn write_png(path: &Path, image: &SliceImage) -> Result<(), OutputError> {
-    let rgba: Vec<u8> = image.pixels.iter().flat_map(|p| png::to_srgb8(p.rgba)).collect();
-    png::write_rgba8(path, image.width, image.height, &rgba)
+    png::write_rgba8(path, image.width, image.height, &rgba8(image))
+}
+
+/// The PNG bytes [`write_png`] writes (`path` only names the file in errors).
+pub fn encode_png(path: &Path, image: &SliceImage) -> Result<Vec<u8>, OutputError> {
+    png::encode_rgba8(path, image.width, image.height, &rgba8(image))
+}
+
+fn rgba8(image: &SliceImage) -> Vec<u8> {
+    image.pixels.iter().flat_map(|p| png::to_srgb8(p.rgba)).collect()
 }

@@ -67,6 +67,54 @@ pub fn scene_contours(
     extract(plane, source.as_ref(), &contour_options(scene))
 }
 
+/// A slice ready to draw: the plane's grid, its contours and the picture's style.
+pub struct Planned {
+    pub plane: PlaneGrid,
+    pub set: ContourSet,
+    pub style: SliceStyle,
+}
+
+/// The plane `axis = at` of `grid` (sampled from `scene`'s field at `time`), its contours by
+/// the scene's settings, and the picture's size (`[slice]`, else the image width) and colours:
+/// what `isoview slice` draws.
+pub fn plan(
+    scene: &Scene,
+    grid: &crate::field::Grid,
+    axis: Axis,
+    at: f64,
+    time: f64,
+) -> Result<Planned, SliceError> {
+    let plane = PlaneGrid::new(grid, axis, at)?;
+    let set = scene_contours(scene, &plane, time)?;
+    let (width, height) = picture_size(
+        &plane,
+        scene.slice.width,
+        scene.slice.height,
+        scene.image.width,
+        crate::scene::MAX_IMAGE_SIDE as u32,
+    );
+    let iso = scene.surface.isovalue;
+    let style = SliceStyle {
+        width,
+        height,
+        isovalue: iso,
+        inside: scene.surface.inside,
+        half_range: image::colormap_half_range(&plane, iso),
+        line_width: 1.5,
+        line_color: [0.0, 0.0, 0.0, 1.0],
+    };
+    Ok(Planned { plane, set, style })
+}
+
+/// The title of a slice's SVG.
+pub fn svg_title(plane: &PlaneGrid, scene_name: &str, isovalue: f64) -> String {
+    format!(
+        "isoview slice {} = {} of {scene_name}, isovalue {isovalue}",
+        plane.axis.name(),
+        plane.at
+    )
+}
+
 /// The EXR header attributes of a slice (names under `isoview/`).
 pub fn attributes(
     scene: &Scene,

@@ -1,0 +1,118 @@
+//! What the ray through one pixel meets, from the f64 references (`isoview probe --pixel`,
+//! the server's `/api/probe`): every cell the exact walk visits with its 8 corner values, the
+//! cubic along the segment, its derivative roots, the roots found and their Newton iterates;
+//! where fixed-step with the scene's `steps` finds (or misses) its first crossing; and how far
+//! apart the two are. [`PixelProbe::json`] is the report `probe --json` prints.
+
+use glam::DVec3;
+use serde_json::{json, Value};
+
+use crate::camera::Camera;
+use crate::field::Grid;
+use crate::reference::analytic::{self, AnalyticHit, AnalyticOptions, CellVisit};
+use crate::reference::fixed_step::{self, March};
+use crate::scene::Scene;
+
+/// The references' answers for one pixel.
+pub struct PixelProbe {
+    pub pixel: (u32, u32),
+    pub eye: DVec3,
+    /// Unit direction of the pixel's ray.
+    pub dir: DVec3,
+    pub options: AnalyticOptions,
+    pub exact: AnalyticHit,
+    pub visits: Vec<CellVisit>,
+    pub fixed: March,
+}
+
+/// Parses `X,Y` (a pixel of a `width` × `height` image); the error is the CLI's message.
+pub fn parse_pixel(s: &str, width: u32, height: u32) -> Result<(u32, u32), String> {
+    let (x, y) = s.split_once(',').ok_or_else(|| format!("--pixel {s}: expected X,Y"))?;
+    let parse = |v: &str| {
+        v.trim().parse::<u32>().map_err(|_| format!("--pixel {s}: `{v}` is not a pixel index"))
+    };
+    let (x, y) = (parse(x)?, parse(y)?);
+    if x >= width || y >= height {
+        return Err(format!("--pixel {s}: outside the {width}x{height} image"));
+    }
+    Ok((x, y))
+}
+
+fn v3(v: DVec3) -> Value {
+    json!([v.x, v.y, v.z])
+}
+
+fn visit_json(v: &CellVisit) -> Value {
+    json!({
+        "cell": v.cell,
+        "corners": v.corners,
+        "t": [v.t_in, v.t_out],
+        "local_in": v3(v.q_in),
+        "local_out": v3(v.q_out),
+        "cubic": v.coefficients,
+        "derivative_roots": v.derivative_roots,
+        "splits": v.splits.iter().map(|s| json!({"u": s.u, "g": s.g, "inside": s.inside})).collect::<Vec<_>>(),
+        "roots": v.roots.iter().map(|r| json!({
+            "crossing": r.crossing, "u": r.u, "t": r.t, "entering": r.entering,
+            "exact": r.exact, "bracket": [r.bracket.0, r.bracket.1], "newton_iterates": r.iterates,
+        })).collect::<Vec<_>>(),
+    })
+}
+
+impl PixelProbe {
+    /// Traces pixel `(px, py)` of `scene` (inside its image) through `grid`, the scene's field
+    /// sampled at the time of interest.
+    pub fn new(scene: &Scene, grid: &Grid, px: u32, py: u32) -> Self {
+        let cam = Camera::new(&scene.camera, &scene.image);
+        let dir = cam.ray_dir(px, py);
+        let (iso, inside) = (scene.surface.isovalue, scene.surface.inside);
+        let options =
+            AnalyticOptions { newton_steps: scene.render.newton_steps, ..Default::default() };
+        let (exact, visits) = analytic::trace_detailed(grid, iso, inside, cam.eye, dir, &options);
+        let fixed = fixed_step::march(grid, iso, inside, cam.eye, dir, scene.render.steps);
+        PixelProbe { pixel: (px, py), eye: cam.eye, dir, options, exact, visits, fixed }
+    }
+
+    /// How far apart the exact hit and fixed-step's crossing are, when both exist.
+    pub fn hit_distance(&self) -> Option<f64> {
+        match (&self.exact.hit, &self.fixed.hit) {
+            (Some(a), Some(f)) => Some((a.position - f.position).length()),
+            _ => None,
+        }
+    }
+
+    /// The report of `probe --json`; `scene_name` is the scene file as given.
+    pub fn json(&self, scene: &Scene, scene_name: &str) -> Value {
+        let (exact, fixed) = (&self.exact, &self.fixed);
+        let inside = scene.surface.inside;
+        json!({
+            "scene": scene_name,
+            "pixel": [self.pixel.0, self.pixel.1],
+            "image": [scene.image.width, scene.image.height],
+            "isovalue": scene.surface.isovalue,
+            "inside": format!("{inside:?}").to_lowercase(),
+            "ray": {"origin": v3(self.eye), "direction": v3(self.dir)},
+            "box_span": exact.span.map(|(a, b)| json!([a, b])),
+            "analytic": {
+                "newton_steps": self.options.newton_steps,
+                "hit": exact.hit.as_ref().map(|h| json!({
+                    "t": h.t, "position": v3(h.position), "normal": v3(h.normal), "cell": h.cell,
+                    "local": v3(h.local),
+                })),
+                "cells_visited": exact.cells_visited,
+                "crossings": exact.crossings,
+                "inside_at_start": exact.inside_at_start,
+                "cells": self.visits.iter().map(visit_json).collect::<Vec<_>>(),
+            },
+            "fixed_step": {
+                "steps": scene.render.steps,
+                "samples_taken": fixed.steps,
+                "hit": fixed.hit.as_ref().map(|h| json!({
+                    "t": h.t, "position": v3(h.position), "normal": v3(h.normal), "cell": h.cell,
+                })),
+                "closest_sample_to_isovalue": fixed.margin,
+            },
+            "hit_distance": self.hit_distance(),
+        })
+    }
+}

@@ -8,7 +8,8 @@
 //!     <- mesh (CPU extraction references, export)
 //!     <- passes (one GPU pass per file with its shader; extract/driver: the mesh on the GPU)
 //!     <- render (Renderer: uploads the grid, runs passes in bands, reads back a Frame)
-//!     <- slice, cli
+//!     <- slice, probe (a pixel's ray through the f64 references)
+//!     <- serve (the live page: HTTP, render thread) <- cli
 //!   gpu = the isoview-gpu crate (Vulkan: device, buffers, images, pipelines; no isosurfaces)
 //!   reference (f64 CPU versions of every method, for tests)
 //!   output (Frame -> EXR / PNG, atomic writes)     compare (EXR vs EXR)
@@ -28,6 +29,7 @@ pub mod probe;
 pub mod reference;
 pub mod render;
 pub mod scene;
+pub mod serve;
 pub mod slice;
 pub mod vocab;
 

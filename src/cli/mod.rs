@@ -7,6 +7,7 @@ pub mod compare;
 pub mod extract;
 pub mod probe;
 pub mod render;
+pub mod serve;
 pub mod slice;
 
 use std::sync::Arc;
@@ -83,6 +84,9 @@ pub enum Command {
     /// The field on an axis-aligned plane (EXR, PNG) and its contours by marching squares
     /// (JSON, SVG).
     Slice(slice::SliceArgs),
+    /// Serve a live view of the scene as a web page on this machine (prints its URL first):
+    /// sliders for every key, probe and slice panels, progressive rendering, tev push.
+    Serve(serve::ServeArgs),
     /// Print the Vulkan device, driver and the limits isoview relies on.
     Info,
 }
@@ -111,6 +115,7 @@ pub fn main() -> i32 {
         )),
         Command::Probe(args) => probe::run(&cli, args),
         Command::Slice(args) => slice::run(&cli, args),
+        Command::Serve(args) => serve::run(&cli, args),
         Command::Info => info(&cli),
     };
     match result {

@@ -1,4 +1,5 @@
-//! `isoview render SCENE.toml -o OUT.exr [--png P] [--set K=V]... [--time T] [--frames A..B]`
+//! `isoview render SCENE.toml -o OUT.exr [--png P] [--set K=V]... [--time T] [--frames A..B]
+//! [--tev [HOST:PORT]]`
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -30,6 +31,11 @@ pub struct RenderArgs {
     /// Frames per second for --frames.
     #[arg(long, default_value_t = 24.0)]
     pub fps: f64,
+    /// Also show each frame in the tev HDR viewer (every EXR channel), sent over tev's TCP
+    /// protocol; HOST:PORT defaults to 127.0.0.1:14158 (tev's own default).
+    #[arg(long, value_name = "HOST:PORT", num_args = 0..=1,
+          default_missing_value = output::tev::DEFAULT_ADDRESS)]
+    pub tev: Option<String>,
 }
 
 /// Parses `A..B` (or `A..=B`), inclusive, A <= B.
@@ -119,6 +125,10 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         let frame =
             renderer.render_uploaded(&scene, grid, gpu_grid, *time).map_err(render_failure)?;
         write_outputs(&scene, &frame, exr, png.as_deref())?;
+        if let Some(address) = &args.tev {
+            let name = exr.display().to_string();
+            output::tev::send_frame(address, &name, &frame).map_err(Failure::input)?;
+        }
         match &progress {
             Some(bar) => bar.inc(1),
             None => eprintln!(

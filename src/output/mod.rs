@@ -6,10 +6,12 @@
 //!   OpenEXR file with the channels and header attributes of the interface contract, written
 //!   byte-deterministically; and a general reader ([`exr::read`]) for EXRs from any writer.
 //! - [`png`]: an 8-bit sRGB preview of the beauty (RGBA).
+//! - [`tev`]: a frame sent to the tev HDR viewer over TCP (its remote-control protocol).
 
 pub mod atomic;
 pub mod exr;
 pub mod png;
+pub mod tev;
 
 use std::path::{Path, PathBuf};
 

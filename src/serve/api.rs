@@ -1,0 +1,364 @@
+//! The routes: the page and its assets, and the JSON/binary API (README "isoview serve").
+//! Every route but the assets needs the token; every route needs an allowed `Host`.
+
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::Sender;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use serde_json::{json, Value};
+
+use super::access;
+use super::http::{self, Reply, Target};
+use super::mailbox::Mailbox;
+use super::progressive::{Board, Failed, Level, Published, Rendered, Task};
+use super::state::{self, ViewState};
+use crate::field::Grid;
+use crate::frame::Channel;
+use crate::output;
+use crate::probe::{self, PixelProbe};
+use crate::slice::{self, export, Axis};
+
+const INDEX_HTML: &str = include_str!("page/index.html");
+const APP_JS: &str = include_str!("page/app.js");
+const STYLE_CSS: &str = include_str!("page/style.css");
+
+/// How long a request waits for a frame or a slice before answering 503.
+pub const WAIT: Duration = Duration::from_secs(120);
+/// How long a long-poll (`/api/frame?after=`) waits before answering 204 No Content.
+pub const LONG_POLL: Duration = Duration::from_secs(25);
+
+/// Everything the request threads share.
+pub struct App {
+    pub scene_path: PathBuf,
+    pub token: String,
+    pub device: String,
+    pub mailbox: Arc<Mailbox<ViewState>>,
+    pub board: Arc<Board>,
+    pub tasks: Mutex<Sender<Task>>,
+}
+
+impl App {
+    fn scene_name(&self) -> String {
+        self.scene_path.display().to_string()
+    }
+
+    /// Answers one request.
+    pub fn handle(&self, mut request: tiny_http::Request) {
+        let reply = self.route(&mut request);
+        reply.send(request);
+    }
+
+    fn route(&self, request: &mut tiny_http::Request) -> Reply {
+        let host = http::header(request, "Host").unwrap_or_default();
+        if !access::host_allowed(&host) {
+            return Reply::error(
+                403,
+                format!("Host \"{host}\" is not this machine (localhost or an IP address)"),
+            );
+        }
+        let target = Target::parse(request.url());
+        let method = request.method().as_str().to_ascii_uppercase();
+        match (method.as_str(), target.path.as_str()) {
+            ("GET", "/app.js") => return Reply::text("text/javascript; charset=utf-8", APP_JS),
+            ("GET", "/style.css") => return Reply::text("text/css; charset=utf-8", STYLE_CSS),
+            _ => {}
+        }
+        let given = target
+            .get("token")
+            .map(str::to_string)
+            .or_else(|| http::header(request, "X-Isoview-Token"))
+            .unwrap_or_default();
+        if !access::token_matches(&self.token, &given) {
+            return Reply::error(
+                403,
+                "wrong or missing token: open the URL that `isoview serve` printed (it ends in ?token=...)",
+            );
+        }
+        let result = match (method.as_str(), target.path.as_str()) {
+            ("GET", "/") | ("GET", "/index.html") => {
+                Ok(Reply::text("text/html; charset=utf-8", INDEX_HTML))
+            }
+            ("GET", "/api/state") => self.get_state(),
+            ("POST", "/api/state") => match http::body(request) {
+                Ok(body) => self.post_state(&body),
+                Err(e) => Err(Reply::error(400, e)),
+            },
+            ("GET", "/api/frame") => self.frame(&target),
+            ("GET", "/api/aov") => self.aov(&target),
+            ("GET", "/api/probe") => self.probe(&target),
+            ("GET", "/api/slice") => self.slice(&target),
+            ("GET", "/api/exr") => self.exr(),
+            ("POST", "/api/tev") => match http::body(request) {
+                Ok(body) => self.tev(&body),
+                Err(e) => Err(Reply::error(400, e)),
+            },
+            ("GET", "/api/scene.toml") => self.scene_toml(),
+            ("GET", "/api/stats") => Ok(Reply::json(&json!(self.board.stats()))),
+            (_, path) if path == "/" || path.starts_with("/api/") => {
+                Err(Reply::error(405, format!("{method} {path}: not supported")))
+            }
+            (_, path) => Err(Reply::error(404, format!("{path}: no such page"))),
+        };
+        result.unwrap_or_else(|e| e)
+    }
+
+    /// The latest state, its generation, and the field sampled for it (from the board when
+    /// the render thread has it, else sampled here).
+    fn current(&self) -> Result<(u64, Arc<ViewState>, Arc<Grid>), Reply> {
+        let (generation, state) =
+            self.mailbox.latest().ok_or_else(|| Reply::error(503, "no state yet"))?;
+        let drawn = self.board.wait(Duration::ZERO, |b| {
+            [&b.full, &b.coarse]
+                .into_iter()
+                .flatten()
+                .find(|r| r.generation == generation)
+                .map(|r| r.grid.clone())
+        });
+        let grid = match drawn {
+            Some(g) => g,
+            None => {
+                Arc::new(state.scene.field.sample(state.time).map_err(|e| Reply::error(400, e))?)
+            }
+        };
+        Ok((generation, state, grid))
+    }
+
+    fn get_state(&self) -> Result<Reply, Reply> {
+        let (generation, state, grid) = self.current()?;
+        let mut v = state::describe(generation, &state, &self.scene_name(), &grid, &self.device);
+        v["command"] = json!(state::command_line(&self.scene_path, &state));
+        Ok(Reply::json(&v))
+    }
+
+    fn post_state(&self, body: &[u8]) -> Result<Reply, Reply> {
+        let state = ViewState::from_request(&self.scene_path, body)
+            .map_err(|message| Reply::error(400, format!("isoview: {message}")))?;
+        let generation = self.mailbox.post(state);
+        if let Ok(tasks) = self.tasks.lock() {
+            let _ = tasks.send(Task::Wake);
+        }
+        Ok(Reply::json(&json!({ "generation": generation })))
+    }
+
+    /// Waits for the full frame of the latest state (or its failure).
+    fn full_frame(&self) -> Result<Arc<Rendered>, Reply> {
+        let target = self.mailbox.generation();
+        let found = self.board.wait(WAIT, |b| {
+            let failed = b.failed.as_ref().filter(|f| f.generation >= target);
+            let full = b.full.as_ref().filter(|f| f.generation >= target);
+            match (full, failed) {
+                (Some(r), Some(f)) if f.generation > r.generation => Some(Err(f.clone())),
+                (Some(r), _) => Some(Ok(r.clone())),
+                (None, Some(f)) => Some(Err(f.clone())),
+                (None, None) => None,
+            }
+        });
+        match found {
+            Some(Ok(r)) => Ok(r),
+            Some(Err(f)) => Err(failed_reply(&f)),
+            None => Err(Reply::error(503, "the frame is not ready yet; ask again")),
+        }
+    }
+
+    /// `GET /api/frame`: the full frame of the latest state; with `after=G` (and `level=`
+    /// what the client has of G, default full), whatever is newer than that, or 204.
+    fn frame(&self, target: &Target) -> Result<Reply, Reply> {
+        let rendered = match target.get("after") {
+            None => self.full_frame()?,
+            Some(after) => {
+                let after: u64 = after.parse().map_err(|_| {
+                    Reply::error(400, format!("after={after}: not a generation number"))
+                })?;
+                let have = match target.get("level") {
+                    None => Level::Full,
+                    Some(l) => Level::parse(l).ok_or_else(|| {
+                        Reply::error(400, format!("level={l}: expected coarse or full"))
+                    })?,
+                };
+                match self.board.wait(LONG_POLL, |b| newer(b, (after, have))) {
+                    None => return Ok(Reply::bytes("text/plain", Vec::new()).with_status(204)),
+                    Some(Err(f)) => return Err(failed_reply(&f)),
+                    Some(Ok(r)) => r,
+                }
+            }
+        };
+        Ok(frame_reply(&rendered))
+    }
+
+    /// `GET /api/aov?ch=Z[,N.X,...]`: the channels of the full frame as little-endian f32
+    /// planes, one after the other, row 0 at the top.
+    fn aov(&self, target: &Target) -> Result<Reply, Reply> {
+        let names = target.get("ch").unwrap_or("Z");
+        let channels = names
+            .split(',')
+            .map(|n| {
+                Channel::from_name(n.trim()).ok_or_else(|| {
+                    let all: Vec<&str> = Channel::ALL.iter().map(|c| c.name()).collect();
+                    Reply::error(
+                        400,
+                        format!("ch={n}: no such channel (one of {})", all.join(", ")),
+                    )
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let r = self.full_frame()?;
+        let mut body = Vec::with_capacity(channels.len() * r.frame.pixels.len() * 4);
+        for c in &channels {
+            for p in &r.frame.pixels {
+                body.extend_from_slice(&c.get(p).to_le_bytes());
+            }
+        }
+        Ok(Reply::bytes("application/octet-stream", body)
+            .header("X-Isoview-Generation", r.generation)
+            .header("X-Isoview-Width", r.frame.width)
+            .header("X-Isoview-Height", r.frame.height)
+            .header(
+                "X-Isoview-Channels",
+                channels.iter().map(|c| c.name()).collect::<Vec<_>>().join(","),
+            ))
+    }
+
+    /// `GET /api/probe?x=&y=`: `probe --json --pixel X,Y` of the latest state.
+    fn probe(&self, target: &Target) -> Result<Reply, Reply> {
+        let (x, y) = (target.get("x").unwrap_or(""), target.get("y").unwrap_or(""));
+        let (_, state, grid) = self.current()?;
+        let image = &state.scene.image;
+        let (px, py) = probe::parse_pixel(&format!("{x},{y}"), image.width, image.height)
+            .map_err(|e| Reply::error(400, format!("isoview: {e}")))?;
+        let report =
+            PixelProbe::new(&state.scene, &grid, px, py).json(&state.scene, &self.scene_name());
+        let text = serde_json::to_string_pretty(&report).map_err(|e| Reply::error(500, e))?;
+        Ok(Reply::text("application/json", text + "\n"))
+    }
+
+    /// `GET /api/slice?axis=&at=&format=png|json|svg|cells`: what `isoview slice` writes
+    /// (`--png`, `--json`, `--svg`) for the latest state; `cells`: the plane's grid values.
+    fn slice(&self, target: &Target) -> Result<Reply, Reply> {
+        let axis_arg = target.get("axis").unwrap_or("");
+        let axis = Axis::parse(axis_arg).ok_or_else(|| {
+            Reply::error(400, format!("isoview: --axis {axis_arg}: expected x, y or z"))
+        })?;
+        let at_arg = target.get("at").unwrap_or("");
+        let at: f64 = at_arg.parse().ok().filter(|a: &f64| a.is_finite()).ok_or_else(|| {
+            Reply::error(400, format!("isoview: --at {at_arg}: must be a finite number"))
+        })?;
+        let (_, state, grid) = self.current()?;
+        let scene = &state.scene;
+        let planned = slice::plan(scene, &grid, axis, at, state.time)
+            .map_err(|e| Reply::error(400, format!("isoview: {e}")))?;
+        let (plane, iso) = (&planned.plane, scene.surface.isovalue);
+        match target.get("format").unwrap_or("png") {
+            "json" => {
+                Ok(Reply::text("application/json", export::json(plane, iso, &planned.set.contours)))
+            }
+            "svg" => {
+                let title = slice::svg_title(plane, &self.scene_name(), iso);
+                let (w, h) = (planned.style.width, planned.style.height);
+                Ok(Reply::text(
+                    "image/svg+xml",
+                    export::svg(plane, &planned.set.contours, w, h, &title),
+                ))
+            }
+            "cells" => {
+                let names = ["x", "y", "z"];
+                Ok(Reply::json(&json!({
+                    "axis": axis.name(), "at": at, "isovalue": iso,
+                    "plane_axes": [names[plane.axes.0], names[plane.axes.1]],
+                    "dims": plane.dims, "min": [plane.min.x, plane.min.y], "max": [plane.max.x, plane.max.y],
+                    "layer": plane.layer, "weight": plane.weight,
+                    "values": plane.values,
+                    "picture": [planned.style.width, planned.style.height],
+                })))
+            }
+            "png" => {
+                let (reply, answer) = std::sync::mpsc::channel();
+                let task = Task::Slice { state: state.clone(), planned: Box::new(planned), reply };
+                self.tasks
+                    .lock()
+                    .map_err(|_| Reply::error(500, "the render thread is gone"))?
+                    .send(task)
+                    .map_err(|_| Reply::error(500, "the render thread is gone"))?;
+                let picture = answer
+                    .recv_timeout(WAIT)
+                    .map_err(|_| Reply::error(503, "the slice is not ready yet; ask again"))?
+                    .map_err(|e| Reply::error(500, format!("isoview: {e}")))?;
+                let png = export::encode_png(Path::new("slice.png"), &picture)
+                    .map_err(|e| Reply::error(500, e))?;
+                Ok(Reply::bytes("image/png", png))
+            }
+            other => {
+                Err(Reply::error(400, format!("format={other}: expected png, json, svg or cells")))
+            }
+        }
+    }
+
+    /// `GET /api/exr`: the full frame as the EXR `render -o` writes.
+    fn exr(&self) -> Result<Reply, Reply> {
+        let r = self.full_frame()?;
+        let bytes = output::exr::encode_frame(Path::new("frame.exr"), &r.frame)
+            .map_err(|e| Reply::error(500, e))?;
+        Ok(Reply::bytes("image/x-exr", bytes)
+            .header("X-Isoview-Generation", r.generation)
+            .header("Content-Disposition", "attachment; filename=\"isoview.exr\""))
+    }
+
+    /// `POST /api/tev` (body optional: `{"address": "HOST:PORT"}`): sends the full frame to tev.
+    fn tev(&self, body: &[u8]) -> Result<Reply, Reply> {
+        let address = if body.iter().all(u8::is_ascii_whitespace) {
+            output::tev::DEFAULT_ADDRESS.to_string()
+        } else {
+            let v: Value = serde_json::from_slice(body)
+                .map_err(|e| Reply::error(400, format!("the request body is not JSON: {e}")))?;
+            match v.get("address") {
+                None => output::tev::DEFAULT_ADDRESS.to_string(),
+                Some(Value::String(a)) => a.clone(),
+                Some(_) => {
+                    return Err(Reply::error(400, "\"address\" must be a \"HOST:PORT\" string"))
+                }
+            }
+        };
+        let r = self.full_frame()?;
+        let name = format!("isoview serve {} #{}", self.scene_name(), r.generation);
+        output::tev::send_frame(&address, &name, &r.frame)
+            .map_err(|e| Reply::error(502, format!("isoview: {e}")))?;
+        Ok(Reply::json(&json!({ "generation": r.generation, "image": name, "address": address })))
+    }
+
+    /// `GET /api/scene.toml`: the scene file with the state's overrides written in.
+    fn scene_toml(&self) -> Result<Reply, Reply> {
+        let (_, state) = self.mailbox.latest().ok_or_else(|| Reply::error(503, "no state yet"))?;
+        let text = state::scene_toml(&self.scene_path, &state.sets, state.time)
+            .map_err(|e| Reply::error(500, format!("isoview: {e}")))?;
+        Ok(Reply::text("application/toml; charset=utf-8", text)
+            .header("Content-Disposition", "attachment; filename=\"scene.toml\""))
+    }
+}
+
+/// The newest of the board's frames and failure that is newer than `have` (generation, level).
+fn newer(b: &Published, have: (u64, Level)) -> Option<Result<Arc<Rendered>, Arc<Failed>>> {
+    let frames = [&b.coarse, &b.full]
+        .into_iter()
+        .flatten()
+        .map(|r| ((r.generation, r.level), Ok(r.clone())));
+    let failed = b.failed.iter().map(|f| ((f.generation, Level::Full), Err(f.clone())));
+    frames.chain(failed).filter(|(key, _)| *key > have).max_by_key(|(key, _)| *key).map(|(_, v)| v)
+}
+
+fn failed_reply(f: &Failed) -> Reply {
+    Reply::error(if f.gpu { 500 } else { 400 }, format!("isoview: {}", f.message))
+        .header("X-Isoview-Generation", f.generation)
+}
+
+fn frame_reply(r: &Rendered) -> Reply {
+    let image = &r.state.scene.image;
+    let mut reply = Reply::bytes("image/png", r.png.clone())
+        .header("X-Isoview-Generation", r.generation)
+        .header("X-Isoview-Level", r.level.name())
+        .header("X-Isoview-Image", format!("{}x{}", image.width, image.height))
+        .header("X-Isoview-Render-Ms", format!("{:.3}", r.render_ms));
+    if let Some(ms) = r.gpu_ms {
+        reply = reply.header("X-Isoview-Gpu-Ms", format!("{ms:.3}"));
+    }
+    reply
+}

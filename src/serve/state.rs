@@ -1,0 +1,199 @@
+//! The view: a scene file, the `--set` overrides in force and the field's time. Every change
+//! arrives whole (`POST /api/state`), is loaded and validated exactly like the command line's
+//! `--set` (same messages), and only then posted to the render thread.
+
+use std::path::Path;
+use std::time::Instant;
+
+use serde_json::{json, Value};
+
+use crate::field::{FieldSource, Grid};
+use crate::scene::{self, Scene};
+
+/// One state of the view, validated.
+#[derive(Clone, Debug)]
+pub struct ViewState {
+    /// The overrides, in order, as `render --set` takes them.
+    pub sets: Vec<String>,
+    /// Time of the field in seconds (`render --time`).
+    pub time: f64,
+    /// Draw a coarse frame first and the full one after [`super::progressive::REFINE_AFTER`]
+    /// without a newer state (the page sets it while the user drags).
+    pub preview: bool,
+    pub scene: Scene,
+    /// When it arrived (the refine delay counts from here).
+    pub posted: Instant,
+}
+
+impl ViewState {
+    /// Loads `path` with `sets`; the error is the command line's one-line message.
+    pub fn load(path: &Path, sets: Vec<String>, time: f64, preview: bool) -> Result<Self, String> {
+        if !time.is_finite() {
+            return Err(format!("--time {time}: must be a finite number"));
+        }
+        let scene = scene::load(path, &sets).map_err(|e| e.to_string())?;
+        Ok(ViewState { sets, time, preview, scene, posted: Instant::now() })
+    }
+
+    /// The state a `POST /api/state` body asks for:
+    /// `{"set": ["KEY=VALUE", ...], "time": T, "preview": true|false}` (`time` and `preview`
+    /// optional: 0 and false).
+    pub fn from_request(path: &Path, body: &[u8]) -> Result<Self, String> {
+        let v: Value = serde_json::from_slice(body)
+            .map_err(|e| format!("the request body is not JSON: {e}"))?;
+        let Some(obj) = v.as_object() else {
+            return Err("the request body must be a JSON object {\"set\": [...]}".into());
+        };
+        if let Some(k) = obj.keys().find(|k| !["set", "time", "preview"].contains(&k.as_str())) {
+            return Err(format!("unknown key \"{k}\" in the request (set, time, preview)"));
+        }
+        let sets = match obj.get("set") {
+            None => Vec::new(),
+            Some(Value::Array(items)) => items
+                .iter()
+                .map(|s| s.as_str().map(str::to_string))
+                .collect::<Option<Vec<_>>>()
+                .ok_or("\"set\" must be a list of \"KEY=VALUE\" strings")?,
+            Some(_) => return Err("\"set\" must be a list of \"KEY=VALUE\" strings".into()),
+        };
+        let time = match obj.get("time") {
+            None => 0.0,
+            Some(t) => t.as_f64().ok_or("\"time\" must be a number")?,
+        };
+        let preview = match obj.get("preview") {
+            None => false,
+            Some(p) => p.as_bool().ok_or("\"preview\" must be true or false")?,
+        };
+        Self::load(path, sets, time, preview)
+    }
+}
+
+fn v3(v: glam::DVec3) -> Value {
+    json!([v.x, v.y, v.z])
+}
+
+/// What the page needs to build its controls: the state, the scene's effective values, the
+/// field's kind and value range (over `grid`, the field sampled at the state's time).
+pub fn describe(
+    generation: u64,
+    state: &ViewState,
+    scene_name: &str,
+    grid: &Grid,
+    device: &str,
+) -> Value {
+    let s = &state.scene;
+    let (lo, hi) = grid
+        .values
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v as f64), b.max(v as f64)));
+    let corners = match &s.field.source {
+        FieldSource::Corners(c) => json!(c),
+        _ => Value::Null,
+    };
+    let r = &s.render;
+    json!({
+        "generation": generation,
+        "set": state.sets,
+        "time": state.time,
+        "scene": scene_name,
+        "device": device,
+        "image": [s.image.width, s.image.height],
+        "camera": {
+            "eye": v3(s.camera.eye), "target": v3(s.camera.target), "up": v3(s.camera.up),
+            "fov_y_deg": s.camera.fov_y_deg,
+        },
+        "surface": {"isovalue": s.surface.isovalue, "inside": s.surface.inside.name()},
+        "render": {
+            "method": r.method.name(), "shading": r.shading.name(), "steps": r.steps,
+            "newton_steps": r.newton_steps, "crossing": r.crossing, "skip": r.skip,
+            "mesh": r.mesh.name(),
+        },
+        "field": {
+            "describe": s.field.describe(),
+            "corners": corners,
+            "time_varying": s.field.is_time_varying(),
+            "resolution": s.field.resolution,
+            "bounds": {"min": v3(grid.min), "max": v3(grid.max)},
+            "range": if lo <= hi { json!([lo, hi]) } else { Value::Null },
+        },
+    })
+}
+
+/// The scene file's text with `sets` written into it (comments dropped, keys sorted within
+/// tables): a file that loads to the same scene as `path` with `--set` each of `sets`.
+/// Relative data paths stay relative to `path`'s folder, so save it next to the original.
+pub fn scene_toml(path: &Path, sets: &[String], time: f64) -> Result<String, String> {
+    let name = path.display();
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{name}: cannot read: {e}"))?;
+    let mut root: toml::Table =
+        toml::from_str(&text).map_err(|e| format!("{name}: invalid TOML: {e}"))?;
+    for s in sets {
+        let (key, value) =
+            s.split_once('=').ok_or_else(|| format!("--set {s}: expected KEY=VALUE"))?;
+        let value = value.trim();
+        // As `--set`: TOML syntax, else a plain string.
+        let parsed = toml::from_str::<toml::Table>(&format!("v = {value}"))
+            .ok()
+            .and_then(|mut t| t.remove("v"))
+            .unwrap_or_else(|| toml::Value::String(value.to_string()));
+        let segments: Vec<&str> = key.trim().split('.').map(str::trim).collect();
+        let (last, parents) =
+            segments.split_last().ok_or_else(|| format!("--set {s}: empty key"))?;
+        let mut table = &mut root;
+        for seg in parents {
+            let entry = table
+                .entry(seg.to_string())
+                .or_insert_with(|| toml::Value::Table(Default::default()));
+            table =
+                entry.as_table_mut().ok_or_else(|| format!("--set {s}: {seg} is not a table"))?;
+        }
+        table.insert(last.to_string(), parsed);
+    }
+    let body = toml::to_string(&root).map_err(|e| format!("cannot write TOML: {e}"))?;
+    let mut header = format!("# Saved by isoview serve from {name}");
+    if !sets.is_empty() {
+        header += " with --set ";
+        header += &sets.join(" --set ");
+    }
+    if time != 0.0 {
+        header += &format!(" (render with --time {time})");
+    }
+    Ok(format!("{header}\n\n{body}"))
+}
+
+/// `isoview render SCENE -o OUT.exr --set ...` of a state, shell-quoted.
+pub fn command_line(path: &Path, state: &ViewState) -> String {
+    let mut words =
+        vec!["isoview".to_string(), "render".into(), quote(&path.display().to_string())];
+    words.extend(["-o".into(), "out.exr".into()]);
+    for s in &state.sets {
+        words.push("--set".into());
+        words.push(quote(s));
+    }
+    if state.time != 0.0 {
+        words.push(format!("--time {}", state.time));
+    }
+    words.join(" ")
+}
+
+/// A word quoted for a POSIX shell when it needs it.
+fn quote(s: &str) -> String {
+    if !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || "-_./=,:+@%".contains(c)) {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shell_quoting() {
+        assert_eq!(quote("surface.isovalue=0.25"), "surface.isovalue=0.25");
+        assert_eq!(quote("render.method=\"fixed-step\""), "'render.method=\"fixed-step\"'");
+        assert_eq!(quote("a'b"), "'a'\\''b'");
+    }
+}

@@ -22,5 +22,6 @@ mod modules;
 mod output;
 mod render;
 mod scene;
+mod serve;
 mod slice;
 mod sources;

@@ -36,7 +36,8 @@ const errors = [];
 try {
   const page = await browser.newPage({ viewport: { width: 1400, height: 1000 } });
   page.on('pageerror', (e) => errors.push(String(e)));
-  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+  page.on('response', (r) => { if (r.status() >= 400) errors.push(`${r.status()} ${r.url()}`); });
+  page.on('console', (m) => { if (m.type() === 'error') errors.push(`${m.text()} (${m.location().url})`); });
   await page.goto(url);
 
   const fullFrame = async (after) => page.waitForFunction((g) => {
@@ -65,15 +66,25 @@ try {
   const stats = await page.evaluate(async () => (await fetch('/api/stats', { headers: { 'X-Isoview-Token': new URLSearchParams(location.search).get('token') } })).json());
   console.log(`30 key presses: frames ${JSON.stringify(stats)}, now full #${second}+`);
 
-  // Click the middle of the image: the ray goes through the tunnel's cell.
+  // Click a pixel on the surface, left of the tunnel: its ray crosses the scene's one cell.
   const box = await page.locator('#image').boundingBox();
-  await page.mouse.click(box.x + box.width / 2, box.y + box.height / 2);
+  await page.mouse.click(box.x + box.width * 0.25 + 1, box.y + box.height / 2 + 1);
   await page.waitForFunction(() => document.getElementById('probe').textContent.includes('cell'), null, { timeout: 30000 });
   const probe = await page.textContent('#probe');
-  assert.match(probe, /pixel \(192, 192\) of 384x384/);
+  assert.match(probe, /pixel \(96, 192\) of 384x384/);
   assert.match(probe, /\[0, 0, 0\]/, 'the probe lists cell [0, 0, 0] with its corners');
   assert.match(probe, /-1, 0\.3, 0\.25, 0\.35, 0\.3, 0\.25, 0\.2, -0\.9/, 'corner values shown');
   assert.match(probe, /fixed-step/);
+
+  // Hover reads the full frame's channels (from /api/aov) under the cursor.
+  const hx = box.x + box.width * 0.25 + 1, hy = box.y + box.height / 2 + 1;
+  let hover = '';
+  for (let i = 0; i < 50 && !/Z [0-9.]+ {2}N \(/.test(hover); i++) {
+    await page.mouse.move(hx + (i % 2), hy);
+    hover = await page.textContent('#hover');
+    await page.waitForTimeout(100);
+  }
+  assert.match(hover, /steps \d+ {2}cell \[0, 0, 0\]/, `hover: ${hover}`);
 
   // The slice panel, for the screenshot.
   await page.check('#slice-on');

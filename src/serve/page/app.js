@@ -432,7 +432,7 @@ function drawSliceGrid(grid) {
 }
 
 // ---- controls ----
-function slider(id, key, { preview = true, format = (v) => v, out } = {}) {
+function slider(id, key, { preview = true, format = (v) => fmt(Number(v)), out } = {}) {
   const el = $(id);
   const show = () => { if (out) $(out).textContent = fmt(Number(el.value)); };
   el.addEventListener('input', () => { show(); setKey(key, format(el.value), preview); });
@@ -475,7 +475,7 @@ function buildControls(info) {
       label.innerHTML = `${n} <output>${fmt(values[k])}</output><input type="range" min="${lo}" max="${hi}" step="${(hi - lo) / 1000}" value="${values[k]}" data-corner="${k}">`;
       const input = label.querySelector('input');
       const send = (preview) => {
-        values[k] = Number(input.value);
+        values[k] = Number(Number(input.value).toPrecision(6));
         label.querySelector('output').textContent = fmt(values[k]);
         setKey('field.values', vec(values), preview);
       };
@@ -505,7 +505,7 @@ function wireControls() {
   select('shading', 'render.shading');
   $('skip').addEventListener('change', () => setKey('render.skip', String($('skip').checked)));
   const timeInput = () => {
-    view.time = Number($('time').value);
+    view.time = Number(Number($('time').value).toPrecision(6));
     $('time-out').textContent = fmt(view.time);
     sendState(true);
   };

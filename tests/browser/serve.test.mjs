@@ -1,20 +1,22 @@
 // The browser test of `isoview serve` (README "isoview serve"): Debian's chromium, headless,
 // driven by playwright-core. Moves the isovalue slider and checks that the image changes;
 // clicks a pixel and checks that the probe panel shows its cells; saves the page as
-// docs/serve.png for the README.
+// a screenshot (docs/serve.png in the README: SCREENSHOT=docs/serve.png tests/browser/run).
 //
 //   ISOVIEW_BIN=target/debug/isoview node tests/browser/serve.test.mjs
-//   (CHROMIUM=/usr/bin/chromium, SCREENSHOT=docs/serve.png by default)
+//   (defaults: CHROMIUM=/usr/bin/chromium, SCREENSHOT=target/browser/serve.png; tests/browser/run
+//   installs what is missing and sets these)
 import { spawn } from 'node:child_process';
 import { createInterface } from 'node:readline';
 import { strict as assert } from 'node:assert';
 import { fileURLToPath } from 'node:url';
 import path from 'node:path';
+import { mkdirSync } from 'node:fs';
 import { chromium } from 'playwright-core';
 
 const root = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '../..');
 const bin = path.resolve(root, process.env.ISOVIEW_BIN || 'target/debug/isoview');
-const screenshot = path.resolve(root, process.env.SCREENSHOT || 'docs/serve.png');
+const screenshot = path.resolve(root, process.env.SCREENSHOT || 'target/browser/serve.png');
 
 const server = spawn(bin, ['serve', 'scenes/cell-tunnel.toml', '--port', '0', '--set', 'image.width=384', '--set', 'image.height=384'], {
   cwd: root,
@@ -92,6 +94,7 @@ try {
     const img = document.getElementById('slice-img');
     return img.complete && img.naturalWidth > 0 && document.getElementById('slice-info').textContent.includes('layers');
   }, null, { timeout: 30000 });
+  mkdirSync(path.dirname(screenshot), { recursive: true });
   await page.screenshot({ path: screenshot, fullPage: true });
   assert.deepEqual(errors, [], 'no errors on the page');
   console.log(`browser test passed; screenshot ${path.relative(root, screenshot)}`);

@@ -35,6 +35,10 @@ pub fn band_rows(ctx: &Context, width: u32, height: u32, pixel_bytes: u64) -> u3
     rows_by_range.min(rows_by_count).clamp(1, height as u64) as u32
 }
 
+/// A picture's records, row 0 first, and the summed GPU time of its passes in milliseconds
+/// (None without timestamps).
+pub type Drawn<P> = (Vec<P>, Option<f64>);
+
 /// A picture of `width` × `height` records of type `P`, drawn band by band into [`Bands::out`].
 pub struct Bands<P> {
     pub width: u32,
@@ -95,7 +99,7 @@ impl<P: Pod> Bands<P> {
         &self,
         pass: &str,
         record: impl FnMut(&mut Recorder, Band) -> Result<(), GpuError>,
-    ) -> Result<(Vec<P>, Option<f64>), GpuError> {
+    ) -> Result<Drawn<P>, GpuError> {
         // Never None: the hook always goes on.
         let picture = self.run_until(pass, |_, _| true, record)?;
         Ok(picture.unwrap_or_default())
@@ -109,7 +113,7 @@ impl<P: Pod> Bands<P> {
         pass: &str,
         mut after_band: impl FnMut(Band, &[P]) -> bool,
         mut record: impl FnMut(&mut Recorder, Band) -> Result<(), GpuError>,
-    ) -> Result<Option<(Vec<P>, Option<f64>)>, GpuError> {
+    ) -> Result<Option<Drawn<P>>, GpuError> {
         let ctx = &self.ctx;
         let timer = Timer::new(ctx)?;
         let mut gpu_ms = timer.as_ref().map(|_| 0.0);

@@ -12,7 +12,8 @@
 
 use glam::DVec3;
 
-use crate::scene::{CameraSettings, ImageSettings};
+use crate::scene::{CameraSettings, ImageSettings, Scene};
+use crate::vocab::Placement;
 
 /// A camera ready to generate rays for one image size.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -44,6 +45,29 @@ impl Camera {
         }
     }
 
+    /// The scene's camera in its grid's own frame ([`Placement`]): what every method traces.
+    /// With an identity placement this is exactly [`Camera::new`].
+    pub fn for_scene(scene: &Scene) -> Self {
+        Camera::new(&scene.camera, &scene.image).in_grid_frame(&scene.field.placement)
+    }
+
+    /// This camera seen from the grid's frame. The ray basis is moved as vectors (not rebuilt
+    /// from `up` with a cross product), so a mirroring placement mirrors the rays too and every
+    /// pixel's ray is the world ray, expressed in the grid's frame: same length units, same
+    /// `t` along it.
+    pub fn in_grid_frame(&self, placement: &Placement) -> Self {
+        if placement.is_identity() {
+            return *self;
+        }
+        Camera {
+            eye: placement.point_to_grid(self.eye),
+            forward: placement.vector_to_grid(self.forward),
+            right_scaled: placement.vector_to_grid(self.right_scaled),
+            up_scaled: placement.vector_to_grid(self.up_scaled),
+            ..*self
+        }
+    }
+
     /// Unit direction of the ray through the centre of pixel (px, py), py = 0 the top row.
     pub fn ray_dir(&self, px: u32, py: u32) -> DVec3 {
         let sx = 2.0 * (px as f64 + 0.5) / self.width as f64 - 1.0;
@@ -55,6 +79,38 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_placed_grid_sees_the_world_rays_in_its_own_frame() {
+        let cam = Camera::new(
+            &CameraSettings {
+                eye: DVec3::new(0.3, -2.0, 5.0),
+                target: DVec3::new(0.1, 0.2, 0.0),
+                up: DVec3::Y,
+                fov_y_deg: 50.0,
+            },
+            &ImageSettings { width: 7, height: 5 },
+        );
+        // A rotation about a tilted axis, then a mirror of x: det -1.
+        let rot = glam::DMat3::from_axis_angle(DVec3::new(1.0, 2.0, 0.5).normalize(), 0.7);
+        let axes = rot * glam::DMat3::from_diagonal(DVec3::new(-1.0, 1.0, 1.0));
+        let pl = Placement::from_axes(
+            DVec3::new(1.0, 2.0, 3.0),
+            axes.to_cols_array_2d().map(DVec3::from),
+        )
+        .unwrap();
+        assert!(pl.mirrors());
+        let g = cam.in_grid_frame(&pl);
+        for (px, py) in [(0, 0), (6, 4), (3, 2), (5, 1)] {
+            let (dw, dg) = (cam.ray_dir(px, py), g.ray_dir(px, py));
+            assert!((pl.vector_to_world(dg) - dw).length() < 1e-12);
+            // A point t along the grid-frame ray is the world point t along the world ray.
+            let t = 2.5;
+            let pw = pl.point_to_world(g.eye + t * dg);
+            assert!((pw - (cam.eye + t * dw)).length() < 1e-12);
+        }
+        assert_eq!(cam.in_grid_frame(&Placement::IDENTITY), cam);
+    }
 
     #[test]
     fn centre_pixel_looks_at_target_and_top_row_looks_up() {

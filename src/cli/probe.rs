@@ -83,12 +83,25 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
     let (px, py) =
         parse_pixel(pixel, scene.image.width, scene.image.height).map_err(Failure::input)?;
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
-    let cam = Camera::new(&scene.camera, &scene.image);
+    // Traced in the grid's own frame (as every method does); the ray and the hits are
+    // reported in world space. Cells, t and cell-local coordinates are the same in both.
+    let world = Camera::new(&scene.camera, &scene.image);
+    let cam = Camera::for_scene(&scene);
     let dir = cam.ray_dir(px, py);
     let (iso, inside) = (scene.surface.isovalue, scene.surface.inside);
     let opts = AnalyticOptions { newton_steps: scene.render.newton_steps, ..Default::default() };
-    let (exact, visits) = analytic::trace_detailed(&grid, iso, inside, cam.eye, dir, &opts);
-    let fixed = fixed_step::march(&grid, iso, inside, cam.eye, dir, scene.render.steps);
+    let (mut exact, visits) = analytic::trace_detailed(&grid, iso, inside, cam.eye, dir, &opts);
+    let mut fixed = fixed_step::march(&grid, iso, inside, cam.eye, dir, scene.render.steps);
+    let placement = &scene.field.placement;
+    if let Some(h) = exact.hit.as_mut() {
+        (h.position, h.normal) =
+            (placement.point_to_world(h.position), placement.vector_to_world(h.normal));
+    }
+    if let Some(h) = fixed.hit.as_mut() {
+        (h.position, h.normal) =
+            (placement.point_to_world(h.position), placement.vector_to_world(h.normal));
+    }
+    let (cam, dir) = (world, world.ray_dir(px, py));
 
     let distance = match (&exact.hit, &fixed.hit) {
         (Some(a), Some(f)) => Some((a.position - f.position).length()),
@@ -123,6 +136,10 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
         },
         "hit_distance": distance,
     });
+    let mut report = report;
+    if let Some(p) = crate::output::describe_placement(placement) {
+        report["placement"] = json!(p);
+    }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report).map_err(Failure::input)?);
         return Ok(0);

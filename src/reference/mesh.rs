@@ -210,7 +210,7 @@ pub fn interpolated_normal(mesh: &Mesh, tri: u32, w: DVec3, dir: DVec3) -> DVec3
 /// Renders `mesh` with `scene`'s camera and shading; `grid` gives the box and cells of the
 /// `cell` channel and `cells` shading. Returns the pixels and each pixel's trace.
 pub fn render(scene: &Scene, grid: &Grid, mesh: &Mesh) -> (Vec<Pixel>, Vec<MeshTrace>) {
-    let cam = Camera::new(&scene.camera, &scene.image);
+    let cam = Camera::for_scene(scene);
     let shader = Shader::new(scene, grid);
     let boxes: Vec<_> = (0..mesh.triangle_count())
         .map(|t| {
@@ -237,7 +237,9 @@ pub fn render(scene: &Scene, grid: &Grid, mesh: &Mesh) -> (Vec<Pixel>, Vec<MeshT
             });
             let background = scene.render.background;
             let crossings = if scene.render.count_crossings { tr.hits as i32 } else { -1 };
-            pixels.push(shader.pixel(hit.as_ref(), dir, tr.tested, crossings, background));
+            let mut pixel = shader.pixel(hit.as_ref(), dir, tr.tested, crossings, background);
+            pixel.place(&scene.field.placement);
+            pixels.push(pixel);
             traces.push(tr);
         }
     }

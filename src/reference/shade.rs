@@ -38,7 +38,7 @@ pub struct Shader {
 
 impl Shader {
     pub fn new(scene: &Scene, grid: &Grid) -> Self {
-        let (near, far) = depth_range(scene.camera.eye, grid);
+        let (near, far) = depth_range(Camera::for_scene(scene).eye, grid);
         let c = scene.render.color;
         Shader {
             mode: scene.render.shading,
@@ -115,14 +115,17 @@ pub fn render_with<F>(scene: &Scene, grid: &Grid, mut trace: F) -> Vec<Pixel>
 where
     F: FnMut(DVec3, DVec3) -> (Option<RayHit>, u32, i32),
 {
-    let cam = Camera::new(&scene.camera, &scene.image);
+    let cam = Camera::for_scene(scene);
     let shader = Shader::new(scene, grid);
     let mut out = Vec::with_capacity((scene.image.width * scene.image.height) as usize);
     for py in 0..scene.image.height {
         for px in 0..scene.image.width {
             let dir = cam.ray_dir(px, py);
             let (hit, steps, crossings) = trace(cam.eye, dir);
-            out.push(shader.pixel(hit.as_ref(), dir, steps, crossings, scene.render.background));
+            let mut pixel =
+                shader.pixel(hit.as_ref(), dir, steps, crossings, scene.render.background);
+            pixel.place(&scene.field.placement);
+            out.push(pixel);
         }
     }
     out

@@ -182,10 +182,11 @@ impl Renderer {
                 bricks,
             },
         )?;
-        let (pixels, gpu_ms) = bands.run(pass.name(), |rec, band| {
+        let (mut pixels, gpu_ms) = bands.run(pass.name(), |rec, band| {
             pass.record(rec, width, band);
             Ok(())
         })?;
+        crate::frame::place_pixels(&mut pixels, &scene.field.placement);
         self.last_gpu_ms = gpu_ms;
         Ok(Frame { width, height, pixels, info: self.frame_info(scene, grid, time) })
     }
@@ -206,6 +207,9 @@ impl Renderer {
                 extra.push(("crossing".into(), r.crossing.to_string()));
             }
             Method::Mesh => extra.push(("mesh".into(), r.mesh.name().to_string())),
+        }
+        if let Some(p) = crate::output::describe_placement(&scene.field.placement) {
+            extra.push(("placement".into(), p));
         }
         if r.method != Method::FixedStep {
             // Whether the `crossings` channel was counted (it is absent when not).

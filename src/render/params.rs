@@ -98,7 +98,7 @@ pub fn steps_scale(scene: &Scene, grid: &Grid) -> f64 {
 
 impl RenderParams {
     pub fn new(scene: &Scene, grid: &Grid) -> Self {
-        let cam = Camera::new(&scene.camera, &scene.image);
+        let cam = Camera::for_scene(scene);
         let (near, far) = depth_range(cam.eye, grid);
         let inv = DVec3::ONE / grid.spacing();
         let r = &scene.render;

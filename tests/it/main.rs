@@ -20,6 +20,7 @@ mod mesh_render;
 mod methods;
 mod modules;
 mod output;
+mod placement;
 mod render;
 mod scene;
 mod slice;

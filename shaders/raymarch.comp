@@ -31,8 +31,9 @@ void main() {
     uvec2 local = gl_GlobalInvocationID.xy;
     if (local.x >= P.image.x || local.y >= band.rows) return;
     uvec2 px = uvec2(local.x, local.y + band.row_offset);
-    vec3 o = P.eye.xyz;
-    vec3 d = ray_dir(px);
+    vec3 o;
+    vec3 d;
+    camera_ray(px, o, d);
 
     Pixel r;
     r.rgba = P.background;
@@ -69,7 +70,7 @@ void main() {
                 r.depth = th;
                 r.position = hit;
                 r.cell = cell_of(u);
-                r.normal = normal_at(u, -d);
+                r.normal = scene_normal(u, normal_at(u, -d));
                 r.steps = float(count);
                 r.rgba = vec4(shade(r.normal, d, th, r.steps, u, r.cell), 1.0);
                 break;

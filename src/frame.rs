@@ -315,6 +315,8 @@ pub struct FrameInfo {
     pub target: DVec3,
     pub up: DVec3,
     pub fov_y_deg: f64,
+    /// The view's height in world units for an orthographic camera; None: perspective.
+    pub ortho_height: Option<f64>,
     pub isovalue: f64,
     /// `render.method` as written in scenes (`analytic`, `fixed-step`, `mesh`).
     pub method: String,

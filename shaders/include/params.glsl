@@ -11,7 +11,8 @@ struct RenderParams {
     vec4 background;   // linear RGBA of misses
     vec4 color;        // rgb: surface colour
     ivec4 dims;        // xyz: grid points per axis
-    uvec4 image;       // x: width, y: height
+    uvec4 image;       // x: width, y: height, z: 1 = orthographic camera, w: normals
+                       // (NORMALS_TRILINEAR or NORMALS_SMOOTH)
     uvec4 method;      // x: method (0 fixed-step, 1 analytic, 2 mesh), y: shading, z: steps, w: newton steps
     vec4 surface;      // x: the exact inside threshold t (v < t, or v > t, equals the f64
                        // comparison with the isovalue: render::params::surface_threshold),

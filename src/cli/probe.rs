@@ -87,11 +87,11 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
     // reported in world space. Cells, t and cell-local coordinates are the same in both.
     let world = Camera::new(&scene.camera, &scene.image);
     let cam = Camera::for_scene(&scene);
-    let dir = cam.ray_dir(px, py);
+    let (origin, dir) = cam.ray(px, py);
     let (iso, inside) = (scene.surface.isovalue, scene.surface.inside);
     let opts = AnalyticOptions { newton_steps: scene.render.newton_steps, ..Default::default() };
-    let (mut exact, visits) = analytic::trace_detailed(&grid, iso, inside, cam.eye, dir, &opts);
-    let mut fixed = fixed_step::march(&grid, iso, inside, cam.eye, dir, scene.render.steps);
+    let (mut exact, visits) = analytic::trace_detailed(&grid, iso, inside, origin, dir, &opts);
+    let mut fixed = fixed_step::march(&grid, iso, inside, origin, dir, scene.render.steps);
     let placement = &scene.field.placement;
     if let Some(h) = exact.hit.as_mut() {
         (h.position, h.normal) =
@@ -101,7 +101,7 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
         (h.position, h.normal) =
             (placement.point_to_world(h.position), placement.vector_to_world(h.normal));
     }
-    let (cam, dir) = (world, world.ray_dir(px, py));
+    let (origin, dir) = world.ray(px, py);
 
     let distance = match (&exact.hit, &fixed.hit) {
         (Some(a), Some(f)) => Some((a.position - f.position).length()),
@@ -113,7 +113,7 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
         "image": [scene.image.width, scene.image.height],
         "isovalue": iso,
         "inside": format!("{inside:?}").to_lowercase(),
-        "ray": {"origin": v3(cam.eye), "direction": v3(dir)},
+        "ray": {"origin": v3(origin), "direction": v3(dir)},
         "box_span": exact.span.map(|(a, b)| json!([a, b])),
         "analytic": {
             "newton_steps": opts.newton_steps,
@@ -149,7 +149,7 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
         "pixel ({px}, {py}) of {}x{}, isovalue {iso}, inside {inside:?}",
         scene.image.width, scene.image.height
     );
-    println!("ray    origin {:.6}  direction {:.6}", cam.eye, dir);
+    println!("ray    origin {:.6}  direction {:.6}", origin, dir);
     match exact.span {
         Some((a, b)) => println!("box    t in [{a:.6}, {b:.6}]"),
         None => println!("box    the ray misses the grid box"),

@@ -17,7 +17,7 @@ use crate::passes::mesh_render::MeshPipelines;
 use crate::passes::raymarch::{RayInputs, RayPass};
 use crate::passes::Bands;
 use crate::passes::{analytic, bricks, raymarch};
-use crate::scene::{Method, Scene};
+use crate::scene::{Method, Normals, Projection, Scene};
 use params::RenderParams;
 
 pub use crate::passes::band::{band_rows, MAX_BAND_PIXELS};
@@ -208,6 +208,13 @@ impl Renderer {
             }
             Method::Mesh => extra.push(("mesh".into(), r.mesh.name().to_string())),
         }
+        if scene.render.normals != Normals::Trilinear {
+            extra.push(("normals".into(), scene.render.normals.name().into()));
+        }
+        if scene.camera.projection == Projection::Orthographic {
+            extra.push(("projection".into(), "orthographic".into()));
+            extra.push(("ortho_height".into(), scene.camera.ortho_height.to_string()));
+        }
         if let Some(p) = crate::output::describe_placement(&scene.field.placement) {
             extra.push(("placement".into(), p));
         }
@@ -221,6 +228,8 @@ impl Renderer {
             target: scene.camera.target,
             up: scene.camera.up,
             fov_y_deg: scene.camera.fov_y_deg,
+            ortho_height: (scene.camera.projection == Projection::Orthographic)
+                .then_some(scene.camera.ortho_height),
             isovalue: scene.surface.isovalue,
             method: r.method.name().to_string(),
             time,

@@ -5,7 +5,7 @@ use glam::DVec3;
 
 use crate::camera::Camera;
 use crate::field::Grid;
-use crate::scene::{Inside, Method, Scene, Shading};
+use crate::scene::{Inside, Method, Normals, Scene, Shading};
 use crate::shaders::consts;
 
 /// std140 mirror of `struct RenderParams` (vec4 members only, so std140 = C layout).
@@ -64,6 +64,14 @@ pub fn shading_code(s: Shading) -> u32 {
     }
 }
 
+/// `RenderParams.image.w`: the shaders' `NORMALS_*` (one definition, in build.rs).
+pub fn normals_code(n: Normals) -> u32 {
+    match n {
+        Normals::Trilinear => consts::NORMALS_TRILINEAR,
+        Normals::Smooth => consts::NORMALS_SMOOTH,
+    }
+}
+
 /// `RenderParams.surface.x`, what the ray passes compare samples with: the exact f32 inside
 /// threshold `t` (`passes::extract::inside_threshold`, the one place it is computed), so
 /// that `v < t` (inside = below) or `v > t` (above) equals the f64 comparison of every f32
@@ -114,7 +122,12 @@ impl RenderParams {
             background: r.background,
             color: [r.color[0], r.color[1], r.color[2], 1.0],
             dims: [nx as i32, ny as i32, nz as i32, 0],
-            image: [scene.image.width, scene.image.height, 0, 0],
+            image: [
+                scene.image.width,
+                scene.image.height,
+                cam.orthographic as u32,
+                normals_code(r.normals),
+            ],
             method: [method_code(r.method), shading_code(r.shading), r.steps, r.newton_steps],
             surface: [
                 surface_threshold(scene.surface.isovalue, scene.surface.inside),

@@ -73,14 +73,8 @@ fn main() {
         let (mut cpu_rays, mut cpu_samples) = (0.0, 0.0);
         for py in (0..size).step_by(8) {
             for px in 0..size {
-                let m = fixed_step::march(
-                    &grid,
-                    0.0,
-                    Inside::Below,
-                    cam.eye,
-                    cam.ray_dir(px, py),
-                    steps,
-                );
+                let (origin, dir) = cam.ray(px, py);
+                let m = fixed_step::march(&grid, 0.0, Inside::Below, origin, dir, steps);
                 cpu_rays += 1.0;
                 cpu_samples += m.steps as f64;
             }

@@ -91,10 +91,11 @@ bool cell_is_clear(Corners k, float iso) {
 
 void main() {
     uvec2 px_local = gl_GlobalInvocationID.xy;
-    if (px_local.x >= P.image.w || px_local.y >= band.rows) return;
-    uvec2 px = uvec2(px_local.x, px_local.y + band.row_offset) * P.image.z;
-    vec3 eye = P.eye.xyz;
-    vec3 dir = ray_dir(px);
+    if (px_local.x >= PICTURE_WIDTH || px_local.y >= band.rows) return;
+    uvec2 px = uvec2(px_local.x, px_local.y + band.row_offset) * uint(P.dims.w);
+    vec3 eye;  // the ray's origin: the eye, or its pixel on the orthographic image plane
+    vec3 dir;
+    camera_ray(px, eye, dir);
     float INF = uintBitsToFloat(0x7f800000u);
 
     Pixel r;
@@ -111,10 +112,12 @@ void main() {
     uint wanted = max(P.analytic.x, 1u);
     bool count_all = P.analytic.w != 0u;
 
-    // 1. Index space (the eye's index-space position comes from the CPU, in f64).
+    // 1. Index space (the eye's index-space position comes from the CPU, in f64; an
+    // orthographic ray's origin is offset from it in the image plane).
     ivec3 ncell = P.dims.xyz - 1;
     vec3 n = vec3(ncell);
     vec3 o = P.eye_grid.xyz;
+    if (camera_orthographic()) o += pixel_offset(px) * P.inv_spacing.xyz;
     vec3 d = dir * P.inv_spacing.xyz;
     bool usable = !any(isnan(o)) && !any(isinf(o)) && !any(isnan(d)) && !any(isinf(d))
         && d != vec3(0.0);
@@ -139,7 +142,7 @@ void main() {
         if (far < t_exit) t_exit = far;
     }
     if (!usable || !(t_enter <= t_exit && t_exit > 0.0 && t_exit < INF)) {
-        pixels[px_local.y * P.image.w + px_local.x] = r;
+        pixels[px_local.y * PICTURE_WIDTH + px_local.x] = r;
         return;
     }
     float t_lo = max(t_enter, 0.0);
@@ -286,6 +289,7 @@ void main() {
                 vec3 oriented = below ? grad : -grad;
                 float len = length(oriented);
                 r.normal = len > 0.0 && !isinf(len) ? oriented / len : -dir;
+                r.normal = scene_normal(vec3(cell) + q, r.normal);
                 r.depth = t;
                 r.position = eye + t * dir;
                 r.cell = cell;
@@ -318,5 +322,5 @@ void main() {
 
     r.steps = float(found ? visited : passes);
     r.crossings = count_all ? int(crossings) : -1;
-    pixels[px_local.y * P.image.w + px_local.x] = r;
+    pixels[px_local.y * PICTURE_WIDTH + px_local.x] = r;
 }

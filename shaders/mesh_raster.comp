@@ -36,8 +36,9 @@ layout(push_constant) uniform Push {
 #include "triangle.glsl"
 
 // Continuous pixel coordinates (x right, y down; pixel centres at integer + 0.5 - 0.5) of
-// eye-relative point q at depth z > 0 along the view.
+// eye-relative point q at depth z > 0 along the view (orthographic: no division by depth).
 vec2 to_pixel(vec3 q, float z) {
+    if (camera_orthographic()) z = 1.0;
     float sx = dot(q, P.right.xyz) / (dot(P.right.xyz, P.right.xyz) * z);
     float sy = dot(q, P.up.xyz) / (dot(P.up.xyz, P.up.xyz) * z);
     return vec2((sx + 1.0) * 0.5 * float(P.image.x) - 0.5, (1.0 - sy) * 0.5 * float(P.image.y) - 0.5);
@@ -78,11 +79,13 @@ void main() {
     for (int y = y0; y <= y1; y++) {
         for (int x = x0; x <= x1; x++) {
             uint i = uint(y - int(pc.row_offset)) * P.image.x + uint(x);
-            vec3 d = ray_dir(uvec2(x, y));
+            vec3 ro;
+            vec3 d;
+            camera_ray(uvec2(x, y), ro, d);
             atomicAdd(counts[2u * i], 1u);
             float t;
             vec3 bary;
-            if (intersect_triangle(o, ray_shear(d), A, B, C, t, bary) && t > 0.0) {
+            if (intersect_triangle(ro, ray_shear(d), A, B, C, t, bary) && t > 0.0) {
                 atomicAdd(counts[2u * i + 1u], 1u);
                 atomicMin(vis[i], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(tri));
             }

@@ -43,8 +43,9 @@ void main() {
     if (local.x >= P.image.x || local.y >= band.rows) return;
     uvec2 px = uvec2(local.x, local.y + band.row_offset);
     uint i = local.y * P.image.x + local.x;
-    vec3 o = P.eye.xyz;
-    vec3 d = ray_dir(px);
+    vec3 o;
+    vec3 d;
+    camera_ray(px, o, d);
 
     Pixel r;
     r.rgba = P.background;
@@ -75,6 +76,7 @@ void main() {
         }
         vec3 hit = o + d * t;
         vec3 u = to_grid(hit);
+        n = scene_normal(u, n);
         r.depth = t;
         r.position = hit;
         r.normal = n;

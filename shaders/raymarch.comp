@@ -29,10 +29,11 @@ const int REFINE_BISECTIONS = 8;
 
 void main() {
     uvec2 local = gl_GlobalInvocationID.xy;
-    if (local.x >= P.image.w || local.y >= band.rows) return;
-    uvec2 px = uvec2(local.x, local.y + band.row_offset) * P.image.z;
-    vec3 o = P.eye.xyz;
-    vec3 d = ray_dir(px);
+    if (local.x >= PICTURE_WIDTH || local.y >= band.rows) return;
+    uvec2 px = uvec2(local.x, local.y + band.row_offset) * uint(P.dims.w);
+    vec3 o;
+    vec3 d;
+    camera_ray(px, o, d);
 
     Pixel r;
     r.rgba = P.background;
@@ -69,7 +70,7 @@ void main() {
                 r.depth = th;
                 r.position = hit;
                 r.cell = cell_of(u);
-                r.normal = normal_at(u, -d);
+                r.normal = scene_normal(u, normal_at(u, -d));
                 r.steps = float(count);
                 r.rgba = vec4(shade(r.normal, d, th, r.steps, u, r.cell), 1.0);
                 break;
@@ -79,5 +80,5 @@ void main() {
         }
         r.steps = float(count);
     }
-    pixels[local.y * P.image.w + local.x] = r;
+    pixels[local.y * PICTURE_WIDTH + local.x] = r;
 }

@@ -23,6 +23,8 @@ use std::fmt;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 
+use crate::vocab::Placement;
+
 /// One pixel of every output channel (the EXR channels of the interface contract).
 ///
 /// std430 layout, 64 bytes; mirrored by `struct Pixel` in `shaders/include/pixel.glsl`.
@@ -75,6 +77,26 @@ impl Pixel {
     /// Whether the ray hit the surface.
     pub fn is_hit(&self) -> bool {
         self.depth.is_finite()
+    }
+
+    /// Moves a hit traced in the grid's own frame to world space: its position and normal
+    /// (depth, colour, steps and cell do not change under a rigid placement). Misses and an
+    /// identity placement are left exactly as they are.
+    pub fn place(&mut self, placement: &Placement) {
+        if placement.is_identity() || !self.is_hit() {
+            return;
+        }
+        let p = placement.point_to_world(DVec3::from(self.position.map(f64::from)));
+        let n = placement.vector_to_world(DVec3::from(self.normal.map(f64::from)));
+        self.position = p.as_vec3().to_array();
+        self.normal = n.as_vec3().to_array();
+    }
+}
+
+/// [`Pixel::place`] for every pixel.
+pub fn place_pixels(pixels: &mut [Pixel], placement: &Placement) {
+    if !placement.is_identity() {
+        pixels.iter_mut().for_each(|p| p.place(placement));
     }
 }
 
@@ -293,6 +315,8 @@ pub struct FrameInfo {
     pub target: DVec3,
     pub up: DVec3,
     pub fov_y_deg: f64,
+    /// The view's height in world units for an orthographic camera; None: perspective.
+    pub ortho_height: Option<f64>,
     pub isovalue: f64,
     /// `render.method` as written in scenes (`analytic`, `fixed-step`, `mesh`).
     pub method: String,

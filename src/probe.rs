@@ -16,8 +16,9 @@ use crate::scene::Scene;
 /// The references' answers for one pixel.
 pub struct PixelProbe {
     pub pixel: (u32, u32),
-    pub eye: DVec3,
-    /// Unit direction of the pixel's ray.
+    /// The pixel's ray in world space: its origin (the eye, or the pixel's point on an
+    /// orthographic camera's image plane) and unit direction.
+    pub origin: DVec3,
     pub dir: DVec3,
     pub options: AnalyticOptions,
     pub exact: AnalyticHit,
@@ -63,14 +64,28 @@ impl PixelProbe {
     /// Traces pixel `(px, py)` of `scene` (inside its image) through `grid`, the scene's field
     /// sampled at the time of interest.
     pub fn new(scene: &Scene, grid: &Grid, px: u32, py: u32) -> Self {
-        let cam = Camera::new(&scene.camera, &scene.image);
-        let dir = cam.ray_dir(px, py);
+        // Traced in the grid's own frame (as every method does); the ray and the hits are
+        // reported in world space. Cells, t and cell-local coordinates are the same in both.
+        let world = Camera::new(&scene.camera, &scene.image);
+        let cam = Camera::for_scene(scene);
+        let (origin, dir) = cam.ray(px, py);
         let (iso, inside) = (scene.surface.isovalue, scene.surface.inside);
         let options =
             AnalyticOptions { newton_steps: scene.render.newton_steps, ..Default::default() };
-        let (exact, visits) = analytic::trace_detailed(grid, iso, inside, cam.eye, dir, &options);
-        let fixed = fixed_step::march(grid, iso, inside, cam.eye, dir, scene.render.steps);
-        PixelProbe { pixel: (px, py), eye: cam.eye, dir, options, exact, visits, fixed }
+        let (mut exact, visits) =
+            analytic::trace_detailed(grid, iso, inside, origin, dir, &options);
+        let mut fixed = fixed_step::march(grid, iso, inside, origin, dir, scene.render.steps);
+        let placement = &scene.field.placement;
+        if let Some(h) = exact.hit.as_mut() {
+            (h.position, h.normal) =
+                (placement.point_to_world(h.position), placement.vector_to_world(h.normal));
+        }
+        if let Some(h) = fixed.hit.as_mut() {
+            (h.position, h.normal) =
+                (placement.point_to_world(h.position), placement.vector_to_world(h.normal));
+        }
+        let (origin, dir) = world.ray(px, py);
+        PixelProbe { pixel: (px, py), origin, dir, options, exact, visits, fixed }
     }
 
     /// How far apart the exact hit and fixed-step's crossing are, when both exist.
@@ -85,13 +100,13 @@ impl PixelProbe {
     pub fn json(&self, scene: &Scene, scene_name: &str) -> Value {
         let (exact, fixed) = (&self.exact, &self.fixed);
         let inside = scene.surface.inside;
-        json!({
+        let mut report = json!({
             "scene": scene_name,
             "pixel": [self.pixel.0, self.pixel.1],
             "image": [scene.image.width, scene.image.height],
             "isovalue": scene.surface.isovalue,
             "inside": format!("{inside:?}").to_lowercase(),
-            "ray": {"origin": v3(self.eye), "direction": v3(self.dir)},
+            "ray": {"origin": v3(self.origin), "direction": v3(self.dir)},
             "box_span": exact.span.map(|(a, b)| json!([a, b])),
             "analytic": {
                 "newton_steps": self.options.newton_steps,
@@ -113,6 +128,10 @@ impl PixelProbe {
                 "closest_sample_to_isovalue": fixed.margin,
             },
             "hit_distance": self.hit_distance(),
-        })
+        });
+        if let Some(p) = crate::output::describe_placement(&scene.field.placement) {
+            report["placement"] = json!(p);
+        }
+        report
     }
 }

@@ -97,6 +97,45 @@ vec3 normal_at(vec3 u, vec3 fallback) {
     return len > 0.0 ? g / len : fallback;
 }
 
+// `render.normals = "smooth"` (Rust: `reference::field::smooth_gradient_at`): the gradient at
+// grid point p by central differences in index units, one-sided on the box's faces.
+vec3 point_gradient(ivec3 p) {
+    ivec3 last = P.dims.xyz - 1;
+    vec3 g;
+    for (int a = 0; a < 3; a++) {
+        ivec3 e = ivec3(0);
+        e[a] = 1;
+        ivec3 lo = p[a] == 0 ? p : p - e;
+        ivec3 hi = p[a] == last[a] ? p : p + e;
+        float w = (p[a] == 0 || p[a] == last[a]) ? 1.0 : 0.5;
+        g[a] = (grid_value(hi) - grid_value(lo)) * w;
+    }
+    return g;
+}
+
+// The point gradients of u's cell interpolated trilinearly at u (z, then y, then x, as
+// `trilinear_local`), in world units.
+vec3 smooth_gradient(vec3 u) {
+    ivec3 c = cell_of(u);
+    vec3 f = u - vec3(c);
+    vec3 g00 = mix(point_gradient(c), point_gradient(c + ivec3(0, 0, 1)), f.z);
+    vec3 g10 = mix(point_gradient(c + ivec3(1, 0, 0)), point_gradient(c + ivec3(1, 0, 1)), f.z);
+    vec3 g01 = mix(point_gradient(c + ivec3(0, 1, 0)), point_gradient(c + ivec3(0, 1, 1)), f.z);
+    vec3 g11 = mix(point_gradient(c + ivec3(1, 1, 0)), point_gradient(c + ivec3(1, 1, 1)), f.z);
+    vec3 g = mix(mix(g00, g01, f.y), mix(g10, g11, f.y), f.x);
+    return g * P.inv_spacing.xyz;
+}
+
+// The normal the scene asks for at grid coordinates u, given the exact one: unchanged for
+// "trilinear"; for "smooth" the interpolated point gradient, inside to outside, or `exact`
+// where it vanishes.
+vec3 scene_normal(vec3 u, vec3 exact) {
+    if (P.image.w != NORMALS_SMOOTH) return exact;
+    vec3 g = smooth_gradient(u) * P.surface.y;
+    float len = length(g);
+    return len > 0.0 && !isinf(len) ? g / len : exact;
+}
+
 // Ray/box intersection (slabs). Returns false when the ray misses the box or the box lies
 // behind the eye; else [t0, t1] with t0 >= 0. Zero direction components are handled
 // explicitly instead of relying on 1/0.

@@ -110,7 +110,7 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
     let started = Instant::now();
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let opts = ExtractOptions { keep_quads: args.quads, ..Default::default() };
-    let (mesh, ran_on, why) = match backend {
+    let (mut mesh, ran_on, why) = match backend {
         Backend::Cpu => (extract_cpu(&scene, &grid, opts)?, Backend::Cpu, String::new()),
         Backend::Gpu => {
             let (mesh, ran_on) = extract_gpu(cli, vulkan_device, &scene, &grid, opts)?;
@@ -118,6 +118,7 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
         }
         Backend::Auto => extract_auto(cli, vulkan_device, &scene, &grid, opts)?,
     };
+    mesh.place(&scene.field.placement);
     let elapsed = started.elapsed().as_secs_f64() * 1e3;
     write_mesh(&args.output, &mesh, format)?;
 

@@ -51,7 +51,7 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
         println!("{}", serde_json::to_string_pretty(&report).map_err(Failure::input)?);
         return Ok(0);
     }
-    let PixelProbe { eye, dir, options: opts, exact, visits, fixed, .. } = &probe;
+    let PixelProbe { origin, dir, options: opts, exact, visits, fixed, .. } = &probe;
     let distance = probe.hit_distance();
     let (iso, inside) = (scene.surface.isovalue, scene.surface.inside);
 
@@ -59,7 +59,7 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
         "pixel ({px}, {py}) of {}x{}, isovalue {iso}, inside {inside:?}",
         scene.image.width, scene.image.height
     );
-    println!("ray    origin {:.6}  direction {:.6}", eye, dir);
+    println!("ray    origin {:.6}  direction {:.6}", origin, dir);
     match exact.span {
         Some((a, b)) => println!("box    t in [{a:.6}, {b:.6}]"),
         None => println!("box    the ray misses the grid box"),

@@ -94,7 +94,8 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
         export::write_png(p, &picture).map_err(Failure::input)?;
     }
     if let Some(p) = &args.json {
-        export::write_json(p, &plane, iso, &set.contours).map_err(Failure::input)?;
+        export::write_json(p, &plane, &scene.field.placement, iso, &set.contours)
+            .map_err(Failure::input)?;
     }
     if let Some(p) = &args.svg {
         let title = slice::svg_title(&plane, &args.scene.display().to_string(), iso);
@@ -168,6 +169,9 @@ pub fn probe(
     let plane = PlaneGrid::new(&grid, axis, at).map_err(Failure::input)?;
     let (iso, inside) = (scene.surface.isovalue, scene.surface.inside);
     let probe = slice::probe_segment(&plane, a, b, iso, inside);
+    // The segment is in the plane's (u, v), the grid's own frame; root points are reported in
+    // world space.
+    let placement = &scene.field.placement;
     let names = ["x", "y", "z"];
     let (u, v) = (names[plane.axes.0], names[plane.axes.1]);
 
@@ -184,7 +188,7 @@ pub fn probe(
                     "local_out": [c.local_out.x, c.local_out.y],
                     "quadratic": c.quadratic,
                     "roots": c.roots.iter().map(|r| json!({
-                        "s": r.s, "t": r.t, "point": r.point.to_array(), "kind": r.kind.name(),
+                        "s": r.s, "t": r.t, "point": placement.point_to_world(r.point).to_array(), "kind": r.kind.name(),
                     })).collect::<Vec<_>>(),
                 })
             })
@@ -243,9 +247,9 @@ pub fn probe(
                 "    root: s = {:.9}  t = {:.9}  at [{:.6}, {:.6}, {:.6}]  ({})",
                 r.s,
                 r.t,
-                r.point.x,
-                r.point.y,
-                r.point.z,
+                placement.point_to_world(r.point).x,
+                placement.point_to_world(r.point).y,
+                placement.point_to_world(r.point).z,
                 r.kind.name()
             );
         }

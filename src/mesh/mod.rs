@@ -106,6 +106,29 @@ impl Mesh {
     pub fn triangle(&self, t: usize) -> [u32; 3] {
         [self.indices[3 * t], self.indices[3 * t + 1], self.indices[3 * t + 2]]
     }
+
+    /// Moves a mesh extracted in the grid's own frame to world space: positions and normals
+    /// through the placement, and, when it mirrors, every triangle's and quad's winding
+    /// reversed so they stay counter-clockwise seen from outside. The identity changes nothing.
+    pub fn place(&mut self, placement: &crate::vocab::Placement) {
+        if placement.is_identity() {
+            return;
+        }
+        let f = |v: &[f32; 3]| glam::DVec3::from(v.map(f64::from));
+        for p in &mut self.positions {
+            *p = placement.point_to_world(f(p)).as_vec3().to_array();
+        }
+        for n in &mut self.normals {
+            *n = placement.vector_to_world(f(n)).as_vec3().to_array();
+        }
+        if placement.mirrors() {
+            self.indices.chunks_exact_mut(3).for_each(|t| t.swap(1, 2));
+            if let Some(q) = self.quads.as_mut() {
+                // (q0, q1, q2, q3) -> (q0, q3, q2, q1): triangles 2q and 2q + 1 are still its halves.
+                q.chunks_exact_mut(4).for_each(|q| q.swap(1, 3));
+            }
+        }
+    }
 }
 
 /// How the dual methods split a quad `(q0, q1, q2, q3)` into two triangles.

@@ -280,7 +280,7 @@ fn layer_attributes(
 ///
 /// Camera space: x = right, y = up', z = forward (left-handed, as OpenEXR specifies).
 /// NDC: x = (px + 0.5) / width at the centre of pixel column px, y likewise downwards; the
-/// NDC z is 1 / camera z.
+/// NDC z is 1 / camera z (perspective) or camera z (orthographic).
 pub fn camera_matrices(
     info: &FrameInfo,
     width: usize,
@@ -289,7 +289,10 @@ pub fn camera_matrices(
     let forward = (info.target - info.eye).try_normalize()?;
     let right = forward.cross(info.up).try_normalize()?;
     let up = right.cross(forward);
-    let h = (info.fov_y_deg.to_radians() * 0.5).tan();
+    let h = match info.ortho_height {
+        Some(height) => 0.5 * height,
+        None => (info.fov_y_deg.to_radians() * 0.5).tan(),
+    };
     if !(h.is_finite() && h > 0.0) || width == 0 || height == 0 {
         return None;
     }
@@ -302,8 +305,16 @@ pub fn camera_matrices(
         [-right.dot(e), -up.dot(e), -forward.dot(e), 1.0],
     ];
     let (sx, sy) = (0.5 / (h * aspect), 0.5 / h);
-    let proj =
-        [[sx, 0.0, 0.0, 0.0], [0.0, -sy, 0.0, 0.0], [0.5, 0.5, 0.0, 1.0], [0.0, 0.0, 1.0, 0.0]];
+    let proj = match info.ortho_height {
+        // Row vectors: x' = sx x + 0.5 z, y' = -sy y + 0.5 z, w' = z, z' = 1.
+        None => {
+            [[sx, 0.0, 0.0, 0.0], [0.0, -sy, 0.0, 0.0], [0.5, 0.5, 0.0, 1.0], [0.0, 0.0, 1.0, 0.0]]
+        }
+        // x' = sx x + 0.5, y' = -sy y + 0.5, z' = z, w' = 1.
+        Some(_) => {
+            [[sx, 0.0, 0.0, 0.0], [0.0, -sy, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.5, 0.5, 0.0, 1.0]]
+        }
+    };
     let mut to_camera = [0f32; 16];
     let mut to_ndc = [0f32; 16];
     for i in 0..4 {
@@ -612,6 +623,7 @@ mod tests {
             target: DVec3::ZERO,
             up: DVec3::Y,
             fov_y_deg: 40.0,
+            ortho_height: None,
             isovalue: 0.25,
             method: "analytic".into(),
             time: 0.5,

@@ -15,6 +15,25 @@ pub mod tev;
 
 use std::path::{Path, PathBuf};
 
+use crate::vocab::Placement;
+
+/// How an output's header records a grid's [`Placement`] (None for the identity, which is
+/// not recorded, so unplaced outputs are unchanged): the pivot and the world directions of
+/// the grid's x, y, z axes, as `pivot [x, y, z] axes [a, b, c] [d, e, f] [g, h, i]`.
+pub fn describe_placement(p: &Placement) -> Option<String> {
+    if p.is_identity() {
+        return None;
+    }
+    let v = |d: glam::DVec3| format!("[{}, {}, {}]", d.x, d.y, d.z);
+    Some(format!(
+        "pivot {} axes {} {} {}",
+        v(p.pivot),
+        v(p.axes.x_axis),
+        v(p.axes.y_axis),
+        v(p.axes.z_axis)
+    ))
+}
+
 /// Why an output file could not be written, or an input EXR could not be read.
 ///
 /// Every variant names the file; `Display` is one line.

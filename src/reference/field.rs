@@ -38,6 +38,38 @@ pub fn gradient_at(grid: &Grid, u: DVec3) -> DVec3 {
     gradient(&cell_corners(grid, c), f) / grid.spacing()
 }
 
+/// `render.normals = "smooth"` (GPU: `smooth_gradient` in `shaders/include/field.glsl`): the
+/// gradient at grid point `p` by central differences in index units, one-sided on the box's
+/// faces.
+pub fn point_gradient(grid: &Grid, p: [usize; 3]) -> DVec3 {
+    let mut g = DVec3::ZERO;
+    for a in 0..3 {
+        let last = grid.dims[a] - 1;
+        let (mut lo, mut hi) = (p, p);
+        if p[a] > 0 {
+            lo[a] -= 1;
+        }
+        if p[a] < last {
+            hi[a] += 1;
+        }
+        let w = if p[a] == 0 || p[a] == last { 1.0 } else { 0.5 };
+        let v = |q: [usize; 3]| f64::from(grid.at(q[0], q[1], q[2]));
+        g[a] = (v(hi) - v(lo)) * w;
+    }
+    g
+}
+
+/// The point gradients of `u`'s cell interpolated trilinearly at `u`, in world units.
+pub fn smooth_gradient_at(grid: &Grid, u: DVec3) -> DVec3 {
+    let c = cell_of(grid, u);
+    let f = u - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+    let corners: [DVec3; 8] = std::array::from_fn(|n| {
+        point_gradient(grid, [c[0] + (n & 1), c[1] + ((n >> 1) & 1), c[2] + ((n >> 2) & 1)])
+    });
+    let component = |a: usize| trilerp(&corners.map(|g| g[a]), f);
+    DVec3::new(component(0), component(1), component(2)) / grid.spacing()
+}
+
 /// Ray/box intersection by slabs: `Some((t0, t1))` with `0 <= t0 <= t1`, or None when the ray
 /// misses the box or it lies behind the origin. Zero direction components are handled
 /// explicitly.

@@ -106,8 +106,10 @@ pub fn edge_margin(o: DVec3, sh: &RayShear, a: DVec3, b: DVec3, c: DVec3) -> f64
     m / depth
 }
 
-/// Continuous pixel coordinates of eye-relative point `q` at view depth `z > 0`.
+/// Continuous pixel coordinates of eye-relative point `q` at view depth `z > 0` (orthographic:
+/// no division by depth).
 fn to_pixel(cam: &Camera, q: DVec3, z: f64) -> (f64, f64) {
+    let z = if cam.orthographic { 1.0 } else { z };
     let sx = q.dot(cam.right_scaled) / (cam.right_scaled.length_squared() * z);
     let sy = q.dot(cam.up_scaled) / (cam.up_scaled.length_squared() * z);
     ((sx + 1.0) * 0.5 * cam.width as f64 - 0.5, (1.0 - sy) * 0.5 * cam.height as f64 - 0.5)
@@ -163,7 +165,7 @@ fn vertex(mesh: &Mesh, v: u32) -> DVec3 {
 /// Traces the ray through pixel (px, py) against every triangle of `mesh`; `boxes` are the
 /// triangles' [`screen_box`]es.
 pub fn trace(mesh: &Mesh, cam: &Camera, boxes: &[Option<[i64; 4]>], px: u32, py: u32) -> MeshTrace {
-    let d = cam.ray_dir(px, py);
+    let (o, d) = cam.ray(px, py);
     let sh = RayShear::new(d);
     let (x, y) = (px as i64, py as i64);
     let mut out = MeshTrace { hit: None, tested: 0, hits: 0, margin: f64::INFINITY };
@@ -174,8 +176,8 @@ pub fn trace(mesh: &Mesh, cam: &Camera, boxes: &[Option<[i64; 4]>], px: u32, py:
         }
         out.tested += 1;
         let [a, b, c] = mesh.triangle(t).map(|v| vertex(mesh, v));
-        out.margin = out.margin.min(edge_margin(cam.eye, &sh, a, b, c));
-        if let Some(h) = intersect(cam.eye, &sh, a, b, c) {
+        out.margin = out.margin.min(edge_margin(o, &sh, a, b, c));
+        if let Some(h) = intersect(o, &sh, a, b, c) {
             if h.t > 0.0 {
                 out.hits += 1;
                 if out.hit.map_or(true, |(_, best)| h.t < best.t) {
@@ -210,7 +212,7 @@ pub fn interpolated_normal(mesh: &Mesh, tri: u32, w: DVec3, dir: DVec3) -> DVec3
 /// Renders `mesh` with `scene`'s camera and shading; `grid` gives the box and cells of the
 /// `cell` channel and `cells` shading. Returns the pixels and each pixel's trace.
 pub fn render(scene: &Scene, grid: &Grid, mesh: &Mesh) -> (Vec<Pixel>, Vec<MeshTrace>) {
-    let cam = Camera::new(&scene.camera, &scene.image);
+    let cam = Camera::for_scene(scene);
     let shader = Shader::new(scene, grid);
     let boxes: Vec<_> = (0..mesh.triangle_count())
         .map(|t| {
@@ -222,10 +224,10 @@ pub fn render(scene: &Scene, grid: &Grid, mesh: &Mesh) -> (Vec<Pixel>, Vec<MeshT
     let (mut pixels, mut traces) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for py in 0..scene.image.height {
         for px in 0..scene.image.width {
-            let dir = cam.ray_dir(px, py);
+            let (origin, dir) = cam.ray(px, py);
             let tr = trace(mesh, &cam, &boxes, px, py);
             let hit = tr.hit.map(|(tri, h)| {
-                let position = cam.eye + dir * h.t;
+                let position = origin + dir * h.t;
                 let u = to_grid(grid, position);
                 RayHit {
                     t: h.t,
@@ -235,9 +237,12 @@ pub fn render(scene: &Scene, grid: &Grid, mesh: &Mesh) -> (Vec<Pixel>, Vec<MeshT
                     cell: cell_of(grid, u),
                 }
             });
+            let hit = hit.map(|h| super::shade::scene_normal(scene, grid, h));
             let background = scene.render.background;
             let crossings = if scene.render.count_crossings { tr.hits as i32 } else { -1 };
-            pixels.push(shader.pixel(hit.as_ref(), dir, tr.tested, crossings, background));
+            let mut pixel = shader.pixel(hit.as_ref(), dir, tr.tested, crossings, background);
+            pixel.place(&scene.field.placement);
+            pixels.push(pixel);
             traces.push(tr);
         }
     }

@@ -6,9 +6,10 @@ use glam::DVec3;
 use crate::camera::Camera;
 use crate::field::Grid;
 use crate::frame::Pixel;
+use crate::reference::field::smooth_gradient_at;
 use crate::render::colormap;
 use crate::render::params::{depth_range, steps_scale};
-use crate::scene::{Scene, Shading};
+use crate::scene::{Inside, Normals, Scene, Shading};
 
 const AMBIENT: f64 = 0.15;
 const CELL_BORDER: f64 = 0.03;
@@ -38,7 +39,7 @@ pub struct Shader {
 
 impl Shader {
     pub fn new(scene: &Scene, grid: &Grid) -> Self {
-        let (near, far) = depth_range(scene.camera.eye, grid);
+        let (near, far) = depth_range(Camera::for_scene(scene).eye, grid);
         let c = scene.render.color;
         Shader {
             mode: scene.render.shading,
@@ -110,19 +111,38 @@ impl Shader {
     }
 }
 
+/// `hit` with the normal `scene.render.normals` asks for (GPU: `scene_normal` in
+/// `shaders/include/field.glsl`): the exact one for "trilinear"; for "smooth" the interpolated
+/// point gradients at the hit, inside to outside, keeping the exact one where they vanish.
+pub fn scene_normal(scene: &Scene, grid: &Grid, mut hit: RayHit) -> RayHit {
+    if scene.render.normals == Normals::Smooth {
+        let sign = if scene.surface.inside == Inside::Below { 1.0 } else { -1.0 };
+        let g = smooth_gradient_at(grid, hit.grid_coords) * sign;
+        let len = g.length();
+        if len > 0.0 && len.is_finite() {
+            hit.normal = g / len;
+        }
+    }
+    hit
+}
+
 /// Renders every pixel with `trace(origin, dir) -> (hit, steps, crossings)`.
 pub fn render_with<F>(scene: &Scene, grid: &Grid, mut trace: F) -> Vec<Pixel>
 where
     F: FnMut(DVec3, DVec3) -> (Option<RayHit>, u32, i32),
 {
-    let cam = Camera::new(&scene.camera, &scene.image);
+    let cam = Camera::for_scene(scene);
     let shader = Shader::new(scene, grid);
     let mut out = Vec::with_capacity((scene.image.width * scene.image.height) as usize);
     for py in 0..scene.image.height {
         for px in 0..scene.image.width {
-            let dir = cam.ray_dir(px, py);
-            let (hit, steps, crossings) = trace(cam.eye, dir);
-            out.push(shader.pixel(hit.as_ref(), dir, steps, crossings, scene.render.background));
+            let (origin, dir) = cam.ray(px, py);
+            let (hit, steps, crossings) = trace(origin, dir);
+            let hit = hit.map(|h| scene_normal(scene, grid, h));
+            let mut pixel =
+                shader.pixel(hit.as_ref(), dir, steps, crossings, scene.render.background);
+            pixel.place(&scene.field.placement);
+            out.push(pixel);
         }
     }
     out

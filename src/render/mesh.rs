@@ -90,8 +90,9 @@ impl Renderer {
             pixels: &bands.out,
         };
         let pass = MeshPass::new(ctx, pipes, inputs, bands.band_pixels())?;
-        let (pixels, gpu_ms) =
+        let (mut pixels, gpu_ms) =
             bands.run("mesh_raster + mesh_resolve", |rec, band| pass.record(rec, width, band))?;
+        crate::frame::place_pixels(&mut pixels, &scene.field.placement);
         self.last_gpu_ms = gpu_ms;
         let mut info = self.frame_info(scene, grid, time);
         info.extra.push(("mesh_triangles".into(), mesh.triangle_count.to_string()));

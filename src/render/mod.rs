@@ -17,7 +17,7 @@ use crate::passes::mesh_render::MeshPipelines;
 use crate::passes::raymarch::{RayInputs, RayPass};
 use crate::passes::Bands;
 use crate::passes::{analytic, bricks, raymarch};
-use crate::scene::{Method, Scene};
+use crate::scene::{Method, Normals, Projection, Scene};
 use params::RenderParams;
 
 pub use crate::passes::band::{band_rows, MAX_BAND_PIXELS};
@@ -212,8 +212,7 @@ impl Renderer {
         let (width, height) =
             Progressive::picture_size(stride, scene.image.width, scene.image.height);
         let mut params = RenderParams::new(scene, grid);
-        params.image[2] = stride;
-        params.image[3] = width;
+        params.dims[3] = stride as i32;
         let params_buf = Buffer::upload(
             ctx,
             "params",
@@ -239,7 +238,8 @@ impl Renderer {
             pass.record(rec, width, band);
             Ok(())
         })?;
-        let (pixels, gpu_ms) = drawn.ok_or(RenderError::Cancelled)?;
+        let (mut pixels, gpu_ms) = drawn.ok_or(RenderError::Cancelled)?;
+        crate::frame::place_pixels(&mut pixels, &scene.field.placement);
         self.last_gpu_ms = gpu_ms;
         let mut info = self.frame_info(scene, grid, time);
         if stride > 1 {
@@ -265,6 +265,16 @@ impl Renderer {
             }
             Method::Mesh => extra.push(("mesh".into(), r.mesh.name().to_string())),
         }
+        if scene.render.normals != Normals::Trilinear {
+            extra.push(("normals".into(), scene.render.normals.name().into()));
+        }
+        if scene.camera.projection == Projection::Orthographic {
+            extra.push(("projection".into(), "orthographic".into()));
+            extra.push(("ortho_height".into(), scene.camera.ortho_height.to_string()));
+        }
+        if let Some(p) = crate::output::describe_placement(&scene.field.placement) {
+            extra.push(("placement".into(), p));
+        }
         if r.method != Method::FixedStep {
             // Whether the `crossings` channel was counted (it is absent when not).
             extra.push(("count_crossings".into(), r.count_crossings.to_string()));
@@ -275,6 +285,8 @@ impl Renderer {
             target: scene.camera.target,
             up: scene.camera.up,
             fov_y_deg: scene.camera.fov_y_deg,
+            ortho_height: (scene.camera.projection == Projection::Orthographic)
+                .then_some(scene.camera.ortho_height),
             isovalue: scene.surface.isovalue,
             method: r.method.name().to_string(),
             time,

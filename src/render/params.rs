@@ -5,7 +5,7 @@ use glam::DVec3;
 
 use crate::camera::Camera;
 use crate::field::Grid;
-use crate::scene::{Inside, Method, Scene, Shading};
+use crate::scene::{Inside, Method, Normals, Scene, Shading};
 use crate::shaders::consts;
 
 /// std140 mirror of `struct RenderParams` (vec4 members only, so std140 = C layout).
@@ -64,6 +64,14 @@ pub fn shading_code(s: Shading) -> u32 {
     }
 }
 
+/// `RenderParams.image.w`: the shaders' `NORMALS_*` (one definition, in build.rs).
+pub fn normals_code(n: Normals) -> u32 {
+    match n {
+        Normals::Trilinear => consts::NORMALS_TRILINEAR,
+        Normals::Smooth => consts::NORMALS_SMOOTH,
+    }
+}
+
 /// `RenderParams.surface.x`, what the ray passes compare samples with: the exact f32 inside
 /// threshold `t` (`passes::extract::inside_threshold`, the one place it is computed), so
 /// that `v < t` (inside = below) or `v > t` (above) equals the f64 comparison of every f32
@@ -98,7 +106,7 @@ pub fn steps_scale(scene: &Scene, grid: &Grid) -> f64 {
 
 impl RenderParams {
     pub fn new(scene: &Scene, grid: &Grid) -> Self {
-        let cam = Camera::new(&scene.camera, &scene.image);
+        let cam = Camera::for_scene(scene);
         let (near, far) = depth_range(cam.eye, grid);
         let inv = DVec3::ONE / grid.spacing();
         let r = &scene.render;
@@ -113,9 +121,14 @@ impl RenderParams {
             inv_spacing: v4(inv, 0.0),
             background: r.background,
             color: [r.color[0], r.color[1], r.color[2], 1.0],
-            dims: [nx as i32, ny as i32, nz as i32, 0],
-            // The whole image (stride 1); `Renderer::render_strided` draws every s-th pixel.
-            image: [scene.image.width, scene.image.height, 1, scene.image.width],
+            // w: the pixel stride; `Renderer::render_progressive` draws every s-th pixel.
+            dims: [nx as i32, ny as i32, nz as i32, 1],
+            image: [
+                scene.image.width,
+                scene.image.height,
+                cam.orthographic as u32,
+                normals_code(r.normals),
+            ],
             method: [method_code(r.method), shading_code(r.shading), r.steps, r.newton_steps],
             surface: [
                 surface_threshold(scene.surface.isovalue, scene.surface.inside),

@@ -50,14 +50,40 @@ impl Default for ImageSettings {
     }
 }
 
-/// Pinhole camera, world space.
+/// The camera, world space: a pinhole (the contract's) or an orthographic view.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraSettings {
     pub eye: DVec3,
     pub target: DVec3,
     pub up: DVec3,
-    /// Full vertical field of view, degrees.
+    /// Full vertical field of view, degrees (perspective).
     pub fov_y_deg: f64,
+    pub projection: Projection,
+    /// Orthographic: the view's height in world units. Resolved at load time: without the key,
+    /// the height the perspective view has at `target` (`2 |target - eye| tan(fov_y / 2)`), so
+    /// switching the projection keeps the target's plane framed alike.
+    pub ortho_height: f64,
+}
+
+/// `camera.projection`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Projection {
+    /// Rays from `eye` through each pixel centre (the contract's pinhole).
+    Perspective,
+    /// Parallel rays along the view direction, starting on the plane through `eye`
+    /// perpendicular to it: pixel centres spread over `ortho_height` (times the aspect ratio).
+    Orthographic,
+}
+
+impl Projection {
+    pub const ALL: [Projection; 2] = [Projection::Perspective, Projection::Orthographic];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Projection::Perspective => "perspective",
+            Projection::Orthographic => "orthographic",
+        }
+    }
 }
 
 impl Default for CameraSettings {
@@ -68,6 +94,8 @@ impl Default for CameraSettings {
             target: DVec3::ZERO,
             up: DVec3::Y,
             fov_y_deg: 40.0,
+            projection: Projection::Perspective,
+            ortho_height: 2.0 * DVec3::new(2.2, 1.6, 2.4).length() * 20f64.to_radians().tan(),
         }
     }
 }
@@ -140,6 +168,28 @@ impl Shading {
     }
 }
 
+/// `render.normals`: which normal the hit records and shading uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Normals {
+    /// The exact gradient of the trilinear interpolant (the contract's): continuous inside a
+    /// cell, jumping across cell faces, so coarse grids look faceted.
+    Trilinear,
+    /// The trilinear interpolation of per-point central-difference gradients (one-sided at
+    /// the box's faces): the volume-rendering convention, continuous across cell faces.
+    Smooth,
+}
+
+impl Normals {
+    pub const ALL: [Normals; 2] = [Normals::Trilinear, Normals::Smooth];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Normals::Trilinear => "trilinear",
+            Normals::Smooth => "smooth",
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
     pub method: Method,
@@ -158,6 +208,7 @@ pub struct RenderSettings {
     pub count_crossings: bool,
     pub mesh: MeshAlgorithm,
     pub shading: Shading,
+    pub normals: Normals,
     /// Linear RGBA of pixels whose ray misses.
     pub background: [f32; 4],
     /// Linear RGB of the surface.
@@ -177,6 +228,7 @@ impl Default for RenderSettings {
             count_crossings: false,
             mesh: MeshAlgorithm::MarchingCubes,
             shading: Shading::Lambert,
+            normals: Normals::Trilinear,
             background: [0.0, 0.0, 0.0, 0.0],
             color: [0.85, 0.65, 0.45],
         }

@@ -7,8 +7,8 @@ use super::error::SceneErrorKind;
 use super::read::{self, choice, integer, number_where, numbers, vec3, Result, View};
 use super::tree::{Node, Source, Value};
 use super::{
-    Ambiguity, CameraSettings, ImageSettings, Inside, MeshAlgorithm, Method, RenderSettings, Scene,
-    Shading, SliceSettings, SurfaceSettings,
+    Ambiguity, CameraSettings, ImageSettings, Inside, MeshAlgorithm, Method, Normals, Projection,
+    RenderSettings, Scene, Shading, SliceSettings, SurfaceSettings,
 };
 use crate::field::{FieldSpec, GridLimits, SourceKind};
 
@@ -40,10 +40,11 @@ pub(crate) fn scene(
     // [field] first: a scene without a field is the most basic mistake.
     let field = super::field::field(&root, base_dir, limits)?;
     let slice = slice(&root.table("slice")?, &field)?;
+    let image = image(&root.table("image")?)?;
     Ok(Scene {
         path: None,
-        image: image(&root.table("image")?)?,
-        camera: camera(&root.table("camera")?)?,
+        image,
+        camera: camera(&root.table("camera")?, &field, &image)?,
         field,
         surface: surface(&root.table("surface")?)?,
         render: render(&root.table("render")?)?,
@@ -61,10 +62,11 @@ fn image(t: &View) -> Result<ImageSettings> {
     })
 }
 
-fn camera(t: &View) -> Result<CameraSettings> {
-    t.check_keys(&["eye", "target", "up", "fov_y_deg"])?;
+fn camera(t: &View, field: &FieldSpec, image: &ImageSettings) -> Result<CameraSettings> {
+    t.check_keys(&["eye", "target", "up", "fov_y_deg", "projection", "ortho_height", "fit"])?;
     let d = CameraSettings::default();
-    let c = CameraSettings {
+    let projections = Projection::ALL.map(|p| (p.name(), p));
+    let mut c = CameraSettings {
         eye: t.or("eye", d.eye, vec3)?,
         target: t.or("target", d.target, vec3)?,
         up: t.or("up", d.up, vec3)?,
@@ -77,6 +79,8 @@ fn camera(t: &View) -> Result<CameraSettings> {
                 "must be between 0 and 180 degrees (exclusive)",
             )
         })?,
+        projection: t.or("projection", d.projection, |s, k, n| choice(s, k, n, &projections))?,
+        ortho_height: 0.0, // resolved below, once the view is known
     };
     // Blame the last-written of the keys involved (a --set counts as written after the file).
     let blame = |keys: &[&'static str]| {
@@ -108,7 +112,37 @@ fn camera(t: &View) -> Result<CameraSettings> {
             ),
         ));
     }
+    let fitted = t.or("fit", false, read::boolean)?;
+    if fitted {
+        fit(&mut c, field, image);
+    }
+    c.ortho_height = match t.get("ortho_height") {
+        Some(_) => t.required("ortho_height", "a positive number", |s, k, n| {
+            number_where(s, k, n, |f| f > 0.0 && f.is_finite(), "must be a positive number")
+        })?,
+        None if fitted => c.ortho_height,
+        None => 2.0 * (c.target - c.eye).length() * (c.fov_y_deg.to_radians() * 0.5).tan(),
+    };
     Ok(c)
+}
+
+/// `camera.fit = true`: keeps the view direction and `up`, aims at the centre of the grid's
+/// box (in world space, through its placement) and backs off until the box's bounding sphere
+/// fills the narrower side of the picture: the distance at which the sphere's silhouette
+/// touches the field of view (perspective), or an `ortho_height` of its diameter (over the
+/// aspect ratio when the picture is taller than wide) with the eye as far as perspective's.
+fn fit(c: &mut CameraSettings, field: &FieldSpec, image: &ImageSettings) {
+    let b = &field.bounds;
+    let centre = field.placement.point_to_world(0.5 * (b.min + b.max));
+    let radius = 0.5 * (b.max - b.min).length();
+    let forward = (c.target - c.eye).normalize();
+    let aspect = image.width as f64 / image.height as f64;
+    let half_y = (c.fov_y_deg.to_radians() * 0.5).tan();
+    let half = half_y.min(half_y * aspect).atan();
+    let distance = radius / half.sin();
+    c.target = centre;
+    c.eye = centre - forward * distance;
+    c.ortho_height = 2.0 * radius * (1.0f64).max(1.0 / aspect);
 }
 
 fn surface(t: &View) -> Result<SurfaceSettings> {
@@ -131,6 +165,7 @@ fn render(t: &View) -> Result<RenderSettings> {
         "count_crossings",
         "mesh",
         "shading",
+        "normals",
         "background",
         "color",
     ])?;
@@ -138,6 +173,7 @@ fn render(t: &View) -> Result<RenderSettings> {
     let methods = Method::ALL.map(|m| (m.name(), m));
     let meshes = MeshAlgorithm::ALL.map(|m| (m.name(), m));
     let shadings = Shading::ALL.map(|m| (m.name(), m));
+    let normals = Normals::ALL.map(|m| (m.name(), m));
     Ok(RenderSettings {
         method: t.or("method", d.method, |s, k, n| choice(s, k, n, &methods))?,
         steps: t.or("steps", d.steps as i64, |s, k, n| integer(s, k, n, 2, MAX_STEPS))? as u32,
@@ -151,6 +187,7 @@ fn render(t: &View) -> Result<RenderSettings> {
         count_crossings: t.or("count_crossings", d.count_crossings, read::boolean)?,
         mesh: t.or("mesh", d.mesh, |s, k, n| choice(s, k, n, &meshes))?,
         shading: t.or("shading", d.shading, |s, k, n| choice(s, k, n, &shadings))?,
+        normals: t.or("normals", d.normals, |s, k, n| choice(s, k, n, &normals))?,
         background: t.or("background", d.background, colour::<4>)?,
         color: t.or("color", d.color, colour::<3>)?,
     })

@@ -249,9 +249,10 @@ impl App {
             .map_err(|e| Reply::error(400, format!("isoview: {e}")))?;
         let (plane, iso) = (&planned.plane, scene.surface.isovalue);
         match target.get("format").unwrap_or("png") {
-            "json" => {
-                Ok(Reply::text("application/json", export::json(plane, iso, &planned.set.contours)))
-            }
+            "json" => Ok(Reply::text(
+                "application/json",
+                export::json(plane, &scene.field.placement, iso, &planned.set.contours),
+            )),
             "svg" => {
                 let title = slice::svg_title(plane, &self.scene_name(), iso);
                 let (w, h) = (planned.style.width, planned.style.height);

@@ -1,7 +1,8 @@
 //! Writing a slice: the picture as EXR (`R`, `G`, `B`, `A`, `value`, `contour`) and PNG, the
 //! contours as JSON and SVG. Every file is written atomically.
 //!
-//! JSON (world coordinates; a closed contour does not repeat its first point):
+//! JSON (world coordinates, through the grid's placement when a file's header orients it; a
+//! closed contour does not repeat its first point):
 //!
 //! ```text
 //!   {"axis": "z", "at": 0.1, "isovalue": 0.0, "contours": [
@@ -10,8 +11,8 @@
 //!   ]}
 //! ```
 //!
-//! SVG: one `<path>` per contour (`class="closed"` ending in `Z`, or `class="open"`) in world
-//! `(u, v)` coordinates under a transform that puts `u` right and `v` up over a
+//! SVG: one `<path>` per contour (`class="closed"` ending in `Z`, or `class="open"`) in the
+//! plane's `(u, v)` coordinates (the grid's own frame: world for an unplaced grid) under a transform that puts `u` right and `v` up over a
 //! `width x height` canvas, so the SVG lies exactly over the PNG; the grid box's cross-section
 //! as a `<rect>`.
 
@@ -22,9 +23,15 @@ use super::contour::{world_points, Contour};
 use super::image::SliceImage;
 use super::plane::PlaneGrid;
 use crate::output::{atomic, exr, png, OutputError};
+use crate::vocab::Placement;
 
-/// The JSON text of the contours (one contour per line).
-pub fn json(plane: &PlaneGrid, isovalue: f64, contours: &[Contour]) -> String {
+/// The JSON text of the contours (one contour per line), points placed in world space.
+pub fn json(
+    plane: &PlaneGrid,
+    placement: &Placement,
+    isovalue: f64,
+    contours: &[Contour],
+) -> String {
     #[derive(serde::Serialize)]
     struct Item {
         closed: bool,
@@ -40,7 +47,10 @@ pub fn json(plane: &PlaneGrid, isovalue: f64, contours: &[Contour]) -> String {
     for (n, c) in contours.iter().enumerate() {
         let item = Item {
             closed: c.closed,
-            points: world_points(plane, c).iter().map(|p| p.to_array()).collect(),
+            points: world_points(plane, c)
+                .iter()
+                .map(|&p| placement.point_to_world(p).to_array())
+                .collect(),
         };
         s += if n == 0 { "\n  " } else { ",\n  " };
         s += &serde_json::to_string(&item).unwrap_or_default();
@@ -52,10 +62,11 @@ pub fn json(plane: &PlaneGrid, isovalue: f64, contours: &[Contour]) -> String {
 pub fn write_json(
     path: &Path,
     plane: &PlaneGrid,
+    placement: &Placement,
     isovalue: f64,
     contours: &[Contour],
 ) -> Result<(), OutputError> {
-    let text = json(plane, isovalue, contours);
+    let text = json(plane, placement, isovalue, contours);
     atomic::write_bytes(path, text.as_bytes())
 }
 

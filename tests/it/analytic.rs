@@ -200,7 +200,7 @@ fn compare(scene: &Scene, grid: &Grid, gpu: &[Pixel], skip: bool) -> Stats {
         for px in 0..scene.image.width {
             let i = (py * scene.image.width + px) as usize;
             let (g, r) = (&gpu[i], &reference[i]);
-            let dir = cam.ray_dir(px, py);
+            let dir = cam.ray(px, py).1;
             let (res, visits) = analytic::trace_detailed(grid, iso, inside, cam.eye, dir, &opts);
             st.rays += 1;
             st.exact_zero_rays += met_exact_zero(&visits) as usize;
@@ -563,7 +563,7 @@ fn sphere_sdf_grid_renders_a_sphere() {
     for py in 0..64 {
         for px in 0..64 {
             let p = frame.pixel(px, py);
-            let d = cam.ray_dir(px, py);
+            let d = cam.ray(px, py).1;
             let closest = (cam.eye - d * cam.eye.dot(d)).length();
             if closest < 0.58 {
                 assert!(p.is_hit(), "({px},{py}) should hit");

@@ -206,7 +206,7 @@ fn fine_sphere_mesh_render_agrees_with_fixed_step_and_analytic_within_the_stated
         for py in 0..80 {
             for px in 0..80 {
                 let (m, f) = (mesh_frame.pixel(px, py), fixed.pixel(px, py));
-                let d = cam.ray_dir(px, py);
+                let d = cam.ray(px, py).1;
                 let closest = (cam.eye - d * cam.eye.dot(d)).length();
                 if closest > 0.6 * 60f64.to_radians().sin() {
                     continue;

@@ -25,6 +25,7 @@ fn info() -> FrameInfo {
         eye: DVec3::new(2.2, 1.6, 2.4),
         target: DVec3::new(0.0, 0.1, 0.0),
         up: DVec3::Y,
+        ortho_height: None,
         fov_y_deg: 40.0,
         isovalue: 0.25,
         method: "fixed-step".into(),

@@ -41,7 +41,7 @@ fn compare_with_reference(scene: &Scene, grid: &Grid, gpu: &[Pixel]) -> Agreemen
                 scene.surface.isovalue,
                 scene.surface.inside,
                 cam.eye,
-                cam.ray_dir(px, py),
+                cam.ray(px, py).1,
                 scene.render.steps,
             );
             agreement.rays += 1;
@@ -133,7 +133,7 @@ fn sphere_sdf_grid_renders_a_sphere() {
     for py in 0..64 {
         for px in 0..64 {
             let p = frame.pixel(px, py);
-            let d = cam.ray_dir(px, py);
+            let d = cam.ray(px, py).1;
             // Distance of the ray from the centre decides hit or miss, away from the silhouette.
             let closest = (cam.eye - d * cam.eye.dot(d)).length();
             if closest < 0.58 {

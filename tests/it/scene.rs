@@ -154,7 +154,8 @@ fn unknown_keys_are_errors_naming_key_and_line() {
     let e = error(&format!("{CELL}[camera]\nposition = [1, 2, 3]\n"), &[]);
     assert_eq!(
         e,
-        "t.toml:5:1: camera.position: unknown key ([camera] has eye, target, up, fov_y_deg)"
+        "t.toml:5:1: camera.position: unknown key ([camera] has eye, target, up, fov_y_deg, \
+         projection, ortho_height, fit)"
     );
     let e = error(&format!("[imag]\nwidth = 4\n{CELL}"), &[]);
     assert_eq!(e, "t.toml:1:2: imag: unknown table or key (did you mean \"image\"?)");

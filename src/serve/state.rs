@@ -101,12 +101,14 @@ pub fn describe(
         "image": [s.image.width, s.image.height],
         "camera": {
             "eye": v3(s.camera.eye), "target": v3(s.camera.target), "up": v3(s.camera.up),
-            "fov_y_deg": s.camera.fov_y_deg,
+            "fov_y_deg": s.camera.fov_y_deg, "projection": s.camera.projection.name(),
+            "ortho_height": s.camera.ortho_height,
         },
         "surface": {"isovalue": s.surface.isovalue, "inside": s.surface.inside.name()},
         "render": {
             "method": r.method.name(), "shading": r.shading.name(), "steps": r.steps,
             "newton_steps": r.newton_steps, "crossing": r.crossing, "skip": r.skip,
+            "normals": r.normals.name(),
             "mesh": r.mesh.name(),
         },
         "field": {

@@ -238,7 +238,10 @@ function renderProbe(p) {
 // ---- camera: orbit, pan, zoom ----
 function cameraFromInfo(info) {
   const c = info.camera;
-  return { eye: c.eye.slice(), target: c.target.slice(), up: c.up.slice(), fov: c.fov_y_deg };
+  return {
+    eye: c.eye.slice(), target: c.target.slice(), up: c.up.slice(), fov: c.fov_y_deg,
+    ortho: c.projection === 'orthographic', orthoHeight: c.ortho_height,
+  };
 }
 
 function sendCamera(preview) {
@@ -246,6 +249,7 @@ function sendCamera(preview) {
   view.sets.set('camera.eye', vec(c.eye));
   view.sets.set('camera.target', vec(c.target));
   view.sets.set('camera.up', vec(c.up));
+  if (c.ortho) view.sets.set('camera.ortho_height', fmt(c.orthoHeight, 9));
   sendState(preview);
   drawOverlay();
 }
@@ -278,7 +282,8 @@ function pan(dx, dy) {
   const c = view.camera;
   const { r, u } = basis(c);
   const dist = Math.hypot(...sub(c.eye, c.target));
-  const s = 2 * dist * Math.tan(c.fov * Math.PI / 360) / $('image').getBoundingClientRect().height;
+  const height = c.ortho ? c.orthoHeight : 2 * dist * Math.tan(c.fov * Math.PI / 360);
+  const s = height / $('image').getBoundingClientRect().height;
   const move = add(mul(r, -dx * s), mul(u, dy * s));
   c.eye = add(c.eye, move);
   c.target = add(c.target, move);
@@ -286,7 +291,9 @@ function pan(dx, dy) {
 
 function zoom(factor) {
   const c = view.camera;
-  c.eye = add(c.target, mul(sub(c.eye, c.target), factor));
+  // An orthographic view zooms by its height; moving the eye would change nothing.
+  if (c.ortho) c.orthoHeight *= factor;
+  else c.eye = add(c.target, mul(sub(c.eye, c.target), factor));
 }
 
 function wireCamera() {
@@ -328,11 +335,19 @@ function project(p) {
   const c = view.camera;
   const { f, r, u } = basis(c);
   const d = sub(p, c.eye);
-  const z = dot(d, f);
-  if (z <= 1e-9) return null;
-  const W = $('image').width, H = $('image').height;
-  const h = Math.tan(c.fov * Math.PI / 360), a = W / H;
-  const sx = dot(d, r) / (z * h * a), sy = dot(d, u) / (z * h);
+  const W = $('image').width, H = $('image').height, a = W / H;
+  let sx, sy;
+  if (c.ortho) {
+    const h = c.orthoHeight / 2;
+    sx = dot(d, r) / (h * a);
+    sy = dot(d, u) / h;
+  } else {
+    const z = dot(d, f);
+    if (z <= 1e-9) return null;
+    const h = Math.tan(c.fov * Math.PI / 360);
+    sx = dot(d, r) / (z * h * a);
+    sy = dot(d, u) / (z * h);
+  }
   return [(sx + 1) * 0.5 * W, (1 - sy) * 0.5 * H];
 }
 
@@ -460,6 +475,8 @@ function buildControls(info) {
   $('crossing').value = info.render.crossing;
   $('crossing-out').textContent = info.render.crossing;
   $('skip').checked = info.render.skip;
+  $('normals').value = info.render.normals;
+  $('projection').value = info.camera.projection;
   $('time-box').hidden = !f.time_varying;
   $('time').value = info.time;
   $('time-out').textContent = fmt(info.time);
@@ -503,6 +520,13 @@ function wireControls() {
   select('inside', 'surface.inside');
   select('method', 'render.method');
   select('shading', 'render.shading');
+  select('normals', 'render.normals');
+  $('projection').addEventListener('change', () => {
+    view.camera.ortho = $('projection').value === 'orthographic';
+    view.homeCamera.ortho = view.camera.ortho;
+    setKey('camera.projection', JSON.stringify($('projection').value));
+    drawOverlay();
+  });
   $('skip').addEventListener('change', () => setKey('render.skip', String($('skip').checked)));
   const timeInput = () => {
     view.time = Number(Number($('time').value).toPrecision(6));

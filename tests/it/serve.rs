@@ -314,17 +314,23 @@ fn stale_states_are_dropped_and_previews_refine() {
     );
     assert_eq!(frame.body, png);
 
-    // A preview: coarse first (every 4th pixel of the full image), then the full frame.
-    let a = server.post(
-        "/api/state",
-        &serde_json::json!({"set": ["surface.isovalue=0.02"], "preview": true}),
-    );
-    let g = a.json()["generation"].as_u64().unwrap();
-    let coarse = server.get(&format!("/api/frame?after={}&level=full", g - 1));
-    assert_eq!(coarse.status, 200);
-    assert_eq!(coarse.header("x-isoview-generation"), g.to_string());
-    assert_eq!(coarse.header("x-isoview-level"), "coarse");
-    let full = server.get(&format!("/api/frame?after={g}&level=coarse"));
+    // A preview: coarse first (every 4th pixel of the full image), then the full frame 150 ms
+    // later. A test thread slower than that sees only the full frame: post again then.
+    let (coarse, full, g) = (0..5)
+        .find_map(|attempt| {
+            let iso = format!("surface.isovalue={}", 0.02 + 0.001 * attempt as f64);
+            let a = server.post("/api/state", &serde_json::json!({"set": [iso], "preview": true}));
+            let g = a.json()["generation"].as_u64().unwrap();
+            let first = server.get(&format!("/api/frame?after={}&level=full", g - 1));
+            assert_eq!(first.status, 200);
+            assert_eq!(first.header("x-isoview-generation"), g.to_string());
+            if first.header("x-isoview-level") != "coarse" {
+                return None;
+            }
+            let full = server.get(&format!("/api/frame?after={g}&level=coarse"));
+            Some((first, full, g))
+        })
+        .expect("no coarse frame in 5 previews");
     assert_eq!(full.header("x-isoview-generation"), g.to_string());
     assert_eq!(full.header("x-isoview-level"), "full");
     let (c, f) = (decode_png(&coarse.body), decode_png(&full.body));
@@ -332,7 +338,6 @@ fn stale_states_are_dropped_and_previews_refine() {
     for (i, j, p) in c.enumerate_pixels() {
         assert_eq!(p, f.get_pixel(4 * i, 4 * j), "coarse ({i}, {j})");
     }
-    // Nothing newer: the long-poll answers 204 after its wait, which is long; skip that here.
 }
 
 /// Packets as tev's protocol describes them: [u32 LE length incl. itself][u8 type][payload].

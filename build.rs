@@ -64,6 +64,8 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
     ("SHADE_STEPS", 3, Glsl::Uint, "RenderParams.method.y: steps shading."),
     ("SHADE_CELLS", 4, Glsl::Uint, "RenderParams.method.y: cells shading."),
     ("SHADE_SOLID", 5, Glsl::Uint, "RenderParams.method.y: solid shading."),
+    // `RenderParams.clip` (Rust: `vocab::Clip::MAX_PLANES`).
+    ("CLIP_PLANES", 12, Glsl::Uint, "Clip planes RenderParams holds."),
     // `RenderParams.image.w`.
     ("NORMALS_TRILINEAR", 0, Glsl::Uint, "RenderParams.image.w: the trilinear gradient."),
     ("NORMALS_SMOOTH", 1, Glsl::Uint, "RenderParams.image.w: interpolated point gradients."),

@@ -49,6 +49,7 @@ layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 #include "field.glsl"
 #include "shade.glsl"
 #include "camera.glsl"
+#include "clip.glsl"
 #include "analytic.glsl"
 
 // A brick is skipped only when its whole value range is on one side of the isovalue by more
@@ -141,6 +142,16 @@ void main() {
         }
         if (far < t_exit) t_exit = far;
     }
+    // 2b. Clip planes (the same t along the grid-frame world ray): a later entry enters
+    // through a plane, not a box face.
+    float c_lo = -INF;
+    float c_hi = INF;
+    if (usable && !clip_interval(eye, dir, c_lo, c_hi)) usable = false;
+    if (c_lo > t_enter) {
+        t_enter = c_lo;
+        enter_axis = -1;
+    }
+    t_exit = min(t_exit, c_hi);
     if (!usable || !(t_enter <= t_exit && t_exit > 0.0 && t_exit < INF)) {
         pixels[px_local.y * P.image.x + px_local.x] = r;
         return;

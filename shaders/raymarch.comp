@@ -24,6 +24,7 @@ layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 #include "field.glsl"
 #include "shade.glsl"
 #include "camera.glsl"
+#include "clip.glsl"
 
 const int REFINE_BISECTIONS = 8;
 
@@ -45,7 +46,7 @@ void main() {
     r.crossings = -1;
 
     float t0, t1;
-    if (clip_box(o, d, t0, t1)) {
+    if (clip_box(o, d, t0, t1) && clip_interval(o, d, t0, t1)) {
         uint n = P.method.z;
         CellCache cache = cache_empty();
         float ta = t0;

@@ -21,6 +21,9 @@ struct RenderParams {
     vec4 eye_grid;     // xyz: the eye in index space, (eye - box_min) / spacing, computed in f64
     uvec4 analytic;    // x: which crossing is the hit (>= 1), y: 1 = empty-space skipping,
                        // z: brick size in cells (the min/max grid of the skipping)
+    uvec4 clip_count;  // x: clip planes in use
+    vec4 clip[CLIP_PLANES];  // xyz: normal, w: offset, in the grid's frame; each removes
+                             // dot(normal, p) > offset
 };
 
 // The method codes (METHOD_FIXED_STEP, METHOD_ANALYTIC, METHOD_MESH) and shading codes

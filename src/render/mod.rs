@@ -208,6 +208,15 @@ impl Renderer {
             }
             Method::Mesh => extra.push(("mesh".into(), r.mesh.name().to_string())),
         }
+        if scene.clip.count > 0 {
+            let planes: Vec<String> = scene
+                .clip
+                .planes()
+                .iter()
+                .map(|(n, o)| format!("[{}, {}, {}] {}", n.x, n.y, n.z, o))
+                .collect();
+            extra.push(("clip".into(), planes.join("; ")));
+        }
         if scene.render.normals != Normals::Trilinear {
             extra.push(("normals".into(), scene.render.normals.name().into()));
         }

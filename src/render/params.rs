@@ -7,6 +7,7 @@ use crate::camera::Camera;
 use crate::field::Grid;
 use crate::scene::{Inside, Method, Normals, Scene, Shading};
 use crate::shaders::consts;
+use crate::vocab::Clip;
 
 /// std140 mirror of `struct RenderParams` (vec4 members only, so std140 = C layout).
 /// Field meanings are documented on the GLSL side.
@@ -29,10 +30,13 @@ pub struct RenderParams {
     pub debug: [f32; 4],
     pub eye_grid: [f32; 4],
     pub analytic: [u32; 4],
+    pub clip_count: [u32; 4],
+    pub clip: [[f32; 4]; Clip::MAX_PLANES],
 }
 
 const _: () = {
-    assert!(std::mem::size_of::<RenderParams>() == 16 * 16);
+    assert!(consts::CLIP_PLANES as usize == Clip::MAX_PLANES);
+    assert!(std::mem::size_of::<RenderParams>() == (17 + Clip::MAX_PLANES) * 16);
     assert!(std::mem::offset_of!(RenderParams, dims) == 9 * 16);
     assert!(std::mem::offset_of!(RenderParams, debug) == 13 * 16);
     assert!(std::mem::offset_of!(RenderParams, eye_grid) == 14 * 16);
@@ -107,6 +111,7 @@ pub fn steps_scale(scene: &Scene, grid: &Grid) -> f64 {
 impl RenderParams {
     pub fn new(scene: &Scene, grid: &Grid) -> Self {
         let cam = Camera::for_scene(scene);
+        let clip = scene.clip.in_grid_frame(&scene.field.placement);
         let (near, far) = depth_range(cam.eye, grid);
         let inv = DVec3::ONE / grid.spacing();
         let r = &scene.render;
@@ -143,6 +148,11 @@ impl RenderParams {
                 crate::passes::bricks::BRICK as u32,
                 r.count_crossings as u32,
             ],
+            clip_count: [clip.count as u32, 0, 0, 0],
+            clip: std::array::from_fn(|i| {
+                let (n, offset) = clip.planes[i];
+                [n.x as f32, n.y as f32, n.z as f32, offset as f32]
+            }),
         }
     }
 }

@@ -178,7 +178,7 @@ impl Params for FieldParams<'_, '_> {
 }
 
 /// `bounds = { min = [...], max = [...] }` with `min < max` on every axis.
-fn bounds(t: &View) -> Result<Bounds> {
+pub(super) fn bounds(t: &View) -> Result<Bounds> {
     t.check_keys(&["min", "max"])?;
     let min = t.required("min", "the grid box's corner [x, y, z]", vec3)?;
     let max = t.required("max", "the grid box's corner [x, y, z]", vec3)?;

@@ -19,6 +19,8 @@ pub struct Scene {
     pub surface: SurfaceSettings,
     pub render: RenderSettings,
     pub slice: SliceSettings,
+    /// `[[clip]]` planes and boxes, world space.
+    pub clip: crate::vocab::Clip,
 }
 
 impl Scene {
@@ -33,6 +35,7 @@ impl Scene {
             surface: SurfaceSettings::default(),
             render: RenderSettings::default(),
             slice: SliceSettings::default(),
+            clip: crate::vocab::Clip::NONE,
         }
     }
 }

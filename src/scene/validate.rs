@@ -11,6 +11,8 @@ use super::{
     RenderSettings, Scene, Shading, SliceSettings, SurfaceSettings,
 };
 use crate::field::{FieldSpec, GridLimits, SourceKind};
+use crate::vocab::Clip;
+use glam::DVec3;
 
 /// Largest image side.
 pub const MAX_IMAGE_SIDE: i64 = 16384;
@@ -23,7 +25,7 @@ pub const MAX_CROSSING: i64 = 1 << 20;
 /// Deepest quadtree refinement of a slice below the grid's cells.
 pub const MAX_SLICE_DEPTH: i64 = 10;
 
-const TABLES: [&str; 6] = ["image", "camera", "field", "surface", "render", "slice"];
+const TABLES: [&str; 7] = ["image", "camera", "field", "surface", "render", "slice", "clip"];
 
 /// Validates the whole tree into a scene. `base_dir` resolves relative data paths.
 pub(crate) fn scene(
@@ -49,7 +51,62 @@ pub(crate) fn scene(
         surface: surface(&root.table("surface")?)?,
         render: render(&root.table("render")?)?,
         slice,
+        clip: clip(&root)?,
     })
+}
+
+/// `[[clip]]`: an array of tables, each a plane (`normal`, `offset`: removes
+/// `dot(normal, p) > offset`) or a box (`box = { min, max }`: removes what lies outside it).
+fn clip(root: &View) -> Result<Clip> {
+    let mut out = Clip::NONE;
+    let Some(node) = root.get("clip") else { return Ok(out) };
+    let entries: Vec<&Node> = match &node.value {
+        Value::Array(items) => items.iter().collect(),
+        Value::Table(_) => vec![node],
+        _ => return Err(read::type_error(root.src, "clip", node, "an array of tables ([[clip]])")),
+    };
+    for (i, entry) in entries.into_iter().enumerate() {
+        let path = format!("clip[{i}]");
+        let Value::Table(t) = &entry.value else {
+            return Err(read::type_error(root.src, &path, entry, "a table ([[clip]])"));
+        };
+        let t = View { src: root.src, path, table: Some(t), at: entry.at };
+        t.check_keys(&["normal", "offset", "box"])?;
+        let full = |t: &View, key: &str| {
+            t.err(
+                SceneErrorKind::Value,
+                key,
+                format!("more than {} clip planes (a box takes 6)", Clip::MAX_PLANES),
+            )
+        };
+        if t.get("box").is_some() {
+            if let Some(k) = ["normal", "offset"].into_iter().find(|k| t.get(k).is_some()) {
+                return Err(t.err(
+                    SceneErrorKind::Value,
+                    k,
+                    "a clip entry is a plane or a box, not both",
+                ));
+            }
+            let b = super::field::bounds(&t.table("box")?)?;
+            for a in 0..3 {
+                let mut n = DVec3::ZERO;
+                n[a] = 1.0;
+                if !(out.push(n, b.max[a]) && out.push(-n, -b.min[a])) {
+                    return Err(full(&t, "box"));
+                }
+            }
+            continue;
+        }
+        let normal = t.required("normal", "[nx, ny, nz]", vec3)?;
+        if normal.length() == 0.0 {
+            return Err(t.err(SceneErrorKind::Value, "normal", "must not be the zero vector"));
+        }
+        let offset = t.or("offset", 0.0, read::number)?;
+        if !out.push(normal, offset) {
+            return Err(full(&t, "normal"));
+        }
+    }
+    Ok(out)
 }
 
 fn image(t: &View) -> Result<ImageSettings> {

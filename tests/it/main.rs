@@ -5,6 +5,7 @@
 
 mod analytic;
 mod cli;
+mod clip;
 mod common;
 mod compare;
 mod extract_cli;

@@ -11,8 +11,7 @@ struct RenderParams {
     vec4 background;   // linear RGBA of misses
     vec4 color;        // rgb: surface colour
     ivec4 dims;        // xyz: grid points per axis
-    uvec4 image;       // x: width, y: height, z: 1 = orthographic camera, w: normals
-                       // (NORMALS_TRILINEAR or NORMALS_SMOOTH)
+    uvec4 image;       // x: width, y: height
     uvec4 method;      // x: method (0 fixed-step, 1 analytic, 2 mesh), y: shading, z: steps, w: newton steps
     vec4 surface;      // x: the exact inside threshold t (v < t, or v > t, equals the f64
                        // comparison with the isovalue: render::params::surface_threshold),
@@ -21,7 +20,8 @@ struct RenderParams {
     vec4 eye_grid;     // xyz: the eye in index space, (eye - box_min) / spacing, computed in f64
     uvec4 analytic;    // x: which crossing is the hit (>= 1), y: 1 = empty-space skipping,
                        // z: brick size in cells (the min/max grid of the skipping)
-    uvec4 clip_count;  // x: clip planes in use
+    uvec4 view;        // x: 1 = orthographic camera, y: normals (NORMALS_TRILINEAR or
+                       // NORMALS_SMOOTH), z: clip planes in use
     vec4 clip[CLIP_PLANES];  // xyz: normal, w: offset, in the grid's frame; each removes
                              // dot(normal, p) > offset
 };

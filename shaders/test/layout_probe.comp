@@ -31,7 +31,7 @@ void main() {
     bits[13] = floatBitsToUint(P.debug);
     bits[14] = floatBitsToUint(P.eye_grid);
     bits[15] = P.analytic;
-    bits[16] = P.clip_count;
+    bits[16] = P.view;
     for (int i = 0; i < CLIP_PLANES; i++) bits[17 + i] = floatBitsToUint(P.clip[i]);
 
     Pixel p;

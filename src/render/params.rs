@@ -30,7 +30,7 @@ pub struct RenderParams {
     pub debug: [f32; 4],
     pub eye_grid: [f32; 4],
     pub analytic: [u32; 4],
-    pub clip_count: [u32; 4],
+    pub view: [u32; 4],
     pub clip: [[f32; 4]; Clip::MAX_PLANES],
 }
 
@@ -68,7 +68,7 @@ pub fn shading_code(s: Shading) -> u32 {
     }
 }
 
-/// `RenderParams.image.w`: the shaders' `NORMALS_*` (one definition, in build.rs).
+/// `RenderParams.view.y`: the shaders' `NORMALS_*` (one definition, in build.rs).
 pub fn normals_code(n: Normals) -> u32 {
     match n {
         Normals::Trilinear => consts::NORMALS_TRILINEAR,
@@ -127,12 +127,7 @@ impl RenderParams {
             background: r.background,
             color: [r.color[0], r.color[1], r.color[2], 1.0],
             dims: [nx as i32, ny as i32, nz as i32, 0],
-            image: [
-                scene.image.width,
-                scene.image.height,
-                cam.orthographic as u32,
-                normals_code(r.normals),
-            ],
+            image: [scene.image.width, scene.image.height, 0, 0],
             method: [method_code(r.method), shading_code(r.shading), r.steps, r.newton_steps],
             surface: [
                 surface_threshold(scene.surface.isovalue, scene.surface.inside),
@@ -148,7 +143,7 @@ impl RenderParams {
                 crate::passes::bricks::BRICK as u32,
                 r.count_crossings as u32,
             ],
-            clip_count: [clip.count as u32, 0, 0, 0],
+            view: [cam.orthographic as u32, normals_code(r.normals), clip.count as u32, 0],
             clip: std::array::from_fn(|i| {
                 let (n, offset) = clip.planes[i];
                 [n.x as f32, n.y as f32, n.z as f32, offset as f32]

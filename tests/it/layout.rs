@@ -325,7 +325,7 @@ fn every_shared_struct_matches_its_glsl_in_every_shader() {
                 debug,
                 eye_grid,
                 analytic,
-                clip_count,
+                view,
                 clip
             }),
             "RenderParams",

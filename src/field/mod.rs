@@ -34,6 +34,7 @@
 
 mod error;
 mod expr;
+pub mod formats;
 mod grid;
 mod limits;
 pub mod mesh_sdf;

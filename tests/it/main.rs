@@ -9,6 +9,7 @@ mod common;
 mod compare;
 mod extract_cli;
 mod extract_gpu;
+mod formats;
 mod fuzz;
 mod golden;
 mod gpu_errors;

@@ -43,6 +43,7 @@ mod raw;
 mod samples;
 mod source;
 mod spec;
+pub mod stats;
 pub mod trilinear;
 
 pub use error::FieldError;

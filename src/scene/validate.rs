@@ -7,9 +7,10 @@ use super::error::SceneErrorKind;
 use super::read::{self, choice, integer, number_where, numbers, vec3, Result, View};
 use super::tree::{Node, Source, Value};
 use super::{
-    Ambiguity, CameraSettings, ImageSettings, Inside, MeshAlgorithm, Method, RenderSettings, Scene,
-    Shading, SliceSettings, SurfaceSettings,
+    Ambiguity, CameraSettings, ImageSettings, Inside, IsoRule, MeshAlgorithm, Method,
+    RenderSettings, Scene, Shading, SliceSettings, SurfaceSettings,
 };
+use crate::field::stats::Stats;
 use crate::field::{FieldSpec, GridLimits, SourceKind};
 
 /// Largest image side.
@@ -40,15 +41,14 @@ pub(crate) fn scene(
     // [field] first: a scene without a field is the most basic mistake.
     let field = super::field::field(&root, base_dir, limits)?;
     let slice = slice(&root.table("slice")?, &field)?;
-    Ok(Scene {
-        path: None,
-        image: image(&root.table("image")?)?,
-        camera: camera(&root.table("camera")?)?,
-        field,
-        surface: surface(&root.table("surface")?)?,
-        render: render(&root.table("render")?)?,
-        slice,
-    })
+    let image = image(&root.table("image")?)?;
+    let camera = camera(&root.table("camera")?)?;
+    let surface_table = root.table("surface")?;
+    let surface = surface(&surface_table)?;
+    let render = render(&root.table("render")?)?;
+    // Last: an isovalue picked from the data samples the whole field.
+    let surface = resolve_isovalue(&surface_table, surface, &field, limits)?;
+    Ok(Scene { path: None, image, camera, field, surface, render, slice })
 }
 
 fn image(t: &View) -> Result<ImageSettings> {
@@ -111,14 +111,74 @@ fn camera(t: &View) -> Result<CameraSettings> {
     Ok(c)
 }
 
+/// The isovalue keys: at most one may be given.
+const ISO_KEYS: [&str; 3] = ["isovalue", "isovalue_sigma", "isovalue_percentile"];
+
 fn surface(t: &View) -> Result<SurfaceSettings> {
-    t.check_keys(&["isovalue", "inside"])?;
+    t.check_keys(&["isovalue", "isovalue_sigma", "isovalue_percentile", "inside"])?;
     let d = SurfaceSettings::default();
     let insides = Inside::ALL.map(|i| (i.name(), i));
-    Ok(SurfaceSettings {
-        isovalue: t.or("isovalue", d.isovalue, read::number)?,
-        inside: t.or("inside", d.inside, |s, k, n| choice(s, k, n, &insides))?,
-    })
+    let given: Vec<&str> = ISO_KEYS.into_iter().filter(|k| t.get(k).is_some()).collect();
+    if let [first, second, ..] = given.as_slice() {
+        return Err(t.err(
+            SceneErrorKind::Value,
+            second,
+            format!(
+                "give one of isovalue, isovalue_sigma and isovalue_percentile, not both {first} \
+                 and {second}"
+            ),
+        ));
+    }
+    let inside = t.or("inside", d.inside, |s, k, n| choice(s, k, n, &insides))?;
+    let isovalue = t.or("isovalue", d.isovalue, read::number)?;
+    let percent = |s: &Source, k: &str, n: &Node| {
+        number_where(s, k, n, |p| (0.0..=100.0).contains(&p), "must be in 0..=100")
+    };
+    let rule = match given.first().copied() {
+        Some("isovalue_sigma") => {
+            IsoRule::Sigma { k: t.or("isovalue_sigma", 0.0, read::number)?, mean: 0.0, sigma: 0.0 }
+        }
+        Some("isovalue_percentile") => {
+            IsoRule::Percentile { p: t.or("isovalue_percentile", 0.0, percent)? }
+        }
+        _ => IsoRule::Value,
+    };
+    Ok(SurfaceSettings { isovalue, inside, rule })
+}
+
+/// The isovalue of `isovalue_sigma` or `isovalue_percentile`, resolved once from the samples
+/// every verb will see (the field at time 0).
+fn resolve_isovalue(
+    t: &View,
+    surface: SurfaceSettings,
+    field: &FieldSpec,
+    limits: &GridLimits,
+) -> Result<SurfaceSettings> {
+    let key = match surface.rule {
+        IsoRule::Value => return Ok(surface),
+        IsoRule::Sigma { .. } => "isovalue_sigma",
+        IsoRule::Percentile { .. } => "isovalue_percentile",
+    };
+    if field.is_time_varying() {
+        return Err(t.err(
+            SceneErrorKind::Value,
+            key,
+            "needs a field that does not depend on the time t; give isovalue instead",
+        ));
+    }
+    let grid = field
+        .sample_with(0.0, limits)
+        .map_err(|e| t.err(SceneErrorKind::Data, key, format!("cannot sample the field: {e}")))?;
+    let stats = Stats::of(&grid.values);
+    let (isovalue, rule) = match surface.rule {
+        IsoRule::Sigma { k, .. } => (
+            stats.mean + k * stats.sigma,
+            IsoRule::Sigma { k, mean: stats.mean, sigma: stats.sigma },
+        ),
+        IsoRule::Percentile { p } => (stats.percentile(p), surface.rule),
+        IsoRule::Value => (surface.isovalue, surface.rule),
+    };
+    Ok(SurfaceSettings { isovalue, rule, ..surface })
 }
 
 fn render(t: &View) -> Result<RenderSettings> {

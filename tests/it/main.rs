@@ -25,3 +25,4 @@ mod render;
 mod scene;
 mod slice;
 mod sources;
+mod stats;

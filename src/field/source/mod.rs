@@ -303,6 +303,20 @@ impl FieldSource {
         }
     }
 
+    /// The type of the samples as the source stores them (`int16`, `<f4`), for `stats`.
+    pub fn dtype(&self) -> String {
+        match self {
+            FieldSource::Npy(n) => n.descr.clone(),
+            FieldSource::Raw(r) => r.dtype.name().to_string(),
+            FieldSource::File(f) => f.volume.dtype.clone(),
+            FieldSource::Sdf { .. }
+            | FieldSource::Corners(_)
+            | FieldSource::Expr(_)
+            | FieldSource::Grid(_)
+            | FieldSource::Mesh(_) => "f32 (computed)".to_string(),
+        }
+    }
+
     /// One line for output headers, without the lattice (`sdf torus R=0.6 r=0.25`).
     pub(super) fn describe(&self) -> String {
         match self {

@@ -150,7 +150,9 @@ impl Volume {
         err: &Located,
     ) -> Result<(), FieldError> {
         for (k, c) in columns.iter().enumerate() {
-            let len = c.length();
+            // An axis-aligned column keeps its spacing exact (no square root of a square).
+            let aligned = c.to_array().iter().filter(|v| **v != 0.0).count() == 1;
+            let len = if aligned { c.abs().max_element() } else { c.length() };
             if !(len.is_finite() && len > 0.0) {
                 return Err(err.bad(format!(
                     "axis {} has no direction or spacing ({}, {}, {})",

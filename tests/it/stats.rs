@@ -79,3 +79,29 @@ fn stats_prints_what_the_field_holds() {
     let out = crate::common::isoview(&["stats", &scene, "--set", "surface.isovalue=2"], &[]);
     crate::common::assert_fails(&out, 2, &["not both isovalue and isovalue_sigma"]);
 }
+
+/// The EXR says how its isovalue was picked: the number in `isoview/isovalue`, the rule in
+/// `isoview/extra/isovalue_rule`.
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn the_exr_header_records_the_rule() {
+    use isoview::output::exr::{self, attr};
+    let dir = crate::common::scratch("stats-exr");
+    let scene = crate::common::write(
+        &dir,
+        "s.toml",
+        &format!(
+            "[image]\nwidth = 24\nheight = 16\n[camera]\neye = [520, 420, 480]\n\
+             target = [85, 108, 108]\n[field]\nsource = \"file\"\npath = \"{}\"\n\
+             [surface]\nisovalue_percentile = 50\ninside = \"above\"\n",
+            data().join("EMD-3197.map").display()
+        ),
+    );
+    let out = dir.join("o.exr").display().to_string();
+    let o = crate::common::isoview(&["render", &scene, "-o", &out], &[]);
+    assert!(o.status.success(), "{}", crate::common::stderr(&o));
+    let img = exr::read(std::path::Path::new(&out)).unwrap();
+    assert_eq!(img.attribute(attr::ISOVALUE).unwrap(), MEDIAN.to_string());
+    let rule = img.attribute("isoview/extra/isovalue_rule").expect("isovalue_rule");
+    assert!(rule.contains("percentile 50") && rule.contains(&MEDIAN.to_string()), "{rule}");
+}

@@ -216,6 +216,10 @@ fn sheared_axes_are_refused_with_the_file_named() {
     let e = scene::from_str_with(text, "t.toml", &dir, &[], &GridLimits::default()).unwrap_err();
     let e = e.to_string();
     assert!(e.contains("s.nrrd: NRRD:") && e.contains("sheared") && !e.contains('\n'), "{e}");
+    // As the message says, bounds place it axis-aligned instead.
+    let text = format!("{text}bounds = {{ min = [0, 0, 0], max = [1, 1, 1] }}\n");
+    let s = scene::from_str_with(&text, "t.toml", &dir, &[], &GridLimits::default()).unwrap();
+    assert!(s.field.placement.is_identity());
 }
 
 #[test]

@@ -59,7 +59,8 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
     let max =
         volume.origin + volume.spacing * DVec3::from_array(volume.dims.map(|d| (d - 1) as f64));
     let bounds = Bounds { min: volume.origin, max };
-    let placement = if volume.axes == [DVec3::X, DVec3::Y, DVec3::Z] {
+    // With `bounds` the header's orientation is not used, so sheared axes do not matter.
+    let placement = if volume.axes == [DVec3::X, DVec3::Y, DVec3::Z] || p.has("bounds") {
         None
     } else {
         let placed = Placement::from_axes(volume.origin, volume.axes).map_err(|m| {

@@ -20,6 +20,8 @@ from vtk.util import numpy_support
 
 PKG = sys.argv[1] if len(sys.argv) > 1 else "/tmp/dl"
 
+os.makedirs("types", exist_ok=True)
+
 # Real files from packages (origins and licences: README.md).
 for src, dst in [
     ("/usr/lib/python3/dist-packages/nibabel/tests/data/anatomical.nii", "anatomical.nii"),
@@ -144,3 +146,48 @@ nib.save(s, "nibabel_sform_scaled.nii")
 # TIFF stacks by tifffile: float32 and uint16 pages.
 tifffile.imwrite("tifffile_f32.tif", field.astype(np.float32))
 tifffile.imwrite("tifffile_u16.tif", field.astype(np.uint16), compression="zlib")
+
+# Every scalar type, small (3x2x2, signed values where the type has a sign), by each tool.
+small = (field[:2, :2, :3] - 60.0) * 1.5  # [k, j, i]
+for t, np_t, en in [("signed char", "i1", "little"), ("uchar", "u1", "little"), ("short", "i2", "big"),
+                    ("ushort", "u2", "little"), ("int", "i4", "big"), ("uint", "u4", "little"),
+                    ("longlong", "i8", "little"), ("ulonglong", "u8", "big"),
+                    ("float", "f4", "big"), ("double", "f8", "little")]:
+    v = np.abs(small) if np_t.startswith("u") else small
+    (v.astype(np_t)).astype(("<" if en == "little" else ">") + np_t).tofile("tmp.raw")
+    unu("make", "-i", "tmp.raw", "-t", t, "-s", "3", "2", "2", "-e", "raw", "-en", en,
+        "-o", f"types/unu_{t.replace(' ', '_')}.nrrd")
+os.remove("tmp.raw")
+import mrcfile
+for mode, np_t in [(0, np.int8), (1, np.int16), (2, np.float32), (6, np.uint16), (12, np.float16)]:
+    v = np.abs(small) if np_t == np.uint16 else small
+    with mrcfile.new(f"types/mrcfile_mode{mode}.mrc", overwrite=True) as m:
+        m.set_data(v.astype(np_t))  # [section, row, column]
+        m.voxel_size = (1.5, 2.0, 2.5)
+for np_t in [np.int8, np.uint8, np.int16, np.uint16, np.int32, np.uint32, np.int64, np.uint64,
+             np.float32, np.float64]:
+    v = np.abs(small) if np.dtype(np_t).kind == "u" else small
+    img = nib.Nifti1Image(np.transpose(v, (2, 1, 0)).astype(np_t), np.diag([1.5, 2.0, 2.5, 1.0]),
+                          dtype=np_t)
+    nib.save(img, f"types/nibabel_{np.dtype(np_t).name}.nii")
+for px, name in [(sitk.sitkInt8, "int8"), (sitk.sitkUInt8, "uint8"), (sitk.sitkUInt16, "uint16"),
+                 (sitk.sitkInt32, "int32"), (sitk.sitkUInt32, "uint32"), (sitk.sitkFloat64, "float64")]:
+    im = sitk.Cast(sitk.GetImageFromArray(np.abs(small) if name.startswith("u") else small), px)
+    sitk.WriteImage(im, f"types/sitk_{name}.mha")
+for vtk_t, name in [(np.int8, "Int8"), (np.uint8, "UInt8"), (np.int16, "Int16"), (np.uint16, "UInt16"),
+                    (np.int32, "Int32"), (np.uint32, "UInt32"), (np.int64, "Int64"), (np.float32, "Float32")]:
+    im = vtk.vtkImageData()
+    im.SetDimensions(3, 2, 2)
+    v = np.abs(small) if name.startswith("U") else small
+    arr = numpy_support.numpy_to_vtk(v.ravel().astype(vtk_t), deep=True)
+    arr.SetName("v")
+    im.GetPointData().SetScalars(arr)
+    w = vtk.vtkXMLImageDataWriter()
+    w.SetFileName(f"types/vtk_{name}.vti")
+    w.SetInputData(im)
+    w.SetDataModeToAppended()
+    w.SetEncodeAppendedData(False)
+    assert w.Write() == 1
+for np_t in [np.int8, np.int16, np.uint32, np.int32, np.float64]:
+    v = np.abs(small) if np.dtype(np_t).kind == "u" else small
+    tifffile.imwrite(f"types/tifffile_{np.dtype(np_t).name}.tif", v.astype(np_t), photometric="minisblack")

@@ -103,11 +103,11 @@ READERS = {
     ".mha": ("metaimage", read_sitk), ".mhd": ("metaimage", read_sitk),
     ".vti": ("vti", read_vtk), ".vtk": ("vtk", read_vtk),
     ".nii": ("nifti", read_nifti), ".gz": ("nifti", read_nifti),
-    ".map": ("mrc", read_mrc), ".tif": ("tiff", read_tiff),
+    ".map": ("mrc", read_mrc), ".mrc": ("mrc", read_mrc), ".tif": ("tiff", read_tiff),
 }
 
 out = {}
-for path in sorted(glob.glob("*")):
+for path in sorted(glob.glob("*") + glob.glob("types/*")):
     ext = "." + path.rsplit(".", 1)[-1]
     if ext not in READERS:
         continue

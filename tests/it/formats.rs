@@ -235,3 +235,24 @@ fn the_memory_cap_refuses_before_reading() {
     let e = formats::read(&data().join("EMD-3197.map"), Format::Mrc, &small).unwrap_err();
     assert!(matches!(e, FieldError::TooLarge { .. }), "{e}");
 }
+
+/// MetaImage's byte-order flag and `HeaderSize = -1` (SimpleITK writes neither): the int16
+/// file's samples byte-swapped behind a 100-byte preamble read back the same.
+#[test]
+fn metaimage_big_endian_and_header_size() {
+    let dir = crate::common::scratch("formats-mha-msb");
+    let raw = std::fs::read(data().join("sitk_int16.raw")).unwrap();
+    let mut swapped = vec![7u8; 100];
+    swapped.extend(raw.chunks(2).flat_map(|c| [c[1], c[0]]));
+    std::fs::write(dir.join("be.raw"), &swapped).unwrap();
+    let header = std::fs::read_to_string(data().join("sitk_int16.mhd")).unwrap();
+    let header = header
+        .replace("BinaryDataByteOrderMSB = False", "BinaryDataByteOrderMSB = True\nHeaderSize = -1")
+        .replace("ElementDataFile = sitk_int16.raw", "ElementDataFile = be.raw");
+    assert!(header.contains("HeaderSize = -1") && header.contains("be.raw"), "{header}");
+    std::fs::write(dir.join("be.mhd"), header).unwrap();
+    let a = read(&data().join("sitk_int16.mhd")).unwrap();
+    let b = read(&dir.join("be.mhd")).unwrap();
+    assert_eq!(a.values, b.values);
+    assert_eq!((a.origin, a.spacing), (b.origin, b.spacing));
+}

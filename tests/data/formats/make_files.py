@@ -84,7 +84,7 @@ img16.SetOrigin([10.0, -20.0, 5.0])
 sitk.WriteImage(img16, "sitk_int16.mhd", useCompression=False)
 
 # VTK XML image data in each encoding, with an oblique Direction and an extent not at 0.
-def vti(name, mode, compress, header64=False):
+def vti(name, mode, compress, header64=False, big_endian=False):
     im = vtk.vtkImageData()
     im.SetExtent(2, 2 + NX - 1, -1, -1 + NY - 1, 0, NZ - 1)
     im.SetOrigin(*ORIGIN)
@@ -104,6 +104,8 @@ def vti(name, mode, compress, header64=False):
         w.SetCompressorTypeToNone()
     if header64:
         w.SetHeaderTypeToUInt64()
+    if big_endian:
+        w.SetByteOrderToBigEndian()
     assert w.Write() == 1
 vti("vtk_ascii.vti", "ascii", False)
 vti("vtk_binary.vti", "binary", False)
@@ -111,6 +113,7 @@ vti("vtk_binary_zlib.vti", "binary", True, header64=True)
 vti("vtk_appended_raw.vti", "appended", False)
 vti("vtk_appended_raw_zlib.vti", "appended", True)
 vti("vtk_appended_base64.vti", "appended", True)
+vti("vtk_bigendian_zlib.vti", "binary", True, big_endian=True)
 
 # Legacy VTK, ASCII (pyvista's uniform.vtk above is the binary one).
 sp = vtk.vtkStructuredPoints()

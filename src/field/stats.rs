@@ -23,16 +23,14 @@ impl Stats {
     /// The statistics of `values` (finite, not empty: a sampled grid's).
     pub fn of(values: &[f32]) -> Stats {
         let count = values.len();
-        let n = count.max(1) as f64;
-        let mean = values.iter().map(|&v| v as f64).sum::<f64>() / n;
-        let var = values.iter().map(|&v| (v as f64 - mean).powi(2)).sum::<f64>() / n;
+        let (mean, sigma) = moments(values);
         let mut sorted = values.to_vec();
         sorted.sort_unstable_by(f32::total_cmp);
         let (min, max) = match (sorted.first(), sorted.last()) {
             (Some(&a), Some(&b)) => (a as f64, b as f64),
             _ => (0.0, 0.0),
         };
-        Stats { count, min, max, mean, sigma: var.sqrt(), sorted }
+        Stats { count, min, max, mean, sigma, sorted }
     }
 
     /// The `p`-th percentile (0..=100), NumPy's linear rule.
@@ -62,6 +60,14 @@ impl Stats {
         }
         counts
     }
+}
+
+/// Mean and population σ of `values`, without the sorted copy [`Stats::of`] keeps.
+pub fn moments(values: &[f32]) -> (f64, f64) {
+    let n = values.len().max(1) as f64;
+    let mean = values.iter().map(|&v| v as f64).sum::<f64>() / n;
+    let var = values.iter().map(|&v| (v as f64 - mean).powi(2)).sum::<f64>() / n;
+    (mean, var.sqrt())
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@ use super::{
     Ambiguity, CameraSettings, ImageSettings, Inside, IsoRule, MeshAlgorithm, Method,
     RenderSettings, Scene, Shading, SliceSettings, SurfaceSettings,
 };
-use crate::field::stats::Stats;
+use crate::field::stats::{self, Stats};
 use crate::field::{FieldSpec, GridLimits, SourceKind};
 
 /// Largest image side.
@@ -169,13 +169,13 @@ fn resolve_isovalue(
     let grid = field
         .sample_with(0.0, limits)
         .map_err(|e| t.err(SceneErrorKind::Data, key, format!("cannot sample the field: {e}")))?;
-    let stats = Stats::of(&grid.values);
     let (isovalue, rule) = match surface.rule {
-        IsoRule::Sigma { k, .. } => (
-            stats.mean + k * stats.sigma,
-            IsoRule::Sigma { k, mean: stats.mean, sigma: stats.sigma },
-        ),
-        IsoRule::Percentile { p } => (stats.percentile(p), surface.rule),
+        IsoRule::Sigma { k, .. } => {
+            let (mean, sigma) = stats::moments(&grid.values);
+            (mean + k * sigma, IsoRule::Sigma { k, mean, sigma })
+        }
+        // Only percentiles need the sorted copy Stats keeps.
+        IsoRule::Percentile { p } => (Stats::of(&grid.values).percentile(p), surface.rule),
         IsoRule::Value => (surface.isovalue, surface.rule),
     };
     Ok(SurfaceSettings { isovalue, rule, ..surface })

@@ -70,7 +70,7 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
     if !args.time.is_finite() {
         return Err(Failure::input(format!("--time {}: must be a finite number", args.time)));
     }
-    let scene = scene::load(&args.scene, &args.sets).map_err(Failure::input)?;
+    let scene = super::load_scene(&args.scene, &args.sets)?;
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let plane = PlaneGrid::new(&grid, args.axis, args.at).map_err(Failure::input)?;
     let set = slice::scene_contours(&scene, &plane, args.time).map_err(Failure::input)?;

@@ -167,6 +167,10 @@ impl Params for FieldParams<'_, '_> {
         self.t.check_keys_with(allowed, explain)
     }
 
+    fn has(&self, key: &str) -> bool {
+        self.t.get(key).is_some()
+    }
+
     fn value_error(&self, key: &str, message: String) -> SceneError {
         self.t.err(SceneErrorKind::Value, key, message)
     }

@@ -23,6 +23,7 @@ mod methods;
 mod modules;
 mod normals;
 mod output;
+mod physical;
 mod placement;
 mod projection;
 mod render;

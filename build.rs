@@ -64,9 +64,11 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
     ("SHADE_STEPS", 3, Glsl::Uint, "RenderParams.method.y: steps shading."),
     ("SHADE_CELLS", 4, Glsl::Uint, "RenderParams.method.y: cells shading."),
     ("SHADE_SOLID", 5, Glsl::Uint, "RenderParams.method.y: solid shading."),
-    // `RenderParams.image.w`.
-    ("NORMALS_TRILINEAR", 0, Glsl::Uint, "RenderParams.image.w: the trilinear gradient."),
-    ("NORMALS_SMOOTH", 1, Glsl::Uint, "RenderParams.image.w: interpolated point gradients."),
+    // `RenderParams.clip` (Rust: `vocab::Clip::MAX_PLANES`).
+    ("CLIP_PLANES", 12, Glsl::Uint, "Clip planes RenderParams holds."),
+    // `RenderParams.view.y`.
+    ("NORMALS_TRILINEAR", 0, Glsl::Uint, "RenderParams.view.y: the trilinear gradient."),
+    ("NORMALS_SMOOTH", 1, Glsl::Uint, "RenderParams.view.y: interpolated point gradients."),
     // `SlabPush.mode` of classify.comp.
     ("MODE_MC", 0, Glsl::Uint, "classify.comp mode: marching cubes."),
     ("MODE_MT", 1, Glsl::Uint, "classify.comp mode: marching tetrahedra."),

@@ -49,6 +49,7 @@ layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 #include "field.glsl"
 #include "shade.glsl"
 #include "camera.glsl"
+#include "clip.glsl"
 #include "analytic.glsl"
 
 // A brick is skipped only when its whole value range is on one side of the isovalue by more
@@ -91,8 +92,8 @@ bool cell_is_clear(Corners k, float iso) {
 
 void main() {
     uvec2 px_local = gl_GlobalInvocationID.xy;
-    if (px_local.x >= PICTURE_WIDTH || px_local.y >= band.rows) return;
-    uvec2 px = uvec2(px_local.x, px_local.y + band.row_offset) * uint(P.dims.w);
+    if (px_local.x >= P.image.w || px_local.y >= band.rows) return;
+    uvec2 px = uvec2(px_local.x, px_local.y + band.row_offset) * P.image.z;
     vec3 eye;  // the ray's origin: the eye, or its pixel on the orthographic image plane
     vec3 dir;
     camera_ray(px, eye, dir);
@@ -141,8 +142,18 @@ void main() {
         }
         if (far < t_exit) t_exit = far;
     }
+    // 2b. Clip planes (the same t along the grid-frame world ray): a later entry enters
+    // through a plane, not a box face.
+    float c_lo = -INF;
+    float c_hi = INF;
+    if (usable && !clip_interval(eye, dir, c_lo, c_hi)) usable = false;
+    if (c_lo > t_enter) {
+        t_enter = c_lo;
+        enter_axis = -1;
+    }
+    t_exit = min(t_exit, c_hi);
     if (!usable || !(t_enter <= t_exit && t_exit > 0.0 && t_exit < INF)) {
-        pixels[px_local.y * PICTURE_WIDTH + px_local.x] = r;
+        pixels[px_local.y * P.image.w + px_local.x] = r;
         return;
     }
     float t_lo = max(t_enter, 0.0);
@@ -322,5 +333,5 @@ void main() {
 
     r.steps = float(found ? visited : passes);
     r.crossings = count_all ? int(crossings) : -1;
-    pixels[px_local.y * PICTURE_WIDTH + px_local.x] = r;
+    pixels[px_local.y * P.image.w + px_local.x] = r;
 }

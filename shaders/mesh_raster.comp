@@ -33,6 +33,7 @@ layout(push_constant) uniform Push {
 } pc;
 
 #include "camera.glsl"
+#include "clip.glsl"
 #include "triangle.glsl"
 
 // Continuous pixel coordinates (x right, y down; pixel centres at integer + 0.5 - 0.5) of
@@ -83,9 +84,14 @@ void main() {
             vec3 d;
             camera_ray(uvec2(x, y), ro, d);
             atomicAdd(counts[2u * i], 1u);
+            // Clip planes: only hits in the kept interval count.
+            float c0 = 0.0;
+            float c1 = uintBitsToFloat(0x7f800000u);
+            if (!clip_interval(ro, d, c0, c1)) continue;
             float t;
             vec3 bary;
-            if (intersect_triangle(ro, ray_shear(d), A, B, C, t, bary) && t > 0.0) {
+            if (intersect_triangle(ro, ray_shear(d), A, B, C, t, bary) && t > 0.0 && t >= c0
+                && t <= c1) {
                 atomicAdd(counts[2u * i + 1u], 1u);
                 atomicMin(vis[i], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(tri));
             }

@@ -24,13 +24,14 @@ layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 #include "field.glsl"
 #include "shade.glsl"
 #include "camera.glsl"
+#include "clip.glsl"
 
 const int REFINE_BISECTIONS = 8;
 
 void main() {
     uvec2 local = gl_GlobalInvocationID.xy;
-    if (local.x >= PICTURE_WIDTH || local.y >= band.rows) return;
-    uvec2 px = uvec2(local.x, local.y + band.row_offset) * uint(P.dims.w);
+    if (local.x >= P.image.w || local.y >= band.rows) return;
+    uvec2 px = uvec2(local.x, local.y + band.row_offset) * P.image.z;
     vec3 o;
     vec3 d;
     camera_ray(px, o, d);
@@ -45,7 +46,7 @@ void main() {
     r.crossings = -1;
 
     float t0, t1;
-    if (clip_box(o, d, t0, t1)) {
+    if (clip_box(o, d, t0, t1) && clip_interval(o, d, t0, t1)) {
         uint n = P.method.z;
         CellCache cache = cache_empty();
         float ta = t0;
@@ -80,5 +81,5 @@ void main() {
         }
         r.steps = float(count);
     }
-    pixels[local.y * PICTURE_WIDTH + local.x] = r;
+    pixels[local.y * P.image.w + local.x] = r;
 }

@@ -70,11 +70,13 @@ impl PixelProbe {
         let cam = Camera::for_scene(scene);
         let (origin, dir) = cam.ray(px, py);
         let (iso, inside) = (scene.surface.isovalue, scene.surface.inside);
+        let clip = scene.clip.in_grid_frame(&scene.field.placement);
         let options =
-            AnalyticOptions { newton_steps: scene.render.newton_steps, ..Default::default() };
+            AnalyticOptions { newton_steps: scene.render.newton_steps, clip, ..Default::default() };
         let (mut exact, visits) =
             analytic::trace_detailed(grid, iso, inside, origin, dir, &options);
-        let mut fixed = fixed_step::march(grid, iso, inside, origin, dir, scene.render.steps);
+        let mut fixed =
+            fixed_step::march_clipped(grid, iso, inside, origin, dir, scene.render.steps, &clip);
         let placement = &scene.field.placement;
         if let Some(h) = exact.hit.as_mut() {
             (h.position, h.normal) =

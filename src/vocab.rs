@@ -197,3 +197,75 @@ impl Default for Placement {
         Placement::IDENTITY
     }
 }
+
+/// Clip planes (`[[clip]]` in a scene): each removes the half-space where
+/// `dot(normal, p) > offset`; what survives is their intersection, a convex region, so a ray
+/// keeps one interval of `t` ([`Clip::interval`]; GPU: `clip_interval` in
+/// `shaders/include/field.glsl`). A clip box is its six faces. Points exactly on a plane are
+/// kept. Fixed capacity, so it is `Copy` and fits the shaders' uniform block.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Clip {
+    /// `(normal, offset)` per plane; only the first `count` are used.
+    pub planes: [(DVec3, f64); Clip::MAX_PLANES],
+    pub count: usize,
+}
+
+impl Clip {
+    /// Planes one scene may use (a box takes six).
+    pub const MAX_PLANES: usize = 12;
+
+    /// No clipping.
+    pub const NONE: Clip = Clip { planes: [(DVec3::ZERO, 0.0); Clip::MAX_PLANES], count: 0 };
+
+    /// The planes in use.
+    pub fn planes(&self) -> &[(DVec3, f64)] {
+        &self.planes[..self.count]
+    }
+
+    /// Adds a plane; false when all [`Clip::MAX_PLANES`] are taken.
+    pub fn push(&mut self, normal: DVec3, offset: f64) -> bool {
+        if self.count == Clip::MAX_PLANES {
+            return false;
+        }
+        self.planes[self.count] = (normal, offset);
+        self.count += 1;
+        true
+    }
+
+    /// The `t` interval of the ray `origin + t dir` that every plane keeps (unbounded ends as
+    /// infinities), or None when the ray lies wholly in a removed half-space.
+    pub fn interval(&self, origin: DVec3, dir: DVec3) -> Option<(f64, f64)> {
+        let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+        for &(n, offset) in self.planes() {
+            let s = n.dot(dir);
+            let v = n.dot(origin) - offset;
+            if s == 0.0 {
+                if v > 0.0 {
+                    return None;
+                }
+                continue;
+            }
+            let t = -v / s;
+            if s > 0.0 {
+                hi = hi.min(t);
+            } else {
+                lo = lo.max(t);
+            }
+        }
+        (lo <= hi).then_some((lo, hi))
+    }
+
+    /// The same planes in the grid's own frame (`world = pivot + axes (p - pivot)`).
+    pub fn in_grid_frame(&self, placement: &Placement) -> Clip {
+        if placement.is_identity() {
+            return *self;
+        }
+        let mut out = *self;
+        for (n, offset) in out.planes[..self.count].iter_mut() {
+            let ng = placement.vector_to_grid(*n);
+            *offset = *offset - n.dot(placement.pivot) + ng.dot(placement.pivot);
+            *n = ng;
+        }
+        out
+    }
+}

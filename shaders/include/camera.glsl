@@ -1,4 +1,4 @@
-// The camera (Rust: `camera::Camera`). Needs `RenderParams P`. P.image.z != 0: orthographic.
+// The camera (Rust: `camera::Camera`). Needs `RenderParams P`. P.view.x != 0: orthographic.
 
 // The pixel centre's offset from the view's centre, in the image plane: at unit distance
 // (perspective) or in world units from the eye (orthographic).
@@ -9,7 +9,7 @@ vec3 pixel_offset(uvec2 px) {
 }
 
 bool camera_orthographic() {
-    return P.image.z != 0u;
+    return P.view.x != 0u;
 }
 
 // The ray through pixel `px`: from the eye (perspective: the contract's pinhole), or from the

@@ -130,7 +130,7 @@ vec3 smooth_gradient(vec3 u) {
 // "trilinear"; for "smooth" the interpolated point gradient, inside to outside, or `exact`
 // where it vanishes.
 vec3 scene_normal(vec3 u, vec3 exact) {
-    if (P.image.w != NORMALS_SMOOTH) return exact;
+    if (P.view.y != NORMALS_SMOOTH) return exact;
     vec3 g = smooth_gradient(u) * P.surface.y;
     float len = length(g);
     return len > 0.0 && !isinf(len) ? g / len : exact;

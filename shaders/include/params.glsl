@@ -10,11 +10,10 @@ struct RenderParams {
     vec4 inv_spacing;  // xyz: cells per world unit along each axis
     vec4 background;   // linear RGBA of misses
     vec4 color;        // rgb: surface colour
-    ivec4 dims;        // xyz: grid points per axis; w: pixel stride s >= 1 of the picture drawn,
-                       // ceil(width / s) x ceil(height / s): picture pixel (i, j) is image
-                       // pixel (s i, s j) (s = 1: the whole image; PICTURE_WIDTH below)
-    uvec4 image;       // x: width, y: height, z: 1 = orthographic camera, w: normals
-                       // (NORMALS_TRILINEAR or NORMALS_SMOOTH)
+    ivec4 dims;        // xyz: grid points per axis
+    uvec4 image;       // x: width, y: height of the image (rays); z: stride s >= 1 and
+                       // w: width of the picture drawn, ceil(width / s): picture pixel
+                       // (i, j) is image pixel (s i, s j) (s = 1: the whole image)
     uvec4 method;      // x: method (0 fixed-step, 1 analytic, 2 mesh), y: shading, z: steps, w: newton steps
     vec4 surface;      // x: the exact inside threshold t (v < t, or v > t, equals the f64
                        // comparison with the isovalue: render::params::surface_threshold),
@@ -23,11 +22,12 @@ struct RenderParams {
     vec4 eye_grid;     // xyz: the eye in index space, (eye - box_min) / spacing, computed in f64
     uvec4 analytic;    // x: which crossing is the hit (>= 1), y: 1 = empty-space skipping,
                        // z: brick size in cells (the min/max grid of the skipping)
+    uvec4 view;        // x: 1 = orthographic camera, y: normals (NORMALS_TRILINEAR or
+                       // NORMALS_SMOOTH), z: clip planes in use
+    vec4 clip[CLIP_PLANES];  // xyz: normal, w: offset, in the grid's frame; each removes
+                             // dot(normal, p) > offset
 };
 
 // The method codes (METHOD_FIXED_STEP, METHOD_ANALYTIC, METHOD_MESH) and shading codes
 // (SHADE_LAMBERT, SHADE_NORMAL, SHADE_DEPTH, SHADE_STEPS, SHADE_CELLS, SHADE_SOLID) are
 // #defines from build.rs's table of shared constants (Rust: `isoview::shaders::consts`).
-
-// The width of the picture a ray pass draws (RenderParams.dims.w: its pixel stride).
-#define PICTURE_WIDTH ((P.image.x + uint(P.dims.w) - 1u) / uint(P.dims.w))

@@ -31,6 +31,8 @@ void main() {
     bits[13] = floatBitsToUint(P.debug);
     bits[14] = floatBitsToUint(P.eye_grid);
     bits[15] = P.analytic;
+    bits[16] = P.view;
+    for (int i = 0; i < CLIP_PLANES; i++) bits[17 + i] = floatBitsToUint(P.clip[i]);
 
     Pixel p;
     p.rgba = vec4(1.0, 2.0, 3.0, 4.0);

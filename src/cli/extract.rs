@@ -26,7 +26,7 @@ use crate::field::Grid;
 use crate::mesh::export::{self, Format};
 use crate::mesh::{self, ExtractOptions, Mesh};
 use crate::output::atomic;
-use crate::scene::{self, Scene};
+use crate::scene::Scene;
 
 #[derive(clap::Args, Debug)]
 pub struct ExtractArgs {
@@ -105,7 +105,7 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
     let env = std::env::var("ISOVIEW_DEVICE").ok();
     let (backend, vulkan_device) =
         resolve_device(cli.device.as_deref(), cli.device_from_command_line, env.as_deref());
-    let scene = scene::load(&args.scene, &args.sets).map_err(Failure::input)?;
+    let scene = super::load_scene(&args.scene, &args.sets)?;
 
     let started = Instant::now();
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;

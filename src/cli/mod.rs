@@ -9,6 +9,7 @@ pub mod probe;
 pub mod render;
 pub mod serve;
 pub mod slice;
+pub mod stats;
 
 use std::sync::Arc;
 
@@ -87,6 +88,9 @@ pub enum Command {
     /// Serve a live view of the scene as a web page on this machine (prints its URL first):
     /// sliders for every key, probe and slice panels, progressive rendering, tev push.
     Serve(serve::ServeArgs),
+    /// Print what the field holds: dims, sample type, spacing, box, range, mean, sigma,
+    /// percentiles and a histogram (to pick an isovalue).
+    Stats(stats::StatsArgs),
     /// Print the Vulkan device, driver and the limits isoview relies on.
     Info,
 }
@@ -116,6 +120,7 @@ pub fn main() -> i32 {
         Command::Probe(args) => probe::run(&cli, args),
         Command::Slice(args) => slice::run(&cli, args),
         Command::Serve(args) => serve::run(&cli, args),
+        Command::Stats(args) => stats::run(args),
         Command::Info => info(&cli),
     };
     match result {
@@ -125,6 +130,16 @@ pub fn main() -> i32 {
             f.code
         }
     }
+}
+
+/// Loads a scene for a verb; an isovalue picked from the data (`isovalue_sigma`,
+/// `isovalue_percentile`) is said on stderr, once.
+pub fn load_scene(path: &std::path::Path, sets: &[String]) -> Result<crate::scene::Scene, Failure> {
+    let scene = crate::scene::load(path, sets).map_err(Failure::input)?;
+    if let Some(how) = scene.surface.rule.describe(scene.surface.isovalue) {
+        eprintln!("isoview: {how}");
+    }
+    Ok(scene)
 }
 
 fn info(cli: &Cli) -> Result<i32, Failure> {

@@ -7,7 +7,7 @@ use std::time::Instant;
 use super::{Cli, Failure};
 use crate::output;
 use crate::render::{GpuGrid, Renderer};
-use crate::scene::{self, Scene};
+use crate::scene::Scene;
 
 #[derive(clap::Args, Debug)]
 pub struct RenderArgs {
@@ -84,7 +84,7 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
     if !args.time.is_finite() {
         return Err(Failure::input(format!("--time {}: must be a finite number", args.time)));
     }
-    let scene = scene::load(&args.scene, &args.sets).map_err(Failure::input)?;
+    let scene = super::load_scene(&args.scene, &args.sets)?;
     let frames = match &args.frames {
         Some(f) => {
             let (a, b) = parse_frames(f).map_err(Failure::input)?;
@@ -122,8 +122,12 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
             cached = Some((grid, uploaded));
         }
         let (grid, gpu_grid) = cached.as_ref().expect("sampled above");
-        let frame =
+        let mut frame =
             renderer.render_uploaded(&scene, grid, gpu_grid, *time).map_err(render_failure)?;
+        if let Some(how) = scene.surface.rule.describe(scene.surface.isovalue) {
+            // Beside isoview/isovalue (the resolved number): how it was picked.
+            frame.info.extra.push(("isovalue_rule".into(), how));
+        }
         write_outputs(&scene, &frame, exr, png.as_deref())?;
         if let Some(address) = &args.tev {
             let name = exr.display().to_string();

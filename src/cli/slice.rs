@@ -70,7 +70,7 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
     if !args.time.is_finite() {
         return Err(Failure::input(format!("--time {}: must be a finite number", args.time)));
     }
-    let scene = scene::load(&args.scene, &args.sets).map_err(Failure::input)?;
+    let scene = super::load_scene(&args.scene, &args.sets)?;
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let slice::Planned { plane, set, style } =
         slice::plan(&scene, &grid, args.axis, args.at, args.time).map_err(Failure::input)?;

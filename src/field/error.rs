@@ -31,6 +31,11 @@ pub enum FieldError {
     #[error("{}: {message}", path.display())]
     BadMesh { path: PathBuf, message: String },
 
+    /// A volume file (`source = "file"`) whose header or data is malformed or unsupported;
+    /// `format` names the format as the user knows it (`NRRD`, `MRC`).
+    #[error("{}: {format}: {message}", path.display())]
+    Format { path: PathBuf, format: &'static str, message: String },
+
     /// The file ends before all samples were read.
     #[error(
         "{}: truncated data: expected {expected} bytes of samples ({layout}), found {actual}",

@@ -2,9 +2,9 @@
 //!
 //! A [`Grid`] holds `f32` samples at the points of a regular lattice over an axis-aligned box.
 //! Inside each cell the field is the trilinear interpolant of the cell's 8 corner values; outside
-//! the box there is no field. Every source (`sdf`, `corners`, `npy`, `raw`, `expr`, `mesh`: one
-//! module each under `source/`, registered in `source/mod.rs`) produces a `Grid`; the renderer,
-//! the CPU references and the mesh extractors only ever see a `Grid`.
+//! the box there is no field. Every source (`sdf`, `corners`, `npy`, `raw`, `expr`, `mesh`,
+//! `file`: one module each under `source/`, registered in `source/mod.rs`) produces a `Grid`;
+//! the renderer, the CPU references and the mesh extractors only ever see a `Grid`.
 //!
 //! Conventions (the contract in `README.md`):
 //!
@@ -27,6 +27,8 @@
 //! - `raw`: `nx * ny * nz` samples, x fastest.
 //! - `expr`: evaluated at the world position of each point and the time `t`.
 //! - `mesh`: the signed distance to a triangle mesh file, negative inside ([`mesh_sdf`]).
+//! - `file`: a volume in a format users have ([`formats`]: NRRD, NIfTI-1, MRC, MetaImage, VTK,
+//!   TIFF), its box and orientation from the header.
 //! - Samples must be finite: the first NaN or infinity is reported with its `[i, j, k]`.
 //! - Memory: a grid whose `f32` samples would exceed [`GridLimits::max_bytes`] (default
 //!   1024 MiB, `ISOVIEW_MAX_GRID_MIB` overrides) is refused before anything is allocated or any
@@ -34,6 +36,7 @@
 
 mod error;
 mod expr;
+pub mod formats;
 mod grid;
 mod limits;
 pub mod mesh_sdf;
@@ -42,6 +45,7 @@ mod raw;
 mod samples;
 mod source;
 mod spec;
+pub mod stats;
 pub mod trilinear;
 
 pub use error::FieldError;

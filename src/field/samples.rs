@@ -121,7 +121,7 @@ pub(crate) fn f16_to_f32(h: u16) -> f32 {
 }
 
 /// Decodes `n` samples of `ty` from `bytes` (exactly `n * ty.size()` long) into `out`.
-fn decode(ty: SampleType, endian: Endian, bytes: &[u8], out: &mut Vec<f32>) {
+pub(crate) fn decode(ty: SampleType, endian: Endian, bytes: &[u8], out: &mut Vec<f32>) {
     macro_rules! each {
         ($n:literal, $conv:expr) => {
             out.extend(bytes.chunks_exact($n).map(|c| {

@@ -18,6 +18,7 @@ use super::shade::{render_with, RayHit};
 use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::scene::{Inside, Scene};
+use crate::vocab::Clip;
 
 /// Bisections of the bracket before the final secant step.
 pub const REFINE_BISECTIONS: u32 = 8;
@@ -53,9 +54,31 @@ pub fn march(
     dir: DVec3,
     steps: u32,
 ) -> March {
+    march_clipped(grid, isovalue, inside, origin, dir, steps, &Clip::NONE)
+}
+
+/// [`march`] over the part of the ray inside the box that `clip` keeps (GPU: `clip_box`, then
+/// `clip_interval`): the samples spread over that span.
+pub fn march_clipped(
+    grid: &Grid,
+    isovalue: f64,
+    inside: Inside,
+    origin: DVec3,
+    dir: DVec3,
+    steps: u32,
+    clip: &Clip,
+) -> March {
+    let none = March { hit: None, steps: 0, margin: f64::INFINITY };
     let Some((t0, t1)) = clip_box(grid, origin, dir) else {
-        return March { hit: None, steps: 0, margin: f64::INFINITY };
+        return none;
     };
+    let Some((c0, c1)) = clip.interval(origin, dir) else {
+        return none;
+    };
+    let (t0, t1) = (t0.max(c0), t1.min(c1));
+    if t0 > t1 {
+        return none;
+    }
     let sample = |t: f64| value_at(grid, to_grid(grid, origin + dir * t));
     let (mut ta, mut fa) = (t0, sample(t0));
     let ina = inside.contains(fa, isovalue);
@@ -97,8 +120,9 @@ pub fn march(
 /// The whole image, as the GPU's fixed-step pass produces it.
 pub fn render(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
     let (iso, inside, steps) = (scene.surface.isovalue, scene.surface.inside, scene.render.steps);
+    let clip = scene.clip.in_grid_frame(&scene.field.placement);
     render_with(scene, grid, |o, d| {
-        let m = march(grid, iso, inside, o, d, steps);
+        let m = march_clipped(grid, iso, inside, o, d, steps, &clip);
         (m.hit, m.steps, -1)
     })
 }

@@ -18,6 +18,7 @@ use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
+use crate::vocab::Clip;
 
 /// A hit of a ray on a triangle.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -163,10 +164,18 @@ fn vertex(mesh: &Mesh, v: u32) -> DVec3 {
 }
 
 /// Traces the ray through pixel (px, py) against every triangle of `mesh`; `boxes` are the
-/// triangles' [`screen_box`]es.
-pub fn trace(mesh: &Mesh, cam: &Camera, boxes: &[Option<[i64; 4]>], px: u32, py: u32) -> MeshTrace {
+/// triangles' [`screen_box`]es. Only hits in the interval that `clip` keeps count.
+pub fn trace(
+    mesh: &Mesh,
+    cam: &Camera,
+    clip: &Clip,
+    boxes: &[Option<[i64; 4]>],
+    px: u32,
+    py: u32,
+) -> MeshTrace {
     let (o, d) = cam.ray(px, py);
     let sh = RayShear::new(d);
+    let kept = clip.interval(o, d);
     let (x, y) = (px as i64, py as i64);
     let mut out = MeshTrace { hit: None, tested: 0, hits: 0, margin: f64::INFINITY };
     for (t, b) in boxes.iter().enumerate() {
@@ -178,7 +187,7 @@ pub fn trace(mesh: &Mesh, cam: &Camera, boxes: &[Option<[i64; 4]>], px: u32, py:
         let [a, b, c] = mesh.triangle(t).map(|v| vertex(mesh, v));
         out.margin = out.margin.min(edge_margin(o, &sh, a, b, c));
         if let Some(h) = intersect(o, &sh, a, b, c) {
-            if h.t > 0.0 {
+            if h.t > 0.0 && kept.is_some_and(|(c0, c1)| h.t >= c0 && h.t <= c1) {
                 out.hits += 1;
                 if out.hit.map_or(true, |(_, best)| h.t < best.t) {
                     out.hit = Some((t as u32, h));
@@ -213,6 +222,7 @@ pub fn interpolated_normal(mesh: &Mesh, tri: u32, w: DVec3, dir: DVec3) -> DVec3
 /// `cell` channel and `cells` shading. Returns the pixels and each pixel's trace.
 pub fn render(scene: &Scene, grid: &Grid, mesh: &Mesh) -> (Vec<Pixel>, Vec<MeshTrace>) {
     let cam = Camera::for_scene(scene);
+    let clip = scene.clip.in_grid_frame(&scene.field.placement);
     let shader = Shader::new(scene, grid);
     let boxes: Vec<_> = (0..mesh.triangle_count())
         .map(|t| {
@@ -225,7 +235,7 @@ pub fn render(scene: &Scene, grid: &Grid, mesh: &Mesh) -> (Vec<Pixel>, Vec<MeshT
     for py in 0..scene.image.height {
         for px in 0..scene.image.width {
             let (origin, dir) = cam.ray(px, py);
-            let tr = trace(mesh, &cam, &boxes, px, py);
+            let tr = trace(mesh, &cam, &clip, &boxes, px, py);
             let hit = tr.hit.map(|(tri, h)| {
                 let position = origin + dir * h.t;
                 let u = to_grid(grid, position);

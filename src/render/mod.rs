@@ -212,7 +212,8 @@ impl Renderer {
         let (width, height) =
             Progressive::picture_size(stride, scene.image.width, scene.image.height);
         let mut params = RenderParams::new(scene, grid);
-        params.dims[3] = stride as i32;
+        params.image[2] = stride;
+        params.image[3] = width;
         let params_buf = Buffer::upload(
             ctx,
             "params",
@@ -264,6 +265,15 @@ impl Renderer {
                 extra.push(("crossing".into(), r.crossing.to_string()));
             }
             Method::Mesh => extra.push(("mesh".into(), r.mesh.name().to_string())),
+        }
+        if scene.clip.count > 0 {
+            let planes: Vec<String> = scene
+                .clip
+                .planes()
+                .iter()
+                .map(|(n, o)| format!("[{}, {}, {}] {}", n.x, n.y, n.z, o))
+                .collect();
+            extra.push(("clip".into(), planes.join("; ")));
         }
         if scene.render.normals != Normals::Trilinear {
             extra.push(("normals".into(), scene.render.normals.name().into()));

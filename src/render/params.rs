@@ -7,6 +7,7 @@ use crate::camera::Camera;
 use crate::field::Grid;
 use crate::scene::{Inside, Method, Normals, Scene, Shading};
 use crate::shaders::consts;
+use crate::vocab::Clip;
 
 /// std140 mirror of `struct RenderParams` (vec4 members only, so std140 = C layout).
 /// Field meanings are documented on the GLSL side.
@@ -29,10 +30,13 @@ pub struct RenderParams {
     pub debug: [f32; 4],
     pub eye_grid: [f32; 4],
     pub analytic: [u32; 4],
+    pub view: [u32; 4],
+    pub clip: [[f32; 4]; Clip::MAX_PLANES],
 }
 
 const _: () = {
-    assert!(std::mem::size_of::<RenderParams>() == 16 * 16);
+    assert!(consts::CLIP_PLANES as usize == Clip::MAX_PLANES);
+    assert!(std::mem::size_of::<RenderParams>() == (17 + Clip::MAX_PLANES) * 16);
     assert!(std::mem::offset_of!(RenderParams, dims) == 9 * 16);
     assert!(std::mem::offset_of!(RenderParams, debug) == 13 * 16);
     assert!(std::mem::offset_of!(RenderParams, eye_grid) == 14 * 16);
@@ -64,7 +68,7 @@ pub fn shading_code(s: Shading) -> u32 {
     }
 }
 
-/// `RenderParams.image.w`: the shaders' `NORMALS_*` (one definition, in build.rs).
+/// `RenderParams.view.y`: the shaders' `NORMALS_*` (one definition, in build.rs).
 pub fn normals_code(n: Normals) -> u32 {
     match n {
         Normals::Trilinear => consts::NORMALS_TRILINEAR,
@@ -107,6 +111,7 @@ pub fn steps_scale(scene: &Scene, grid: &Grid) -> f64 {
 impl RenderParams {
     pub fn new(scene: &Scene, grid: &Grid) -> Self {
         let cam = Camera::for_scene(scene);
+        let clip = scene.clip.in_grid_frame(&scene.field.placement);
         let (near, far) = depth_range(cam.eye, grid);
         let inv = DVec3::ONE / grid.spacing();
         let r = &scene.render;
@@ -121,14 +126,9 @@ impl RenderParams {
             inv_spacing: v4(inv, 0.0),
             background: r.background,
             color: [r.color[0], r.color[1], r.color[2], 1.0],
-            // w: the pixel stride; `Renderer::render_progressive` draws every s-th pixel.
-            dims: [nx as i32, ny as i32, nz as i32, 1],
-            image: [
-                scene.image.width,
-                scene.image.height,
-                cam.orthographic as u32,
-                normals_code(r.normals),
-            ],
+            dims: [nx as i32, ny as i32, nz as i32, 0],
+            // The whole image (stride 1); `Renderer::render_progressive` draws every s-th pixel.
+            image: [scene.image.width, scene.image.height, 1, scene.image.width],
             method: [method_code(r.method), shading_code(r.shading), r.steps, r.newton_steps],
             surface: [
                 surface_threshold(scene.surface.isovalue, scene.surface.inside),
@@ -144,6 +144,11 @@ impl RenderParams {
                 crate::passes::bricks::BRICK as u32,
                 r.count_crossings as u32,
             ],
+            view: [cam.orthographic as u32, normals_code(r.normals), clip.count as u32, 0],
+            clip: std::array::from_fn(|i| {
+                let (n, offset) = clip.planes[i];
+                [n.x as f32, n.y as f32, n.z as f32, offset as f32]
+            }),
         }
     }
 }

@@ -167,6 +167,10 @@ impl Params for FieldParams<'_, '_> {
         self.t.check_keys_with(allowed, explain)
     }
 
+    fn has(&self, key: &str) -> bool {
+        self.t.get(key).is_some()
+    }
+
     fn value_error(&self, key: &str, message: String) -> SceneError {
         self.t.err(SceneErrorKind::Value, key, message)
     }
@@ -178,7 +182,7 @@ impl Params for FieldParams<'_, '_> {
 }
 
 /// `bounds = { min = [...], max = [...] }` with `min < max` on every axis.
-fn bounds(t: &View) -> Result<Bounds> {
+pub(super) fn bounds(t: &View) -> Result<Bounds> {
     t.check_keys(&["min", "max"])?;
     let min = t.required("min", "the grid box's corner [x, y, z]", vec3)?;
     let max = t.required("max", "the grid box's corner [x, y, z]", vec3)?;

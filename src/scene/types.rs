@@ -19,6 +19,8 @@ pub struct Scene {
     pub surface: SurfaceSettings,
     pub render: RenderSettings,
     pub slice: SliceSettings,
+    /// `[[clip]]` planes and boxes, world space.
+    pub clip: crate::vocab::Clip,
 }
 
 impl Scene {
@@ -33,6 +35,7 @@ impl Scene {
             surface: SurfaceSettings::default(),
             render: RenderSettings::default(),
             slice: SliceSettings::default(),
+            clip: crate::vocab::Clip::NONE,
         }
     }
 }
@@ -102,14 +105,47 @@ impl Default for CameraSettings {
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceSettings {
+    /// The isovalue every method uses: `isovalue`, or resolved from the samples at load time
+    /// by [`SurfaceSettings::rule`].
     pub isovalue: f64,
     pub inside: Inside,
+    /// How the isovalue was chosen.
+    pub rule: IsoRule,
 }
 
 impl Default for SurfaceSettings {
     /// Isovalue 0, values below it inside (signed distance convention).
     fn default() -> Self {
-        SurfaceSettings { isovalue: 0.0, inside: Inside::Below }
+        SurfaceSettings { isovalue: 0.0, inside: Inside::Below, rule: IsoRule::Value }
+    }
+}
+
+/// Where the isovalue comes from: `[surface] isovalue`, `isovalue_sigma` or
+/// `isovalue_percentile` (exactly one of them; `isovalue = 0` when none is given). The last two
+/// are resolved from the samples when the scene is loaded (`field::stats`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum IsoRule {
+    /// Written in the scene.
+    Value,
+    /// `isovalue_sigma = k`: mean + k σ of the samples (the cryo-EM convention); `mean` and
+    /// `sigma` are the samples'.
+    Sigma { k: f64, mean: f64, sigma: f64 },
+    /// `isovalue_percentile = p`: the p-th percentile of the samples (NumPy's linear rule).
+    Percentile { p: f64 },
+}
+
+impl IsoRule {
+    /// How the isovalue was resolved, for headers and messages; None when it was written.
+    pub fn describe(self, isovalue: f64) -> Option<String> {
+        match self {
+            IsoRule::Value => None,
+            IsoRule::Sigma { k, mean, sigma } => Some(format!(
+                "isovalue {isovalue} = mean {mean} + {k} sigma (sigma {sigma}), from isovalue_sigma = {k}"
+            )),
+            IsoRule::Percentile { p } => Some(format!(
+                "isovalue {isovalue} = percentile {p} of the samples, from isovalue_percentile = {p}"
+            )),
+        }
     }
 }
 

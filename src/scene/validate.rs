@@ -7,10 +7,13 @@ use super::error::SceneErrorKind;
 use super::read::{self, choice, integer, number_where, numbers, vec3, Result, View};
 use super::tree::{Node, Source, Value};
 use super::{
-    Ambiguity, CameraSettings, ImageSettings, Inside, MeshAlgorithm, Method, Normals, Projection,
-    RenderSettings, Scene, Shading, SliceSettings, SurfaceSettings,
+    Ambiguity, CameraSettings, ImageSettings, Inside, IsoRule, MeshAlgorithm, Method, Normals,
+    Projection, RenderSettings, Scene, Shading, SliceSettings, SurfaceSettings,
 };
+use crate::field::stats::{self, Stats};
 use crate::field::{FieldSpec, GridLimits, SourceKind};
+use crate::vocab::Clip;
+use glam::DVec3;
 
 /// Largest image side.
 pub const MAX_IMAGE_SIDE: i64 = 16384;
@@ -23,7 +26,7 @@ pub const MAX_CROSSING: i64 = 1 << 20;
 /// Deepest quadtree refinement of a slice below the grid's cells.
 pub const MAX_SLICE_DEPTH: i64 = 10;
 
-const TABLES: [&str; 6] = ["image", "camera", "field", "surface", "render", "slice"];
+const TABLES: [&str; 7] = ["image", "camera", "field", "surface", "render", "slice", "clip"];
 
 /// Validates the whole tree into a scene. `base_dir` resolves relative data paths.
 pub(crate) fn scene(
@@ -41,15 +44,68 @@ pub(crate) fn scene(
     let field = super::field::field(&root, base_dir, limits)?;
     let slice = slice(&root.table("slice")?, &field)?;
     let image = image(&root.table("image")?)?;
-    Ok(Scene {
-        path: None,
-        image,
-        camera: camera(&root.table("camera")?, &field, &image)?,
-        field,
-        surface: surface(&root.table("surface")?)?,
-        render: render(&root.table("render")?)?,
-        slice,
-    })
+    let camera = camera(&root.table("camera")?, &field, &image)?;
+    let surface_table = root.table("surface")?;
+    let surface = surface(&surface_table)?;
+    let render = render(&root.table("render")?)?;
+    let clip = clip(&root)?;
+    // Last: an isovalue picked from the data samples the whole field.
+    let surface = resolve_isovalue(&surface_table, surface, &field, limits)?;
+    Ok(Scene { path: None, image, camera, field, surface, render, slice, clip })
+}
+
+/// `[[clip]]`: an array of tables, each a plane (`normal`, `offset`: removes
+/// `dot(normal, p) > offset`) or a box (`box = { min, max }`: removes what lies outside it).
+fn clip(root: &View) -> Result<Clip> {
+    let mut out = Clip::NONE;
+    let Some(node) = root.get("clip") else { return Ok(out) };
+    let entries: Vec<&Node> = match &node.value {
+        Value::Array(items) => items.iter().collect(),
+        Value::Table(_) => vec![node],
+        _ => return Err(read::type_error(root.src, "clip", node, "an array of tables ([[clip]])")),
+    };
+    for (i, entry) in entries.into_iter().enumerate() {
+        let path = format!("clip[{i}]");
+        let Value::Table(t) = &entry.value else {
+            return Err(read::type_error(root.src, &path, entry, "a table ([[clip]])"));
+        };
+        let t = View { src: root.src, path, table: Some(t), at: entry.at };
+        t.check_keys(&["normal", "offset", "box"])?;
+        let full = |t: &View, key: &str| {
+            t.err(
+                SceneErrorKind::Value,
+                key,
+                format!("more than {} clip planes (a box takes 6)", Clip::MAX_PLANES),
+            )
+        };
+        if t.get("box").is_some() {
+            if let Some(k) = ["normal", "offset"].into_iter().find(|k| t.get(k).is_some()) {
+                return Err(t.err(
+                    SceneErrorKind::Value,
+                    k,
+                    "a clip entry is a plane or a box, not both",
+                ));
+            }
+            let b = super::field::bounds(&t.table("box")?)?;
+            for a in 0..3 {
+                let mut n = DVec3::ZERO;
+                n[a] = 1.0;
+                if !(out.push(n, b.max[a]) && out.push(-n, -b.min[a])) {
+                    return Err(full(&t, "box"));
+                }
+            }
+            continue;
+        }
+        let normal = t.required("normal", "[nx, ny, nz]", vec3)?;
+        if normal.length() == 0.0 {
+            return Err(t.err(SceneErrorKind::Value, "normal", "must not be the zero vector"));
+        }
+        let offset = t.or("offset", 0.0, read::number)?;
+        if !out.push(normal, offset) {
+            return Err(full(&t, "normal"));
+        }
+    }
+    Ok(out)
 }
 
 fn image(t: &View) -> Result<ImageSettings> {
@@ -145,14 +201,74 @@ fn fit(c: &mut CameraSettings, field: &FieldSpec, image: &ImageSettings) {
     c.ortho_height = 2.0 * radius * (1.0f64).max(1.0 / aspect);
 }
 
+/// The isovalue keys: at most one may be given.
+const ISO_KEYS: [&str; 3] = ["isovalue", "isovalue_sigma", "isovalue_percentile"];
+
 fn surface(t: &View) -> Result<SurfaceSettings> {
-    t.check_keys(&["isovalue", "inside"])?;
+    t.check_keys(&["isovalue", "isovalue_sigma", "isovalue_percentile", "inside"])?;
     let d = SurfaceSettings::default();
     let insides = Inside::ALL.map(|i| (i.name(), i));
-    Ok(SurfaceSettings {
-        isovalue: t.or("isovalue", d.isovalue, read::number)?,
-        inside: t.or("inside", d.inside, |s, k, n| choice(s, k, n, &insides))?,
-    })
+    let given: Vec<&str> = ISO_KEYS.into_iter().filter(|k| t.get(k).is_some()).collect();
+    if let [first, second, ..] = given.as_slice() {
+        return Err(t.err(
+            SceneErrorKind::Value,
+            second,
+            format!(
+                "give one of isovalue, isovalue_sigma and isovalue_percentile, not both {first} \
+                 and {second}"
+            ),
+        ));
+    }
+    let inside = t.or("inside", d.inside, |s, k, n| choice(s, k, n, &insides))?;
+    let isovalue = t.or("isovalue", d.isovalue, read::number)?;
+    let percent = |s: &Source, k: &str, n: &Node| {
+        number_where(s, k, n, |p| (0.0..=100.0).contains(&p), "must be in 0..=100")
+    };
+    let rule = match given.first().copied() {
+        Some("isovalue_sigma") => {
+            IsoRule::Sigma { k: t.or("isovalue_sigma", 0.0, read::number)?, mean: 0.0, sigma: 0.0 }
+        }
+        Some("isovalue_percentile") => {
+            IsoRule::Percentile { p: t.or("isovalue_percentile", 0.0, percent)? }
+        }
+        _ => IsoRule::Value,
+    };
+    Ok(SurfaceSettings { isovalue, inside, rule })
+}
+
+/// The isovalue of `isovalue_sigma` or `isovalue_percentile`, resolved once from the samples
+/// every verb will see (the field at time 0).
+fn resolve_isovalue(
+    t: &View,
+    surface: SurfaceSettings,
+    field: &FieldSpec,
+    limits: &GridLimits,
+) -> Result<SurfaceSettings> {
+    let key = match surface.rule {
+        IsoRule::Value => return Ok(surface),
+        IsoRule::Sigma { .. } => "isovalue_sigma",
+        IsoRule::Percentile { .. } => "isovalue_percentile",
+    };
+    if field.is_time_varying() {
+        return Err(t.err(
+            SceneErrorKind::Value,
+            key,
+            "needs a field that does not depend on the time t; give isovalue instead",
+        ));
+    }
+    let grid = field
+        .sample_with(0.0, limits)
+        .map_err(|e| t.err(SceneErrorKind::Data, key, format!("cannot sample the field: {e}")))?;
+    let (isovalue, rule) = match surface.rule {
+        IsoRule::Sigma { k, .. } => {
+            let (mean, sigma) = stats::moments(&grid.values);
+            (mean + k * sigma, IsoRule::Sigma { k, mean, sigma })
+        }
+        // Only percentiles need the sorted copy Stats keeps.
+        IsoRule::Percentile { p } => (Stats::of(&grid.values).percentile(p), surface.rule),
+        IsoRule::Value => (surface.isovalue, surface.rule),
+    };
+    Ok(SurfaceSettings { isovalue, rule, ..surface })
 }
 
 fn render(t: &View) -> Result<RenderSettings> {

@@ -144,4 +144,41 @@ proptest! {
         );
         check(&text, &dir, &[]);
     }
+
+    #[test]
+    fn mutated_volume_files_never_panic(
+        which in 0usize..64,
+        edits in prop::collection::vec((0usize..1200, any::<u8>(), any::<u8>()), 1..8),
+        truncate in prop::option::of(0usize..20000),
+    ) {
+        // Each format's real files, their headers edited (first 1200 bytes) and maybe cut short.
+        let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/formats");
+        let mut files: Vec<_> = std::fs::read_dir(&data).unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| isoview::field::formats::Format::from_path(p).is_some())
+            .filter(|p| p.metadata().unwrap().len() < 100_000)
+            .collect();
+        files.sort();
+        let src = &files[which % files.len()];
+        let name = src.file_name().unwrap().to_string_lossy().to_string();
+        let dir = crate::common::scratch("fuzz-formats");
+        let mut bytes = std::fs::read(src).unwrap();
+        for &(pos, byte, kind) in &edits {
+            let i = pos.min(bytes.len() - 1);
+            match kind % 3 {
+                0 => bytes[i] = byte,
+                1 => bytes.insert(i, byte),
+                _ => { bytes.remove(i); }
+            }
+        }
+        if let Some(n) = truncate {
+            bytes.truncate(n);
+        }
+        std::fs::write(dir.join(&name), &bytes).unwrap();
+        // A detached header's data file comes along unchanged.
+        for data_file in ["unu_detached.raw", "sitk_int16.raw"] {
+            std::fs::copy(data.join(data_file), dir.join(data_file)).unwrap();
+        }
+        check(&format!("[field]\nsource = \"file\"\npath = \"{name}\"\n"), &dir, &[]);
+    }
 }

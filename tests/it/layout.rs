@@ -324,7 +324,9 @@ fn every_shared_struct_matches_its_glsl_in_every_shader() {
                 surface,
                 debug,
                 eye_grid,
-                analytic
+                analytic,
+                view,
+                clip
             }),
             "RenderParams",
             &any,

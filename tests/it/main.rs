@@ -5,10 +5,12 @@
 
 mod analytic;
 mod cli;
+mod clip;
 mod common;
 mod compare;
 mod extract_cli;
 mod extract_gpu;
+mod formats;
 mod fuzz;
 mod golden;
 mod gpu_errors;
@@ -21,6 +23,7 @@ mod methods;
 mod modules;
 mod normals;
 mod output;
+mod physical;
 mod placement;
 mod projection;
 mod render;
@@ -28,3 +31,4 @@ mod scene;
 mod serve;
 mod slice;
 mod sources;
+mod stats;

@@ -259,7 +259,7 @@ fn tall_images_render_the_mesh_in_bands_identically() {
         .collect();
     for row in [0u32, 255, 256, 300, 511, 512, 599] {
         for col in (0..4096).step_by(97) {
-            let tr = reference::trace(&mesh, &cam, &boxes, col, row);
+            let tr = reference::trace(&mesh, &cam, &isoview::vocab::Clip::NONE, &boxes, col, row);
             let p = frame.pixel(col, row);
             if tr.margin > EDGE_MARGIN {
                 assert_eq!(p.is_hit(), tr.hit.is_some(), "({col},{row})");

@@ -113,7 +113,10 @@ color = [1, 0.5, 0]
     assert_eq!(s.field.resolution, [10, 11, 12]);
     assert_eq!(s.field.bounds.min, DVec3::new(-1.0, -2.0, -3.0));
     assert_eq!(s.field.bounds.max, DVec3::new(1.0, 2.0, 3.5));
-    assert_eq!(s.surface, SurfaceSettings { isovalue: 0.25, inside: Inside::Above });
+    assert_eq!(
+        s.surface,
+        SurfaceSettings { isovalue: 0.25, inside: Inside::Above, rule: IsoRule::Value }
+    );
     let r = s.render;
     assert_eq!((r.method, r.steps, r.newton_steps), (Method::Mesh, 64, 0));
     assert_eq!((r.mesh, r.shading), (MeshAlgorithm::SurfaceNets, Shading::Cells));
@@ -179,7 +182,7 @@ fn keys_of_other_sources_and_shapes_are_errors() {
     let e = error(&format!("{sdf}path = \"x.npy\"\n"), &[]);
     assert_eq!(
         e,
-        "t.toml:7:1: field.path: not a key of source \"sdf\" (it belongs to \"npy\", \"raw\", \"mesh\"; \"sdf\" \
+        "t.toml:7:1: field.path: not a key of source \"sdf\" (it belongs to \"npy\", \"raw\", \"mesh\", \"file\"; \"sdf\" \
          takes source, bounds, shape, center, resolution, radius, half_extents, major_radius, \
          minor_radius, scale, thickness)"
     );
@@ -315,10 +318,10 @@ fn field_table_source_and_shape_are_checked() {
     let e = error("[image]\nwidth = 8\n", &[]);
     assert_eq!(
         e,
-        "t.toml:1:1: field: missing table; add [field] with source = \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\" or \"mesh\""
+        "t.toml:1:1: field: missing table; add [field] with source = \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\", \"mesh\" or \"file\""
     );
     let e = error("[field]\nvalues = [1, 2, 3, 4, 5, 6, 7, 8]\n", &[]);
-    assert_eq!(e, "t.toml:1:1: field.source: missing (one of \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\", \"mesh\")");
+    assert_eq!(e, "t.toml:1:1: field.source: missing (one of \"sdf\", \"corners\", \"npy\", \"raw\", \"expr\", \"mesh\", \"file\")");
     let e = error("[field]\nsource = \"volume\"\n", &[]);
     assert!(
         e.starts_with("t.toml:2:10: field.source: unknown value \"volume\" (expected \"sdf\""),
@@ -520,7 +523,7 @@ fn override_errors_name_the_override() {
     assert_eq!(
         error(CELL, &["colour=1"]),
         "--set colour=1: colour: unknown table or key (a scene has the tables [image], [camera], \
-         [field], [surface], [render], [slice])"
+         [field], [surface], [render], [slice], [clip])"
     );
     assert_eq!(
         error(CELL, &["render.steps"]),
@@ -589,7 +592,7 @@ fn load_reads_files_and_reports_io_errors() {
     let unknown = dir.join("unknown.toml");
     std::fs::write(&unknown, format!("{CELL}[render]\nfoo = 1\n")).unwrap();
     let e = scene::load(&unknown, &[]).unwrap_err().to_string();
-    assert_eq!(e, format!("{}:5:1: render.foo: unknown key ([render] has method, steps, newton_steps, skip, crossing, count_crossings, mesh, shading, background, color)", unknown.display()));
+    assert_eq!(e, format!("{}:5:1: render.foo: unknown key ([render] has method, steps, newton_steps, skip, crossing, count_crossings, mesh, shading, normals, background, color)", unknown.display()));
 }
 
 #[test]

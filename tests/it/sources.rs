@@ -645,6 +645,7 @@ fn each_source_kind_says_what_it_supports() {
         ),
         ("expr", "source = \"expr\"\nexpression = \"x + 2*y - z*t\"\nresolution = [3, 4, 5]\n"),
         ("mesh", "source = \"mesh\"\npath = \"data/torus.ply\"\nresolution = 8\n"),
+        ("file", "source = \"file\"\npath = \"data/EMD-3197.map\"\n"),
     ];
     assert_eq!(
         SourceKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>(),

@@ -16,6 +16,7 @@
 //!   raw       path, dims, dtype, endian                            dims
 //!   expr      expression, resolution                               resolution          yes    yes
 //!   mesh      path, resolution (points on the longest axis)         the mesh's box + 5% yes
+//!   file      path, format, spacing (TIFF)                         the header's dims
 //!   (grid)    samples already in memory (scenes built in code)     the grid's dims
 //! ```
 //!
@@ -36,6 +37,7 @@
 
 mod corners;
 mod expr;
+mod file;
 mod grid;
 mod mesh;
 mod npy;
@@ -49,6 +51,7 @@ use glam::DVec3;
 
 pub use params::{Need, Params, Rule};
 
+use super::formats::FileSource;
 use super::{samples, ExprSource, FieldError, Grid, GridLimits, MeshSource, NpySource, RawSource};
 use crate::vocab::{Bounds, Placement, SdfShape};
 
@@ -81,6 +84,8 @@ source_kinds! {
     Expr,
     /// The signed distance to a triangle mesh (`mesh.rs`).
     Mesh,
+    /// A volume file: NRRD, NIfTI, MRC, MetaImage, VTK or TIFF (`file.rs`).
+    File,
 }
 
 /// What a source can do besides filling the grid.
@@ -114,6 +119,7 @@ impl SourceKind {
             SourceKind::Raw => &raw::INFO,
             SourceKind::Expr => &expr::INFO,
             SourceKind::Mesh => &mesh::INFO,
+            SourceKind::File => &file::INFO,
         }
     }
 
@@ -145,6 +151,7 @@ impl SourceKind {
             SourceKind::Raw => raw::parse(p),
             SourceKind::Expr => expr::parse(p),
             SourceKind::Mesh => mesh::parse(p),
+            SourceKind::File => file::parse(p),
         }
     }
 
@@ -193,6 +200,8 @@ pub enum FieldSource {
     Grid(Arc<Grid>),
     /// The signed distance to a triangle mesh read at load time (negative inside).
     Mesh(MeshSource),
+    /// A volume file read at load time.
+    File(FileSource),
 }
 
 /// A source as a function of world position (see [`Supports::point`]).
@@ -220,6 +229,7 @@ impl FieldSource {
             FieldSource::Expr(_) => Some(SourceKind::Expr),
             FieldSource::Grid(_) => None,
             FieldSource::Mesh(_) => Some(SourceKind::Mesh),
+            FieldSource::File(_) => Some(SourceKind::File),
         }
     }
 
@@ -234,7 +244,10 @@ impl FieldSource {
         match self {
             FieldSource::Sdf { shape, center } => Some(sdf::point(shape, *center)),
             FieldSource::Corners(v) => Some(corners::point(v, bounds)),
-            FieldSource::Npy(_) | FieldSource::Raw(_) | FieldSource::Grid(_) => None,
+            FieldSource::Npy(_)
+            | FieldSource::Raw(_)
+            | FieldSource::Grid(_)
+            | FieldSource::File(_) => None,
             FieldSource::Expr(e) => Some(expr::point(e, time)),
             FieldSource::Mesh(m) => Some(mesh::point(m)),
         }
@@ -249,7 +262,8 @@ impl FieldSource {
             | FieldSource::Npy(_)
             | FieldSource::Raw(_)
             | FieldSource::Grid(_)
-            | FieldSource::Mesh(_) => false,
+            | FieldSource::Mesh(_)
+            | FieldSource::File(_) => false,
         }
     }
 
@@ -260,6 +274,7 @@ impl FieldSource {
             FieldSource::Npy(n) => super::npy::path_str(&n.path),
             FieldSource::Raw(r) => super::npy::path_str(&r.path),
             FieldSource::Mesh(m) => super::npy::path_str(&m.path),
+            FieldSource::File(f) => super::npy::path_str(&f.path),
             FieldSource::Sdf { .. }
             | FieldSource::Corners(_)
             | FieldSource::Expr(_)
@@ -284,6 +299,21 @@ impl FieldSource {
             FieldSource::Expr(e) => expr::sample(e, grid, time),
             FieldSource::Grid(g) => finite(grid, g.values.clone(), self),
             FieldSource::Mesh(m) => finite(grid, mesh::sample(m, grid), self),
+            FieldSource::File(f) => finite(grid, file::sample(f, grid)?, self),
+        }
+    }
+
+    /// The type of the samples as the source stores them (`int16`, `<f4`), for `stats`.
+    pub fn dtype(&self) -> String {
+        match self {
+            FieldSource::Npy(n) => n.descr.clone(),
+            FieldSource::Raw(r) => r.dtype.name().to_string(),
+            FieldSource::File(f) => f.volume.dtype.clone(),
+            FieldSource::Sdf { .. }
+            | FieldSource::Corners(_)
+            | FieldSource::Expr(_)
+            | FieldSource::Grid(_)
+            | FieldSource::Mesh(_) => "f32 (computed)".to_string(),
         }
     }
 
@@ -297,6 +327,7 @@ impl FieldSource {
             FieldSource::Expr(e) => expr::describe(e),
             FieldSource::Grid(_) => grid::describe(),
             FieldSource::Mesh(m) => mesh::describe(m),
+            FieldSource::File(f) => file::describe(f),
         }
     }
 }

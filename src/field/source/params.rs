@@ -70,6 +70,8 @@ pub trait Params {
         allowed: &[&str],
         explain: &dyn Fn(&str) -> Option<String>,
     ) -> Result<(), Self::Error>;
+    /// Whether `key` is written (for keys another part of the table reads, such as `bounds`).
+    fn has(&self, key: &str) -> bool;
     /// A bad value of `key`, at the value (or at the table when absent).
     fn value_error(&self, key: &str, message: String) -> Self::Error;
     /// A data error (file, expression, memory cap) about `key`, at its value.

@@ -166,22 +166,25 @@ use crate::frame::Pixel;
 use crate::reference::shade::{render_with, RayHit};
 use crate::reference::trilinear::{cell_corners, gradient, lerp3, trilerp};
 use crate::scene::{Inside, Scene};
+use crate::vocab::Clip;
 
 use cubic::{inside_g, refine, Cubic};
 
 /// Knobs of the analytic tracer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AnalyticOptions {
     /// Newton-Raphson iterations per refined root (`render.newton_steps`); each is replaced by a
     /// bisection when it would leave the bracket. 0 returns the secant estimate.
     pub newton_steps: u32,
     /// Which crossing to report, counting from 1 (the first hit). 0 is read as 1.
     pub crossing: u32,
+    /// Clip planes, in the frame of the ray (`render`'s: the grid's).
+    pub clip: Clip,
 }
 
 impl Default for AnalyticOptions {
     fn default() -> Self {
-        AnalyticOptions { newton_steps: 10, crossing: 1 }
+        AnalyticOptions { newton_steps: 10, crossing: 1, clip: Clip::NONE }
     }
 }
 
@@ -304,7 +307,11 @@ pub fn trace_detailed(
 
 /// The options a scene asks for (`render.newton_steps`, `render.crossing`).
 pub fn options(scene: &Scene) -> AnalyticOptions {
-    AnalyticOptions { newton_steps: scene.render.newton_steps, crossing: scene.render.crossing }
+    AnalyticOptions {
+        newton_steps: scene.render.newton_steps,
+        crossing: scene.render.crossing,
+        clip: scene.clip.in_grid_frame(&scene.field.placement),
+    }
 }
 
 /// The whole image, as the GPU's analytic pass produces it: `steps` is
@@ -388,6 +395,15 @@ fn walk(
             t_exit = far;
         }
     }
+    // 2b. Clip planes: a later entry enters through a plane, not a box face.
+    let Some((c_lo, c_hi)) = opts.clip.interval(origin, dir) else {
+        return result;
+    };
+    if c_lo > t_enter {
+        t_enter = c_lo;
+        enter_axis = None;
+    }
+    t_exit = t_exit.min(c_hi);
     if !(t_enter <= t_exit && t_exit > 0.0 && t_exit < f64::INFINITY) {
         return result;
     }

@@ -75,7 +75,7 @@ fn diagonal(grid: &Grid) -> f64 {
 }
 
 fn opts(newton_steps: u32) -> AnalyticOptions {
-    AnalyticOptions { newton_steps, crossing: 1 }
+    AnalyticOptions { newton_steps, crossing: 1, ..Default::default() }
 }
 
 /// Brute force: the span by its own slab test, the predicate sampled at `samples` evenly spaced
@@ -294,7 +294,7 @@ fn kth_crossing_matches_the_list() {
                 }
                 let mut entering = None;
                 for k in 1..=ts.len() as u32 + 1 {
-                    let o = AnalyticOptions { newton_steps: 64, crossing: k };
+                    let o = AnalyticOptions { newton_steps: 64, crossing: k, ..Default::default() };
                     let res = trace(&grid, iso, inside, origin, dir, &o);
                     assert_eq!(res.crossings, all.crossings, "grid {g}");
                     assert_eq!(res.cells_total, all.cells_total, "grid {g}");
@@ -542,7 +542,7 @@ fn saddle_face_two_sheets_and_touch() {
         Inside::Above,
         origin,
         dir,
-        &AnalyticOptions { newton_steps: 10, crossing: 2 },
+        &AnalyticOptions { newton_steps: 10, crossing: 2, ..Default::default() },
     );
     assert_eq!(second.hit.map(|h| (h.t, h.entering)), Some((1.5, true)));
 }
@@ -799,7 +799,7 @@ fn corner_equal_to_the_isovalue() {
         Inside::Below,
         origin,
         dir,
-        &AnalyticOptions { newton_steps: 10, crossing: 2 },
+        &AnalyticOptions { newton_steps: 10, crossing: 2, ..Default::default() },
     );
     let h2 = second.hit.unwrap();
     assert_eq!((h2.t, h2.entering, h2.cell), (2.0, true, [1, 1, 1]));
@@ -988,7 +988,7 @@ fn misses_and_degenerate_rays() {
     // crossing = 0 reads as 1.
     let origin = grid.min - DVec3::ONE;
     let dir = (grid.max - origin).normalize();
-    let zero = AnalyticOptions { newton_steps: 10, crossing: 0 };
+    let zero = AnalyticOptions { newton_steps: 10, crossing: 0, ..Default::default() };
     assert_eq!(
         trace(&grid, 0.0, Inside::Below, origin, dir, &zero),
         trace(&grid, 0.0, Inside::Below, origin, dir, &o)

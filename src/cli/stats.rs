@@ -1,0 +1,92 @@
+//! `isoview stats SCENE.toml`: what the field holds, to pick an isovalue. Dims, the source's
+//! sample type, spacing, the world box, value range, mean, σ, percentiles and a text
+//! histogram of the samples (at `--time`), and the scene's isovalue with how it was chosen.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use super::{load_scene, Failure};
+use crate::field::stats::Stats;
+
+#[derive(Args, Debug)]
+pub struct StatsArgs {
+    /// Scene file (TOML).
+    pub scene: PathBuf,
+    /// Override a scene key (as for `render`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<String>,
+    /// Time t for fields that depend on it.
+    #[arg(long, default_value_t = 0.0)]
+    pub time: f64,
+    /// Histogram bins.
+    #[arg(long, default_value_t = 24)]
+    pub bins: usize,
+}
+
+/// The percentiles printed.
+pub const PERCENTILES: [f64; 7] = [1.0, 5.0, 25.0, 50.0, 75.0, 95.0, 99.0];
+
+pub fn run(args: &StatsArgs) -> Result<i32, Failure> {
+    if !args.time.is_finite() {
+        return Err(Failure::input(format!("--time {}: must be a finite number", args.time)));
+    }
+    if !(1..=200).contains(&args.bins) {
+        return Err(Failure::input(format!("--bins {}: must be in 1..=200", args.bins)));
+    }
+    let scene = load_scene(&args.scene, &args.sets)?;
+    let grid = scene.field.sample(args.time).map_err(Failure::input)?;
+    let s = Stats::of(&grid.values);
+    let f = &scene.field;
+    let [nx, ny, nz] = grid.dims;
+    let spacing = grid.spacing();
+    println!("field       {}", f.describe());
+    println!("dims        {nx} x {ny} x {nz} ({} points)", s.count);
+    println!("dtype       {}", f.source.dtype());
+    println!("spacing     {} {} {}", spacing.x, spacing.y, spacing.z);
+    let (lo, hi) = (grid.min, grid.max);
+    if f.placement.is_identity() {
+        println!("box         [{}, {}, {}] .. [{}, {}, {}]", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z);
+    } else {
+        let a = f.placement.axes;
+        println!(
+            "box         [{}, {}, {}] .. [{}, {}, {}] in the grid's frame, axes x {:.6} y {:.6} z \
+             {:.6} about [{}, {}, {}]",
+            lo.x,
+            lo.y,
+            lo.z,
+            hi.x,
+            hi.y,
+            hi.z,
+            a.x_axis,
+            a.y_axis,
+            a.z_axis,
+            f.placement.pivot.x,
+            f.placement.pivot.y,
+            f.placement.pivot.z
+        );
+    }
+    println!("range       {} .. {}", s.min, s.max);
+    println!("mean        {}", s.mean);
+    println!("sigma       {}", s.sigma);
+    let p: Vec<String> = PERCENTILES.iter().map(|&p| format!("p{p}={}", s.percentile(p))).collect();
+    println!("percentiles {}", p.join(" "));
+    let iso = scene.surface.isovalue;
+    match scene.surface.rule.describe(iso) {
+        Some(how) => println!("isovalue    {how}"),
+        None => {
+            println!("isovalue    {iso} (sigma {:+.3} from the mean)", (iso - s.mean) / s.sigma)
+        }
+    }
+    println!("histogram   ({} bins over the range)", args.bins);
+    let counts = s.histogram(args.bins);
+    let most = counts.iter().copied().max().unwrap_or(1).max(1);
+    let width = (s.max - s.min) / args.bins as f64;
+    for (b, &c) in counts.iter().enumerate() {
+        let from = s.min + width * b as f64;
+        let bar = "#".repeat((c * 50).div_ceil(most).min(50));
+        let mark = if (from..from + width).contains(&iso) { " <- isovalue" } else { "" };
+        println!("  {from:>14.6e} {c:>10} {bar}{mark}");
+    }
+    Ok(0)
+}

@@ -1,0 +1,244 @@
+//! Readers for the volume formats users have: NRRD, NIfTI-1, MRC/CCP4, MetaImage, VTK image
+//! data (XML `.vti` and legacy `.vtk`) and TIFF stacks. Each reader returns a [`Volume`]: the
+//! samples as `f32`, x fastest, and the grid's geometry from the header, decomposed into an
+//! origin, a spacing per axis and unit axis directions:
+//!
+//! ```text
+//!   world(i, j, k) = origin + i * spacing.x * dir[0] + j * spacing.y * dir[1] + k * spacing.z * dir[2]
+//! ```
+//!
+//! Coordinates stay in the file's own space and units (NIfTI RAS+ mm, NRRD and MetaImage their
+//! stated space, MRC in Å): nothing is converted between LPS and RAS.
+//!
+//! Every reader checks the declared grid against the memory cap before allocating, and the
+//! data's length against the header before decoding; a malformed or truncated file is one
+//! [`FieldError::Format`] line naming the file, never a panic.
+
+mod base64;
+mod metaimage;
+mod mrc;
+mod nifti;
+mod nrrd;
+mod payload;
+mod text;
+mod tiff;
+mod vti;
+mod vtk_legacy;
+
+use std::path::Path;
+
+use glam::DVec3;
+
+use super::{FieldError, GridLimits};
+
+/// The formats `source = "file"` reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Nrrd,
+    Nifti,
+    Mrc,
+    MetaImage,
+    Vti,
+    Vtk,
+    Tiff,
+}
+
+impl Format {
+    pub const ALL: [Format; 7] = [
+        Format::Nrrd,
+        Format::Nifti,
+        Format::Mrc,
+        Format::MetaImage,
+        Format::Vti,
+        Format::Vtk,
+        Format::Tiff,
+    ];
+
+    /// The name of `format = "..."` in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Nrrd => "nrrd",
+            Format::Nifti => "nifti",
+            Format::Mrc => "mrc",
+            Format::MetaImage => "metaimage",
+            Format::Vti => "vti",
+            Format::Vtk => "vtk",
+            Format::Tiff => "tiff",
+        }
+    }
+
+    /// How messages name the format.
+    pub fn title(self) -> &'static str {
+        match self {
+            Format::Nrrd => "NRRD",
+            Format::Nifti => "NIfTI-1",
+            Format::Mrc => "MRC",
+            Format::MetaImage => "MetaImage",
+            Format::Vti => "VTK XML image data",
+            Format::Vtk => "legacy VTK",
+            Format::Tiff => "TIFF",
+        }
+    }
+
+    /// The extensions that select the format (lower case, without the dot).
+    pub fn extensions(self) -> &'static [&'static str] {
+        match self {
+            Format::Nrrd => &["nrrd", "nhdr"],
+            Format::Nifti => &["nii", "nii.gz"],
+            Format::Mrc => &["mrc", "map", "ccp4"],
+            Format::MetaImage => &["mha", "mhd"],
+            Format::Vti => &["vti"],
+            Format::Vtk => &["vtk"],
+            Format::Tiff => &["tif", "tiff"],
+        }
+    }
+
+    /// The format a file name's extension selects (case-insensitive).
+    pub fn from_path(path: &Path) -> Option<Format> {
+        let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
+        Format::ALL.into_iter().find(|f| {
+            f.extensions().iter().any(|ext| {
+                name.len() > ext.len() + 1
+                    && name.ends_with(ext)
+                    && name.as_bytes()[name.len() - ext.len() - 1] == b'.'
+            })
+        })
+    }
+
+    /// Every extension, as `.nrrd .nhdr ...`, for messages.
+    pub fn all_extensions() -> String {
+        Format::ALL
+            .iter()
+            .flat_map(|f| f.extensions())
+            .map(|e| format!(".{e}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+}
+
+/// What a reader needs besides the file.
+#[derive(Clone, Copy, Debug)]
+pub struct ReadOptions {
+    pub limits: GridLimits,
+    /// Voxel size for formats whose header has none (TIFF stacks); `None`: 1 per axis.
+    pub spacing: Option<DVec3>,
+}
+
+/// A volume read from a file: samples and geometry.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Volume {
+    /// Grid points along x, y, z (each at least 2).
+    pub dims: [usize; 3],
+    /// `dims[0] * dims[1] * dims[2]` finite samples, x fastest.
+    pub values: Vec<f32>,
+    /// World position of grid point (0, 0, 0).
+    pub origin: DVec3,
+    /// Distance between neighbouring points along each grid axis (positive).
+    pub spacing: DVec3,
+    /// Unit world directions of the grid's x, y and z axes.
+    pub axes: [DVec3; 3],
+    /// The file's sample type, in the format's own words (`int16`, `MET_FLOAT`, `mode 2 (float32)`).
+    pub dtype: String,
+}
+
+impl Volume {
+    /// Splits a world-from-index matrix (columns: the index axes' steps) into spacing (column
+    /// lengths) and unit directions; fails on a zero or non-finite column.
+    pub(crate) fn set_axes(
+        &mut self,
+        columns: [DVec3; 3],
+        err: &Located,
+    ) -> Result<(), FieldError> {
+        for (k, c) in columns.iter().enumerate() {
+            // An axis-aligned column keeps its spacing exact (no square root of a square).
+            let aligned = c.to_array().iter().filter(|v| **v != 0.0).count() == 1;
+            let len = if aligned { c.abs().max_element() } else { c.length() };
+            if !(len.is_finite() && len > 0.0) {
+                return Err(err.bad(format!(
+                    "axis {} has no direction or spacing ({}, {}, {})",
+                    "xyz".as_bytes()[k] as char,
+                    c.x,
+                    c.y,
+                    c.z
+                )));
+            }
+            self.spacing[k] = len;
+            self.axes[k] = *c / len;
+        }
+        Ok(())
+    }
+}
+
+/// Reads `path` as `format`.
+pub fn read(path: &Path, format: Format, opts: &ReadOptions) -> Result<Volume, FieldError> {
+    let err = Located { path, format };
+    let v = match format {
+        Format::Nrrd => nrrd::read(&err, opts)?,
+        Format::Nifti => nifti::read(&err, opts)?,
+        Format::Mrc => mrc::read(&err, opts)?,
+        Format::MetaImage => metaimage::read(&err, opts)?,
+        Format::Vti => vti::read(&err, opts)?,
+        Format::Vtk => vtk_legacy::read(&err, opts)?,
+        Format::Tiff => tiff::read(&err, opts)?,
+    };
+    check(&err, &v)?;
+    Ok(v)
+}
+
+/// The invariants every reader promises, checked once here.
+fn check(err: &Located, v: &Volume) -> Result<(), FieldError> {
+    debug_assert_eq!(v.values.len(), v.dims.iter().product::<usize>());
+    if v.dims.iter().any(|&d| d < 2) {
+        return Err(err.bad(format!(
+            "every axis needs at least 2 points, got {}x{}x{}",
+            v.dims[0], v.dims[1], v.dims[2]
+        )));
+    }
+    if !(v.origin.is_finite() && v.spacing.is_finite() && v.spacing.min_element() > 0.0) {
+        return Err(err.bad(format!(
+            "the header's geometry is not usable (origin {}, spacing {})",
+            v.origin, v.spacing
+        )));
+    }
+    Ok(())
+}
+
+/// A file being read as a format: builds its errors.
+pub(crate) struct Located<'a> {
+    pub path: &'a Path,
+    pub format: Format,
+}
+
+impl Located<'_> {
+    /// `PATH: not a valid FORMAT file (WHY)`.
+    pub fn bad(&self, why: impl Into<String>) -> FieldError {
+        FieldError::Format {
+            path: self.path.to_path_buf(),
+            format: self.format.title(),
+            message: super::error::one_line(&why.into()),
+        }
+    }
+
+    /// The memory cap for a grid of `dims`, named by this file.
+    pub fn limits_check(&self, limits: &GridLimits, dims: [u64; 3]) -> Result<(), FieldError> {
+        limits.check(dims, &self.path.display().to_string()).map(|_| ())
+    }
+
+    pub fn io(&self, e: &std::io::Error) -> FieldError {
+        FieldError::io(self.path, e)
+    }
+
+    /// The same error about another file (a detached header's data file).
+    pub fn at<'b>(&self, path: &'b Path) -> Located<'b> {
+        Located { path, format: self.format }
+    }
+}
+
+/// A volume file read at load time (`source = "file"`).
+#[derive(Clone, Debug)]
+pub struct FileSource {
+    /// The file, as resolved against the scene file's folder.
+    pub path: std::path::PathBuf,
+    pub format: Format,
+    pub volume: std::sync::Arc<Volume>,
+}

@@ -1,0 +1,201 @@
+//! The data part of a volume file, shared by the readers: raw bytes at an offset, a gzip or
+//! zlib stream, or ASCII numbers; decoded into `f32`, x fastest (every format here stores the
+//! first axis fastest). Lengths are checked before decoding, and a compressed stream is never
+//! inflated past the bytes the header promises, so a hostile header cannot make a reader
+//! allocate more than the memory cap.
+
+use std::fs::File;
+use std::io::{BufReader, Read, Seek, SeekFrom};
+use std::path::Path;
+
+use flate2::read::{MultiGzDecoder, ZlibDecoder};
+
+use super::Located;
+use crate::field::samples::{self, Endian, SampleType, StorageOrder};
+use crate::field::{FieldError, GridLimits};
+
+/// How the samples are stored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Encoding {
+    Raw,
+    Gzip,
+    Zlib,
+    Ascii,
+}
+
+/// Where the data starts in its file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Start {
+    /// This many bytes from the beginning (of the decompressed stream when compressed).
+    At(u64),
+    /// The data is the file's last bytes (NRRD `byte skip: -1`, MetaImage `HeaderSize = -1`).
+    FromEnd,
+}
+
+/// Checks `dims` (as declared: maybe huge or zero) against the memory cap; returns them.
+pub fn grid(err: &Located, dims: [u64; 3], limits: &GridLimits) -> Result<[usize; 3], FieldError> {
+    if dims.iter().any(|&d| d < 2) {
+        return Err(err.bad(format!(
+            "every axis needs at least 2 points, got {}x{}x{}",
+            dims[0], dims[1], dims[2]
+        )));
+    }
+    limits.check(dims, &err.path.display().to_string())?;
+    Ok(dims.map(|d| d as usize))
+}
+
+/// Samples of `ty` in `path` (a whole file), decoded. `dims` has passed [`grid`].
+pub fn from_file(
+    err: &Located,
+    path: &Path,
+    encoding: Encoding,
+    start: Start,
+    ty: SampleType,
+    endian: Endian,
+    dims: [usize; 3],
+) -> Result<Vec<f32>, FieldError> {
+    let at = err.at(path);
+    let mut file = File::open(path).map_err(|e| match path == err.path {
+        true => at.io(&e),
+        // A detached header's data file: name the header too.
+        false => err.bad(format!("data file {}", FieldError::io(path, &e))),
+    })?;
+    let len = file.metadata().map_err(|e| at.io(&e))?.len();
+    let bytes = byte_count(dims, ty);
+    match encoding {
+        Encoding::Raw => {
+            let offset = match start {
+                Start::At(n) => n,
+                Start::FromEnd => len.saturating_sub(bytes),
+            };
+            if len.saturating_sub(offset) < bytes {
+                return Err(FieldError::Truncated {
+                    path: path.to_path_buf(),
+                    expected: bytes,
+                    actual: len.saturating_sub(offset),
+                    layout: samples::layout(dims, ty),
+                });
+            }
+            file.seek(SeekFrom::Start(offset)).map_err(|e| at.io(&e))?;
+            let mut r = BufReader::new(file);
+            samples::read_samples(&mut r, path, ty, endian, dims, StorageOrder::XFastest)
+        }
+        Encoding::Ascii => {
+            let Start::At(skip) = start else {
+                return Err(at.bad("byte skip -1 is only allowed for raw data"));
+            };
+            file.seek(SeekFrom::Start(skip)).map_err(|e| at.io(&e))?;
+            let mut text = String::new();
+            // ASCII needs at least 2 bytes a sample: more than 64 a sample is not a volume.
+            let most = byte_count(dims, SampleType::U8).saturating_mul(64).saturating_add(4096);
+            BufReader::new(file)
+                .take(most)
+                .read_to_string(&mut text)
+                .map_err(|_| at.bad("the ASCII data is not text"))?;
+            ascii(&at, &text, dims)
+        }
+        Encoding::Gzip | Encoding::Zlib => {
+            let Start::At(skip) = start else {
+                return Err(at.bad("byte skip -1 is only allowed for raw data"));
+            };
+            compressed(&at, BufReader::new(file), encoding, skip, ty, endian, dims)
+        }
+    }
+}
+
+/// Inflates a gzip or zlib stream, skips `skip` bytes of it, and decodes the samples. Fails if
+/// the stream holds fewer or more bytes than promised.
+pub fn compressed(
+    err: &Located,
+    reader: impl Read,
+    encoding: Encoding,
+    skip: u64,
+    ty: SampleType,
+    endian: Endian,
+    dims: [usize; 3],
+) -> Result<Vec<f32>, FieldError> {
+    let inflate: Box<dyn Read> = match encoding {
+        Encoding::Zlib => Box::new(ZlibDecoder::new(reader)),
+        _ => Box::new(MultiGzDecoder::new(reader)),
+    };
+    inflated(err, inflate, skip, ty, endian, dims)
+}
+
+/// Skips `skip` bytes of an inflating `reader` and decodes the samples after them, reading at
+/// most one byte more than promised (to tell a stream that is too long).
+pub fn inflated(
+    err: &Located,
+    reader: impl Read,
+    skip: u64,
+    ty: SampleType,
+    endian: Endian,
+    dims: [usize; 3],
+) -> Result<Vec<f32>, FieldError> {
+    let bytes = byte_count(dims, ty);
+    let corrupt = |e: std::io::Error| {
+        let why = crate::field::error::one_line(&e.to_string());
+        err.bad(format!("the compressed data is corrupt ({why})"))
+    };
+    let mut reader = reader;
+    let skipped =
+        std::io::copy(&mut (&mut reader).take(skip), &mut std::io::sink()).map_err(corrupt)?;
+    if skipped < skip {
+        return Err(err.bad(format!("the data ends within the {skip} bytes before the samples")));
+    }
+    let mut data = Vec::with_capacity(bytes as usize);
+    reader.take(bytes + 1).read_to_end(&mut data).map_err(corrupt)?;
+    exact(err, data, ty, endian, dims)
+}
+
+/// Decodes exactly `dims` samples from `data`, or says how many bytes were missing or extra.
+pub fn exact(
+    err: &Located,
+    data: Vec<u8>,
+    ty: SampleType,
+    endian: Endian,
+    dims: [usize; 3],
+) -> Result<Vec<f32>, FieldError> {
+    let bytes = byte_count(dims, ty);
+    let actual = data.len() as u64;
+    if actual != bytes {
+        let (path, layout) = (err.path.to_path_buf(), samples::layout(dims, ty));
+        return Err(if actual < bytes {
+            FieldError::Truncated { path, expected: bytes, actual, layout }
+        } else {
+            FieldError::SizeMismatch { path, expected: bytes, actual, layout }
+        });
+    }
+    let mut out = Vec::with_capacity(dims.iter().product());
+    samples::decode(ty, endian, &data, &mut out);
+    Ok(out)
+}
+
+/// Whitespace-separated numbers, exactly one per grid point (anything after them is refused).
+pub fn ascii(err: &Located, text: &str, dims: [usize; 3]) -> Result<Vec<f32>, FieldError> {
+    let count: usize = dims.iter().product();
+    let mut out = Vec::with_capacity(count);
+    for word in text.split(|c: char| c.is_ascii_whitespace() || c == ',').filter(|w| !w.is_empty())
+    {
+        if out.len() == count {
+            return Err(err.bad(format!(
+                "the ASCII data holds more than the {count} values the header declares"
+            )));
+        }
+        let v: f64 = word
+            .parse()
+            .map_err(|_| err.bad(format!("ASCII value {} is not a number: {word:?}", out.len())))?;
+        out.push(v as f32);
+    }
+    if out.len() < count {
+        return Err(err.bad(format!(
+            "truncated data: the ASCII data holds {} of the {count} values the header declares",
+            out.len()
+        )));
+    }
+    Ok(out)
+}
+
+/// Bytes of `dims` samples of `ty` (dims have passed the cap, so this cannot overflow).
+pub fn byte_count(dims: [usize; 3], ty: SampleType) -> u64 {
+    dims.iter().fold(ty.size() as u64, |n, &d| n.saturating_mul(d as u64))
+}

@@ -1,0 +1,72 @@
+//! TIFF stacks (`.tif`, `.tiff`; the `tiff` crate): each page (IFD) is one z slice, its
+//! columns x and its rows y (row 0 first). Grayscale pages of 8, 16, 32 or 64-bit integers or
+//! floats, all the same size and type. TIFF has no voxel size isoview trusts (ImageJ's
+//! descriptions vary), so `spacing` comes from the scene (default 1).
+
+use std::io::BufReader;
+
+use glam::DVec3;
+use tiff::decoder::{Decoder, DecodingResult, Limits};
+use tiff::ColorType;
+
+use super::{Located, ReadOptions, Volume};
+use crate::field::FieldError;
+
+pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
+    let file = std::fs::File::open(err.path).map_err(|e| err.io(&e))?;
+    let tiff_err = |e: tiff::TiffError| err.bad(crate::field::error::one_line(&e.to_string()));
+    let mut limits = Limits::default();
+    limits.decoding_buffer_size = opts.limits.max_bytes as usize;
+    limits.intermediate_buffer_size = opts.limits.max_bytes as usize;
+    let mut dec = Decoder::new(BufReader::new(file)).map_err(tiff_err)?.with_limits(limits);
+    let (w, h) = dec.dimensions().map_err(tiff_err)?;
+    let color = dec.colortype().map_err(tiff_err)?;
+    if !matches!(color, ColorType::Gray(_)) {
+        return Err(err.bad(format!("page 0 is {color:?}; isoview reads grayscale stacks")));
+    }
+    let mut values = Vec::new();
+    let mut pages = 0u64;
+    loop {
+        // The cap counts the pages so far plus this one, before it is decoded.
+        err.limits_check(&opts.limits, [w as u64, h as u64, pages + 1])?;
+        if dec.dimensions().map_err(tiff_err)? != (w, h)
+            || dec.colortype().map_err(tiff_err)? != color
+        {
+            return Err(err.bad(format!("page {pages} differs in size or type from page 0")));
+        }
+        match dec.read_image().map_err(tiff_err)? {
+            DecodingResult::U8(v) => values.extend(v.iter().map(|&x| x as f32)),
+            DecodingResult::U16(v) => values.extend(v.iter().map(|&x| x as f32)),
+            DecodingResult::U32(v) => values.extend(v.iter().map(|&x| x as f32)),
+            DecodingResult::U64(v) => values.extend(v.iter().map(|&x| x as f32)),
+            DecodingResult::I8(v) => values.extend(v.iter().map(|&x| x as f32)),
+            DecodingResult::I16(v) => values.extend(v.iter().map(|&x| x as f32)),
+            DecodingResult::I32(v) => values.extend(v.iter().map(|&x| x as f32)),
+            DecodingResult::I64(v) => values.extend(v.iter().map(|&x| x as f32)),
+            DecodingResult::F32(v) => values.extend(v),
+            DecodingResult::F64(v) => values.extend(v.iter().map(|&x| x as f32)),
+            _ => return Err(err.bad(format!("page {pages}: a sample type isoview does not read"))),
+        }
+        pages += 1;
+        if values.len() as u64 != w as u64 * h as u64 * pages {
+            return Err(err.bad(format!("page {} does not hold {w}x{h} samples", pages - 1)));
+        }
+        if !dec.more_images() {
+            break;
+        }
+        dec.next_image().map_err(tiff_err)?;
+    }
+    let dims = super::payload::grid(err, [w as u64, h as u64, pages], &opts.limits)?;
+    let bits = match color {
+        ColorType::Gray(b) => b,
+        _ => 0,
+    };
+    Ok(Volume {
+        dims,
+        values,
+        origin: DVec3::ZERO,
+        spacing: opts.spacing.unwrap_or(DVec3::ONE),
+        axes: [DVec3::X, DVec3::Y, DVec3::Z],
+        dtype: format!("{bits}-bit gray"),
+    })
+}

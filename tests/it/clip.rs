@@ -5,29 +5,12 @@
 use std::path::Path;
 
 use glam::DVec3;
-use isoview::field::{Grid, GridLimits};
-use isoview::frame::Pixel;
-use isoview::reference;
+use isoview::field::GridLimits;
 use isoview::render::Renderer;
 use isoview::scene::{self, Inside, Method, Scene};
 use isoview::vocab::{Clip, Placement};
 
 use crate::common::*;
-
-fn v3(a: [f32; 3]) -> DVec3 {
-    DVec3::from(a.map(f64::from))
-}
-
-fn reference_pixels(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
-    match scene.render.method {
-        Method::Analytic => reference::analytic::render(scene, grid),
-        Method::FixedStep => reference::fixed_step::render(scene, grid),
-        Method::Mesh => {
-            let m = isoview::render::mesh::scene_mesh(scene, grid).unwrap();
-            reference::mesh::render(scene, grid, &m).0
-        }
-    }
-}
 
 /// A sphere cut by the plane x = 0.1 (x > 0.1 removed), seen from +x: no hit beyond the
 /// plane, the far half's inner wall shows through the cut, and every pixel whose unclipped hit
@@ -94,15 +77,8 @@ fn clipped_gpu_equals_reference() {
             }
             let gpu = renderer.render(&scene, &grid, 0.0).unwrap();
             let reference = reference_pixels(&scene, &grid);
-            let (mut hits, mut mismatched, mut depth) = (0, 0, 0.0f64);
-            for (g, r) in gpu.pixels.iter().zip(&reference) {
-                hits += r.is_hit() as usize;
-                if g.is_hit() != r.is_hit() {
-                    mismatched += 1;
-                } else if r.is_hit() {
-                    depth = depth.max((g.depth - r.depth).abs() as f64);
-                }
-            }
+            let ag = Agreement::same(&reference, &gpu.pixels);
+            let (hits, mismatched, depth) = (ag.hits, ag.mismatched, ag.depth);
             assert!(hits > 40, "{method:?} case {case}: {hits} hits");
             assert!(mismatched * 50 <= hits, "{method:?} case {case}: {mismatched} hit/miss");
             let tol = if method == Method::FixedStep { 5e-2 } else { 3e-5 };

@@ -119,6 +119,9 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
         Backend::Auto => extract_auto(cli, vulkan_device, &scene, &grid, opts)?,
     };
     mesh.place(&scene.field.placement);
+    if scene.clip.count > 0 {
+        mesh = mesh.clipped(&scene.clip);
+    }
     let elapsed = started.elapsed().as_secs_f64() * 1e3;
     write_mesh(&args.output, &mesh, format)?;
 

@@ -57,6 +57,7 @@
 //! code on slabs of cell layers on all `rayon` threads and joins them into the same mesh, bit
 //! for bit (`slabs`).
 
+mod clip;
 mod dual;
 mod edges;
 pub mod export;

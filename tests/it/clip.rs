@@ -5,29 +5,12 @@
 use std::path::Path;
 
 use glam::DVec3;
-use isoview::field::{Grid, GridLimits};
-use isoview::frame::Pixel;
-use isoview::reference;
+use isoview::field::GridLimits;
 use isoview::render::Renderer;
 use isoview::scene::{self, Inside, Method, Scene};
 use isoview::vocab::{Clip, Placement};
 
 use crate::common::*;
-
-fn v3(a: [f32; 3]) -> DVec3 {
-    DVec3::from(a.map(f64::from))
-}
-
-fn reference_pixels(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
-    match scene.render.method {
-        Method::Analytic => reference::analytic::render(scene, grid),
-        Method::FixedStep => reference::fixed_step::render(scene, grid),
-        Method::Mesh => {
-            let m = isoview::render::mesh::scene_mesh(scene, grid).unwrap();
-            reference::mesh::render(scene, grid, &m).0
-        }
-    }
-}
 
 /// A sphere cut by the plane x = 0.1 (x > 0.1 removed), seen from +x: no hit beyond the
 /// plane, the far half's inner wall shows through the cut, and every pixel whose unclipped hit
@@ -94,15 +77,8 @@ fn clipped_gpu_equals_reference() {
             }
             let gpu = renderer.render(&scene, &grid, 0.0).unwrap();
             let reference = reference_pixels(&scene, &grid);
-            let (mut hits, mut mismatched, mut depth) = (0, 0, 0.0f64);
-            for (g, r) in gpu.pixels.iter().zip(&reference) {
-                hits += r.is_hit() as usize;
-                if g.is_hit() != r.is_hit() {
-                    mismatched += 1;
-                } else if r.is_hit() {
-                    depth = depth.max((g.depth - r.depth).abs() as f64);
-                }
-            }
+            let ag = Agreement::same(&reference, &gpu.pixels);
+            let (hits, mismatched, depth) = (ag.hits, ag.mismatched, ag.depth);
             assert!(hits > 40, "{method:?} case {case}: {hits} hits");
             assert!(mismatched * 50 <= hits, "{method:?} case {case}: {mismatched} hit/miss");
             let tol = if method == Method::FixedStep { 5e-2 } else { 3e-5 };
@@ -166,4 +142,72 @@ fn clip_tables_are_read_and_checked() {
     let boxes = "[[clip]]\nbox = { min = [0, 0, 0], max = [1, 1, 1] }\n".repeat(3);
     let e = parse(&format!("{CELL}{boxes}")).unwrap_err();
     assert!(e.contains("clip[2].box: more than 12 clip planes"), "{e}");
+}
+
+/// `extract` with clip planes: a closed sphere mesh cut by x <= 0.1 keeps every vertex in the
+/// kept half, stays welded (its only open edges lie on the plane), and keeps Archimedes' share
+/// of the area: the zone's height over the diameter.
+#[test]
+fn a_clipped_mesh_is_cut_exactly_and_stays_welded() {
+    use isoview::mesh::{self, ExtractOptions};
+    use isoview::scene::MeshAlgorithm;
+    use std::collections::HashMap;
+
+    let r = 0.7;
+    let grid = grid_from([40, 40, 40], DVec3::splat(-1.0), DVec3::ONE, |p| p.length() - r);
+    let whole = mesh::extract(
+        &grid,
+        0.0,
+        Inside::Below,
+        MeshAlgorithm::MarchingCubes,
+        ExtractOptions::default(),
+    )
+    .unwrap();
+    let mut clip = Clip::NONE;
+    clip.push(DVec3::new(2.0, 0.0, 0.0), 0.2); // 2x <= 0.2: x <= 0.1
+    let cut = whole.clipped(&clip);
+    let area = |m: &isoview::mesh::Mesh| -> f64 {
+        (0..m.triangle_count())
+            .map(|t| {
+                let [a, b, c] = m.triangle(t).map(|v| v3(m.positions[v as usize]));
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum()
+    };
+    let share = area(&cut) / area(&whole);
+    let want = (r + 0.1) / (2.0 * r);
+    assert!((share - want).abs() < 0.01, "area share {share}, Archimedes {want}");
+    for p in &cut.positions {
+        assert!(p[0] as f64 <= 0.1 + 1e-6, "vertex {p:?} in the removed half");
+    }
+    let mut uses: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in 0..cut.triangle_count() {
+        let v = cut.triangle(t);
+        for i in 0..3 {
+            let (a, b) = (v[i], v[(i + 1) % 3]);
+            *uses.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    let open: Vec<_> = uses.iter().filter(|(_, &n)| n == 1).collect();
+    assert!(open.len() > 20, "the cut opens the sphere: {} open edges", open.len());
+    for ((a, b), _) in open {
+        for v in [a, b] {
+            let x = cut.positions[*v as usize][0] as f64;
+            assert!((x - 0.1).abs() < 1e-6, "an open edge off the cut plane at x = {x}");
+        }
+    }
+    assert!(uses.values().all(|&n| n <= 2), "non-manifold edges after clipping");
+    // Through the CLI: a [[clip]] scene's mesh file is the clipped mesh.
+    let dir = scratch("clip-extract");
+    let scene = write(
+        &dir,
+        "s.toml",
+        "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 0.7\nresolution = [24, 24, 24]\n\
+         bounds = { min = [-1, -1, -1], max = [1, 1, 1] }\n[[clip]]\nnormal = [0, 1, 0]\noffset = -0.2\n",
+    );
+    let ply = dir.join("m.ply").display().to_string();
+    let o = isoview(&["extract", &scene, "-o", &ply, "--device", "cpu"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let m = isoview::field::TriangleMesh::read(std::path::Path::new(&ply)).unwrap();
+    assert!(!m.triangles.is_empty() && m.positions.iter().all(|p| p.y <= -0.2 + 1e-6));
 }

@@ -167,3 +167,68 @@ pub fn random_case(rng: &mut Rng, max_dim: usize) -> Case {
     let inside = Inside::ALL[(rng.next_u64() % 2) as usize];
     Case { grid, iso, inside }
 }
+
+/// An f32 triple (a pixel's position or normal) in f64.
+pub fn v3(a: [f32; 3]) -> DVec3 {
+    DVec3::from(a.map(f64::from))
+}
+
+/// The method's f64 reference picture of `scene` (the mesh method's of the CPU mesh).
+pub fn reference_pixels(scene: &Scene, grid: &Grid) -> Vec<isoview::frame::Pixel> {
+    use isoview::reference;
+    match scene.render.method {
+        Method::Analytic => reference::analytic::render(scene, grid),
+        Method::FixedStep => reference::fixed_step::render(scene, grid),
+        Method::Mesh => {
+            let m = isoview::render::mesh::scene_mesh(scene, grid).unwrap();
+            reference::mesh::render(scene, grid, &m).0
+        }
+    }
+}
+
+/// How two pictures of the same rays agree: `b` against `a` moved by `moved` (position,
+/// normal), over the pixels both hit.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Agreement {
+    /// Pixels `a` hits.
+    pub hits: usize,
+    /// Pixels one picture hits and the other misses.
+    pub mismatched: usize,
+    /// Largest depth difference.
+    pub depth: f64,
+    /// Largest position difference.
+    pub position: f64,
+    /// Largest angle between normals, degrees.
+    pub normal_deg: f64,
+}
+
+impl Agreement {
+    pub fn of(
+        a: &[isoview::frame::Pixel],
+        b: &[isoview::frame::Pixel],
+        moved: impl Fn(DVec3, DVec3) -> (DVec3, DVec3),
+    ) -> Agreement {
+        let mut out = Agreement::default();
+        for (a, b) in a.iter().zip(b) {
+            out.hits += a.is_hit() as usize;
+            if a.is_hit() != b.is_hit() {
+                out.mismatched += 1;
+                continue;
+            }
+            if !a.is_hit() {
+                continue;
+            }
+            let (p, n) = moved(v3(a.position), v3(a.normal));
+            out.depth = out.depth.max((a.depth - b.depth).abs() as f64);
+            out.position = out.position.max((p - v3(b.position)).length());
+            let cos = n.normalize().dot(v3(b.normal).normalize()).clamp(-1.0, 1.0);
+            out.normal_deg = out.normal_deg.max(cos.acos().to_degrees());
+        }
+        out
+    }
+
+    /// [`Agreement::of`] with nothing moved.
+    pub fn same(a: &[isoview::frame::Pixel], b: &[isoview::frame::Pixel]) -> Agreement {
+        Agreement::of(a, b, |p, n| (p, n))
+    }
+}

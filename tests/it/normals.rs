@@ -4,29 +4,11 @@
 //! exact trilinear gradient jumps), and smoother pictures of coarse grids.
 
 use glam::DVec3;
-use isoview::field::Grid;
-use isoview::frame::Pixel;
-use isoview::reference;
 use isoview::reference::field::{gradient_at, smooth_gradient_at};
 use isoview::render::Renderer;
-use isoview::scene::{Inside, Method, Normals, Scene};
+use isoview::scene::{Inside, Method, Normals};
 
 use crate::common::*;
-
-fn v3(a: [f32; 3]) -> DVec3 {
-    DVec3::from(a.map(f64::from))
-}
-
-fn reference_pixels(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
-    match scene.render.method {
-        Method::Analytic => reference::analytic::render(scene, grid),
-        Method::FixedStep => reference::fixed_step::render(scene, grid),
-        Method::Mesh => {
-            let m = isoview::render::mesh::scene_mesh(scene, grid).unwrap();
-            reference::mesh::render(scene, grid, &m).0
-        }
-    }
-}
 
 /// Central differences are exact for quadratics inside the grid, and one-sided differences
 /// for linear fields on its faces: there the smooth gradient is the field's own.

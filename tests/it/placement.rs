@@ -9,19 +9,13 @@
 //! - a placed mesh keeps its normals outward (winding reversed under a mirror).
 
 use glam::{DMat3, DVec3};
-use isoview::field::{FieldSpec, Grid};
-use isoview::frame::Pixel;
+use isoview::field::FieldSpec;
 use isoview::mesh::{self, ExtractOptions};
-use isoview::reference;
 use isoview::render::Renderer;
 use isoview::scene::{Inside, MeshAlgorithm, Method, Scene};
 use isoview::vocab::Placement;
 
 use crate::common::*;
-
-fn v3(a: [f32; 3]) -> DVec3 {
-    DVec3::from(a.map(f64::from))
-}
 
 /// A rotation by `angle` about `axis`, about `pivot`; with `mirror`, x is flipped first.
 fn placement(axis: DVec3, angle: f64, pivot: DVec3, mirror: bool) -> Placement {
@@ -34,43 +28,6 @@ fn placed(scene: &Scene, p: Placement) -> Scene {
     let mut s = scene.clone();
     s.field.placement = p;
     s
-}
-
-/// The method's f64 reference picture of `scene`.
-fn reference_pixels(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
-    match scene.render.method {
-        Method::Analytic => reference::analytic::render(scene, grid),
-        Method::FixedStep => reference::fixed_step::render(scene, grid),
-        Method::Mesh => {
-            let m = isoview::render::mesh::scene_mesh(scene, grid).unwrap();
-            reference::mesh::render(scene, grid, &m).0
-        }
-    }
-}
-
-/// Pixels whose hit/miss differs, and the worst depth (relative to `scale`), position and
-/// normal-angle differences over pixels that both hit, with `b` compared to `moved(a)`.
-fn differences(
-    a: &[Pixel],
-    b: &[Pixel],
-    scale: f64,
-    moved: impl Fn(DVec3, DVec3) -> (DVec3, DVec3),
-) -> (usize, f64, f64, f64) {
-    let (mut mismatched, mut depth, mut pos, mut deg) = (0, 0.0f64, 0.0f64, 0.0f64);
-    for (a, b) in a.iter().zip(b) {
-        if a.is_hit() != b.is_hit() {
-            mismatched += 1;
-            continue;
-        }
-        if !a.is_hit() {
-            continue;
-        }
-        let (p, n) = moved(v3(a.position), v3(a.normal));
-        depth = depth.max((a.depth - b.depth).abs() as f64 / scale);
-        pos = pos.max((p - v3(b.position)).length() / scale);
-        deg = deg.max(n.normalize().dot(v3(b.normal).normalize()).clamp(-1.0, 1.0).acos());
-    }
-    (mismatched, depth, pos, deg.to_degrees())
 }
 
 /// A placed grid seen by the camera moved with it gives the unplaced picture, moved: the
@@ -96,9 +53,11 @@ fn a_placed_grid_seen_by_the_moved_camera_is_the_unplaced_picture_moved() {
         let a = renderer.render(&scene, &grid, 0.0).unwrap();
         let b = renderer.render(&moved, &grid, 0.0).unwrap();
         let diag = (grid.max - grid.min).length();
-        let (mismatched, depth, pos, deg) = differences(&a.pixels, &b.pixels, diag, |p, n| {
+        let ag = Agreement::of(&a.pixels, &b.pixels, |p, n| {
             (pl.point_to_world(p), pl.vector_to_world(n))
         });
+        let (mismatched, depth, pos, deg) =
+            (ag.mismatched, ag.depth / diag, ag.position / diag, ag.normal_deg);
         let hits = a.pixels.iter().filter(|p| p.is_hit()).count();
         assert!(hits > 200, "{method:?}: only {hits} hits");
         // The moved camera's rays equal the original ones to ~1e-16 before rounding to f32:
@@ -185,8 +144,10 @@ fn gpu_equals_reference_on_placed_grids() {
             }
             let gpu = renderer.render(&scene, &grid, 0.0).unwrap();
             let reference = reference_pixels(&scene, &grid);
+            let ag = Agreement::same(&reference, &gpu.pixels);
+            let diag = 2.0 * 3f64.sqrt();
             let (mismatched, depth, pos, deg) =
-                differences(&reference, &gpu.pixels, 2.0 * 3f64.sqrt(), |p, n| (p, n));
+                (ag.mismatched, ag.depth / diag, ag.position / diag, ag.normal_deg);
             let hits = reference.iter().filter(|p| p.is_hit()).count();
             assert!(hits > 100, "{method:?} case {case}: {hits} hits");
             assert!(mismatched * 100 <= hits, "{method:?} case {case}: {mismatched} hit/miss");

@@ -6,28 +6,11 @@ use std::path::Path;
 
 use glam::DVec3;
 use isoview::camera::Camera;
-use isoview::field::{Grid, GridLimits};
-use isoview::frame::Pixel;
-use isoview::reference;
+use isoview::field::GridLimits;
 use isoview::render::Renderer;
 use isoview::scene::{self, Inside, Method, Projection, Scene};
 
 use crate::common::*;
-
-fn v3(a: [f32; 3]) -> DVec3 {
-    DVec3::from(a.map(f64::from))
-}
-
-fn reference_pixels(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
-    match scene.render.method {
-        Method::Analytic => reference::analytic::render(scene, grid),
-        Method::FixedStep => reference::fixed_step::render(scene, grid),
-        Method::Mesh => {
-            let m = isoview::render::mesh::scene_mesh(scene, grid).unwrap();
-            reference::mesh::render(scene, grid, &m).0
-        }
-    }
-}
 
 fn orthographic(mut scene: Scene, height: f64) -> Scene {
     scene.camera.projection = Projection::Orthographic;
@@ -92,20 +75,9 @@ fn orthographic_gpu_equals_reference() {
             }
             let gpu = renderer.render(&scene, &grid, 0.0).unwrap();
             let reference = reference_pixels(&scene, &grid);
-            let (mut hits, mut mismatched, mut worst_depth, mut worst_deg) = (0, 0, 0.0f64, 0.0f64);
-            for (g, r) in gpu.pixels.iter().zip(&reference) {
-                hits += r.is_hit() as usize;
-                if g.is_hit() != r.is_hit() {
-                    mismatched += 1;
-                    continue;
-                }
-                if !r.is_hit() {
-                    continue;
-                }
-                worst_depth = worst_depth.max((g.depth - r.depth).abs() as f64 / 2.0);
-                let cos = v3(g.normal).normalize().dot(v3(r.normal).normalize());
-                worst_deg = worst_deg.max(cos.clamp(-1.0, 1.0).acos().to_degrees());
-            }
+            let ag = Agreement::same(&reference, &gpu.pixels);
+            let (hits, mismatched, worst_deg) = (ag.hits, ag.mismatched, ag.normal_deg);
+            let worst_depth = ag.depth / 2.0;
             assert!(hits > 100, "{method:?} case {case}: {hits} hits");
             assert!(mismatched * 100 <= hits, "{method:?} case {case}: {mismatched} hit/miss");
             let (depth_tol, deg_tol) = match method {

@@ -5,8 +5,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use super::{Cli, Failure};
+use crate::frame::{Channel, Written};
 use crate::output;
-use crate::render::{GpuGrid, Renderer};
+use crate::render::{GpuGrid, Progressive, Renderer};
 use crate::scene::Scene;
 
 #[derive(clap::Args, Debug)]
@@ -122,17 +123,35 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
             cached = Some((grid, uploaded));
         }
         let (grid, gpu_grid) = cached.as_ref().expect("sampled above");
-        let mut frame =
-            renderer.render_uploaded(&scene, grid, gpu_grid, *time).map_err(render_failure)?;
+        // With --tev, tev shows each band as it finishes (CreateImage first).
+        let mut tev = match &args.tev {
+            Some(address) => Some(open_tev(address, exr, &scene)?),
+            None => None,
+        };
+        let mut tev_error = None;
+        let drawn = {
+            let mut after_band = |band: crate::passes::Band, records: &[crate::frame::Pixel]| {
+                let Some(image) = tev.as_mut() else { return true };
+                match image.send_rows(band.row_offset, records) {
+                    Ok(()) => true,
+                    Err(e) => {
+                        tev_error = Some(e);
+                        false
+                    }
+                }
+            };
+            let whole = Progressive { stride: 1, band_rows: u32::MAX, after_band: &mut after_band };
+            renderer.render_progressive(&scene, grid, gpu_grid, *time, whole)
+        };
+        if let Some(e) = tev_error {
+            return Err(Failure::input(e));
+        }
+        let mut frame = drawn.map_err(render_failure)?;
         if let Some(how) = scene.surface.rule.describe(scene.surface.isovalue) {
             // Beside isoview/isovalue (the resolved number): how it was picked.
             frame.info.extra.push(("isovalue_rule".into(), how));
         }
         write_outputs(&scene, &frame, exr, png.as_deref())?;
-        if let Some(address) = &args.tev {
-            let name = exr.display().to_string();
-            output::tev::send_frame(address, &name, &frame).map_err(Failure::input)?;
-        }
         match &progress {
             Some(bar) => bar.inc(1),
             None => eprintln!(
@@ -190,4 +209,16 @@ mod tests {
         assert_eq!(frame_path(Path::new("f#.exr"), 12).unwrap(), PathBuf::from("f12.exr"));
         assert!(frame_path(Path::new("out.exr"), 1).is_err());
     }
+}
+
+/// Opens the tev image of the render to `exr`: named as the file, with the channels the EXR
+/// will have (`crossings` where the method counts them).
+fn open_tev(address: &str, exr: &Path, scene: &Scene) -> Result<output::tev::TevImage, Failure> {
+    let counted =
+        scene.render.method != crate::scene::Method::FixedStep && scene.render.count_crossings;
+    let channels: Vec<Channel> =
+        Channel::ALL.into_iter().filter(|c| c.written() == Written::Always || counted).collect();
+    let name = exr.display().to_string();
+    output::tev::TevImage::open(address, &name, scene.image.width, scene.image.height, channels)
+        .map_err(Failure::input)
 }

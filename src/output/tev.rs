@@ -21,7 +21,7 @@ use std::io::Write;
 use std::net::{TcpStream, ToSocketAddrs};
 use std::time::Duration;
 
-use crate::frame::{Channel, Frame};
+use crate::frame::{Channel, Frame, Pixel};
 
 /// Where tev listens unless told otherwise.
 pub const DEFAULT_ADDRESS: &str = "127.0.0.1:14158";
@@ -120,6 +120,22 @@ pub fn update_image(
     y: u32,
     rows: u32,
 ) -> Result<Vec<u8>, TevError> {
+    let start = y as usize * frame.width as usize;
+    let end = (y + rows) as usize * frame.width as usize;
+    rows_packet(grab_focus, name, frame.width, channels, y, &frame.pixels[start..end])
+}
+
+/// The UpdateImage (v3) packet of whole rows starting at row `y` of an image `width` wide:
+/// `pixels` holds them, row after row.
+pub fn rows_packet(
+    grab_focus: bool,
+    name: &str,
+    width: u32,
+    channels: &[Channel],
+    y: u32,
+    pixels: &[Pixel],
+) -> Result<Vec<u8>, TevError> {
+    let rows = (pixels.len() / width.max(1) as usize) as u32;
     let n = channels.len();
     let mut p = Packet::new(UPDATE_IMAGE_V3);
     p.u8(grab_focus as u8);
@@ -128,7 +144,7 @@ pub fn update_image(
     for c in channels {
         p.string(c.name());
     }
-    for v in [0, side(y)?, side(frame.width)?, side(rows)?] {
+    for v in [0, side(y)?, side(width)?, side(rows)?] {
         p.i32(v);
     }
     for c in 0..n {
@@ -137,9 +153,7 @@ pub fn update_image(
     for _ in 0..n {
         p.i64(n as i64);
     }
-    let start = y as usize * frame.width as usize;
-    let end = (y + rows) as usize * frame.width as usize;
-    for px in &frame.pixels[start..end] {
+    for px in pixels {
         for c in channels {
             p.f32(c.get(px));
         }
@@ -162,23 +176,72 @@ pub fn frame_packets(name: &str, frame: &Frame) -> Result<Vec<Vec<u8>>, TevError
     Ok(packets)
 }
 
+fn io_error(address: &str, what: &'static str) -> impl FnOnce(std::io::Error) -> TevError {
+    let address = address.to_string();
+    move |source| TevError::Io { address, what, source }
+}
+
+/// A connection to tev at `address` (`HOST:PORT`), with the timeouts every send uses.
+fn connect(address: &str) -> Result<TcpStream, TevError> {
+    let target = address
+        .to_socket_addrs()
+        .map_err(io_error(address, "cannot resolve"))?
+        .next()
+        .ok_or_else(|| TevError::Address { address: address.to_string() })?;
+    let stream = TcpStream::connect_timeout(&target, Duration::from_secs(2))
+        .map_err(io_error(address, "cannot connect"))?;
+    stream
+        .set_write_timeout(Some(Duration::from_secs(10)))
+        .map_err(io_error(address, "cannot connect"))?;
+    Ok(stream)
+}
+
 /// Connects to tev at `address` (`HOST:PORT`) and sends `frame` as image `name`.
 pub fn send_frame(address: &str, name: &str, frame: &Frame) -> Result<(), TevError> {
     let packets = frame_packets(name, frame)?;
-    let io = |what| {
-        let address = address.to_string();
-        move |source| TevError::Io { address, what, source }
-    };
-    let target = address
-        .to_socket_addrs()
-        .map_err(io("cannot resolve"))?
-        .next()
-        .ok_or_else(|| TevError::Address { address: address.to_string() })?;
-    let mut stream = TcpStream::connect_timeout(&target, Duration::from_secs(2))
-        .map_err(io("cannot connect"))?;
-    stream.set_write_timeout(Some(Duration::from_secs(10))).map_err(io("cannot connect"))?;
+    let mut stream = connect(address)?;
     for p in &packets {
-        stream.write_all(p).map_err(io("cannot send"))?;
+        stream.write_all(p).map_err(io_error(address, "cannot send"))?;
     }
-    stream.flush().map_err(io("cannot send"))
+    stream.flush().map_err(io_error(address, "cannot send"))
+}
+
+/// An image shown in tev while it is rendered: CreateImage when opened, then the rows of each
+/// band as the band finishes ([`TevImage::send_rows`], in UpdateImage packets of at most
+/// [`TEV_BAND_ROWS`] rows), so tev fills the picture in as pbrt's display server does.
+pub struct TevImage {
+    stream: TcpStream,
+    address: String,
+    name: String,
+    width: u32,
+    channels: Vec<Channel>,
+}
+
+impl TevImage {
+    /// Connects and creates image `name`, `width` × `height`, with `channels`.
+    pub fn open(
+        address: &str,
+        name: &str,
+        width: u32,
+        height: u32,
+        channels: Vec<Channel>,
+    ) -> Result<TevImage, TevError> {
+        let mut stream = connect(address)?;
+        let names: Vec<&str> = channels.iter().map(|c| c.name()).collect();
+        let packet = create_image(true, name, width, height, &names)?;
+        stream.write_all(&packet).map_err(io_error(address, "cannot send"))?;
+        let (address, name) = (address.to_string(), name.to_string());
+        Ok(TevImage { stream, address, name, width, channels })
+    }
+
+    /// Sends whole rows from row `y` on (`pixels`, row after row).
+    pub fn send_rows(&mut self, y: u32, pixels: &[Pixel]) -> Result<(), TevError> {
+        let per_packet = TEV_BAND_ROWS as usize * self.width as usize;
+        for (n, chunk) in pixels.chunks(per_packet.max(1)).enumerate() {
+            let row = y + n as u32 * TEV_BAND_ROWS;
+            let packet = rows_packet(false, &self.name, self.width, &self.channels, row, chunk)?;
+            self.stream.write_all(&packet).map_err(io_error(&self.address, "cannot send"))?;
+        }
+        self.stream.flush().map_err(io_error(&self.address, "cannot send"))
+    }
 }

@@ -43,8 +43,9 @@ pub struct Progressive<'a> {
     pub stride: u32,
     /// Rows of the drawn picture per band, at most (smaller bands: earlier stops).
     pub band_rows: u32,
-    /// Called with each finished band (rows of the drawn picture, its records); false abandons
-    /// the frame with [`RenderError::Cancelled`].
+    /// Called with each finished band (rows of the drawn picture, its records as the frame
+    /// will hold them, placed in world space); false abandons the frame with
+    /// [`RenderError::Cancelled`].
     pub after_band: &'a mut dyn FnMut(crate::passes::Band, &[Pixel]) -> bool,
 }
 
@@ -235,7 +236,18 @@ impl Renderer {
                 bricks,
             },
         )?;
-        let drawn = bands.run_until(pass.name(), how.after_band, |rec, band| {
+        // The hook sees each band as the frame will hold it: placed in world space.
+        let placement = scene.field.placement;
+        let after_band = how.after_band;
+        let placed_band = |band: crate::passes::Band, records: &[Pixel]| {
+            if placement.is_identity() {
+                return after_band(band, records);
+            }
+            let mut placed = records.to_vec();
+            crate::frame::place_pixels(&mut placed, &placement);
+            after_band(band, &placed)
+        };
+        let drawn = bands.run_until(pass.name(), placed_band, |rec, band| {
             pass.record(rec, width, band);
             Ok(())
         })?;

@@ -594,3 +594,64 @@ fn coarse_pixels_are_the_full_images_and_stale_renders_stop_between_bands() {
         assert_eq!(calls, 2, "no band after the stop");
     }
 }
+
+/// `render --tev` sends each band as the renderer finishes it: the UpdateImage packets follow
+/// the render's bands (chunks of at most 64 rows within each band), not a split of the
+/// finished image, and together they are the EXR bit for bit.
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn render_tev_streams_each_band_as_it_is_drawn() {
+    let (w, h) = (1200u32, 900u32);
+    let ctx = crate::common::gpu();
+    let pixel = std::mem::size_of::<isoview::frame::Pixel>() as u64;
+    let band = isoview::render::band_rows(&ctx, w, h, pixel);
+    drop(ctx);
+    assert!(band < h && band % 64 != 0, "two bands, the first not a multiple of 64: {band}");
+    let mut want = Vec::new();
+    for start in (0..h).step_by(band as usize) {
+        let end = (start + band).min(h);
+        for y in (start..end).step_by(64) {
+            want.push((y as usize, (end - y).min(64) as usize));
+        }
+    }
+    let dir = scratch("serve-tev-bands");
+    let file = scene("cell-tunnel.toml");
+    let exr = dir.join("t.exr");
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let address = listener.local_addr().unwrap().to_string();
+    let receiver = std::thread::spawn(move || read_packets(listener.accept().unwrap().0));
+    let (ws, hs) = (format!("image.width={w}"), format!("image.height={h}"));
+    let o = isoview(
+        &[
+            "render",
+            &file,
+            "-o",
+            exr.to_str().unwrap(),
+            "--set",
+            &ws,
+            "--set",
+            &hs,
+            "--tev",
+            &address,
+        ],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let packets = receiver.join().unwrap();
+    let rows: Vec<(usize, usize)> = packets[1..]
+        .iter()
+        .map(|(_, body)| {
+            let mut p = Payload(body);
+            p.u8();
+            p.string();
+            let n = p.i32() as usize;
+            (0..n).for_each(|_| {
+                p.string();
+            });
+            let (_x, y, _w, rh) = (p.i32(), p.i32() as usize, p.i32(), p.i32() as usize);
+            (y, rh)
+        })
+        .collect();
+    assert_eq!(rows, want, "UpdateImage rows follow the render's bands of {band} rows");
+    assert_same_as_exr(&exr, &decode_tev(&packets));
+}

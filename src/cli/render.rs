@@ -192,6 +192,18 @@ fn write_outputs(
     Ok(())
 }
 
+/// Opens the tev image of the render to `exr`: named as the file, with the channels the EXR
+/// will have (`crossings` where the method counts them).
+fn open_tev(address: &str, exr: &Path, scene: &Scene) -> Result<output::tev::TevImage, Failure> {
+    let counted =
+        scene.render.method != crate::scene::Method::FixedStep && scene.render.count_crossings;
+    let channels: Vec<Channel> =
+        Channel::ALL.into_iter().filter(|c| c.written() == Written::Always || counted).collect();
+    let name = exr.display().to_string();
+    output::tev::TevImage::open(address, &name, scene.image.width, scene.image.height, channels)
+        .map_err(Failure::input)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -209,16 +221,4 @@ mod tests {
         assert_eq!(frame_path(Path::new("f#.exr"), 12).unwrap(), PathBuf::from("f12.exr"));
         assert!(frame_path(Path::new("out.exr"), 1).is_err());
     }
-}
-
-/// Opens the tev image of the render to `exr`: named as the file, with the channels the EXR
-/// will have (`crossings` where the method counts them).
-fn open_tev(address: &str, exr: &Path, scene: &Scene) -> Result<output::tev::TevImage, Failure> {
-    let counted =
-        scene.render.method != crate::scene::Method::FixedStep && scene.render.count_crossings;
-    let channels: Vec<Channel> =
-        Channel::ALL.into_iter().filter(|c| c.written() == Written::Always || counted).collect();
-    let name = exr.display().to_string();
-    output::tev::TevImage::open(address, &name, scene.image.width, scene.image.height, channels)
-        .map_err(Failure::input)
 }

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use super::error::SceneErrorKind;
 use super::read::{self, choice, integer, number_where, numbers, vec3, Result, View};
-use super::tree::{Node, Source, Value};
+use super::tree::{Node, Origin, Source, Value};
 use super::{
     Ambiguity, CameraSettings, ImageSettings, Inside, IsoRule, MeshAlgorithm, Method, Normals,
     Projection, RenderSettings, Scene, Shading, SliceSettings, SurfaceSettings,
@@ -209,6 +209,19 @@ fn surface(t: &View) -> Result<SurfaceSettings> {
     let d = SurfaceSettings::default();
     let insides = Inside::ALL.map(|i| (i.name(), i));
     let given: Vec<&str> = ISO_KEYS.into_iter().filter(|k| t.get(k).is_some()).collect();
+    // A `--set` of one of the keys replaces the file's (the last such override wins), as any
+    // override replaces what the file says; two in the file itself are an error.
+    let overridden = given
+        .iter()
+        .filter_map(|k| match t.get(k)?.at {
+            Origin::Override(i) => Some((i, *k)),
+            Origin::File { .. } => None,
+        })
+        .max();
+    let given: Vec<&str> = match overridden {
+        Some((_, k)) => vec![k],
+        None => given,
+    };
     if let [first, second, ..] = given.as_slice() {
         return Err(t.err(
             SceneErrorKind::Value,
@@ -220,7 +233,10 @@ fn surface(t: &View) -> Result<SurfaceSettings> {
         ));
     }
     let inside = t.or("inside", d.inside, |s, k, n| choice(s, k, n, &insides))?;
-    let isovalue = t.or("isovalue", d.isovalue, read::number)?;
+    let isovalue = match given.first() {
+        Some(&"isovalue") | None => t.or("isovalue", d.isovalue, read::number)?,
+        Some(_) => d.isovalue, // resolved from the samples
+    };
     let percent = |s: &Source, k: &str, n: &Node| {
         number_where(s, k, n, |p| (0.0..=100.0).contains(&p), "must be in 0..=100")
     };

@@ -381,6 +381,34 @@ impl Payload<'_> {
     }
 }
 
+/// One UpdateImage v3 packet's payload, decoded.
+struct Update {
+    image: String,
+    chans: Vec<String>,
+    x: usize,
+    y: usize,
+    w: usize,
+    h: usize,
+    offsets: Vec<i64>,
+    strides: Vec<i64>,
+    data: Vec<f32>,
+}
+
+impl Update {
+    fn parse(body: &[u8]) -> Update {
+        let mut p = Payload(body);
+        p.u8();
+        let image = p.string();
+        let n = p.i32() as usize;
+        let chans: Vec<String> = (0..n).map(|_| p.string()).collect();
+        let (x, y, w, h) = (p.i32() as usize, p.i32() as usize, p.i32() as usize, p.i32() as usize);
+        let offsets: Vec<i64> = (0..n).map(|_| p.i64()).collect();
+        let strides: Vec<i64> = (0..n).map(|_| p.i64()).collect();
+        let data = p.0.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+        Update { image, chans, x, y, w, h, offsets, strides, data }
+    }
+}
+
 /// Decodes CreateImage + UpdateImage v3 packets into (name, width, height, channel -> values).
 fn decode_tev(packets: &[(u8, Vec<u8>)]) -> (String, usize, usize, HashMap<String, Vec<f32>>) {
     let (kind, body) = &packets[0];
@@ -396,17 +424,9 @@ fn decode_tev(packets: &[(u8, Vec<u8>)]) -> (String, usize, usize, HashMap<Strin
     let mut covered = vec![0u32; w * h];
     for (kind, body) in &packets[1..] {
         assert_eq!(*kind, 6, "UpdateImage v3");
-        let mut p = Payload(body);
-        p.u8();
-        assert_eq!(p.string(), name);
-        let n = p.i32() as usize;
-        let chans: Vec<String> = (0..n).map(|_| p.string()).collect();
-        let (x, y, rw, rh) =
-            (p.i32() as usize, p.i32() as usize, p.i32() as usize, p.i32() as usize);
-        let offsets: Vec<i64> = (0..n).map(|_| p.i64()).collect();
-        let strides: Vec<i64> = (0..n).map(|_| p.i64()).collect();
-        let data: Vec<f32> =
-            p.0.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+        let Update { image, chans, x, y, w: rw, h: rh, offsets, strides, data } =
+            Update::parse(body);
+        assert_eq!(image, name);
         for (c, name) in chans.iter().enumerate() {
             let plane = planes.get_mut(name).expect("channel created");
             for q in 0..rw * rh {
@@ -641,15 +661,8 @@ fn render_tev_streams_each_band_as_it_is_drawn() {
     let rows: Vec<(usize, usize)> = packets[1..]
         .iter()
         .map(|(_, body)| {
-            let mut p = Payload(body);
-            p.u8();
-            p.string();
-            let n = p.i32() as usize;
-            (0..n).for_each(|_| {
-                p.string();
-            });
-            let (_x, y, _w, rh) = (p.i32(), p.i32() as usize, p.i32(), p.i32() as usize);
-            (y, rh)
+            let u = Update::parse(body);
+            (u.y, u.h)
         })
         .collect();
     assert_eq!(rows, want, "UpdateImage rows follow the render's bands of {band} rows");

@@ -5,9 +5,10 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use super::{Cli, Failure};
-use crate::frame::{Channel, Written};
+use crate::frame::{Channel, FrameInfo, Pixel};
 use crate::output;
-use crate::render::{GpuGrid, Progressive, Renderer};
+use crate::passes::Band;
+use crate::render::{FrameSink, GpuGrid, RenderError, Renderer};
 use crate::scene::Scene;
 
 #[derive(clap::Args, Debug)]
@@ -124,40 +125,35 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         }
         let (grid, gpu_grid) = cached.as_ref().expect("sampled above");
         // With --tev, tev shows each band as it finishes (CreateImage first).
-        let mut tev = match &args.tev {
+        let tev = match &args.tev {
             Some(address) => Some(open_tev(address, exr, &scene)?),
             None => None,
         };
-        let mut tev_error = None;
-        let drawn = {
-            let mut after_band = |band: crate::passes::Band, records: &[crate::frame::Pixel]| {
-                let Some(image) = tev.as_mut() else { return true };
-                match image.send_rows(band.row_offset, records) {
-                    Ok(()) => true,
-                    Err(e) => {
-                        tev_error = Some(e);
-                        false
-                    }
-                }
-            };
-            let whole = Progressive { stride: 1, band_rows: u32::MAX, after_band: &mut after_band };
-            renderer.render_progressive(&scene, grid, gpu_grid, *time, whole)
+        // Each band goes to the EXR, the PNG and tev as it is drawn; none is kept.
+        let mut outputs = Outputs {
+            channels: crate::render::written_channels(&scene),
+            exr_path: exr,
+            png_path: png.as_deref(),
+            rule: scene.surface.rule.describe(scene.surface.isovalue),
+            exr: None,
+            png: None,
+            tev,
+            tev_error: None,
+            size: (0, 0),
         };
-        if let Some(e) = tev_error {
+        let drawn = renderer.render_to(&scene, grid, gpu_grid, *time, &mut outputs);
+        if let Some(e) = outputs.tev_error.take() {
             return Err(Failure::input(e));
         }
-        let mut frame = drawn.map_err(render_failure)?;
-        if let Some(how) = scene.surface.rule.describe(scene.surface.isovalue) {
-            // Beside isoview/isovalue (the resolved number): how it was picked.
-            frame.info.extra.push(("isovalue_rule".into(), how));
-        }
-        write_outputs(&scene, &frame, exr, png.as_deref())?;
+        drawn.map_err(render_failure)?;
+        let (width, height) = outputs.size;
+        outputs.finish()?;
         match &progress {
             Some(bar) => bar.inc(1),
             None => eprintln!(
                 "isoview: {}x{} {} on {} in {:.0} ms{} -> {}",
-                frame.width,
-                frame.height,
+                width,
+                height,
                 scene.render.method.name(),
                 ctx.info.name,
                 started.elapsed().as_secs_f64() * 1e3,
@@ -179,26 +175,77 @@ fn render_failure(e: crate::render::RenderError) -> Failure {
     }
 }
 
-fn write_outputs(
-    _scene: &Scene,
-    frame: &crate::frame::Frame,
-    exr: &Path,
-    png: Option<&Path>,
-) -> Result<(), Failure> {
-    output::exr::write_frame(exr, frame).map_err(Failure::input)?;
-    if let Some(png) = png {
-        output::png::write_preview(png, frame).map_err(Failure::input)?;
+/// Where `render` sends each band: the EXR and the PNG preview, both streamed into temporary
+/// files that are moved into place when the frame is whole (a failed render leaves neither),
+/// and tev.
+struct Outputs<'a> {
+    channels: Vec<Channel>,
+    exr_path: &'a Path,
+    png_path: Option<&'a Path>,
+    /// How the isovalue was picked, beside `isoview/isovalue` in the header.
+    rule: Option<String>,
+    exr: Option<output::exr_stream::ExrStream>,
+    png: Option<output::png::PngStream>,
+    tev: Option<output::tev::TevImage>,
+    tev_error: Option<output::tev::TevError>,
+    size: (u32, u32),
+}
+
+impl Outputs<'_> {
+    /// Moves the finished EXR and PNG into place.
+    fn finish(self) -> Result<(), Failure> {
+        if let Some(exr) = self.exr {
+            exr.finish().map_err(Failure::input)?;
+        }
+        if let Some(png) = self.png {
+            png.finish().map_err(Failure::input)?;
+        }
+        Ok(())
     }
-    Ok(())
+}
+
+impl FrameSink for Outputs<'_> {
+    fn begin(&mut self, width: u32, height: u32, info: &FrameInfo) -> Result<(), RenderError> {
+        let mut info = info.clone();
+        if let Some(how) = &self.rule {
+            info.extra.push(("isovalue_rule".into(), how.clone()));
+        }
+        self.size = (width, height);
+        self.exr = Some(output::exr_stream::ExrStream::create(
+            self.exr_path,
+            width,
+            height,
+            &self.channels,
+            &info,
+        )?);
+        if let Some(png) = self.png_path {
+            self.png = Some(output::png::PngStream::create(png, width, height)?);
+        }
+        Ok(())
+    }
+
+    fn band(&mut self, band: Band, pixels: &[Pixel]) -> Result<(), RenderError> {
+        if let Some(exr) = &mut self.exr {
+            exr.push_rows(pixels)?;
+        }
+        if let Some(png) = &mut self.png {
+            png.push_rows(pixels)?;
+        }
+        if let Some(image) = &mut self.tev {
+            if let Err(e) = image.send_rows(band.row_offset, pixels) {
+                // Stops the render; `run` reports it (exit 2) and writes no file.
+                self.tev_error = Some(e);
+                return Err(RenderError::Cancelled);
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Opens the tev image of the render to `exr`: named as the file, with the channels the EXR
 /// will have (`crossings` where the method counts them).
 fn open_tev(address: &str, exr: &Path, scene: &Scene) -> Result<output::tev::TevImage, Failure> {
-    let counted =
-        scene.render.method != crate::scene::Method::FixedStep && scene.render.count_crossings;
-    let channels: Vec<Channel> =
-        Channel::ALL.into_iter().filter(|c| c.written() == Written::Always || counted).collect();
+    let channels = crate::render::written_channels(scene);
     let name = exr.display().to_string();
     output::tev::TevImage::open(address, &name, scene.image.width, scene.image.height, channels)
         .map_err(Failure::input)

@@ -35,17 +35,58 @@ pub fn write_with<F>(path: &Path, write: F) -> Result<(), OutputError>
 where
     F: FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
 {
-    let (file, temp) = create_temp(path)?;
-    let mut guard = TempGuard(Some(temp.clone()));
-    let mut out = BufWriter::new(file);
-    write(&mut out).map_err(|e| OutputError::io(path, "write", e))?;
-    let file = out.into_inner().map_err(|e| OutputError::io(path, "write", e.into_error()))?;
-    file.sync_all().map_err(|e| OutputError::io(path, "sync", e))?;
-    drop(file);
-    std::fs::rename(&temp, path).map_err(|e| OutputError::io(path, "rename into place", e))?;
-    guard.0 = None;
-    sync_parent(path);
-    Ok(())
+    let temp = TempFile::create(path)?;
+    let mut out = BufWriter::new(temp.file().try_clone().map_err(|e| temp.error("write", e))?);
+    write(&mut out).map_err(|e| temp.error("write", e))?;
+    out.flush().map_err(|e| temp.error("write", e))?;
+    drop(out);
+    temp.commit()
+}
+
+/// A temporary file next to its destination, for writers that fill it piece by piece (the
+/// streaming EXR and PNG writers): [`TempFile::commit`] fsyncs it and renames it over the
+/// destination; dropping it uncommitted (an error, a panic) removes it and leaves the
+/// destination as it was.
+pub struct TempFile {
+    path: PathBuf,
+    file: File,
+    guard: TempGuard,
+}
+
+impl TempFile {
+    /// Creates a fresh temporary file in `path`'s folder.
+    pub fn create(path: &Path) -> Result<Self, OutputError> {
+        let (file, temp) = create_temp(path)?;
+        Ok(TempFile { path: path.to_path_buf(), file, guard: TempGuard(Some(temp)) })
+    }
+
+    /// The open temporary file (write through a clone, `try_clone`, or a `&File`).
+    pub fn file(&self) -> &File {
+        &self.file
+    }
+
+    /// The destination.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// An I/O error while writing this file, naming the destination.
+    pub fn error(&self, action: &'static str, e: std::io::Error) -> OutputError {
+        OutputError::io(&self.path, action, e)
+    }
+
+    /// Syncs the temporary file and renames it over the destination. The caller has flushed
+    /// every buffer it wrote through.
+    pub fn commit(mut self) -> Result<(), OutputError> {
+        let path = &self.path;
+        self.file.sync_all().map_err(|e| OutputError::io(path, "sync", e))?;
+        let temp =
+            self.guard.0.clone().ok_or_else(|| OutputError::invalid(path, "committed twice"))?;
+        std::fs::rename(&temp, path).map_err(|e| OutputError::io(path, "rename into place", e))?;
+        self.guard.0 = None;
+        sync_parent(path);
+        Ok(())
+    }
 }
 
 /// Writes `bytes` to `path` atomically (see [`write_with`]).

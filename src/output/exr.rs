@@ -86,14 +86,25 @@ pub mod attr {
     pub const EXTRA_PREFIX: &str = "isoview/extra/";
 }
 
-/// Encodes `frame` as described in the module docs and writes it atomically to `path`.
+/// Encodes `frame` as described in the module docs and writes it atomically to `path`,
+/// through the streaming writer ([`super::exr_stream::ExrStream`]; its bytes are
+/// [`encode_frame`]'s).
 pub fn write_frame(path: &Path, frame: &Frame) -> Result<(), OutputError> {
-    let bytes = encode_frame(path, frame)?;
-    atomic::write_bytes(path, &bytes)
+    check_size(path, frame)?;
+    let channels = written_channels(frame);
+    let mut stream = super::exr_stream::ExrStream::create(
+        path,
+        frame.width,
+        frame.height,
+        &channels,
+        &frame.info,
+    )?;
+    stream.push_rows(&frame.pixels)?;
+    stream.finish()
 }
 
-/// The bytes [`write_frame`] writes (`path` only names the file in errors).
-pub fn encode_frame(path: &Path, frame: &Frame) -> Result<Vec<u8>, OutputError> {
+/// Refuses an empty frame or one whose pixels do not fill `width` × `height`.
+fn check_size(path: &Path, frame: &Frame) -> Result<(), OutputError> {
     let (w, h) = (frame.width as usize, frame.height as usize);
     if w == 0 || h == 0 {
         return Err(OutputError::invalid(path, format!("cannot write an empty {w}x{h} image")));
@@ -104,6 +115,13 @@ pub fn encode_frame(path: &Path, frame: &Frame) -> Result<Vec<u8>, OutputError> 
             format!("frame has {} pixels, expected {w}x{h} = {}", frame.pixels.len(), w * h),
         ));
     }
+    Ok(())
+}
+
+/// The bytes [`write_frame`] writes (`path` only names the file in errors).
+pub fn encode_frame(path: &Path, frame: &Frame) -> Result<Vec<u8>, OutputError> {
+    check_size(path, frame)?;
+    let (w, h) = (frame.width as usize, frame.height as usize);
 
     // One planar channel per row of the channel table that this frame writes.
     let channels: Vec<AnyChannel<FlatSamples>> = written_channels(frame)
@@ -190,6 +208,24 @@ fn encode(
     channels: Vec<AnyChannel<FlatSamples>>,
     attributes: LayerAttributes,
 ) -> Result<Vec<u8>, OutputError> {
+    let image = layer_image(path, width, height, channels, attributes)?;
+    let mut bytes = Vec::new();
+    image.write().non_parallel().to_buffered(Cursor::new(&mut bytes)).map_err(|source| {
+        OutputError::Exr { path: path.to_path_buf(), action: "cannot encode EXR", source }
+    })?;
+    sort_header_attributes(&mut bytes)
+        .map_err(|reason| OutputError::invalid(path, format!("internal: {reason}")))?;
+    Ok(bytes)
+}
+
+/// The `exr` crate's description of the file [`encode`] writes (the channels sorted by name).
+fn layer_image(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: Vec<AnyChannel<FlatSamples>>,
+    attributes: LayerAttributes,
+) -> Result<Image<Layer<AnyChannels<FlatSamples>>>, OutputError> {
     let mut sorted: Vec<&str> = Vec::new();
     for c in &channels {
         let name = std::str::from_utf8(c.name.bytes()).unwrap_or("");
@@ -206,14 +242,30 @@ fn encode(
     };
     let mut image = Image::from_layer(Layer::new((width, height), attributes, encoding, channels));
     image.attributes.chromaticities = Some(rec709());
+    Ok(image)
+}
 
-    let mut bytes = Vec::new();
-    image.write().non_parallel().to_buffered(Cursor::new(&mut bytes)).map_err(|source| {
-        OutputError::Exr { path: path.to_path_buf(), action: "cannot encode EXR", source }
-    })?;
-    sort_header_attributes(&mut bytes)
-        .map_err(|reason| OutputError::invalid(path, format!("internal: {reason}")))?;
-    Ok(bytes)
+/// The header [`encode_frame`] would write for a `width` × `height` frame of `channels` made
+/// as `info` says (for the streaming writer, which writes the pixels itself).
+pub(super) fn channel_image_headers(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: &[Channel],
+    info: &FrameInfo,
+) -> Result<exr::meta::Headers, OutputError> {
+    if width == 0 || height == 0 || channels.is_empty() {
+        return Err(OutputError::invalid(
+            path,
+            format!("cannot write an empty {width}x{height} image of {} channels", channels.len()),
+        ));
+    }
+    // No samples: the header depends only on the channels' names and sample type.
+    let list =
+        channels.iter().map(|c| AnyChannel::new(c.name(), FlatSamples::F32(Vec::new()))).collect();
+    let attributes = layer_attributes(path, info, width, height)?;
+    let image = layer_image(path, width, height, list, attributes)?;
+    Ok(image.write().non_parallel().infer_meta_data())
 }
 
 /// Rec.709 / sRGB primaries with a D65 white point.
@@ -327,7 +379,7 @@ pub fn camera_matrices(
 }
 
 /// Sorts the attributes of a single-part EXR header by name, in place.
-fn sort_header_attributes(bytes: &mut [u8]) -> Result<(), String> {
+pub(super) fn sort_header_attributes(bytes: &mut [u8]) -> Result<(), String> {
     const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
     if bytes.len() < 8 || bytes[..4] != MAGIC {
         return Err("encoder output is not an EXR".into());

@@ -5,11 +5,14 @@
 //! - [`exr`]: a [`Frame`](crate::frame::Frame) as a one-part, 32-bit float, ZIP-compressed
 //!   OpenEXR file with the channels and header attributes of the interface contract, written
 //!   byte-deterministically; and a general reader ([`exr::read`]) for EXRs from any writer.
+//! - [`exr_stream`]: the same file written band by band as a render draws it (memory: one
+//!   block of scan lines), byte for byte what [`exr`] writes from a whole frame.
 //! - [`png`]: an 8-bit sRGB preview of the beauty (RGBA).
 //! - [`tev`]: a frame sent to the tev HDR viewer over TCP (its remote-control protocol).
 
 pub mod atomic;
 pub mod exr;
+pub mod exr_stream;
 pub mod png;
 pub mod tev;
 

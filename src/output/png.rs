@@ -7,11 +7,10 @@
 
 use std::path::Path;
 
-use image::codecs::png::PngEncoder;
-use image::{ExtendedColorType, ImageEncoder};
+use std::io::Write;
 
 use super::{atomic, OutputError};
-use crate::frame::Frame;
+use crate::frame::{Frame, Pixel};
 
 /// The sRGB transfer function (linear → encoded), for `c` in [0, 1].
 pub fn linear_to_srgb(c: f32) -> f32 {
@@ -89,11 +88,115 @@ pub fn encode_rgba8(
             format!("{} bytes do not make a non-empty {width}x{height} RGBA8 image", rgba.len()),
         ));
     }
-    let mut bytes = Vec::new();
-    PngEncoder::new(&mut bytes)
-        .write_image(rgba, width, height, ExtendedColorType::Rgba8)
-        .map_err(|source| OutputError::Png { path: path.to_path_buf(), source })?;
-    Ok(bytes)
+    let bytes = SharedBytes::default();
+    let mut writer = stream_encoder(path, bytes.clone(), width, height)?;
+    writer.write_all(rgba).map_err(|e| OutputError::io(path, "encode PNG", e))?;
+    writer.finish().map_err(|e| png_error(path, e))?;
+    Ok(bytes.0.take())
+}
+
+/// A `Vec<u8>` the encoder writes into and the caller keeps (the encoder owns its writer).
+#[derive(Clone, Default)]
+struct SharedBytes(std::rc::Rc<std::cell::RefCell<Vec<u8>>>);
+
+impl std::io::Write for SharedBytes {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.borrow_mut().extend_from_slice(buf);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// The one PNG encoder every isoview PNG goes through (whole images and [`PngStream`]s, so
+/// their bytes agree): RGBA8, adaptive filters, zlib at the default level, rows filtered and
+/// deflated as they are written, IDAT chunks of 1 MiB.
+fn stream_encoder<W: std::io::Write>(
+    path: &Path,
+    out: W,
+    width: u32,
+    height: u32,
+) -> Result<png::StreamWriter<'static, W>, OutputError> {
+    let mut encoder = png::Encoder::new(out, width, height);
+    encoder.set_color(png::ColorType::Rgba);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_compression(png::Compression::Balanced);
+    encoder.set_filter(png::Filter::Adaptive);
+    encoder
+        .write_header()
+        .and_then(|w| w.into_stream_writer_with_size(1 << 20))
+        .map_err(|e| png_error(path, e))
+}
+
+fn png_error(path: &Path, e: png::EncodingError) -> OutputError {
+    OutputError::io(path, "encode PNG", std::io::Error::other(e))
+}
+
+/// A preview PNG written band by band as a render draws it: the rows are filtered and
+/// deflated as they arrive (the encoder of [`encode_rgba8`]), so memory stays at one band and
+/// the bytes are [`write_preview`]'s.
+pub struct PngStream {
+    temp: atomic::TempFile,
+    writer: Option<png::StreamWriter<'static, std::fs::File>>,
+    width: usize,
+    rows_left: usize,
+}
+
+impl PngStream {
+    /// Starts `path` (a temporary file beside it) for a `width` × `height` preview.
+    pub fn create(path: &Path, width: u32, height: u32) -> Result<Self, OutputError> {
+        if width == 0 || height == 0 {
+            return Err(OutputError::invalid(
+                path,
+                format!("cannot write an empty {width}x{height} image"),
+            ));
+        }
+        let temp = atomic::TempFile::create(path)?;
+        let file = temp.file().try_clone().map_err(|e| temp.error("write", e))?;
+        let writer = stream_encoder(path, file, width, height)?;
+        Ok(PngStream {
+            temp,
+            writer: Some(writer),
+            width: width as usize,
+            rows_left: height as usize,
+        })
+    }
+
+    /// The next whole rows of the frame, in order from row 0.
+    pub fn push_rows(&mut self, pixels: &[Pixel]) -> Result<(), OutputError> {
+        let rows = pixels.len() / self.width;
+        if pixels.len() % self.width != 0 || rows > self.rows_left {
+            return Err(OutputError::invalid(
+                self.temp.path(),
+                format!("{} records are not whole rows within the image", pixels.len()),
+            ));
+        }
+        let bytes: Vec<u8> = pixels.iter().flat_map(|p| to_srgb8(p.rgba)).collect();
+        let writer = self.writer.as_mut().ok_or_else(|| {
+            OutputError::invalid(self.temp.path(), "internal: rows after a failed write")
+        })?;
+        if let Err(e) = writer.write_all(&bytes) {
+            self.writer = None;
+            return Err(self.temp.error("write", e));
+        }
+        self.rows_left -= rows;
+        Ok(())
+    }
+
+    /// Ends the PNG and moves it into place; every row must have arrived.
+    pub fn finish(mut self) -> Result<(), OutputError> {
+        if self.rows_left != 0 {
+            let reason = format!("{} rows were never drawn", self.rows_left);
+            return Err(OutputError::invalid(self.temp.path(), reason));
+        }
+        let writer = self.writer.take().ok_or_else(|| {
+            OutputError::invalid(self.temp.path(), "internal: finish after a failed write")
+        })?;
+        writer.finish().map_err(|e| self.temp.error("write", std::io::Error::other(e)))?;
+        self.temp.commit()
+    }
 }
 
 #[cfg(test)]

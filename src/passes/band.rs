@@ -112,12 +112,37 @@ impl<P: Pod> Bands<P> {
         &self,
         pass: &str,
         mut after_band: impl FnMut(Band, &[P]) -> bool,
-        mut record: impl FnMut(&mut Recorder, Band) -> Result<(), GpuError>,
+        record: impl FnMut(&mut Recorder, Band) -> Result<(), GpuError>,
     ) -> Result<Option<Drawn<P>>, GpuError> {
+        let mut pixels = Vec::with_capacity(self.width as usize * self.height as usize);
+        let keep = |band: Band, records: &[P]| {
+            pixels.extend_from_slice(records);
+            match after_band(band, records) {
+                true => Ok(()),
+                false => Err(Halt::Stop),
+            }
+        };
+        match self.for_each_band(pass, keep, record) {
+            Ok(gpu_ms) => Ok(Some((pixels, gpu_ms))),
+            Err(Halt::Stop) => Ok(None),
+            Err(Halt::Gpu(e)) => Err(e),
+        }
+    }
+
+    /// Draws the picture band by band and hands each finished band's records to `after_band`,
+    /// keeping none of them: memory stays at one band whatever the picture's size (what
+    /// streaming outputs need). The first error, the GPU's or `after_band`'s, stops the
+    /// picture. Returns the summed GPU time of the passes in milliseconds (None without
+    /// timestamps).
+    pub fn for_each_band<E: From<GpuError>>(
+        &self,
+        pass: &str,
+        mut after_band: impl FnMut(Band, &[P]) -> Result<(), E>,
+        mut record: impl FnMut(&mut Recorder, Band) -> Result<(), GpuError>,
+    ) -> Result<Option<f64>, E> {
         let ctx = &self.ctx;
         let timer = Timer::new(ctx)?;
         let mut gpu_ms = timer.as_ref().map(|_| 0.0);
-        let mut pixels = Vec::with_capacity(self.width as usize * self.height as usize);
         let mut row = 0;
         while row < self.height {
             let rows = self.rows.min(self.height - row);
@@ -138,13 +163,21 @@ impl<P: Pod> Bands<P> {
             if let (Some(t), Some(ms)) = (&timer, gpu_ms.as_mut()) {
                 *ms += t.elapsed_ms()?;
             }
-            let start = pixels.len();
-            pixels.extend(self.readback.read::<P>(count)?);
-            if !after_band(band, &pixels[start..]) {
-                return Ok(None);
-            }
+            after_band(band, &self.readback.read::<P>(count)?)?;
             row += rows;
         }
-        Ok(Some((pixels, gpu_ms)))
+        Ok(gpu_ms)
+    }
+}
+
+/// Why [`Bands::run_until`] stopped early: the hook said so, or the GPU failed.
+enum Halt {
+    Stop,
+    Gpu(GpuError),
+}
+
+impl From<GpuError> for Halt {
+    fn from(e: GpuError) -> Self {
+        Halt::Gpu(e)
     }
 }

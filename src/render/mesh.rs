@@ -5,7 +5,7 @@
 use ash::vk;
 
 use super::params::RenderParams;
-use super::{GpuGrid, RenderError, Renderer};
+use super::{placed_band, Collect, FrameSink, GpuGrid, RenderError, Renderer};
 use crate::field::Grid;
 use crate::frame::{Frame, Pixel};
 use crate::gpu::Buffer;
@@ -30,14 +30,15 @@ pub fn scene_mesh(scene: &Scene, grid: &Grid) -> Result<Mesh, RenderError> {
 impl Renderer {
     /// Extracts the scene's mesh from the uploaded grid on the GPU (the mesh stays on the
     /// device) and draws it. On a device without `shaderFloat64`, which the mc33 passes need,
-    /// `mc33` is extracted on the CPU and uploaded.
+    /// `mc33` is extracted on the CPU and uploaded. The picture goes to `sink` band by band.
     pub(super) fn render_scene_mesh(
         &mut self,
         scene: &Scene,
         grid: &Grid,
         gpu_grid: &GpuGrid,
         time: f64,
-    ) -> Result<Frame, RenderError> {
+        sink: &mut dyn FrameSink,
+    ) -> Result<(), RenderError> {
         let mesh = if scene.render.mesh == MeshAlgorithm::Mc33 && !self.ctx.info.float64 {
             mesh_render::upload(&self.ctx, &scene_mesh(scene, grid)?)?
         } else {
@@ -54,7 +55,7 @@ impl Renderer {
                 &GpuExtractOptions::default(),
             )?
         };
-        self.render_mesh(scene, grid, gpu_grid, &mesh, time)
+        self.render_mesh_to(scene, grid, gpu_grid, &mesh, time, sink)
     }
 
     /// Draws `mesh` with `scene`'s camera and shading. `grid` (uploaded as `gpu_grid`) gives the
@@ -68,6 +69,21 @@ impl Renderer {
         mesh: &GpuMesh,
         time: f64,
     ) -> Result<Frame, RenderError> {
+        let mut frame = Collect::default();
+        self.render_mesh_to(scene, grid, gpu_grid, mesh, time, &mut frame)?;
+        frame.into_frame()
+    }
+
+    /// [`Renderer::render_mesh`] into `sink`, band by band.
+    pub fn render_mesh_to(
+        &mut self,
+        scene: &Scene,
+        grid: &Grid,
+        gpu_grid: &GpuGrid,
+        mesh: &GpuMesh,
+        time: f64,
+        sink: &mut dyn FrameSink,
+    ) -> Result<(), RenderError> {
         if self.mesh.is_none() {
             self.mesh = Some(MeshPipelines::new(&self.ctx)?);
         }
@@ -90,13 +106,17 @@ impl Renderer {
             pixels: &bands.out,
         };
         let pass = MeshPass::new(ctx, pipes, inputs, bands.band_pixels())?;
-        let (mut pixels, gpu_ms) =
-            bands.run("mesh_raster + mesh_resolve", |rec, band| pass.record(rec, width, band))?;
-        crate::frame::place_pixels(&mut pixels, &scene.field.placement);
-        self.last_gpu_ms = gpu_ms;
         let mut info = self.frame_info(scene, grid, time);
         info.extra.push(("mesh_triangles".into(), mesh.triangle_count.to_string()));
         info.extra.push(("mesh_vertices".into(), mesh.vertex_count.to_string()));
-        Ok(Frame { width, height, pixels, info })
+        sink.begin(width, height, &info)?;
+        let placement = scene.field.placement;
+        let gpu_ms = bands.for_each_band(
+            "mesh_raster + mesh_resolve",
+            |band, records| placed_band(sink, &placement, band, records),
+            |rec, band| pass.record(rec, width, band),
+        )?;
+        self.last_gpu_ms = gpu_ms;
+        Ok(())
     }
 }

@@ -5,6 +5,7 @@
 
 pub mod mesh;
 pub mod params;
+pub mod sink;
 
 use std::sync::Arc;
 
@@ -19,6 +20,7 @@ use crate::passes::Bands;
 use crate::passes::{analytic, bricks, raymarch};
 use crate::scene::{Method, Normals, Projection, Scene};
 use params::RenderParams;
+pub use sink::{Collect, FrameSink};
 
 pub use crate::passes::band::{band_rows, MAX_BAND_PIXELS};
 
@@ -33,6 +35,9 @@ pub enum RenderError {
     /// [`Progressive::after_band`] said stop (a newer state made this frame stale).
     #[error("the render was abandoned between bands")]
     Cancelled,
+    /// A [`FrameSink`] could not write a band on (a streaming output file).
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
 }
 
 /// How [`Renderer::render_progressive`] draws a frame: which pixels, in what bands, and
@@ -179,8 +184,8 @@ impl Renderer {
     }
 
     /// [`Renderer::render_uploaded`] of every `how.stride`-th pixel, band by band, asking
-    /// `how.after_band` after each band whether to go on. The mesh method draws the whole
-    /// image and then keeps every stride-th pixel (one band).
+    /// `how.after_band` after each band whether to go on. The mesh method with a stride draws
+    /// the whole image and then keeps every stride-th pixel (one band).
     pub fn render_progressive(
         &mut self,
         scene: &Scene,
@@ -190,18 +195,57 @@ impl Renderer {
         how: Progressive<'_>,
     ) -> Result<Frame, RenderError> {
         let stride = how.stride.max(1);
+        if scene.render.method == Method::Mesh && stride > 1 {
+            let mut whole = Collect::default();
+            self.render_scene_mesh(scene, grid, gpu_grid, time, &mut whole)?;
+            let frame = subsample(whole.into_frame()?, stride);
+            let band = crate::passes::Band { row_offset: 0, rows: frame.height };
+            return match (how.after_band)(band, &frame.pixels) {
+                true => Ok(frame),
+                false => Err(RenderError::Cancelled),
+            };
+        }
+        let mut sink = sink::Hooked { after_band: how.after_band, inner: Collect::default() };
+        match scene.render.method {
+            Method::Mesh => self.render_scene_mesh(scene, grid, gpu_grid, time, &mut sink)?,
+            _ => self.draw_rays(scene, grid, gpu_grid, time, stride, how.band_rows, &mut sink)?,
+        }
+        sink.inner.into_frame()
+    }
+
+    /// Renders the whole image into `sink`, band by band, keeping no band once the sink has
+    /// it: memory stays at one band of records whatever the image's size.
+    pub fn render_to(
+        &mut self,
+        scene: &Scene,
+        grid: &Grid,
+        gpu_grid: &GpuGrid,
+        time: f64,
+        sink: &mut dyn FrameSink,
+    ) -> Result<(), RenderError> {
+        match scene.render.method {
+            Method::Mesh => self.render_scene_mesh(scene, grid, gpu_grid, time, sink),
+            _ => self.draw_rays(scene, grid, gpu_grid, time, 1, u32::MAX, sink),
+        }
+    }
+
+    /// The ray methods (fixed-step, analytic): every `stride`-th pixel, bands of at most
+    /// `band_rows` rows, each band placed in world space and handed to `sink`.
+    #[allow(clippy::too_many_arguments)]
+    fn draw_rays(
+        &mut self,
+        scene: &Scene,
+        grid: &Grid,
+        gpu_grid: &GpuGrid,
+        time: f64,
+        stride: u32,
+        band_rows: u32,
+        sink: &mut dyn FrameSink,
+    ) -> Result<(), RenderError> {
         let pipeline = match scene.render.method {
             Method::FixedStep => &self.raymarch,
             Method::Analytic => &self.analytic,
-            Method::Mesh => {
-                let whole = self.render_scene_mesh(scene, grid, gpu_grid, time)?;
-                let frame = subsample(whole, stride);
-                let band = crate::passes::Band { row_offset: 0, rows: frame.height };
-                return match (how.after_band)(band, &frame.pixels) {
-                    true => Ok(frame),
-                    false => Err(RenderError::Cancelled),
-                };
-            }
+            Method::Mesh => return Err(RenderError::Unsupported("mesh (as a ray pass)")),
         };
         let ctx = &self.ctx;
         self.last_bricks_ms = None;
@@ -221,7 +265,7 @@ impl Renderer {
             std::slice::from_ref(&params),
             vk::BufferUsageFlags::UNIFORM_BUFFER,
         )?;
-        let bands = Bands::<Pixel>::with_max_rows(ctx, "pixels", width, height, how.band_rows)?;
+        let bands = Bands::<Pixel>::with_max_rows(ctx, "pixels", width, height, band_rows)?;
         let bricks = match scene.render.method {
             Method::Analytic => gpu_grid.bricks.get(),
             _ => None,
@@ -236,29 +280,22 @@ impl Renderer {
                 bricks,
             },
         )?;
-        // The hook sees each band as the frame will hold it: placed in world space.
-        let placement = scene.field.placement;
-        let after_band = how.after_band;
-        let placed_band = |band: crate::passes::Band, records: &[Pixel]| {
-            if placement.is_identity() {
-                return after_band(band, records);
-            }
-            let mut placed = records.to_vec();
-            crate::frame::place_pixels(&mut placed, &placement);
-            after_band(band, &placed)
-        };
-        let drawn = bands.run_until(pass.name(), placed_band, |rec, band| {
-            pass.record(rec, width, band);
-            Ok(())
-        })?;
-        let (mut pixels, gpu_ms) = drawn.ok_or(RenderError::Cancelled)?;
-        crate::frame::place_pixels(&mut pixels, &scene.field.placement);
-        self.last_gpu_ms = gpu_ms;
         let mut info = self.frame_info(scene, grid, time);
         if stride > 1 {
             info.extra.push(("stride".into(), stride.to_string()));
         }
-        Ok(Frame { width, height, pixels, info })
+        sink.begin(width, height, &info)?;
+        let placement = scene.field.placement;
+        let gpu_ms = bands.for_each_band(
+            pass.name(),
+            |band, records| placed_band(sink, &placement, band, records),
+            |rec, band| {
+                pass.record(rec, width, band);
+                Ok(())
+            },
+        )?;
+        self.last_gpu_ms = gpu_ms;
+        Ok(())
     }
 
     fn frame_info(&self, scene: &Scene, grid: &Grid, time: f64) -> FrameInfo {
@@ -317,6 +354,34 @@ impl Renderer {
             extra,
         }
     }
+}
+
+/// The channels a render of `scene` writes: every [`crate::frame::Written::Always`] one, and the counted
+/// ones where the method counts them (`crossings`: analytic and mesh with
+/// `render.count_crossings`). The EXR is streamed, so they are decided before the first band;
+/// the streaming writer checks the pixels agree.
+pub fn written_channels(scene: &Scene) -> Vec<crate::frame::Channel> {
+    let counted =
+        scene.render.method != crate::scene::Method::FixedStep && scene.render.count_crossings;
+    crate::frame::Channel::ALL
+        .into_iter()
+        .filter(|c| c.written() == crate::frame::Written::Always || counted)
+        .collect()
+}
+
+/// Hands a band to `sink` as the frame holds it: placed in world space.
+fn placed_band(
+    sink: &mut dyn FrameSink,
+    placement: &crate::vocab::Placement,
+    band: crate::passes::Band,
+    records: &[Pixel],
+) -> Result<(), RenderError> {
+    if placement.is_identity() {
+        return sink.band(band, records);
+    }
+    let mut placed = records.to_vec();
+    crate::frame::place_pixels(&mut placed, placement);
+    sink.band(band, &placed)
 }
 
 /// Every `stride`-th pixel of every `stride`-th row of `frame` (the picture a strided ray

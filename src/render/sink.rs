@@ -1,0 +1,75 @@
+//! Where a frame goes as it is drawn.
+//!
+//! A render draws its picture band by band (`passes::Bands`); a [`FrameSink`] is told the
+//! frame's size and facts once ([`FrameSink::begin`], before the first band) and then gets
+//! each band's records, row 0 first, in world space ([`FrameSink::band`]). A sink that writes
+//! each band on (the streaming EXR and PNG writers, tev) keeps memory at one band whatever
+//! the image's size; [`Collect`] keeps them all and gives back the [`Frame`].
+
+use super::RenderError;
+use crate::frame::{Frame, FrameInfo, Pixel};
+use crate::passes::Band;
+
+/// Receives a frame band by band (see the module docs).
+pub trait FrameSink {
+    /// The frame's size and facts, before the first band.
+    fn begin(&mut self, width: u32, height: u32, info: &FrameInfo) -> Result<(), RenderError>;
+    /// One band's records, `band.rows` whole rows, the bands in order from row 0. An error
+    /// (or [`RenderError::Cancelled`]) stops the render.
+    fn band(&mut self, band: Band, pixels: &[Pixel]) -> Result<(), RenderError>;
+}
+
+/// Keeps every band: the whole [`Frame`], for callers that need it in memory.
+#[derive(Default)]
+pub struct Collect {
+    frame: Option<Frame>,
+}
+
+impl Collect {
+    /// The frame collected, once the render has ended without error.
+    pub fn into_frame(self) -> Result<Frame, RenderError> {
+        self.frame.ok_or_else(|| {
+            RenderError::Gpu(crate::gpu::GpuError::Bug("the render sent no frame".into()))
+        })
+    }
+}
+
+impl FrameSink for Collect {
+    fn begin(&mut self, width: u32, height: u32, info: &FrameInfo) -> Result<(), RenderError> {
+        let pixels = Vec::with_capacity(width as usize * height as usize);
+        self.frame = Some(Frame { width, height, pixels, info: info.clone() });
+        Ok(())
+    }
+
+    fn band(&mut self, _: Band, pixels: &[Pixel]) -> Result<(), RenderError> {
+        match &mut self.frame {
+            Some(frame) => {
+                frame.pixels.extend_from_slice(pixels);
+                Ok(())
+            }
+            None => Err(RenderError::Gpu(crate::gpu::GpuError::Bug(
+                "a band arrived before the frame began".into(),
+            ))),
+        }
+    }
+}
+
+/// A sink that hands each band to `after_band` first (the progressive hook: false stops the
+/// render with [`RenderError::Cancelled`]) and then to `inner`.
+pub struct Hooked<'a, S> {
+    pub after_band: &'a mut dyn FnMut(Band, &[Pixel]) -> bool,
+    pub inner: S,
+}
+
+impl<S: FrameSink> FrameSink for Hooked<'_, S> {
+    fn begin(&mut self, width: u32, height: u32, info: &FrameInfo) -> Result<(), RenderError> {
+        self.inner.begin(width, height, info)
+    }
+
+    fn band(&mut self, band: Band, pixels: &[Pixel]) -> Result<(), RenderError> {
+        if !(self.after_band)(band, pixels) {
+            return Err(RenderError::Cancelled);
+        }
+        self.inner.band(band, pixels)
+    }
+}

@@ -90,6 +90,13 @@ bool cell_is_clear(Corners k, float iso) {
     return lo - iso > tol || iso - hi > tol;
 }
 
+// Whether this process traces `cell` (P.block_lo .. P.block_hi: the whole grid, or an MPI
+// rank's block). Cells outside are walked (so `steps`, the brick jumps and the t of every
+// plane are the whole walk's) but not evaluated: their values are on another rank.
+bool owned(ivec3 cell) {
+    return all(greaterThanEqual(cell, P.block_lo.xyz)) && all(lessThan(cell, P.block_hi.xyz));
+}
+
 void main() {
     uvec2 px_local = gl_GlobalInvocationID.xy;
     if (px_local.x >= P.image.w || px_local.y >= band.rows) return;
@@ -175,8 +182,18 @@ void main() {
         cell[a] = int(c);
         q_in[a] = clamp(p[a] - c, 0.0, 1.0);
     }
-    Corners corners = cell_corners(cell);
-    float g_in = trilerp(corners, q_in) - iso;
+    Corners corners;
+    float g_in = 0.0;
+    // fresh: g_in is not yet this cell's entry value (the walk came from cells of another
+    // block). It is then evaluated from this cell's corners: a face point has the same bits
+    // from both cells sharing the face (trilerp), so it equals the value the whole walk carries.
+    bool fresh = true;
+    bool own = owned(cell);
+    if (own) {
+        corners = cell_corners(cell);
+        g_in = trilerp(corners, q_in) - iso;
+        fresh = false;
+    }
 
     // 5. Next planes, from plane indices.
     vec3 tmax = vec3(tmax_of(0, cell.x, o, d), tmax_of(1, cell.y, o, d), tmax_of(2, cell.z, o, d));
@@ -234,12 +251,16 @@ void main() {
                 cell[a] = c;
                 tmax[a] = tmax_of(a, c, o, d);
             }
-            corners = cell_corners(cell);
-            have_corners = true;
+            own = owned(cell);
+            if (own) corners = cell_corners(cell);
+            have_corners = own;
             t_out = t_b;
             jumped = true;
         } else {
-            if (!have_corners) corners = cell_corners(cell);
+            own = owned(cell);
+            if (own && !have_corners) corners = cell_corners(cell);
+            if (own && fresh) g_in = trilerp(corners, q_in) - iso;
+            fresh = fresh && !own;
             // 6.1 Segment end.
             t_out = max(min(min(tmax.x, min(tmax.y, tmax.z)), t_hi), t_in);
         }
@@ -257,9 +278,9 @@ void main() {
                 q_out[a] = clamp(o[a] + t_out * d[a] - float(cell[a]), 0.0, 1.0);
             }
         }
-        float g_out = t_out == t_in ? g_in : trilerp(corners, q_out) - iso;
+        float g_out = !own ? 0.0 : (t_out == t_in ? g_in : trilerp(corners, q_out) - iso);
 
-        if (!jumped && !(P.analytic.y != 0u && cell_is_clear(corners, iso))) {
+        if (own && !jumped && !(P.analytic.y != 0u && cell_is_clear(corners, iso))) {
             // 6.3 Cubic; 6.4 split points.
             vec4 cubic = cubic_along(corners, q_in, q_out, g_in);
             float r0, r1;
@@ -328,6 +349,7 @@ void main() {
         if (left_box) break;
         have_corners = false;
         g_in = g_out;
+        fresh = !own;
         t_in = t_out;
     }
 

@@ -17,6 +17,8 @@
 
 pub mod camera;
 pub mod cli;
+#[cfg(feature = "mpi")]
+pub mod cluster;
 pub mod compare;
 pub mod field;
 pub mod frame;

@@ -8,8 +8,10 @@ bool is_inside(float v) {
     return P.surface.y > 0.0 ? v < P.surface.x : v > P.surface.x;
 }
 
+// The value at grid point p (global indices; u_grid may hold only a block of the grid, from
+// P.block_origin on).
 float grid_value(ivec3 p) {
-    return texelFetch(u_grid, p, 0).r;
+    return texelFetch(u_grid, p - P.block_origin.xyz, 0).r;
 }
 
 // World position -> continuous grid coordinates, clamped into the box.

@@ -24,6 +24,9 @@ struct RenderParams {
                        // z: brick size in cells (the min/max grid of the skipping)
     uvec4 view;        // x: 1 = orthographic camera, y: normals (NORMALS_TRILINEAR or
                        // NORMALS_SMOOTH), z: clip planes in use
+    ivec4 block_lo;    // xyz: first cell this process traces (an MPI rank's block; 0: all)
+    ivec4 block_hi;    // xyz: one past the last cell it traces
+    ivec4 block_origin;  // xyz: the grid point in texel (0,0,0) of u_grid
     vec4 clip[CLIP_PLANES];  // xyz: normal, w: offset, in the grid's frame; each removes
                              // dot(normal, p) > offset
 };

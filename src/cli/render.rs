@@ -104,9 +104,28 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         None => vec![(args.time, args.output.clone(), args.png.clone())],
     };
 
+    // Under mpirun with more than one rank: the grid is split (`cluster`), rank 0 writes.
+    #[cfg(feature = "mpi")]
+    let world = crate::cluster::world();
+    #[cfg(feature = "mpi")]
+    if let Some(w) = &world {
+        let tev = args.tev.as_ref().map(|_| "--tev is not available under MPI".to_string());
+        if let Some(why) = w.refuses(&scene).or(tev) {
+            // Every rank finds the same; rank 0 says it.
+            return match w.rank() {
+                0 => Err(Failure::input(why)),
+                _ => Ok(super::EXIT_INPUT),
+            };
+        }
+    }
+    #[cfg(feature = "mpi")]
+    let rank0 = world.as_ref().is_none_or(|w| w.rank() == 0);
+    #[cfg(not(feature = "mpi"))]
+    let rank0 = true;
+
     let ctx = cli.gpu()?;
     let mut renderer = Renderer::new(&ctx).map_err(Failure::gpu)?;
-    let progress = (frames.len() > 1).then(|| {
+    let progress = (frames.len() > 1 && rank0).then(|| {
         let bar = indicatif::ProgressBar::new(frames.len() as u64);
         bar.set_style(
             indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} frames, {eta} left")
@@ -120,6 +139,12 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         let started = Instant::now();
         if cached.is_none() || scene.field.is_time_varying() {
             let grid = scene.field.sample(*time).map_err(Failure::input)?;
+            #[cfg(feature = "mpi")]
+            let uploaded = match &world {
+                Some(w) => w.upload(&ctx, &grid)?,
+                None => GpuGrid::upload(&ctx, &grid)?,
+            };
+            #[cfg(not(feature = "mpi"))]
             let uploaded = GpuGrid::upload(&ctx, &grid)?;
             cached = Some((grid, uploaded));
         }
@@ -141,6 +166,22 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
             tev_error: None,
             size: (0, 0),
         };
+        #[cfg(feature = "mpi")]
+        let drawn = match &world {
+            Some(w) => {
+                let mut sink = crate::cluster::Composite::new(w, rank0.then_some(&mut outputs));
+                let drawn = renderer.render_to(&scene, grid, gpu_grid, *time, &mut sink);
+                if let Err(e) = drawn {
+                    // The other ranks wait in a collective: end them all.
+                    let f = render_failure(e);
+                    eprintln!("isoview: rank {}: {}", w.rank(), f.message);
+                    w.abort(f.code);
+                }
+                Ok(())
+            }
+            None => renderer.render_to(&scene, grid, gpu_grid, *time, &mut outputs),
+        };
+        #[cfg(not(feature = "mpi"))]
         let drawn = renderer.render_to(&scene, grid, gpu_grid, *time, &mut outputs);
         if let Some(e) = outputs.tev_error.take() {
             return Err(Failure::input(e));
@@ -149,6 +190,7 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         let (width, height) = outputs.size;
         outputs.finish()?;
         match &progress {
+            _ if !rank0 => {}
             Some(bar) => bar.inc(1),
             None => eprintln!(
                 "isoview: {}x{} {} on {} in {:.0} ms{} -> {}",

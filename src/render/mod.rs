@@ -3,6 +3,7 @@
 //! also reads the grid's brick min/max grid (empty-space skipping), built on the GPU the first
 //! time an analytic render uses an uploaded grid and kept with it.
 
+pub mod block;
 pub mod mesh;
 pub mod params;
 pub mod sink;
@@ -74,12 +75,15 @@ impl From<crate::passes::extract::GpuMeshError> for RenderError {
     }
 }
 
-/// A grid uploaded to the device.
+/// A grid uploaded to the device: the whole grid, or one process's block of it.
 pub struct GpuGrid {
     pub image: Image3d,
+    /// Points per axis of the uploaded image.
     pub dims: [usize; 3],
     /// The brick min/max grid ([`bricks`]), built by the first analytic render.
     bricks: std::cell::OnceCell<Buffer>,
+    /// The block of a larger grid the image holds (None: the whole grid).
+    block: Option<block::Block>,
 }
 
 impl GpuGrid {
@@ -89,7 +93,29 @@ impl GpuGrid {
             image: Image3d::upload(ctx, "grid", extent, &grid.values)?,
             dims: grid.dims,
             bricks: std::cell::OnceCell::new(),
+            block: None,
         })
+    }
+
+    /// Uploads one process's `block` of a larger grid (`values`: its points, x fastest) with
+    /// the whole grid's brick min/max grid (`bricks`, combined over every block), for the
+    /// analytic method, which then traces only the block's cells.
+    pub fn upload_block(
+        ctx: &Arc<Context>,
+        block: block::Block,
+        values: &[f32],
+        bricks: &[[f32; 2]],
+    ) -> Result<Self, GpuError> {
+        let extent = block.extent.map(|d| d as u32);
+        let grid = GpuGrid {
+            image: Image3d::upload(ctx, "grid block", extent, values)?,
+            dims: block.extent,
+            bricks: std::cell::OnceCell::new(),
+            block: Some(block),
+        };
+        let buffer = Buffer::upload(ctx, "bricks", bricks, vk::BufferUsageFlags::STORAGE_BUFFER)?;
+        let _ = grid.bricks.set(buffer);
+        Ok(grid)
     }
 
     /// The brick min/max grid, once an analytic render has built it (layout: [`bricks`]).
@@ -224,6 +250,9 @@ impl Renderer {
         sink: &mut dyn FrameSink,
     ) -> Result<(), RenderError> {
         match scene.render.method {
+            Method::Mesh if gpu_grid.block.is_some() => {
+                Err(RenderError::Unsupported("mesh (on a block of the grid)"))
+            }
             Method::Mesh => self.render_scene_mesh(scene, grid, gpu_grid, time, sink),
             _ => self.draw_rays(scene, grid, gpu_grid, time, 1, u32::MAX, sink),
         }
@@ -259,6 +288,14 @@ impl Renderer {
         let mut params = RenderParams::new(scene, grid);
         params.image[2] = stride;
         params.image[3] = width;
+        if let Some(b) = &gpu_grid.block {
+            if scene.render.method != Method::Analytic {
+                return Err(RenderError::Unsupported("fixed-step (on a block of the grid)"));
+            }
+            let i = |v: [usize; 3]| [v[0] as i32, v[1] as i32, v[2] as i32, 0];
+            (params.block_lo, params.block_hi) = (i(b.cells_lo), i(b.cells_hi));
+            params.block_origin = i(b.origin);
+        }
         let params_buf = Buffer::upload(
             ctx,
             "params",

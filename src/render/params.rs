@@ -31,12 +31,19 @@ pub struct RenderParams {
     pub eye_grid: [f32; 4],
     pub analytic: [u32; 4],
     pub view: [u32; 4],
+    /// xyz: the first cell this process traces; the others are walked but not evaluated
+    /// (an MPI rank's block, `render::block`); 0 for the whole grid.
+    pub block_lo: [i32; 4],
+    /// xyz: one past the last cell this process traces (the grid's cells for the whole grid).
+    pub block_hi: [i32; 4],
+    /// xyz: the grid point held in texel (0, 0, 0) of the uploaded grid (0 for the whole grid).
+    pub block_origin: [i32; 4],
     pub clip: [[f32; 4]; Clip::MAX_PLANES],
 }
 
 const _: () = {
     assert!(consts::CLIP_PLANES as usize == Clip::MAX_PLANES);
-    assert!(std::mem::size_of::<RenderParams>() == (17 + Clip::MAX_PLANES) * 16);
+    assert!(std::mem::size_of::<RenderParams>() == (20 + Clip::MAX_PLANES) * 16);
     assert!(std::mem::offset_of!(RenderParams, dims) == 9 * 16);
     assert!(std::mem::offset_of!(RenderParams, debug) == 13 * 16);
     assert!(std::mem::offset_of!(RenderParams, eye_grid) == 14 * 16);
@@ -145,6 +152,9 @@ impl RenderParams {
                 r.count_crossings as u32,
             ],
             view: [cam.orthographic as u32, normals_code(r.normals), clip.count as u32, 0],
+            block_lo: [0; 4],
+            block_hi: [nx as i32 - 1, ny as i32 - 1, nz as i32 - 1, 0],
+            block_origin: [0; 4],
             clip: std::array::from_fn(|i| {
                 let (n, offset) = clip.planes[i];
                 [n.x as f32, n.y as f32, n.z as f32, offset as f32]

@@ -19,6 +19,16 @@ pub trait FrameSink {
     fn band(&mut self, band: Band, pixels: &[Pixel]) -> Result<(), RenderError>;
 }
 
+impl<S: FrameSink + ?Sized> FrameSink for &mut S {
+    fn begin(&mut self, width: u32, height: u32, info: &FrameInfo) -> Result<(), RenderError> {
+        (**self).begin(width, height, info)
+    }
+
+    fn band(&mut self, band: Band, pixels: &[Pixel]) -> Result<(), RenderError> {
+        (**self).band(band, pixels)
+    }
+}
+
 /// Keeps every band: the whole [`Frame`], for callers that need it in memory.
 #[derive(Default)]
 pub struct Collect {

@@ -166,6 +166,9 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
             tev_error: None,
             size: (0, 0),
         };
+        // Under MPI: the ranks, and rank 0's time gathering and compositing.
+        #[cfg_attr(not(feature = "mpi"), allow(unused_mut))]
+        let mut split = String::new();
         #[cfg(feature = "mpi")]
         let drawn = match &world {
             Some(w) => {
@@ -177,6 +180,8 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
                     eprintln!("isoview: rank {}: {}", w.rank(), f.message);
                     w.abort(f.code);
                 }
+                let ms = sink.compositing.as_secs_f64() * 1e3;
+                split = format!(", {} MPI ranks, compositing {ms:.0} ms", w.size());
                 Ok(())
             }
             None => renderer.render_to(&scene, grid, gpu_grid, *time, &mut outputs),
@@ -193,7 +198,7 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
             _ if !rank0 => {}
             Some(bar) => bar.inc(1),
             None => eprintln!(
-                "isoview: {}x{} {} on {} in {:.0} ms{} -> {}",
+                "isoview: {}x{} {} on {} in {:.0} ms{}{split} -> {}",
                 width,
                 height,
                 scene.render.method.name(),

@@ -153,16 +153,27 @@ pub struct Composite<'a, S> {
     width: usize,
     height: usize,
     sent_rows: usize,
+    /// Time spent gathering and compositing (this frame), for the run's report.
+    pub compositing: std::time::Duration,
 }
 
 impl<'a, S: FrameSink> Composite<'a, S> {
     pub fn new(world: &'a World, inner: Option<S>) -> Self {
-        Composite { world, inner, pending: Vec::new(), width: 0, height: 0, sent_rows: 0 }
+        Composite {
+            world,
+            inner,
+            pending: Vec::new(),
+            width: 0,
+            height: 0,
+            sent_rows: 0,
+            compositing: std::time::Duration::ZERO,
+        }
     }
 
     /// Gathers and composites the first `rows` pending rows.
     fn flush(&mut self, rows: usize) -> Result<(), RenderError> {
         let n = rows * self.width;
+        let started = std::time::Instant::now();
         let send: &[u32] = bytemuck::cast_slice(&self.pending[..n]);
         let root = self.world.comm.process_at_rank(0);
         if let Some(inner) = &mut self.inner {
@@ -177,10 +188,12 @@ impl<'a, S: FrameSink> Composite<'a, S> {
                     composite(&parts)
                 })
                 .collect();
+            self.compositing += started.elapsed();
             let band = Band { row_offset: self.sent_rows as u32, rows: rows as u32 };
             inner.band(band, &pixels)?;
         } else {
             root.gather_into(send);
+            self.compositing += started.elapsed();
         }
         self.pending.drain(..n);
         self.sent_rows += rows;

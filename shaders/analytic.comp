@@ -199,6 +199,9 @@ void main() {
     uint crossings = 0u;
     bool found = false;
     uint visited = 0u;
+    float hit_t = 0.0;
+    vec3 hit_q = vec3(0.0);
+    ivec3 hit_cell = ivec3(0);
     bool have_corners = true;
     for (uint pass = 0u; pass < max_passes; pass++) {
         passes++;
@@ -289,22 +292,14 @@ void main() {
                 crossings++;
                 if (found || crossings != wanted) continue;
 
-                // 7. The hit.
+                // 7. The hit: where it is; its attributes are filled in after the walk.
                 found = true;
                 visited = passes;
                 float u = exact ? ue : refine_root(cubic, below, ua, ub, ga, gb, P.method.w);
-                float t = segment_t(t_in, t_out, u);
-                vec3 q = vec3(lerp1(q_in.x, q_out.x, u), lerp1(q_in.y, q_out.y, u),
-                              lerp1(q_in.z, q_out.z, u));
-                vec3 grad = gradient_cell(corners, q) * P.inv_spacing.xyz;
-                vec3 oriented = below ? grad : -grad;
-                float len = length(oriented);
-                r.normal = len > 0.0 && !isinf(len) ? oriented / len : -dir;
-                r.normal = scene_normal(vec3(cell) + q, r.normal);
-                r.depth = t;
-                r.position = eye + t * dir;
-                r.cell = cell;
-                r.rgba = vec4(shade(r.normal, dir, t, float(visited), vec3(cell) + q, cell), 1.0);
+                hit_t = segment_t(t_in, t_out, u);
+                hit_q = vec3(lerp1(q_in.x, q_out.x, u), lerp1(q_in.y, q_out.y, u),
+                             lerp1(q_in.z, q_out.z, u));
+                hit_cell = cell;
                 if (!count_all) break;
             }
         }
@@ -331,6 +326,20 @@ void main() {
         t_in = t_out;
     }
 
+    // 7. The hit's attributes. Out of the loop on purpose: llvmpipe runs a branch's code for
+    // every lane under a mask, so code in the walk's body costs on every cell of every ray.
+    if (found) {
+        vec3 grad = gradient_cell(cell_corners(hit_cell), hit_q) * P.inv_spacing.xyz;
+        vec3 oriented = below ? grad : -grad;
+        float len = length(oriented);
+        r.normal = len > 0.0 && !isinf(len) ? oriented / len : -dir;
+        r.normal = scene_normal(vec3(hit_cell) + hit_q, r.normal);
+        r.depth = hit_t;
+        r.position = eye + hit_t * dir;
+        r.cell = hit_cell;
+        r.rgba = vec4(shade(r.normal, dir, hit_t, float(visited), vec3(hit_cell) + hit_q, hit_cell),
+                      1.0);
+    }
     r.steps = float(found ? visited : passes);
     r.crossings = count_all ? int(crossings) : -1;
     pixels[px_local.y * P.image.w + px_local.x] = r;

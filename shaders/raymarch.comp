@@ -53,31 +53,40 @@ void main() {
         float fa = field_cached(cache, to_grid(o + d * t0));
         bool ina = is_inside(fa);
         uint count = 1u;
+        // The march only finds the first interval [ta, tb] where the predicate changes; the
+        // refinement and the hit's attributes come after the loop on purpose: llvmpipe runs a
+        // branch's code for every lane under a mask, so code in the loop's body costs on every
+        // sample of every ray.
+        bool crossed = false;
+        float tb = t0;
+        float fb = fa;
         for (uint i = 1u; i < n; i++) {
-            float tb = t0 + (t1 - t0) * (float(i) / float(n - 1u));
-            float fb = field_cached(cache, to_grid(o + d * tb));
+            tb = t0 + (t1 - t0) * (float(i) / float(n - 1u));
+            fb = field_cached(cache, to_grid(o + d * tb));
             count++;
             if (is_inside(fb) != ina) {
-                // Refine: keep [ta, tb] bracketing the change of the predicate.
-                for (int k = 0; k < REFINE_BISECTIONS; k++) {
-                    float tm = 0.5 * (ta + tb);
-                    float fm = field_cached(cache, to_grid(o + d * tm));
-                    if (is_inside(fm) == ina) { ta = tm; fa = fm; } else { tb = tm; fb = fm; }
-                }
-                float s = fb != fa ? clamp((P.surface.x - fa) / (fb - fa), 0.0, 1.0) : 0.5;
-                float th = ta + (tb - ta) * s;
-                vec3 hit = o + d * th;
-                vec3 u = to_grid(hit);
-                r.depth = th;
-                r.position = hit;
-                r.cell = cell_of(u);
-                r.normal = scene_normal(u, normal_at(u, -d));
-                r.steps = float(count);
-                r.rgba = vec4(shade(r.normal, d, th, r.steps, u, r.cell), 1.0);
+                crossed = true;
                 break;
             }
             ta = tb;
             fa = fb;
+        }
+        if (crossed) {
+            // Refine: keep [ta, tb] bracketing the change of the predicate.
+            for (int k = 0; k < REFINE_BISECTIONS; k++) {
+                float tm = 0.5 * (ta + tb);
+                float fm = field_cached(cache, to_grid(o + d * tm));
+                if (is_inside(fm) == ina) { ta = tm; fa = fm; } else { tb = tm; fb = fm; }
+            }
+            float s = fb != fa ? clamp((P.surface.x - fa) / (fb - fa), 0.0, 1.0) : 0.5;
+            float th = ta + (tb - ta) * s;
+            vec3 hit = o + d * th;
+            vec3 u = to_grid(hit);
+            r.depth = th;
+            r.position = hit;
+            r.cell = cell_of(u);
+            r.normal = scene_normal(u, normal_at(u, -d));
+            r.rgba = vec4(shade(r.normal, d, th, float(count), u, r.cell), 1.0);
         }
         r.steps = float(count);
     }

@@ -32,3 +32,4 @@ mod serve;
 mod slice;
 mod sources;
 mod stats;
+mod surfaces;

@@ -119,7 +119,7 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         }
     }
     #[cfg(feature = "mpi")]
-    let rank0 = world.as_ref().is_none_or(|w| w.rank() == 0);
+    let rank0 = world.as_ref().map_or(true, |w| w.rank() == 0);
     #[cfg(not(feature = "mpi"))]
     let rank0 = true;
 
@@ -156,7 +156,7 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         };
         // Each band goes to the EXR, the PNG and tev as it is drawn; none is kept.
         let mut outputs = Outputs {
-            channels: crate::render::written_channels(&scene),
+            channels: crate::render::scene_channels(&scene),
             exr_path: exr,
             png_path: png.as_deref(),
             rule: scene.surface.rule.describe(scene.surface.isovalue),
@@ -266,7 +266,8 @@ impl FrameSink for Outputs<'_> {
             &info,
         )?);
         if let Some(png) = self.png_path {
-            self.png = Some(output::png::PngStream::create(png, width, height)?);
+            self.png =
+                Some(output::png::PngStream::create(png, width, height, info.legend.as_ref())?);
         }
         Ok(())
     }
@@ -290,9 +291,9 @@ impl FrameSink for Outputs<'_> {
 }
 
 /// Opens the tev image of the render to `exr`: named as the file, with the channels the EXR
-/// will have (`crossings` where the method counts them).
+/// will have.
 fn open_tev(address: &str, exr: &Path, scene: &Scene) -> Result<output::tev::TevImage, Failure> {
-    let channels = crate::render::written_channels(scene);
+    let channels = crate::render::scene_channels(scene);
     let name = exr.display().to_string();
     output::tev::TevImage::open(address, &name, scene.image.width, scene.image.height, channels)
         .map_err(Failure::input)

@@ -18,10 +18,12 @@
 //! go out in increasing y, the file's line order, so the bytes equal the in-memory writer's.
 //!
 //! Channels are declared up front (a caller knows them from the scene: see
-//! `render::written_channels`). The in-memory writer decides [`Written::WhereCounted`]
-//! channels from the pixels instead, so the stream checks that the pixels agree with what was
-//! declared (a counted value in an undeclared channel, or a declared channel that no pixel
-//! counted, is an error) rather than write a file the in-memory writer would not.
+//! `render::scene_channels`). The in-memory writer decides the channels written only where
+//! some pixel has a value ([`Written::WhereCounted`], [`Written::WhereFinite`]) from the
+//! pixels instead, so the stream refuses a value in an undeclared channel (the in-memory
+//! writer would have written it). A declared channel that no pixel gives a value (a picture
+//! where nothing was hit) is written all "no value": there the two writers differ, as the
+//! header is out before the pixels.
 
 use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
@@ -57,9 +59,7 @@ pub struct ExrStream {
     offsets: Vec<u64>,
     /// Where the offset table starts.
     table_at: u64,
-    /// Declared [`Written::WhereCounted`] channels and whether some pixel has counted yet.
-    counted: Vec<(Channel, bool)>,
-    /// Undeclared [`Written::WhereCounted`] channels (every pixel must say "not counted").
+    /// Undeclared channels written only where they hold a value (every pixel must say "none").
     uncounted: Vec<Channel>,
 }
 
@@ -127,7 +127,6 @@ impl ExrStream {
             rows_in: 0,
             offsets: Vec::with_capacity(chunk_count),
             table_at,
-            counted: counted_channels.clone().filter(declared).map(|c| (c, false)).collect(),
             uncounted: counted_channels.filter(|c| !declared(c)).collect(),
         })
     }
@@ -163,12 +162,6 @@ impl ExrStream {
             return Err(
                 self.invalid(format!("only {} of {} rows were drawn", self.rows_in, self.height))
             );
-        }
-        if let Some((c, _)) = self.counted.iter().find(|(_, seen)| !seen) {
-            return Err(self.invalid(format!(
-                "internal: channel {} was declared but no pixel counted it",
-                c.name()
-            )));
         }
         let table: Vec<u8> = self.offsets.iter().flat_map(|o| o.to_le_bytes()).collect();
         let at = self.table_at;
@@ -221,13 +214,15 @@ impl ExrStream {
         Ok(())
     }
 
-    /// Records which declared counted channels have a count, and refuses counts in undeclared
-    /// ones (the in-memory writer would have written those channels).
+    /// Refuses values in undeclared channels (the in-memory writer would have written those
+    /// channels; `output::exr::written_channels` is the rule).
     fn check_counts(&mut self, pixels: &[Pixel]) -> Result<(), OutputError> {
-        for (c, seen) in &mut self.counted {
-            *seen = *seen || pixels.iter().any(|p| c.get(p) >= 0.0);
-        }
-        if let Some(c) = self.uncounted.iter().find(|c| pixels.iter().any(|p| c.get(p) >= 0.0)) {
+        let holds = |c: &Channel, p: &Pixel| match c.written() {
+            Written::Always => true,
+            Written::WhereCounted => c.get(p) >= 0.0,
+            Written::WhereFinite => c.get(p).is_finite(),
+        };
+        if let Some(c) = self.uncounted.iter().find(|c| pixels.iter().any(|p| holds(c, p))) {
             let reason = format!("internal: channel {} has counts but was not declared", c.name());
             return Err(self.invalid(reason));
         }

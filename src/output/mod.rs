@@ -13,6 +13,7 @@
 pub mod atomic;
 pub mod exr;
 pub mod exr_stream;
+pub mod legend;
 pub mod png;
 pub mod tev;
 

@@ -41,7 +41,8 @@ pub fn to_srgb8(rgba: [f32; 4]) -> [u8; 4] {
     [enc(rgba[0]), enc(rgba[1]), enc(rgba[2]), quantise(rgba[3])]
 }
 
-/// Writes the frame's beauty as an sRGB RGBA8 PNG, atomically.
+/// Writes the frame's beauty as an sRGB RGBA8 PNG, atomically; a `[color] by` render gets its
+/// colour bar under the picture ([`super::legend`]).
 pub fn write_preview(path: &Path, frame: &Frame) -> Result<(), OutputError> {
     let (w, h) = (frame.width as usize, frame.height as usize);
     if frame.pixels.len() != w * h {
@@ -50,17 +51,27 @@ pub fn write_preview(path: &Path, frame: &Frame) -> Result<(), OutputError> {
             format!("frame has {} pixels, expected {w}x{h} = {}", frame.pixels.len(), w * h),
         ));
     }
-    write_rgba8(path, frame.width, frame.height, &preview_rgba8(frame))
+    let (height, rgba) = preview_rgba8(frame);
+    write_rgba8(path, frame.width, height, &rgba)
 }
 
-/// The frame's beauty as 8-bit sRGB RGBA, row 0 at the top (what [`write_preview`] encodes).
-pub fn preview_rgba8(frame: &Frame) -> Vec<u8> {
-    frame.pixels.iter().flat_map(|p| to_srgb8(p.rgba)).collect()
+/// The frame's beauty as 8-bit sRGB RGBA, row 0 at the top, with the colour bar's rows under
+/// it when the frame has a legend (what [`write_preview`] encodes), and its height in rows.
+pub fn preview_rgba8(frame: &Frame) -> (u32, Vec<u8>) {
+    let mut rgba: Vec<u8> = frame.pixels.iter().flat_map(|p| to_srgb8(p.rgba)).collect();
+    match &frame.info.legend {
+        None => (frame.height, rgba),
+        Some(legend) => {
+            rgba.extend(super::legend::rows(legend, frame.width));
+            (frame.height + super::legend::ROWS, rgba)
+        }
+    }
 }
 
 /// The PNG bytes [`write_preview`] writes (`path` only names the file in errors).
 pub fn encode_preview(path: &Path, frame: &Frame) -> Result<Vec<u8>, OutputError> {
-    encode_rgba8(path, frame.width, frame.height, &preview_rgba8(frame))
+    let (height, rgba) = preview_rgba8(frame);
+    encode_rgba8(path, frame.width, height, &rgba)
 }
 
 /// Writes 8-bit RGBA pixels (row-major, row 0 at the top) as a PNG, atomically.
@@ -142,25 +153,36 @@ pub struct PngStream {
     writer: Option<png::StreamWriter<'static, std::fs::File>>,
     width: usize,
     rows_left: usize,
+    /// The colour bar's rows, written under the picture at the end ([`super::legend`]).
+    legend: Vec<u8>,
 }
 
 impl PngStream {
-    /// Starts `path` (a temporary file beside it) for a `width` × `height` preview.
-    pub fn create(path: &Path, width: u32, height: u32) -> Result<Self, OutputError> {
+    /// Starts `path` (a temporary file beside it) for a `width` × `height` preview, with the
+    /// colour bar of `legend` under it (as [`write_preview`]).
+    pub fn create(
+        path: &Path,
+        width: u32,
+        height: u32,
+        legend: Option<&crate::frame::Legend>,
+    ) -> Result<Self, OutputError> {
         if width == 0 || height == 0 {
             return Err(OutputError::invalid(
                 path,
                 format!("cannot write an empty {width}x{height} image"),
             ));
         }
+        let legend = legend.map(|l| super::legend::rows(l, width)).unwrap_or_default();
+        let bar_rows = if legend.is_empty() { 0 } else { super::legend::ROWS };
         let temp = atomic::TempFile::create(path)?;
         let file = temp.file().try_clone().map_err(|e| temp.error("write", e))?;
-        let writer = stream_encoder(path, file, width, height)?;
+        let writer = stream_encoder(path, file, width, height + bar_rows)?;
         Ok(PngStream {
             temp,
             writer: Some(writer),
             width: width as usize,
             rows_left: height as usize,
+            legend,
         })
     }
 
@@ -191,9 +213,10 @@ impl PngStream {
             let reason = format!("{} rows were never drawn", self.rows_left);
             return Err(OutputError::invalid(self.temp.path(), reason));
         }
-        let writer = self.writer.take().ok_or_else(|| {
+        let mut writer = self.writer.take().ok_or_else(|| {
             OutputError::invalid(self.temp.path(), "internal: finish after a failed write")
         })?;
+        writer.write_all(&self.legend).map_err(|e| self.temp.error("write", e))?;
         writer.finish().map_err(|e| self.temp.error("write", std::io::Error::other(e)))?;
         self.temp.commit()
     }

@@ -39,6 +39,27 @@ impl Renderer {
         time: f64,
         sink: &mut dyn FrameSink,
     ) -> Result<(), RenderError> {
+        if scene.surface.several() {
+            // One mesh per surface, each drawn alone, composited: what one draw of the merged
+            // meshes gives (its nearest triangle; ties to the lower surface, whose triangles
+            // come first; every triangle tested), without a merged mesh on the device. The
+            // layers are whole pictures, so this case is not streamed band by band.
+            let mut layers = Vec::with_capacity(scene.surface.count);
+            let mut info = None;
+            for k in 0..scene.surface.count {
+                let mut layer = Collect::default();
+                self.render_scene_mesh(&scene.single_surface(k), grid, gpu_grid, time, &mut layer)?;
+                let frame = layer.into_frame()?;
+                layers.push(frame.pixels);
+                info.get_or_insert(frame.info);
+            }
+            let (width, height) = (scene.image.width, scene.image.height);
+            let mut info = info.expect("at least two surfaces");
+            info.extra = self.frame_info(scene, grid, time).extra;
+            let pixels = crate::frame::composite_surfaces(&layers);
+            sink.begin(width, height, &info)?;
+            return sink.band(crate::passes::Band { row_offset: 0, rows: height }, &pixels);
+        }
         let mesh = if scene.render.mesh == MeshAlgorithm::Mc33 && !self.ctx.info.float64 {
             mesh_render::upload(&self.ctx, &scene_mesh(scene, grid)?)?
         } else {

@@ -4,6 +4,7 @@
 //! time an analytic render uses an uploaded grid and kept with it.
 
 pub mod block;
+pub mod color;
 pub mod mesh;
 pub mod params;
 pub mod sink;
@@ -13,7 +14,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::field::Grid;
-use crate::frame::{Frame, FrameInfo, Pixel};
+use crate::frame::{Channel, Frame, FrameInfo, Pixel};
 use crate::gpu::{Buffer, ComputePipeline, Context, GpuError, Image3d};
 use crate::passes::mesh_render::MeshPipelines;
 use crate::passes::raymarch::{RayInputs, RayPass};
@@ -33,6 +34,9 @@ pub enum RenderError {
     Unsupported(&'static str),
     #[error("render.method = \"mesh\": {0}")]
     Mesh(#[from] crate::mesh::MeshError),
+    /// `[field2]` could not be sampled.
+    #[error("[field2]: {0}")]
+    Field2(#[from] crate::field::FieldError),
     /// [`Progressive::after_band`] said stop (a newer state made this frame stale).
     #[error("the render was abandoned between bands")]
     Cancelled,
@@ -124,6 +128,22 @@ impl GpuGrid {
     }
 }
 
+/// The channels a render of `scene` writes (what `output::exr::written_channels` finds in its
+/// frame, known before rendering): every always-written one, `crossings` where the method
+/// counts them, `iso_index` with several isovalues, `color.value` with `[color] by`.
+pub fn scene_channels(scene: &Scene) -> Vec<Channel> {
+    let counted = scene.render.method != Method::FixedStep && scene.render.count_crossings;
+    Channel::ALL
+        .into_iter()
+        .filter(|c| match c {
+            Channel::Crossings => counted,
+            Channel::Surface => scene.surface.several(),
+            Channel::ColorValue => scene.color.by != crate::scene::ColorBy::Surface,
+            _ => c.written() == crate::frame::Written::Always,
+        })
+        .collect()
+}
+
 /// Owns the pipelines and constant resources; renders any number of frames.
 pub struct Renderer {
     ctx: Arc<Context>,
@@ -144,14 +164,7 @@ pub struct Renderer {
 
 /// 256 linear RGBA entries of a colorous gradient (its sRGB colours decoded), for shaders.
 pub fn linear_colormap(gradient: colorous::Gradient) -> Vec<[f32; 4]> {
-    let linear = |u: u8| {
-        let s = u as f32 / 255.0;
-        if s <= 0.04045 {
-            s / 12.92
-        } else {
-            ((s + 0.055) / 1.055).powf(2.4)
-        }
-    };
+    let linear = |u: u8| crate::scene::srgb_to_linear(u as f32 / 255.0);
     (0..256)
         .map(|i| {
             let c = gradient.eval_continuous(i as f64 / 255.0);
@@ -221,22 +234,24 @@ impl Renderer {
         how: Progressive<'_>,
     ) -> Result<Frame, RenderError> {
         let stride = how.stride.max(1);
+        let colorer = color::Colorer::new(scene, grid, time)?;
         if scene.render.method == Method::Mesh && stride > 1 {
-            let mut whole = Collect::default();
+            let mut whole = sink::Colored::new(colorer.as_ref(), 1, Collect::default());
             self.render_scene_mesh(scene, grid, gpu_grid, time, &mut whole)?;
-            let frame = subsample(whole.into_frame()?, stride);
+            let frame = subsample(whole.inner.into_frame()?, stride);
             let band = crate::passes::Band { row_offset: 0, rows: frame.height };
             return match (how.after_band)(band, &frame.pixels) {
                 true => Ok(frame),
                 false => Err(RenderError::Cancelled),
             };
         }
-        let mut sink = sink::Hooked { after_band: how.after_band, inner: Collect::default() };
+        let hooked = sink::Hooked { after_band: how.after_band, inner: Collect::default() };
+        let mut sink = sink::Colored::new(colorer.as_ref(), stride, hooked);
         match scene.render.method {
             Method::Mesh => self.render_scene_mesh(scene, grid, gpu_grid, time, &mut sink)?,
             _ => self.draw_rays(scene, grid, gpu_grid, time, stride, how.band_rows, &mut sink)?,
         }
-        sink.inner.into_frame()
+        sink.inner.inner.into_frame()
     }
 
     /// Renders the whole image into `sink`, band by band, keeping no band once the sink has
@@ -249,12 +264,14 @@ impl Renderer {
         time: f64,
         sink: &mut dyn FrameSink,
     ) -> Result<(), RenderError> {
+        let colorer = color::Colorer::new(scene, grid, time)?;
+        let mut sink = sink::Colored::new(colorer.as_ref(), 1, sink);
         match scene.render.method {
             Method::Mesh if gpu_grid.block.is_some() => {
                 Err(RenderError::Unsupported("mesh (on a block of the grid)"))
             }
-            Method::Mesh => self.render_scene_mesh(scene, grid, gpu_grid, time, sink),
-            _ => self.draw_rays(scene, grid, gpu_grid, time, 1, u32::MAX, sink),
+            Method::Mesh => self.render_scene_mesh(scene, grid, gpu_grid, time, &mut sink),
+            _ => self.draw_rays(scene, grid, gpu_grid, time, 1, u32::MAX, &mut sink),
         }
     }
 
@@ -335,7 +352,7 @@ impl Renderer {
         Ok(())
     }
 
-    fn frame_info(&self, scene: &Scene, grid: &Grid, time: f64) -> FrameInfo {
+    pub(crate) fn frame_info(&self, scene: &Scene, grid: &Grid, time: f64) -> FrameInfo {
         let r = &scene.render;
         let mut extra = vec![
             ("shading".to_string(), r.shading.name().to_string()),
@@ -351,6 +368,24 @@ impl Renderer {
                 extra.push(("crossing".into(), r.crossing.to_string()));
             }
             Method::Mesh => extra.push(("mesh".into(), r.mesh.name().to_string())),
+        }
+        if scene.surface.several() {
+            let isos: Vec<String> = scene.surface.isovalues().iter().map(f64::to_string).collect();
+            extra.push(("isovalues".into(), format!("[{}]", isos.join(", "))));
+            let colors: Vec<String> = (0..scene.surface.count)
+                .map(|k| {
+                    let [r, g, b] = scene.surface.color(k, r.color);
+                    format!("[{r}, {g}, {b}]")
+                })
+                .collect();
+            extra.push(("surface_colors".into(), colors.join("; ")));
+        }
+        if scene.color.by != crate::scene::ColorBy::Surface {
+            extra.push(("color.by".into(), scene.color.by.name().into()));
+            extra.push(("color.colormap".into(), scene.color.colormap_name().into()));
+            if let Some([lo, hi]) = scene.color.range {
+                extra.push(("color.range".into(), format!("[{lo}, {hi}]")));
+            }
         }
         if scene.clip.count > 0 {
             let planes: Vec<String> = scene
@@ -389,21 +424,9 @@ impl Renderer {
             device: self.ctx.info.name.clone(),
             driver: self.ctx.info.driver_info.clone(),
             extra,
+            legend: None,
         }
     }
-}
-
-/// The channels a render of `scene` writes: every [`crate::frame::Written::Always`] one, and the counted
-/// ones where the method counts them (`crossings`: analytic and mesh with
-/// `render.count_crossings`). The EXR is streamed, so they are decided before the first band;
-/// the streaming writer checks the pixels agree.
-pub fn written_channels(scene: &Scene) -> Vec<crate::frame::Channel> {
-    let counted =
-        scene.render.method != crate::scene::Method::FixedStep && scene.render.count_crossings;
-    crate::frame::Channel::ALL
-        .into_iter()
-        .filter(|c| c.written() == crate::frame::Written::Always || counted)
-        .collect()
 }
 
 /// Hands a band to `sink` as the frame holds it: placed in world space.

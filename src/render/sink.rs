@@ -83,3 +83,45 @@ impl<S: FrameSink> FrameSink for Hooked<'_, S> {
         self.inner.band(band, pixels)
     }
 }
+
+/// A sink that colours each band by `[color]` (`render::color`, after placement, as the frame
+/// holds it) before `inner` gets it, and gives the frame its legend. Without a colorer it
+/// passes the bands on as they are.
+pub struct Colored<'a, S> {
+    colorer: Option<&'a super::color::Colorer>,
+    stride: u32,
+    width: u32,
+    pub inner: S,
+}
+
+impl<'a, S> Colored<'a, S> {
+    /// `stride`: the picture's pixel (i, j) is the image's (stride i, stride j).
+    pub fn new(colorer: Option<&'a super::color::Colorer>, stride: u32, inner: S) -> Self {
+        Colored { colorer, stride, width: 0, inner }
+    }
+}
+
+impl<S: FrameSink> FrameSink for Colored<'_, S> {
+    fn begin(&mut self, width: u32, height: u32, info: &FrameInfo) -> Result<(), RenderError> {
+        self.width = width;
+        match self.colorer {
+            Some(c) => {
+                let mut info = info.clone();
+                info.legend = Some(c.legend.clone());
+                self.inner.begin(width, height, &info)
+            }
+            None => self.inner.begin(width, height, info),
+        }
+    }
+
+    fn band(&mut self, band: Band, pixels: &[Pixel]) -> Result<(), RenderError> {
+        match self.colorer {
+            Some(c) => {
+                let mut coloured = pixels.to_vec();
+                c.apply(&mut coloured, self.width, band.row_offset, self.stride);
+                self.inner.band(band, &coloured)
+            }
+            None => self.inner.band(band, pixels),
+        }
+    }
+}

@@ -7,8 +7,9 @@ use super::error::SceneErrorKind;
 use super::read::{self, choice, integer, number_where, numbers, vec3, Result, View};
 use super::tree::{Node, Origin, Source, Value};
 use super::{
-    Ambiguity, CameraSettings, ImageSettings, Inside, IsoRule, MeshAlgorithm, Method, Normals,
-    Projection, RenderSettings, Scene, Shading, SliceSettings, SurfaceSettings,
+    Ambiguity, CameraSettings, ColorBy, ColorSettings, ImageSettings, Inside, IsoRule,
+    MeshAlgorithm, Method, Normals, Projection, RenderSettings, Scene, Shading, SliceSettings,
+    SurfaceSettings, COLORMAPS, MAX_SURFACES,
 };
 use crate::field::stats::{self, Stats};
 use crate::field::{FieldSpec, GridLimits, SourceKind};
@@ -26,7 +27,8 @@ pub const MAX_CROSSING: i64 = 1 << 20;
 /// Deepest quadtree refinement of a slice below the grid's cells.
 pub const MAX_SLICE_DEPTH: i64 = 10;
 
-const TABLES: [&str; 7] = ["image", "camera", "field", "surface", "render", "slice", "clip"];
+const TABLES: [&str; 9] =
+    ["image", "camera", "field", "surface", "render", "slice", "clip", "color", "field2"];
 
 /// Validates the whole tree into a scene. `base_dir` resolves relative data paths.
 pub(crate) fn scene(
@@ -51,7 +53,53 @@ pub(crate) fn scene(
     let clip = clip(&root)?;
     // Last: an isovalue picked from the data samples the whole field.
     let surface = resolve_isovalue(&surface_table, surface, &field, limits)?;
-    Ok(Scene { path: None, image, camera, field, surface, render, slice, clip })
+    if surface.several() && render.crossing > 1 {
+        return Err(root.table("render")?.err(
+            SceneErrorKind::Value,
+            "crossing",
+            "must be 1 with several isovalues (the nearest crossing of any surface is shown)",
+        ));
+    }
+    let field2 = super::field::field2(&root, base_dir, limits)?;
+    let color = color(&root.table("color")?, field2.is_some())?;
+    if field2.is_some() && color.by != ColorBy::Field2 {
+        return Err(root.src.err(
+            SceneErrorKind::Value,
+            root.get("field2").map_or(root.at, |n| n.at),
+            "field2",
+            "is only read by [color] by = \"field2\"; add that or remove [field2]",
+        ));
+    }
+    Ok(Scene { path: None, image, camera, field, surface, render, slice, clip, color, field2 })
+}
+
+/// `[color]`: `by`, `colormap`, `range`.
+fn color(t: &View, has_field2: bool) -> Result<ColorSettings> {
+    t.check_keys(&["by", "colormap", "range"])?;
+    let d = ColorSettings::default();
+    let bys = ColorBy::ALL.map(|b| (b.name(), b));
+    let by = t.or("by", d.by, |s, k, n| choice(s, k, n, &bys))?;
+    let maps: Vec<(&str, usize)> =
+        COLORMAPS.iter().enumerate().map(|(i, (n, _))| (*n, i)).collect();
+    let colormap = t.or("colormap", d.colormap, |s, k, n| choice(s, k, n, &maps))?;
+    let range = match t.get("range") {
+        None => None,
+        Some(_) => {
+            let [lo, hi] = t.required("range", "[lo, hi]", numbers::<2>)?;
+            if lo >= hi {
+                return Err(t.err(SceneErrorKind::Value, "range", "needs lo < hi"));
+            }
+            Some([lo, hi])
+        }
+    };
+    if by == ColorBy::Field2 && !has_field2 {
+        return Err(t.err(
+            SceneErrorKind::Missing,
+            "by",
+            "\"field2\" needs a [field2] table (the keys of [field])",
+        ));
+    }
+    Ok(ColorSettings { by, colormap, range })
 }
 
 /// `[[clip]]`: an array of tables, each a plane (`normal`, `offset`: removes
@@ -202,10 +250,17 @@ fn fit(c: &mut CameraSettings, field: &FieldSpec, image: &ImageSettings) {
 }
 
 /// The isovalue keys: at most one may be given.
-const ISO_KEYS: [&str; 3] = ["isovalue", "isovalue_sigma", "isovalue_percentile"];
+const ISO_KEYS: [&str; 4] = ["isovalue", "isovalues", "isovalue_sigma", "isovalue_percentile"];
 
 fn surface(t: &View) -> Result<SurfaceSettings> {
-    t.check_keys(&["isovalue", "isovalue_sigma", "isovalue_percentile", "inside"])?;
+    t.check_keys(&[
+        "isovalue",
+        "isovalues",
+        "isovalue_sigma",
+        "isovalue_percentile",
+        "inside",
+        "colors",
+    ])?;
     let d = SurfaceSettings::default();
     let insides = Inside::ALL.map(|i| (i.name(), i));
     let given: Vec<&str> = ISO_KEYS.into_iter().filter(|k| t.get(k).is_some()).collect();
@@ -227,8 +282,8 @@ fn surface(t: &View) -> Result<SurfaceSettings> {
             SceneErrorKind::Value,
             second,
             format!(
-                "give one of isovalue, isovalue_sigma and isovalue_percentile, not both {first} \
-                 and {second}"
+                "give one of isovalue, isovalues, isovalue_sigma and isovalue_percentile, not \
+                 both {first} and {second}"
             ),
         ));
     }
@@ -249,7 +304,56 @@ fn surface(t: &View) -> Result<SurfaceSettings> {
         }
         _ => IsoRule::Value,
     };
-    Ok(SurfaceSettings { isovalue, inside, rule })
+    let mut out = SurfaceSettings { isovalue, inside, rule, ..d };
+    if given.first() == Some(&"isovalues") {
+        let values = list(t, "isovalues", "numbers", read::number)?;
+        out.isovalue = values[0];
+        out.more[..values.len() - 1].copy_from_slice(&values[1..]);
+        out.count = values.len();
+    }
+    if t.get("colors").is_some() {
+        let mut colors = list(t, "colors", "[r, g, b] colours", colour::<3>)?;
+        // An override of the isovalues keeps the file's colours for the surfaces it keeps.
+        if overridden.is_some() && colors.len() > out.count {
+            colors.truncate(out.count);
+        }
+        if colors.len() != out.count {
+            return Err(t.err(
+                SceneErrorKind::Value,
+                "colors",
+                format!(
+                    "needs one colour per surface: {} for {} isovalue(s)",
+                    colors.len(),
+                    out.count
+                ),
+            ));
+        }
+        let mut all = [[0.0; 3]; MAX_SURFACES];
+        all[..colors.len()].copy_from_slice(&colors);
+        out.colors = Some(all);
+    }
+    Ok(out)
+}
+
+/// An array of 1 to [`MAX_SURFACES`] items, each read by `item`.
+fn list<T>(
+    t: &View,
+    key: &str,
+    what: &str,
+    item: impl Fn(&Source, &str, &Node) -> Result<T>,
+) -> Result<Vec<T>> {
+    let node = t.get(key).expect("the caller checked the key is there");
+    let Value::Array(items) = &node.value else {
+        return Err(read::type_error(t.src, &t.key(key), node, &format!("an array of {what}")));
+    };
+    if items.is_empty() || items.len() > MAX_SURFACES {
+        return Err(t.err(
+            SceneErrorKind::Value,
+            key,
+            format!("must hold 1 to {MAX_SURFACES} {what}, got {}", items.len()),
+        ));
+    }
+    items.iter().map(|n| item(t.src, &t.key(key), n)).collect()
 }
 
 /// The isovalue of `isovalue_sigma` or `isovalue_percentile`, resolved once from the samples

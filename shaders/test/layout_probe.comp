@@ -32,7 +32,10 @@ void main() {
     bits[14] = floatBitsToUint(P.eye_grid);
     bits[15] = P.analytic;
     bits[16] = P.view;
-    for (int i = 0; i < CLIP_PLANES; i++) bits[17 + i] = floatBitsToUint(P.clip[i]);
+    bits[17] = uvec4(P.block_lo);
+    bits[18] = uvec4(P.block_hi);
+    bits[19] = uvec4(P.block_origin);
+    for (int i = 0; i < CLIP_PLANES; i++) bits[20 + i] = floatBitsToUint(P.clip[i]);
 
     Pixel p;
     p.rgba = vec4(1.0, 2.0, 3.0, 4.0);

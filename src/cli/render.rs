@@ -119,7 +119,7 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         }
     }
     #[cfg(feature = "mpi")]
-    let rank0 = world.as_ref().is_none_or(|w| w.rank() == 0);
+    let rank0 = world.as_ref().map_or(true, |w| w.rank() == 0);
     #[cfg(not(feature = "mpi"))]
     let rank0 = true;
 

@@ -164,8 +164,8 @@ mod tests {
                 let mut owner = vec![0usize; cells.iter().product()];
                 for r in 0..ranks {
                     let b = Block::of_rank(dims, ranks, r);
-                    for a in 0..3 {
-                        assert!(b.origin[a] + b.extent[a] <= dims[a]);
+                    for (a, &n) in dims.iter().enumerate() {
+                        assert!(b.origin[a] + b.extent[a] <= n);
                         if b.cells_lo[a] < b.cells_hi[a] {
                             assert!(b.origin[a] <= b.cells_lo[a]);
                             assert!(b.origin[a] + b.extent[a] > b.cells_hi[a]);

@@ -32,11 +32,14 @@ void main() {
     bits[14] = floatBitsToUint(P.eye_grid);
     bits[15] = P.analytic;
     bits[16] = P.view;
-    for (int i = 0; i < CLIP_PLANES; i++) bits[17 + i] = floatBitsToUint(P.clip[i]);
+    bits[17] = uvec4(P.block_lo);
+    bits[18] = uvec4(P.block_hi);
+    bits[19] = uvec4(P.block_origin);
+    for (int i = 0; i < CLIP_PLANES; i++) bits[20 + i] = floatBitsToUint(P.clip[i]);
     for (int i = 0; i < SURFACES / 4; i++)
-        bits[17 + CLIP_PLANES + i] = floatBitsToUint(P.thresholds[i]);
+        bits[20 + CLIP_PLANES + i] = floatBitsToUint(P.thresholds[i]);
     for (int i = 0; i < SURFACES; i++)
-        bits[17 + CLIP_PLANES + SURFACES / 4 + i] = floatBitsToUint(P.surface_color[i]);
+        bits[20 + CLIP_PLANES + SURFACES / 4 + i] = floatBitsToUint(P.surface_color[i]);
 
     Pixel p;
     p.rgba = vec4(1.0, 2.0, 3.0, 4.0);

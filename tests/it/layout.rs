@@ -329,6 +329,9 @@ fn every_shared_struct_matches_its_glsl_in_every_shader() {
                 eye_grid,
                 analytic,
                 view,
+                block_lo,
+                block_hi,
+                block_origin,
                 clip,
                 thresholds,
                 surface_color

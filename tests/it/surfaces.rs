@@ -207,3 +207,34 @@ fn split_ply(bytes: &[u8]) -> (String, &[u8]) {
     let end = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
     (String::from_utf8_lossy(&bytes[..end]).into_owned(), &bytes[end..])
 }
+
+/// `probe` with several isovalues reports each surface alone and the one shown: the render's
+/// `iso_index` at that pixel.
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn probe_names_the_surface_the_render_shows() {
+    let dir = scratch("surfaces-probe");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/blobs-layers.toml");
+    let sets = ["--set", "image.width=32", "--set", "image.height=32"];
+    let exr = dir.join("b.exr").display().to_string();
+    let mut args = vec!["render", scene, "-o", &exr];
+    args.extend(sets);
+    let o = isoview(&args, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = isoview::output::exr::read(std::path::Path::new(&exr)).unwrap();
+    let index = &img.channel("iso_index").unwrap().values;
+    let mut checked = std::collections::BTreeSet::new();
+    for (i, &k) in index.iter().enumerate().step_by(7) {
+        let pixel = format!("{},{}", i % 32, i / 32);
+        let mut args = vec!["probe", scene, "--pixel", &pixel, "--json"];
+        args.extend(sets);
+        let o = isoview(&args, &[]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(report["surfaces"].as_array().unwrap().len(), 3);
+        let shown = report["shown_surface"].as_i64().unwrap_or(-1);
+        assert_eq!(shown, k as i64, "pixel {pixel}");
+        checked.insert(k as i64);
+    }
+    assert!(checked.len() >= 3, "{checked:?}");
+}

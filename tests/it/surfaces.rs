@@ -238,3 +238,32 @@ fn probe_names_the_surface_the_render_shows() {
     }
     assert!(checked.len() >= 3, "{checked:?}");
 }
+
+/// `slice` with several isovalues: the JSON holds one contour set per surface, each the
+/// one-surface slice's; the picture draws them all.
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn slice_writes_one_contour_set_per_surface() {
+    let dir = scratch("surfaces-slice");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/blobs-layers.toml");
+    let run = |name: &str, sets: &[&str]| -> serde_json::Value {
+        let (exr, json) = (dir.join(format!("{name}.exr")), dir.join(format!("{name}.json")));
+        let (e, j) = (exr.display().to_string(), json.display().to_string());
+        let mut args = vec!["slice", scene, "--axis", "z", "--at", "0.05", "-o", &e, "--json", &j];
+        for s in sets {
+            args.extend(["--set", s]);
+        }
+        let o = isoview(&args, &[]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap()
+    };
+    let all = run("all", &[]);
+    let surfaces = all["surfaces"].as_array().unwrap();
+    assert_eq!(all["isovalues"], serde_json::json!([0.25, 0.5, 0.8]));
+    assert_eq!(surfaces.len(), 3);
+    for (k, iso) in ["0.25", "0.5", "0.8"].iter().enumerate() {
+        let one = run(&format!("s{k}"), &[&format!("surface.isovalue={iso}")]);
+        assert!(!one["contours"].as_array().unwrap().is_empty(), "surface {k}");
+        assert_eq!(surfaces[k], one, "surface {k}");
+    }
+}

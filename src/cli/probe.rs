@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use super::{Cli, Failure};
 use crate::probe::PixelProbe;
-use crate::scene;
+use crate::scene::{self, Scene};
 
 #[derive(clap::Args, Debug)]
 pub struct ProbeArgs {
@@ -45,13 +45,63 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
     let (px, py) = crate::probe::parse_pixel(pixel, scene.image.width, scene.image.height)
         .map_err(Failure::input)?;
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
-    let probe = PixelProbe::new(&scene, &grid, px, py);
+    let name = args.scene.display().to_string();
+    if !scene.surface.several() {
+        let probe = PixelProbe::new(&scene, &grid, px, py);
+        if args.json {
+            let report = probe.json(&scene, &name);
+            println!("{}", serde_json::to_string_pretty(&report).map_err(Failure::input)?);
+        } else {
+            print_probe(&scene, &probe, px, py);
+        }
+        return Ok(0);
+    }
+    // Several isovalues: each surface probed alone, then the one the render shows (the
+    // nearest exact hit; ties: the lower surface).
+    let probes: Vec<(Scene, PixelProbe)> = (0..scene.surface.count)
+        .map(|k| {
+            let one = scene.single_surface(k);
+            let probe = PixelProbe::new(&one, &grid, px, py);
+            (one, probe)
+        })
+        .collect();
+    let mut shown: Option<(usize, f64)> = None;
+    for (k, (_, p)) in probes.iter().enumerate() {
+        if let Some(h) = &p.exact.hit {
+            if shown.map_or(true, |(_, t)| h.t < t) {
+                shown = Some((k, h.t));
+            }
+        }
+    }
     if args.json {
-        let report = probe.json(&scene, &args.scene.display().to_string());
+        let surfaces: Vec<serde_json::Value> =
+            probes.iter().map(|(one, p)| p.json(one, &name)).collect();
+        let report = serde_json::json!({
+            "isovalues": scene.surface.isovalues(),
+            "shown_surface": shown.map(|(k, _)| k),
+            "surfaces": surfaces,
+        });
         println!("{}", serde_json::to_string_pretty(&report).map_err(Failure::input)?);
         return Ok(0);
     }
-    let PixelProbe { origin, dir, options: opts, exact, visits, fixed, .. } = &probe;
+    for (k, (one, p)) in probes.iter().enumerate() {
+        println!(
+            "=== surface {k} of {} (isovalue {}) ===",
+            scene.surface.count, one.surface.isovalue
+        );
+        print_probe(one, p, px, py);
+        println!();
+    }
+    match shown {
+        Some((k, t)) => println!("shown: surface {k} (the nearest exact hit, t = {t:.9})"),
+        None => println!("shown: nothing (no surface is hit)"),
+    }
+    Ok(0)
+}
+
+/// The text report of one surface's probe.
+fn print_probe(scene: &Scene, probe: &PixelProbe, px: u32, py: u32) {
+    let PixelProbe { origin, dir, options: opts, exact, visits, fixed, .. } = probe;
     let distance = probe.hit_distance();
     let (iso, inside) = (scene.surface.isovalue, scene.surface.inside);
 
@@ -127,5 +177,4 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
         }
         _ => println!("difference: both miss"),
     }
-    Ok(0)
 }

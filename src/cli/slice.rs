@@ -72,8 +72,19 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
     }
     let scene = super::load_scene(&args.scene, &args.sets)?;
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
-    let slice::Planned { plane, set, style } =
+    let slice::Planned { plane, mut set, style } =
         slice::plan(&scene, &grid, args.axis, args.at, args.time).map_err(Failure::input)?;
+    // Several isovalues: one contour set per surface (the picture's colours centre on the
+    // first; every set's lines are drawn; the JSON lists them per surface).
+    let mut per_surface = vec![(scene.surface.isovalue, set.contours.clone())];
+    for k in 1..scene.surface.count {
+        let one = scene.single_surface(k);
+        let s = slice::scene_contours(&one, &plane, args.time).map_err(Failure::input)?;
+        per_surface.push((one.surface.isovalue, s.contours.clone()));
+        set.contours.extend(s.contours);
+        set.stats.ambiguous += s.stats.ambiguous;
+        set.stats.joined += s.stats.joined;
+    }
     let (width, height) = (style.width, style.height);
     let iso = scene.surface.isovalue;
 
@@ -94,8 +105,14 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
         export::write_png(p, &picture).map_err(Failure::input)?;
     }
     if let Some(p) = &args.json {
-        export::write_json(p, &plane, &scene.field.placement, iso, &set.contours)
-            .map_err(Failure::input)?;
+        if scene.surface.several() {
+            let surfaces: Vec<(f64, &[_])> =
+                per_surface.iter().map(|(iso, c)| (*iso, c.as_slice())).collect();
+            export::write_json_surfaces(p, &plane, &scene.field.placement, &surfaces)
+        } else {
+            export::write_json(p, &plane, &scene.field.placement, iso, &set.contours)
+        }
+        .map_err(Failure::input)?;
     }
     if let Some(p) = &args.svg {
         let title = slice::svg_title(&plane, &args.scene.display().to_string(), iso);

@@ -70,6 +70,28 @@ pub fn write_json(
     atomic::write_bytes(path, text.as_bytes())
 }
 
+/// Several isovalues' contours: `{"isovalues": [..], "surfaces": [<json of each>, ...]}`, each
+/// surface as [`json`] writes one.
+pub fn write_json_surfaces(
+    path: &Path,
+    plane: &PlaneGrid,
+    placement: &Placement,
+    surfaces: &[(f64, &[Contour])],
+) -> Result<(), OutputError> {
+    let isos: Vec<String> =
+        surfaces.iter().map(|(iso, _)| serde_json::to_string(iso).unwrap_or_default()).collect();
+    let parts: Vec<String> = surfaces
+        .iter()
+        .map(|(iso, c)| json(plane, placement, *iso, c).trim_end().to_string())
+        .collect();
+    let text = format!(
+        "{{\"isovalues\": [{}], \"surfaces\": [\n{}\n]}}\n",
+        isos.join(", "),
+        parts.join(",\n")
+    );
+    atomic::write_bytes(path, text.as_bytes())
+}
+
 /// Escapes text for XML.
 fn xml(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")

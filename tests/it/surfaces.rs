@@ -207,3 +207,63 @@ fn split_ply(bytes: &[u8]) -> (String, &[u8]) {
     let end = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
     (String::from_utf8_lossy(&bytes[..end]).into_owned(), &bytes[end..])
 }
+
+/// `probe` with several isovalues reports each surface alone and the one shown: the render's
+/// `iso_index` at that pixel.
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn probe_names_the_surface_the_render_shows() {
+    let dir = scratch("surfaces-probe");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/blobs-layers.toml");
+    let sets = ["--set", "image.width=32", "--set", "image.height=32"];
+    let exr = dir.join("b.exr").display().to_string();
+    let mut args = vec!["render", scene, "-o", &exr];
+    args.extend(sets);
+    let o = isoview(&args, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = isoview::output::exr::read(std::path::Path::new(&exr)).unwrap();
+    let index = &img.channel("iso_index").unwrap().values;
+    let mut checked = std::collections::BTreeSet::new();
+    for (i, &k) in index.iter().enumerate().step_by(7) {
+        let pixel = format!("{},{}", i % 32, i / 32);
+        let mut args = vec!["probe", scene, "--pixel", &pixel, "--json"];
+        args.extend(sets);
+        let o = isoview(&args, &[]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(report["surfaces"].as_array().unwrap().len(), 3);
+        let shown = report["shown_surface"].as_i64().unwrap_or(-1);
+        assert_eq!(shown, k as i64, "pixel {pixel}");
+        checked.insert(k as i64);
+    }
+    assert!(checked.len() >= 3, "{checked:?}");
+}
+
+/// `slice` with several isovalues: the JSON holds one contour set per surface, each the
+/// one-surface slice's; the picture draws them all.
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn slice_writes_one_contour_set_per_surface() {
+    let dir = scratch("surfaces-slice");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/blobs-layers.toml");
+    let run = |name: &str, sets: &[&str]| -> serde_json::Value {
+        let (exr, json) = (dir.join(format!("{name}.exr")), dir.join(format!("{name}.json")));
+        let (e, j) = (exr.display().to_string(), json.display().to_string());
+        let mut args = vec!["slice", scene, "--axis", "z", "--at", "0.05", "-o", &e, "--json", &j];
+        for s in sets {
+            args.extend(["--set", s]);
+        }
+        let o = isoview(&args, &[]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap()
+    };
+    let all = run("all", &[]);
+    let surfaces = all["surfaces"].as_array().unwrap();
+    assert_eq!(all["isovalues"], serde_json::json!([0.25, 0.5, 0.8]));
+    assert_eq!(surfaces.len(), 3);
+    for (k, iso) in ["0.25", "0.5", "0.8"].iter().enumerate() {
+        let one = run(&format!("s{k}"), &[&format!("surface.isovalue={iso}")]);
+        assert!(!one["contours"].as_array().unwrap().is_empty(), "surface {k}");
+        assert_eq!(surfaces[k], one, "surface {k}");
+    }
+}

@@ -526,9 +526,9 @@ fn override_errors_name_the_override() {
         "--set render.stpes=64: render.stpes: unknown key (did you mean \"steps\"?)"
     );
     assert_eq!(
-        error(CELL, &["colour=1"]),
-        "--set colour=1: colour: unknown table or key (a scene has the tables [image], [camera], \
-         [field], [surface], [render], [slice], [clip])"
+        error(CELL, &["lighting=1"]),
+        "--set lighting=1: lighting: unknown table or key (a scene has the tables [image], \
+         [camera], [field], [surface], [render], [slice], [clip], [color], [field2])"
     );
     assert_eq!(
         error(CELL, &["render.steps"]),

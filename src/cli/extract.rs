@@ -111,12 +111,12 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let opts = ExtractOptions { keep_quads: args.quads, ..Default::default() };
     let (mut mesh, ran_on, why) = match backend {
-        Backend::Cpu => (extract_cpu(&scene, &grid, opts)?, Backend::Cpu, String::new()),
+        Backend::Cpu => (extract_cpu(&scene, &grid, args.time, opts)?, Backend::Cpu, String::new()),
         Backend::Gpu => {
-            let (mesh, ran_on) = extract_gpu(cli, vulkan_device, &scene, &grid, opts)?;
+            let (mesh, ran_on) = extract_gpu(cli, vulkan_device, &scene, &grid, args.time, opts)?;
             (mesh, ran_on, String::new())
         }
-        Backend::Auto => extract_auto(cli, vulkan_device, &scene, &grid, opts)?,
+        Backend::Auto => extract_auto(cli, vulkan_device, &scene, &grid, args.time, opts)?,
     };
     mesh.place(&scene.field.placement);
     if scene.clip.count > 0 {
@@ -148,9 +148,16 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
 }
 
 /// The CPU extraction on all cores: the f64 reference's mesh, bit for bit.
-pub fn extract_cpu(scene: &Scene, grid: &Grid, opts: ExtractOptions) -> Result<Mesh, Failure> {
+pub fn extract_cpu(
+    scene: &Scene,
+    grid: &Grid,
+    time: f64,
+    opts: ExtractOptions,
+) -> Result<Mesh, Failure> {
     let s = &scene.surface;
-    mesh::extract_parallel(grid, s.isovalue, s.inside, scene.render.mesh, opts)
+    let source = crate::field::PointField::from_spec(&scene.field, time);
+    let (algo, sharp) = (scene.render.mesh, &scene.render.sharp);
+    mesh::extract_parallel_with(grid, s.isovalue, s.inside, algo, opts, sharp, source.as_ref())
         .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))
 }
 
@@ -163,32 +170,33 @@ fn extract_auto(
     vulkan_device: Option<String>,
     scene: &Scene,
     grid: &Grid,
+    time: f64,
     opts: ExtractOptions,
 ) -> Result<(Mesh, Backend, String), Failure> {
     if opts.keep_quads {
         let why = "; auto: --quads needs the CPU extraction".to_string();
-        return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu, why));
+        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
     }
     // The cheap probe first: a CPU device needs no device opened.
     if let Some(name) = probe_cpu_device(vulkan_device.as_deref()) {
         let why = format!("; auto: the Vulkan device {name} is a CPU");
-        return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu, why));
+        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
     }
     let ctx = match open_context(cli, vulkan_device) {
         Ok(ctx) => ctx,
         Err(e) => {
             let why = format!("; auto: no usable Vulkan device ({e})");
-            return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu, why));
+            return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
         }
     };
     // `DeviceInfo::device_type` is the gpu crate's wording of `vk::PhysicalDeviceType::CPU`.
     if ctx.info.device_type.starts_with("CPU") {
         let why = format!("; auto: the Vulkan device {} is a CPU", ctx.info.name);
         drop(ctx);
-        return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu, why));
+        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
     }
     let why = format!("; auto: the Vulkan device {} is a {}", ctx.info.name, ctx.info.device_type);
-    let (mesh, ran_on) = extract_on(ctx, scene, grid, opts)?;
+    let (mesh, ran_on) = extract_on(ctx, scene, grid, time, opts)?;
     Ok((mesh, ran_on, why))
 }
 
@@ -258,13 +266,14 @@ fn extract_gpu(
     vulkan_device: Option<String>,
     scene: &Scene,
     grid: &Grid,
+    time: f64,
     opts: ExtractOptions,
 ) -> Result<(Mesh, Backend), Failure> {
     if opts.keep_quads {
         eprintln!("isoview: note: --quads extracts on the CPU (the GPU extraction has no quads)");
-        return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu));
+        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
     }
-    extract_on(open_context(cli, vulkan_device)?, scene, grid, opts)
+    extract_on(open_context(cli, vulkan_device)?, scene, grid, time, opts)
 }
 
 /// The GPU extraction on `ctx` (see [`extract_gpu`]); `opts.keep_quads` must be false.
@@ -272,15 +281,23 @@ fn extract_on(
     ctx: std::sync::Arc<crate::gpu::Context>,
     scene: &Scene,
     grid: &Grid,
+    time: f64,
     opts: ExtractOptions,
 ) -> Result<(Mesh, Backend), Failure> {
+    if !scene.render.mesh.on_gpu() {
+        eprintln!(
+            "isoview: note: {} is extracted on the CPU (it has no GPU extraction passes)",
+            scene.render.mesh.name()
+        );
+        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
+    }
     if scene.render.mesh == crate::scene::MeshAlgorithm::Mc33 && !ctx.info.float64 {
         eprintln!(
             "isoview: note: mc33 is extracted on the CPU ({} has no 64-bit floats, which the \
              GPU mc33 passes need)",
             ctx.info.name
         );
-        return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu));
+        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
     }
     let image =
         crate::gpu::Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values)?;

@@ -307,7 +307,7 @@ impl Extractor {
             ))
             .into());
         }
-        let kind = Kind::new(algo);
+        let kind = Kind::new(algo).ok_or(GpuMeshError::CpuOnly(algo.name()))?;
         if kind.mc33() {
             if self.passes.mc33.is_none() {
                 self.passes.mc33 = Mc33Passes::new(&self.ctx)?;

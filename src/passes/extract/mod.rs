@@ -54,6 +54,8 @@ pub enum GpuMeshError {
          lacks; extract it on the CPU (--device cpu)"
     )]
     Unsupported(&'static str),
+    #[error("render.mesh = \"{0}\" has no GPU extraction; extract it on the CPU (--device cpu)")]
+    CpuOnly(&'static str),
 }
 
 /// Workgroup size of the extraction passes (`local_size_x`).

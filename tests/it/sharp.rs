@@ -1,0 +1,547 @@
+//! Sharp-feature meshes (`dual-contouring-qef`) against answers known in advance: a box's
+//! corners and edges, a rotated cube, a CSG notch (concave creases), Hausdorff distances to
+//! the exact surface against surface nets', closed and oriented meshes, the threaded CPU path
+//! against the reference, and the scene keys.
+//!
+//! Each geometric check is also run on a mesh it must reject (the mean-vertex
+//! `dual-contouring`, which rounds corners and edges), so a check that cannot fail is caught.
+
+use std::path::Path;
+
+use glam::{DMat3, DVec3};
+use isoview::field::{Grid, GridLimits, PointField};
+use isoview::mesh::stats;
+use isoview::mesh::{extract_in_slabs_with, extract_with, ExtractOptions, Mesh};
+use isoview::scene::{self, HermiteNormals, Inside, MeshAlgorithm, SharpSettings};
+
+/// Grid points per axis of the test grids over [-1, 1]³, and the cell size.
+const N: usize = 33;
+const H: f64 = 2.0 / (N as f64 - 1.0);
+
+/// An analytic field: a function of world position.
+type Sdf = dyn Fn(DVec3) -> f64 + Sync;
+
+/// The grid of `f` over [-1, 1]³ with `n` points per axis.
+fn sample(f: &Sdf, n: usize) -> Grid {
+    let mut g = Grid {
+        dims: [n; 3],
+        min: DVec3::splat(-1.0),
+        max: DVec3::ONE,
+        values: Vec::with_capacity(n * n * n),
+    };
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let p = g.point(i, j, k);
+                g.values.push(f(p) as f32);
+            }
+        }
+    }
+    g
+}
+
+fn box_sdf(p: DVec3, half: DVec3) -> f64 {
+    let q = p.abs() - half;
+    q.max(DVec3::ZERO).length() + q.max_element().min(0.0)
+}
+
+/// The test box: half extents and centre off the grid's planes.
+const HALF: DVec3 = DVec3::new(0.53, 0.41, 0.47);
+const CENTRE: DVec3 = DVec3::new(0.013, -0.021, 0.007);
+
+fn the_box(p: DVec3) -> f64 {
+    box_sdf(p - CENTRE, HALF)
+}
+
+/// The cube of half side 0.45, rotated by 0.7 rad about (1, 2, 3).
+fn rotation() -> DMat3 {
+    DMat3::from_axis_angle(DVec3::new(1.0, 2.0, 3.0).normalize(), 0.7)
+}
+fn rotated_cube(p: DVec3) -> f64 {
+    box_sdf(rotation().transpose() * (p - CENTRE), DVec3::splat(0.45))
+}
+
+/// A CSG notch: the test box minus a box around its (+, +, +) corner, leaving three concave
+/// edges and a concave corner at `notch_corner()`.
+const NOTCH_HALF: DVec3 = DVec3::new(0.23, 0.19, 0.21);
+fn notch_corner() -> DVec3 {
+    CENTRE + HALF - NOTCH_HALF
+}
+fn notched(p: DVec3) -> f64 {
+    the_box(p).max(-box_sdf(p - (CENTRE + HALF), NOTCH_HALF))
+}
+
+/// The mesh of `f` with `algo`, Hermite data from `hermite`.
+fn mesh_of(f: &'static Sdf, algo: MeshAlgorithm, hermite: HermiteNormals) -> Mesh {
+    let g = sample(f, N);
+    let src = PointField { eval: Box::new(f), lipschitz: None };
+    let sharp = SharpSettings { hermite, ..Default::default() };
+    extract_with(&g, 0.0, Inside::Below, algo, ExtractOptions::default(), &sharp, Some(&src))
+        .unwrap()
+}
+
+fn dcqef(f: &'static Sdf) -> Mesh {
+    mesh_of(f, MeshAlgorithm::DualContouringQef, HermiteNormals::Source)
+}
+
+/// The mean-vertex dual contouring of `f`: the mesh every check must reject.
+fn rounded(f: &'static Sdf) -> Mesh {
+    mesh_of(f, MeshAlgorithm::DualContouring, HermiteNormals::Source)
+}
+
+fn v(p: [f32; 3]) -> DVec3 {
+    DVec3::from(p.map(f64::from))
+}
+
+/// The distance from `corner` to the nearest vertex.
+fn corner_error(m: &Mesh, corner: DVec3) -> f64 {
+    m.positions.iter().map(|&p| v(p).distance(corner)).fold(f64::INFINITY, f64::min)
+}
+
+/// Each corner has a vertex on it within 1e-3 of a cell (the vertex of the cell holding it;
+/// the cells around it have theirs on the edges, which [`edge_straight`] checks).
+fn corners_sharp(m: &Mesh, corners: &[DVec3]) -> Result<(), String> {
+    for &c in corners {
+        let e = corner_error(m, c);
+        if e > 1e-3 * H {
+            return Err(format!("corner {c}: nearest vertex {e:e} away (cell {H})"));
+        }
+    }
+    Ok(())
+}
+
+/// Along the edge from `a` to `b` (an edge of `f`'s surface, sampled as grid `g`), at every
+/// half cell from half a cell after `a` to half a cell before `b`: where the cell holding that
+/// point has crossings on the two faces meeting at the edge and no other, its vertex (the one inside the cell:
+/// vertices are clamped into their cells) lies on the edge's line within 1e-3 of a cell, so
+/// the vertices along the edge are collinear. Returns how many points were checked and how
+/// many were skipped (cells seeing one face only, or a third face near a corner: their
+/// vertex is the corner, or, for a corner in the next cell, clamped off the line).
+fn edge_straight(
+    m: &Mesh,
+    g: &Grid,
+    f: &Sdf,
+    a: DVec3,
+    b: DVec3,
+) -> Result<(usize, usize), String> {
+    let d = (b - a).normalize();
+    let len = a.distance(b);
+    let (mut checked, mut skipped) = (0, 0);
+    let mut t = 0.5 * H;
+    while t < len - 0.5 * H {
+        let q = a + d * t;
+        t += 0.5 * H;
+        let cell = ((q + 1.0) / H).floor();
+        if faces_seen(g, f, cell) != 2 {
+            skipped += 1;
+            continue;
+        }
+        let (lo, hi) = (cell * H - 1.0 - 1e-9, (cell + 1.0) * H - 1.0 + 1e-9);
+        let off = m
+            .positions
+            .iter()
+            .map(|&p| v(p))
+            .filter(|p| p.cmpge(lo).all() && p.cmple(hi).all())
+            .map(|p| (p - a).reject_from_normalized(d).length())
+            .fold(f64::INFINITY, f64::min);
+        if off > 1e-3 * H {
+            return Err(format!(
+                "edge {a} → {b} at {t:.3}: the cell's vertex is {off:e} off the line"
+            ));
+        }
+        checked += 1;
+    }
+    Ok((checked, skipped))
+}
+
+/// The 8 corners of the box `centre ± half` seen through `rot`.
+fn corners(centre: DVec3, half: DVec3, rot: DMat3) -> Vec<DVec3> {
+    (0..8)
+        .map(|n| {
+            let s = DVec3::new(
+                if n & 1 == 0 { -1.0 } else { 1.0 },
+                if n & 2 == 0 { -1.0 } else { 1.0 },
+                if n & 4 == 0 { -1.0 } else { 1.0 },
+            );
+            centre + rot * (s * half)
+        })
+        .collect()
+}
+
+/// The 12 edges of the box (pairs of corner numbers differing in one bit).
+fn box_edges(c: &[DVec3]) -> Vec<(DVec3, DVec3)> {
+    let mut e = Vec::new();
+    for a in 0..8 {
+        for bit in [1, 2, 4] {
+            if a & bit == 0 {
+                e.push((c[a], c[a | bit]));
+            }
+        }
+    }
+    e
+}
+
+/// How many distinct planes (normals more than 30° apart) the crossings of cell `cell`'s
+/// crossed edges lie on, crossings and normals from the exact field `f`.
+fn faces_seen(g: &Grid, f: &Sdf, cell: DVec3) -> usize {
+    let [i, j, k] = cell.to_array().map(|x| x as usize);
+    let mut normals: Vec<DVec3> = Vec::new();
+    for axis in 0..3 {
+        for m in 0..4 {
+            let mut a = [i, j, k];
+            a[(axis + 1) % 3] += m & 1;
+            a[(axis + 2) % 3] += m >> 1;
+            let pa = g.point(a[0], a[1], a[2]);
+            let mut pb = pa;
+            pb[axis] += H;
+            if (f(pa) < 0.0) == (f(pb) < 0.0) {
+                continue;
+            }
+            let (mut lo, mut hi) = (pa, pb);
+            for _ in 0..60 {
+                let mid = (lo + hi) / 2.0;
+                if (f(mid) < 0.0) == (f(pa) < 0.0) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            let e = 1e-7;
+            let n = DVec3::new(
+                f(lo + DVec3::X * e) - f(lo - DVec3::X * e),
+                f(lo + DVec3::Y * e) - f(lo - DVec3::Y * e),
+                f(lo + DVec3::Z * e) - f(lo - DVec3::Z * e),
+            )
+            .normalize();
+            if normals.iter().all(|o| o.dot(n) < 30f64.to_radians().cos()) {
+                normals.push(n);
+            }
+        }
+    }
+    normals.len()
+}
+
+fn closed_and_oriented(m: &Mesh, what: &str) {
+    let s = stats::compute(m);
+    assert!(s.triangles > 0, "{what}: {s}");
+    assert_eq!(s.boundary_edges, 0, "{what}: {s}");
+    assert_eq!(s.inconsistent_edges, 0, "{what}: {s}");
+    assert_eq!(s.unreferenced_vertices, 0, "{what}: {s}");
+    assert!(s.volume > 0.0, "{what}: {s}");
+}
+
+// ---- Hausdorff distance ------------------------------------------------------------------------
+
+/// Closest point to `p` on triangle `abc` (Ericson, Real-Time Collision Detection 5.1.5).
+fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    a + ab * (vb * denom) + ac * (vc * denom)
+}
+
+/// Points of the exact surface `f = 0`: the vertices of a 3× finer marching-cubes mesh,
+/// projected onto the surface by a few Newton steps along the (central-difference) gradient.
+fn surface_points(f: &'static Sdf) -> Vec<DVec3> {
+    let fine = sample(f, 3 * (N - 1) + 1);
+    let m = isoview::mesh::extract(
+        &fine,
+        0.0,
+        Inside::Below,
+        MeshAlgorithm::MarchingCubes,
+        ExtractOptions::default(),
+    )
+    .unwrap();
+    m.positions
+        .iter()
+        .map(|&p| {
+            let mut p = v(p);
+            for _ in 0..8 {
+                let e = 1e-6;
+                let g = DVec3::new(
+                    f(p + DVec3::X * e) - f(p - DVec3::X * e),
+                    f(p + DVec3::Y * e) - f(p - DVec3::Y * e),
+                    f(p + DVec3::Z * e) - f(p - DVec3::Z * e),
+                ) / (2.0 * e);
+                if g.length_squared() == 0.0 {
+                    break;
+                }
+                p -= g * (f(p) / g.length_squared());
+            }
+            p
+        })
+        .filter(|&p| f(p).abs() < 1e-9)
+        .collect()
+}
+
+/// The symmetric Hausdorff distance between `m` and the surface of `f` (world units): the
+/// mesh side by |f| at each triangle's vertices, edge midpoints and centroid (f is a signed
+/// distance, or close to one near the surface), the surface side by the distance from each of
+/// [`surface_points`] to the nearest triangle.
+fn hausdorff(m: &Mesh, f: &'static Sdf) -> f64 {
+    let tris: Vec<[DVec3; 3]> = (0..m.triangle_count())
+        .map(|t| m.triangle(t).map(|i| v(m.positions[i as usize])))
+        .collect();
+    let mut worst = 0.0f64;
+    for [a, b, c] in &tris {
+        for p in
+            [*a, *b, *c, (*a + *b) / 2.0, (*b + *c) / 2.0, (*c + *a) / 2.0, (*a + *b + *c) / 3.0]
+        {
+            worst = worst.max(f(p).abs());
+        }
+    }
+    // Triangles bucketed by the cells their boxes touch, to find near ones fast.
+    let key = |p: DVec3| ((p + 1.5) / H).floor().as_ivec3();
+    let mut buckets: std::collections::HashMap<glam::IVec3, Vec<usize>> = Default::default();
+    for (t, [a, b, c]) in tris.iter().enumerate() {
+        let (lo, hi) = (key(a.min(*b).min(*c)), key(a.max(*b).max(*c)));
+        for z in lo.z..=hi.z {
+            for y in lo.y..=hi.y {
+                for x in lo.x..=hi.x {
+                    buckets.entry(glam::IVec3::new(x, y, z)).or_default().push(t);
+                }
+            }
+        }
+    }
+    for p in surface_points(f) {
+        let k = key(p);
+        let mut best = f64::INFINITY;
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    for &t in buckets.get(&(k + glam::IVec3::new(dx, dy, dz))).into_iter().flatten()
+                    {
+                        let [a, b, c] = tris[t];
+                        best = best.min(p.distance(closest_on_triangle(p, a, b, c)));
+                    }
+                }
+            }
+        }
+        // Nothing within a cell: at least a cell away (enough for these comparisons).
+        worst = worst.max(if best.is_finite() { best } else { H });
+    }
+    worst
+}
+
+// ---- tests -------------------------------------------------------------------------------------
+
+#[test]
+fn box_corners_land_on_the_corners() {
+    let c = corners(CENTRE, HALF, DMat3::IDENTITY);
+    let m = dcqef(&the_box);
+    corners_sharp(&m, &c).unwrap();
+    assert!(corners_sharp(&rounded(&the_box), &c).is_err(), "the check rejects rounded corners");
+}
+
+#[test]
+fn box_edges_are_straight() {
+    let c = corners(CENTRE, HALF, DMat3::IDENTITY);
+    let m = dcqef(&the_box);
+    let g = sample(&the_box, N);
+    for (a, b) in box_edges(&c) {
+        let (checked, skipped) = edge_straight(&m, &g, &the_box, a, b).unwrap();
+        assert!(checked >= 10 && skipped <= 2, "{a} → {b}: {checked} checked, {skipped} skipped");
+    }
+    let r = rounded(&the_box);
+    assert!(box_edges(&c).iter().all(|&(a, b)| edge_straight(&r, &g, &the_box, a, b).is_err()));
+}
+
+#[test]
+fn rotated_cube_corners_and_edges() {
+    let c = corners(CENTRE, DVec3::splat(0.45), rotation());
+    let m = dcqef(&rotated_cube);
+    // Dual contouring reproduces a corner when the cell holding it has crossings on all three
+    // faces meeting there; where the tip pokes into a cell without covering any of its samples
+    // (the cell is inactive) or its crossed edges reach only two faces, the vertex stays on an
+    // edge and the tip is cut off (Ju et al. 2002: features are recovered from the cell's own
+    // Hermite data). Which corners qualify is worked out from the exact field here.
+    let g = sample(&rotated_cube, N);
+    let covered: Vec<DVec3> = c
+        .iter()
+        .copied()
+        .filter(|&k| faces_seen(&g, &rotated_cube, ((k + 1.0) / H).floor()) == 3)
+        .collect();
+    eprintln!("{} of 8 corners have crossings on three faces in their cell", covered.len());
+    assert!(covered.len() >= 4, "{covered:?}");
+    corners_sharp(&m, &covered).unwrap();
+    let (mut checked, mut skipped) = (0, 0);
+    for (a, b) in box_edges(&c) {
+        let (c, s) = edge_straight(&m, &g, &rotated_cube, a, b).unwrap();
+        (checked, skipped) = (checked + c, skipped + s);
+    }
+    eprintln!("rotated cube edges: {checked} points checked, {skipped} skipped");
+    assert!(checked > 3 * skipped, "{checked} checked, {skipped} skipped");
+    closed_and_oriented(&m, "rotated cube");
+    assert!(corners_sharp(&rounded(&rotated_cube), &c).is_err());
+}
+
+#[test]
+fn csg_notch_keeps_its_concave_corner_and_creases() {
+    let m = dcqef(&notched);
+    closed_and_oriented(&m, "notch");
+    let k = notch_corner();
+    let top = CENTRE + HALF;
+    // The concave corner, and the notch's three convex corners on the box's faces.
+    let notch =
+        [k, DVec3::new(k.x, k.y, top.z), DVec3::new(k.x, top.y, k.z), DVec3::new(top.x, k.y, k.z)];
+    corners_sharp(&m, &notch).unwrap();
+    // The three concave creases from the concave corner.
+    let g = sample(&notched, N);
+    for axis in 0..3 {
+        let mut end = k;
+        end[axis] = top[axis];
+        let (checked, skipped) = edge_straight(&m, &g, &notched, k, end).unwrap();
+        assert!(
+            checked >= 4 && skipped <= 2,
+            "crease {axis}: {checked} checked, {skipped} skipped"
+        );
+    }
+    assert!(corners_sharp(&rounded(&notched), &notch[..1]).is_err());
+}
+
+#[test]
+fn hausdorff_far_below_surface_nets() {
+    for (name, f) in
+        [("box", &the_box as &'static Sdf), ("notch", &notched), ("cube", &rotated_cube)]
+    {
+        let sharp = hausdorff(&dcqef(f), f);
+        let nets = hausdorff(&mesh_of(f, MeshAlgorithm::SurfaceNets, HermiteNormals::Source), f);
+        eprintln!("{name}: Hausdorff dual-contouring-qef {sharp:.2e}, surface-nets {nets:.2e}");
+        if name == "cube" {
+            // The rotated cube's uncovered corner tips (see rotated_cube_corners_and_edges)
+            // are cut off by both methods; they dominate both distances.
+            assert!(sharp * 1.5 < nets, "{name}: {sharp} vs surface nets' {nets}");
+        } else {
+            assert!(sharp < 1e-3 * H, "{name}: {sharp} (cell {H})");
+            assert!(sharp * 100.0 < nets, "{name}: {sharp} vs surface nets' {nets}");
+        }
+    }
+}
+
+#[test]
+fn trilinear_hermite_data_also_sharpens() {
+    // From the samples alone the planes near a feature are blurred by the interpolant, so the
+    // corners are not exact, but the mesh is still much closer than the mean-vertex one.
+    let f: &'static Sdf = &the_box;
+    let m = mesh_of(f, MeshAlgorithm::DualContouringQef, HermiteNormals::Trilinear);
+    closed_and_oriented(&m, "trilinear box");
+    let sharp = hausdorff(&m, f);
+    let mean = hausdorff(&mesh_of(f, MeshAlgorithm::DualContouring, HermiteNormals::Trilinear), f);
+    eprintln!("trilinear: Hausdorff dual-contouring-qef {sharp:.2e}, dual-contouring {mean:.2e}");
+    assert!(sharp * 1.5 < mean, "{sharp} vs {mean}");
+}
+
+#[test]
+fn box_volume_and_closure() {
+    let m = dcqef(&the_box);
+    closed_and_oriented(&m, "box");
+    let s = stats::compute(&m);
+    let exact = 8.0 * HALF.x * HALF.y * HALF.z;
+    assert!((s.volume - exact).abs() < 1e-4 * exact, "volume {} vs {exact}", s.volume);
+}
+
+/// The threaded path equals the reference bit for bit, for both Hermite sources, unclamped
+/// too, on blobs touching the grid's boundary (padding cells) and a box.
+#[test]
+fn slabs_equal_the_reference() {
+    let blobs: &'static Sdf = &|p: DVec3| {
+        let a = (p - DVec3::new(0.3, 0.2, -0.1)).length() - 0.5;
+        let b = (p - DVec3::new(-0.4, -0.1, 0.5)).length() - 0.7;
+        a.min(b).max(-(p.z + 0.6))
+    };
+    for f in [blobs, &the_box as &'static Sdf] {
+        let g = sample(f, 20);
+        let src = PointField { eval: Box::new(f), lipschitz: None };
+        for hermite in HermiteNormals::ALL {
+            for qef_clamp in [true, false] {
+                let sharp = SharpSettings { hermite, qef_clamp, ..Default::default() };
+                let opts = ExtractOptions::default();
+                let algo = MeshAlgorithm::DualContouringQef;
+                let one =
+                    extract_with(&g, 0.0, Inside::Below, algo, opts, &sharp, Some(&src)).unwrap();
+                closed_and_oriented(&one, "blobs");
+                for depth in [1, 3, 7] {
+                    let s = extract_in_slabs_with(
+                        &g,
+                        0.0,
+                        Inside::Below,
+                        algo,
+                        opts,
+                        Some(depth),
+                        &sharp,
+                        Some(&src),
+                    )
+                    .unwrap();
+                    assert_eq!(s, one, "depth {depth}, {hermite:?}, clamp {qef_clamp}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn hermite_source_needs_a_point_source() {
+    let g = sample(&the_box, 8);
+    let sharp = SharpSettings { hermite: HermiteNormals::Source, ..Default::default() };
+    let algo = MeshAlgorithm::DualContouringQef;
+    let e = extract_with(&g, 0.0, Inside::Below, algo, ExtractOptions::default(), &sharp, None)
+        .unwrap_err();
+    assert!(e.to_string().contains("hermite = \"source\""), "{e}");
+}
+
+fn parse(text: &str) -> Result<scene::Scene, scene::SceneError> {
+    scene::from_str_with(text, "t.toml", Path::new("."), &[], &GridLimits::default())
+}
+
+#[test]
+fn scene_keys() {
+    let sdf = "[field]\nsource = \"sdf\"\nshape = \"box\"\nhalf_extents = [0.5, 0.4, 0.3]\n\
+               resolution = [9, 9, 9]\nbounds = { min = [-1, -1, -1], max = [1, 1, 1] }\n";
+    let s = parse(&format!(
+        "{sdf}[render]\nmesh = \"dual-contouring-qef\"\nhermite = \"source\"\n\
+         qef_threshold = 0.05\nqef_clamp = false\n"
+    ))
+    .unwrap();
+    assert_eq!(s.render.mesh, MeshAlgorithm::DualContouringQef);
+    assert_eq!(s.render.sharp.hermite, HermiteNormals::Source);
+    assert_eq!(s.render.sharp.qef_threshold, 0.05);
+    assert!(!s.render.sharp.qef_clamp);
+    assert_eq!(parse(sdf).unwrap().render.sharp, SharpSettings::default());
+
+    let e = parse(&format!("{sdf}[render]\nqef_threshold = 1.5\n")).unwrap_err().to_string();
+    assert!(e.contains("t.toml:8:17: render.qef_threshold: must be in (0, 1)"), "{e}");
+    let e = parse(&format!("{sdf}[render]\nhermite = \"exact\"\n")).unwrap_err().to_string();
+    assert!(e.contains("render.hermite") && e.contains("trilinear"), "{e}");
+    let npy = "[field]\nsource = \"npy\"\npath = \"scenes/data/blobs.npy\"\n[render]\n\
+               hermite = \"source\"\n";
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let e = scene::from_str_with(npy, "t.toml", root, &[], &GridLimits::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("t.toml:5:11: render.hermite: \"source\""), "{e}");
+}

@@ -45,17 +45,20 @@ pub enum MeshAlgorithm {
     /// Dual contouring of Hermite data (Ju et al. 2002): one vertex per active cell at the
     /// minimiser of its edge planes' quadratic error function (`mesh/dcqef.rs`).
     DualContouringQef,
+    /// Kobbelt et al.'s feature-sensitive marching cubes (2001) (`mesh/emc.rs`).
+    ExtendedMc,
 }
 
 impl MeshAlgorithm {
     /// Every algorithm, in the order the contract lists them.
-    pub const ALL: [MeshAlgorithm; 6] = [
+    pub const ALL: [MeshAlgorithm; 7] = [
         MeshAlgorithm::MarchingCubes,
         MeshAlgorithm::Mc33,
         MeshAlgorithm::SurfaceNets,
         MeshAlgorithm::DualContouring,
         MeshAlgorithm::MarchingTetrahedra,
         MeshAlgorithm::DualContouringQef,
+        MeshAlgorithm::ExtendedMc,
     ];
 
     /// The name as written in scene files.
@@ -67,18 +70,19 @@ impl MeshAlgorithm {
             MeshAlgorithm::DualContouring => "dual-contouring",
             MeshAlgorithm::MarchingTetrahedra => "marching-tetrahedra",
             MeshAlgorithm::DualContouringQef => "dual-contouring-qef",
+            MeshAlgorithm::ExtendedMc => "extended-mc",
         }
     }
 
     /// Whether the GPU extraction passes implement it; the others are extracted on the CPU
     /// (`mesh::extract_with`) wherever a GPU extraction is asked for, with a note.
     pub fn on_gpu(self) -> bool {
-        !matches!(self, MeshAlgorithm::DualContouringQef)
+        !matches!(self, MeshAlgorithm::DualContouringQef | MeshAlgorithm::ExtendedMc)
     }
 
     /// Whether it reads Hermite data (crossings with normals) and the [`SharpSettings`].
     pub fn is_sharp(self) -> bool {
-        matches!(self, MeshAlgorithm::DualContouringQef)
+        matches!(self, MeshAlgorithm::DualContouringQef | MeshAlgorithm::ExtendedMc)
     }
 }
 

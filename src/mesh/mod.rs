@@ -51,6 +51,7 @@
 //! | `dual-contouring` | as surface nets, on a grid closed at its boundary (GEL) | one quad per crossed edge | `dual` |
 //! | `mc33` | as marching cubes | the trilinear interpolant's topology per cell (Chernyaev's MC33 cases) | `mc33` |
 //! | `dual-contouring-qef` | as dual contouring, at the minimiser of the cell's QEF (Hermite data) | as dual contouring | `dcqef`, `qef`, `hermite` |
+//! | `extended-mc` | as marching cubes, plus one per feature piece of a cell at its QEF minimiser | marching cubes', feature pieces fanned, edges flipped onto features | `emc`, `qef`, `hermite` |
 //!
 //! Each module's documentation states its exact rules.
 //!
@@ -62,6 +63,7 @@ mod clip;
 mod dcqef;
 mod dual;
 mod edges;
+mod emc;
 pub mod export;
 mod field;
 mod hermite;
@@ -210,7 +212,35 @@ pub fn extract_with(
             let q = dc_qef(&f, sharp, source)?;
             dual::extract(&f, dual::Boundary::Closed, opts, Some(&q))
         }
+        MeshAlgorithm::ExtendedMc => emc(&f, sharp, source)?.extract(),
     }
+}
+
+/// The Hermite data source of the settings.
+fn hermite<'f, 'g, 's>(
+    f: &'f field::Field<'g>,
+    sharp: &SharpSettings,
+    source: Option<&'s PointField<'s>>,
+) -> Result<hermite::Hermite<'f, 'g, 's>, MeshError> {
+    let source = match sharp.hermite {
+        HermiteNormals::Trilinear => None,
+        HermiteNormals::Source => Some(source.ok_or(MeshError::NoPointSource)?),
+    };
+    Ok(hermite::Hermite { f, source })
+}
+
+/// `extended-mc` from the settings.
+fn emc<'f, 'g, 's>(
+    f: &'f field::Field<'g>,
+    sharp: &SharpSettings,
+    source: Option<&'s PointField<'s>>,
+) -> Result<emc::Emc<'f, 'g, 's>, MeshError> {
+    Ok(emc::Emc {
+        hermite: hermite(f, sharp, source)?,
+        threshold: sharp.qef_threshold,
+        clamp: sharp.qef_clamp,
+        cos_feature: sharp.feature_angle_deg.to_radians().cos(),
+    })
 }
 
 /// `dual-contouring-qef`'s vertex rule from the settings.
@@ -219,12 +249,8 @@ fn dc_qef<'f, 'g, 's>(
     sharp: &SharpSettings,
     source: Option<&'s PointField<'s>>,
 ) -> Result<dcqef::DcQef<'f, 'g, 's>, MeshError> {
-    let source = match sharp.hermite {
-        HermiteNormals::Trilinear => None,
-        HermiteNormals::Source => Some(source.ok_or(MeshError::NoPointSource)?),
-    };
     Ok(dcqef::DcQef {
-        hermite: hermite::Hermite { f, source },
+        hermite: hermite(f, sharp, source)?,
         threshold: sharp.qef_threshold,
         clamp: sharp.qef_clamp,
     })
@@ -315,6 +341,8 @@ pub fn extract_in_slabs_with(
                 dual::extract_slab(f, dual::Boundary::Closed, opts, Some(&q), c)
             })
         }
+        // Not cut into slabs (see `emc`): the reference itself.
+        MeshAlgorithm::ExtendedMc => emc(f, sharp, source)?.extract(),
     }
 }
 

@@ -306,6 +306,7 @@ fn render(t: &View) -> Result<RenderSettings> {
         "hermite",
         "qef_threshold",
         "qef_clamp",
+        "feature_angle",
     ])?;
     let d = RenderSettings::default();
     let methods = Method::ALL.map(|m| (m.name(), m));
@@ -342,6 +343,9 @@ fn sharp(t: &View) -> Result<SharpSettings> {
             number_where(s, k, n, |x| x > 0.0 && x < 1.0, "must be in (0, 1)")
         })?,
         qef_clamp: t.or("qef_clamp", d.qef_clamp, read::boolean)?,
+        feature_angle_deg: t.or("feature_angle", d.feature_angle_deg, |s, k, n| {
+            number_where(s, k, n, |x| x > 0.0 && x < 180.0, "must be in (0, 180) degrees")
+        })?,
         ..d
     })
 }

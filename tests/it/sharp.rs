@@ -535,6 +535,13 @@ fn scene_keys() {
 
     let e = parse(&format!("{sdf}[render]\nqef_threshold = 1.5\n")).unwrap_err().to_string();
     assert!(e.contains("t.toml:8:17: render.qef_threshold: must be in (0, 1)"), "{e}");
+    let s = parse(&format!("{sdf}[render]\nmesh = \"extended-mc\"\nfeature_angle = 45\n")).unwrap();
+    assert_eq!(
+        (s.render.mesh, s.render.sharp.feature_angle_deg),
+        (MeshAlgorithm::ExtendedMc, 45.0)
+    );
+    let e = parse(&format!("{sdf}[render]\nfeature_angle = 180\n")).unwrap_err().to_string();
+    assert!(e.contains("render.feature_angle: must be in (0, 180) degrees"), "{e}");
     let e = parse(&format!("{sdf}[render]\nhermite = \"exact\"\n")).unwrap_err().to_string();
     assert!(e.contains("render.hermite") && e.contains("trilinear"), "{e}");
     let npy = "[field]\nsource = \"npy\"\npath = \"scenes/data/blobs.npy\"\n[render]\n\
@@ -544,4 +551,98 @@ fn scene_keys() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("t.toml:5:11: render.hermite: \"source\""), "{e}");
+}
+
+// ---- extended marching cubes -------------------------------------------------------------------
+
+fn emc(f: &'static Sdf) -> Mesh {
+    mesh_of(f, MeshAlgorithm::ExtendedMc, HermiteNormals::Source)
+}
+
+fn manifold(m: &Mesh, what: &str) {
+    closed_and_oriented(m, what);
+    let s = stats::compute(m);
+    assert!(s.is_closed_manifold(), "{what}: {s}");
+}
+
+#[test]
+fn emc_box_corners_edges_and_hausdorff() {
+    let c = corners(CENTRE, HALF, DMat3::IDENTITY);
+    let m = emc(&the_box);
+    manifold(&m, "emc box");
+    corners_sharp(&m, &c).unwrap();
+    let g = sample(&the_box, N);
+    for (a, b) in box_edges(&c) {
+        let (checked, skipped) = edge_straight(&m, &g, &the_box, a, b).unwrap();
+        assert!(checked >= 10 && skipped <= 2, "{a} → {b}: {checked} checked, {skipped} skipped");
+    }
+    let mc = mesh_of(&the_box, MeshAlgorithm::MarchingCubes, HermiteNormals::Source);
+    assert!(corners_sharp(&mc, &c).is_err(), "the check rejects marching cubes' corners");
+    let (sharp, plain) = (hausdorff(&m, &the_box), hausdorff(&mc, &the_box));
+    eprintln!("box: Hausdorff extended-mc {sharp:.2e}, marching-cubes {plain:.2e}");
+    assert!(sharp < 1e-3 * H && sharp * 100.0 < plain, "{sharp} vs {plain}");
+}
+
+#[test]
+fn emc_notch_and_rotated_cube() {
+    let m = emc(&notched);
+    manifold(&m, "emc notch");
+    corners_sharp(&m, &[notch_corner()]).unwrap();
+    let (sharp, plain) = (
+        hausdorff(&m, &notched),
+        hausdorff(
+            &mesh_of(&notched, MeshAlgorithm::MarchingCubes, HermiteNormals::Source),
+            &notched,
+        ),
+    );
+    eprintln!("notch: Hausdorff extended-mc {sharp:.2e}, marching-cubes {plain:.2e}");
+    assert!(sharp < 1e-3 * H && sharp * 100.0 < plain, "{sharp} vs {plain}");
+
+    let m = emc(&rotated_cube);
+    manifold(&m, "emc cube");
+    let (sharp, plain) = (
+        hausdorff(&m, &rotated_cube),
+        hausdorff(
+            &mesh_of(&rotated_cube, MeshAlgorithm::MarchingCubes, HermiteNormals::Source),
+            &rotated_cube,
+        ),
+    );
+    eprintln!("cube: Hausdorff extended-mc {sharp:.2e}, marching-cubes {plain:.2e}");
+    assert!(sharp * 1.5 < plain, "{sharp} vs {plain}");
+}
+
+/// Without features (a smooth sphere, a wide feature angle) extended MC is marching cubes, bit
+/// for bit, and the threaded path is the reference.
+#[test]
+fn emc_without_features_is_marching_cubes() {
+    let sphere: &'static Sdf = &|p: DVec3| (p - CENTRE).length() - 0.71;
+    let g = sample(sphere, 21);
+    let sharp = SharpSettings { feature_angle_deg: 60.0, ..Default::default() };
+    let opts = ExtractOptions::default();
+    let e = extract_with(&g, 0.0, Inside::Below, MeshAlgorithm::ExtendedMc, opts, &sharp, None)
+        .unwrap();
+    let mc =
+        isoview::mesh::extract(&g, 0.0, Inside::Below, MeshAlgorithm::MarchingCubes, opts).unwrap();
+    assert_eq!(e, mc);
+    let t = isoview::mesh::extract_parallel_with(
+        &g,
+        0.0,
+        Inside::Below,
+        MeshAlgorithm::ExtendedMc,
+        opts,
+        &SharpSettings::default(),
+        None,
+    )
+    .unwrap();
+    let r = extract_with(
+        &g,
+        0.0,
+        Inside::Below,
+        MeshAlgorithm::ExtendedMc,
+        opts,
+        &SharpSettings::default(),
+        None,
+    )
+    .unwrap();
+    assert_eq!(t, r);
 }

@@ -38,7 +38,7 @@ impl Kind {
             MeshAlgorithm::SurfaceNets => Kind::Dual { pad: 0 },
             MeshAlgorithm::DualContouring => Kind::Dual { pad: 1 },
             MeshAlgorithm::Mc33 => Kind::Edges { mt: false, mc33: true },
-            MeshAlgorithm::DualContouringQef => return None,
+            MeshAlgorithm::DualContouringQef | MeshAlgorithm::ExtendedMc => return None,
         })
     }
 

@@ -51,6 +51,7 @@
 //! | `dual-contouring` | as surface nets, on a grid closed at its boundary (GEL) | one quad per crossed edge | `dual` |
 //! | `mc33` | as marching cubes | the trilinear interpolant's topology per cell (Chernyaev's MC33 cases) | `mc33` |
 //! | `dual-contouring-qef` | as dual contouring, at the minimiser of the cell's QEF (Hermite data) | as dual contouring | `dcqef`, `qef`, `hermite` |
+//! | `dual-contouring-qef` with `mesh_error` | one per leaf of an octree collapsed where the QEF stays under ε | Ju et al.'s cell/face/edge procedure | `octree` |
 //! | `extended-mc` | as marching cubes, plus one per feature piece of a cell at its QEF minimiser | marching cubes', feature pieces fanned, edges flipped onto features | `emc`, `qef`, `hermite` |
 //!
 //! Each module's documentation states its exact rules.
@@ -70,6 +71,7 @@ mod hermite;
 mod mc;
 mod mc33;
 mod mt;
+mod octree;
 mod qef;
 mod slabs;
 pub mod stats;
@@ -210,7 +212,10 @@ pub fn extract_with(
         MeshAlgorithm::Mc33 => mc33::extract(&f),
         MeshAlgorithm::DualContouringQef => {
             let q = dc_qef(&f, sharp, source)?;
-            dual::extract(&f, dual::Boundary::Closed, opts, Some(&q))
+            match sharp.mesh_error {
+                Some(eps) => octree::extract(&q, eps),
+                None => dual::extract(&f, dual::Boundary::Closed, opts, Some(&q)),
+            }
         }
         MeshAlgorithm::ExtendedMc => emc(&f, sharp, source)?.extract(),
     }
@@ -337,6 +342,10 @@ pub fn extract_in_slabs_with(
         }),
         MeshAlgorithm::DualContouringQef => {
             let q = dc_qef(f, sharp, source)?;
+            if let Some(eps) = sharp.mesh_error {
+                // Not cut into slabs (see `octree`): the reference itself.
+                return octree::extract(&q, eps);
+            }
             slabs::run(f, layers, depth, opts.keep_quads, |c| {
                 dual::extract_slab(f, dual::Boundary::Closed, opts, Some(&q), c)
             })

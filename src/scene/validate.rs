@@ -307,6 +307,7 @@ fn render(t: &View) -> Result<RenderSettings> {
         "qef_threshold",
         "qef_clamp",
         "feature_angle",
+        "mesh_error",
     ])?;
     let d = RenderSettings::default();
     let methods = Method::ALL.map(|m| (m.name(), m));
@@ -346,12 +347,25 @@ fn sharp(t: &View) -> Result<SharpSettings> {
         feature_angle_deg: t.or("feature_angle", d.feature_angle_deg, |s, k, n| {
             number_where(s, k, n, |x| x > 0.0 && x < 180.0, "must be in (0, 180) degrees")
         })?,
-        ..d
+        mesh_error: t.or("mesh_error", d.mesh_error, |s, k, n| {
+            number_where(s, k, n, |x| x > 0.0, "must be a positive length (world units)").map(Some)
+        })?,
     })
 }
 
-/// `render.hermite = "source"` needs a source that can be evaluated off the grid.
+/// `render.hermite = "source"` needs a source that can be evaluated off the grid;
+/// `render.mesh_error` is the adaptive `dual-contouring-qef`'s.
 fn check_hermite(t: &View, render: &RenderSettings, field: &FieldSpec) -> Result<()> {
+    if render.sharp.mesh_error.is_some() && render.mesh != MeshAlgorithm::DualContouringQef {
+        return Err(t.err(
+            SceneErrorKind::Value,
+            "mesh_error",
+            format!(
+                "the adaptive octree is built for mesh = \"dual-contouring-qef\", not \"{}\"",
+                render.mesh.name()
+            ),
+        ));
+    }
     if render.sharp.hermite == HermiteNormals::Source && !field.source.supports().point {
         return Err(t.err(
             SceneErrorKind::Value,

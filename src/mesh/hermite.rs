@@ -7,7 +7,7 @@
 //!   cells sharing the edge, `Field::gradient`). Any source.
 //! * **source**: the source evaluated off the grid ([`PointField`]). The crossing is the root
 //!   of `source - iso` on the edge, bracketed by the edge's end points and found by the
-//!   Illinois variant of regula falsi to 1e-12 of the edge length (at most 60 evaluations); if
+//!   Illinois variant of regula falsi to 1e-12 of the edge length (at most 62 evaluations); if
 //!   the source does not change sign where the samples do (f32 rounding of a sample that is
 //!   within rounding of the isovalue) the linear crossing is kept. The normal is the source's
 //!   central-difference gradient with step 1e-5 cells. The lattice edges crossed, and hence
@@ -73,7 +73,7 @@ impl Hermite<'_, '_, '_> {
 }
 
 /// The root in `[0, 1]` of `g`, which must change sign between 0 and 1 (else None): Illinois
-/// regula falsi to a bracket of 1e-12.
+/// regula falsi until the bracket or the step is below 1e-12 (at most 60 evaluations).
 fn root(g: &impl Fn(f64) -> f64) -> Option<f64> {
     let (mut a, mut b) = (0.0f64, 1.0f64);
     let (mut ga, mut gb) = (g(a), g(b));
@@ -81,10 +81,16 @@ fn root(g: &impl Fn(f64) -> f64) -> Option<f64> {
         return None;
     }
     let mut side = 0i8;
+    let mut last = f64::NAN;
     for _ in 0..60 {
         let x = (a * gb - b * ga) / (gb - ga);
+        // Converged: the bracket, or the step, below 1e-12 of the edge.
+        if (b - a) < 1e-12 || (x - last).abs() < 1e-12 {
+            return Some(x);
+        }
+        last = x;
         let gx = g(x);
-        if gx == 0.0 || (b - a) < 1e-12 {
+        if gx == 0.0 {
             return Some(x);
         }
         if gx.signum() == gb.signum() {

@@ -693,3 +693,121 @@ fn adaptive_sphere_box_and_plane() {
         }
     }
 }
+
+// ---- README figures ------------------------------------------------------------------------------
+
+/// The README's table and picture for the sharp-feature section (not a check): triangle counts,
+/// Hausdorff distances and single-thread times of each method on the box of `scenes/box.toml`
+/// and the CSG shape of `docs/sharp/csg.toml` (Hermite data from the source), and
+/// `docs/sharp.png` rendered by isoview itself (`render.method = "mesh"`, normal shading).
+/// `cargo test --test it sharp::readme_figures -- --ignored --nocapture`.
+#[test]
+#[ignore = "writes docs/sharp.png and prints the README's table"]
+fn readme_figures() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scenes = ["scenes/box.toml", "docs/sharp/csg.toml"];
+    let runs: [(&str, MeshAlgorithm, Option<f64>); 7] = [
+        ("marching-cubes", MeshAlgorithm::MarchingCubes, None),
+        ("surface-nets", MeshAlgorithm::SurfaceNets, None),
+        ("dual-contouring", MeshAlgorithm::DualContouring, None),
+        ("dual-contouring-qef", MeshAlgorithm::DualContouringQef, None),
+        ("extended-mc", MeshAlgorithm::ExtendedMc, None),
+        ("dual-contouring-qef, mesh_error = ½ cell", MeshAlgorithm::DualContouringQef, Some(0.5)),
+        ("dual-contouring-qef, mesh_error = 2 cells", MeshAlgorithm::DualContouringQef, Some(2.0)),
+    ];
+    println!("| shape | mesh | triangles | Hausdorff (cells) | ms (one thread) |");
+    println!("|---|---|---:|---:|---:|");
+    for path in scenes {
+        let scene: &'static scene::Scene =
+            Box::leak(Box::new(scene::load(&root.join(path), &[]).unwrap()));
+        let grid = scene.field.sample(0.0).unwrap();
+        let cell = grid.spacing().x;
+        let src: &'static PointField =
+            Box::leak(Box::new(PointField::from_spec(&scene.field, 0.0).unwrap()));
+        let f: &'static Sdf = Box::leak(Box::new(move |p: DVec3| (src.eval)(p)));
+        for (name, algo, eps) in runs {
+            let sharp = SharpSettings {
+                hermite: HermiteNormals::Source,
+                mesh_error: eps.map(|e| e * cell),
+                ..Default::default()
+            };
+            let t = std::time::Instant::now();
+            let m = extract_with(
+                &grid,
+                0.0,
+                Inside::Below,
+                algo,
+                ExtractOptions::default(),
+                &sharp,
+                Some(src),
+            )
+            .unwrap();
+            let ms = t.elapsed().as_secs_f64() * 1e3;
+            let d = hausdorff(&m, f) / cell;
+            println!("| {path} | {name} | {} | {d:.3} | {ms:.0} |", m.triangle_count());
+        }
+    }
+
+    // The picture: 5 columns (marching cubes, surface nets, DC-QEF, extended MC, adaptive at one
+    // cell), one row per shape, each tile rendered by `isoview render`.
+    let out = std::env::temp_dir().join(format!("isoview-sharp-{}", std::process::id()));
+    std::fs::create_dir_all(&out).unwrap();
+    let columns: [(&str, &[&str]); 5] = [
+        ("mc", &["render.mesh=\"marching-cubes\""]),
+        ("sn", &["render.mesh=\"surface-nets\""]),
+        ("dcqef", &["render.mesh=\"dual-contouring-qef\"", "render.hermite=\"source\""]),
+        ("emc", &["render.mesh=\"extended-mc\"", "render.hermite=\"source\""]),
+        (
+            "adaptive",
+            &[
+                "render.mesh=\"dual-contouring-qef\"",
+                "render.hermite=\"source\"",
+                "render.mesh_error=0.0645",
+            ],
+        ),
+    ];
+    let tile = 200u32;
+    let mut sheet =
+        image::RgbaImage::from_pixel(tile * 5, tile * 2, image::Rgba([255, 255, 255, 255]));
+    for (row, path) in scenes.iter().enumerate() {
+        for (col, (name, sets)) in columns.iter().enumerate() {
+            let png = out.join(format!("{row}-{name}.png"));
+            let exr = out.join(format!("{row}-{name}.exr"));
+            let mut args = vec![
+                "render".to_string(),
+                root.join(path).display().to_string(),
+                "-o".into(),
+                exr.display().to_string(),
+                "--png".into(),
+                png.display().to_string(),
+            ];
+            for s in [
+                "render.method=\"mesh\"",
+                "render.shading=\"normal\"",
+                "image.width=200",
+                "image.height=200",
+            ]
+            .iter()
+            .chain(sets.iter())
+            {
+                args.extend(["--set".to_string(), s.to_string()]);
+            }
+            let args: Vec<&str> = args.iter().map(String::as_str).collect();
+            let o = crate::common::isoview(&args, &[]);
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            let img = image::open(&png).unwrap().to_rgba8();
+            for (x, y, p) in img.enumerate_pixels() {
+                // Over white.
+                let a = f32::from(p[3]) / 255.0;
+                let c = |i: usize| (f32::from(p[i]) * a + 255.0 * (1.0 - a)).round() as u8;
+                sheet.put_pixel(
+                    col as u32 * tile + x,
+                    row as u32 * tile + y,
+                    image::Rgba([c(0), c(1), c(2), 255]),
+                );
+            }
+        }
+    }
+    image::DynamicImage::ImageRgba8(sheet).to_rgb8().save(root.join("docs/sharp.png")).unwrap();
+    std::fs::remove_dir_all(&out).ok();
+}

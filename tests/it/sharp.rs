@@ -694,6 +694,49 @@ fn adaptive_sphere_box_and_plane() {
     }
 }
 
+// ---- command line ------------------------------------------------------------------------------
+
+/// `isoview extract` with the new meshes: the CPU mesh whatever device is asked for (a note
+/// says so), the library's mesh; bad keys are one line and exit 2.
+#[test]
+fn extract_cli_runs_the_sharp_meshes() {
+    use crate::common::{isoview, stderr};
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene_path = root.join("scenes/box.toml").display().to_string();
+    let dir = std::env::temp_dir().join(format!("isoview-sharp-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("m.ply").display().to_string();
+    for (mesh, extra) in [
+        ("dual-contouring-qef", "render.mesh_error=0.05"),
+        ("extended-mc", "render.feature_angle=40"),
+    ] {
+        let sets = [
+            "--set",
+            &format!("render.mesh=\"{mesh}\""),
+            "--set",
+            "render.hermite=\"source\"",
+            "--set",
+            extra,
+        ];
+        let mut args = vec!["extract", &scene_path, "-o", &out, "--device", "gpu", "--stats"];
+        args.extend_from_slice(&sets);
+        let o = isoview(&args, &[]);
+        let err = stderr(&o);
+        assert!(o.status.success(), "{err}");
+        assert!(err.contains(&format!("{mesh} is extracted on the CPU")), "{err}");
+        let text = String::from_utf8_lossy(&o.stdout);
+        assert!(text.contains("boundary edges: 0"), "{text}");
+    }
+    let o = isoview(
+        &["extract", &scene_path, "-o", &out, "--set", "render.mesh_error=0.05", "--device", "cpu"],
+        &[],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(err.contains("render.mesh_error") && err.trim().lines().count() == 1, "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 // ---- README figures ------------------------------------------------------------------------------
 
 /// The README's table and picture for the sharp-feature section (not a check): triangle counts,

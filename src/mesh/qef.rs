@@ -155,22 +155,18 @@ pub(crate) fn eigen_symmetric(a: DMat3) -> (DVec3, DMat3) {
             let c = 1.0 / (1.0 + t * t).sqrt();
             let s = t * c;
             // m <- Jᵀ m J on rows/columns p and q.
-            for k in 0..3 {
-                let (mkp, mkq) = (m[k][p], m[k][q]);
-                m[k][p] = c * mkp - s * mkq;
-                m[k][q] = s * mkp + c * mkq;
+            for col in m.iter_mut() {
+                let (mkp, mkq) = (col[p], col[q]);
+                col[p] = c * mkp - s * mkq;
+                col[q] = s * mkp + c * mkq;
             }
-            for k in 0..3 {
-                let (mpk, mqk) = (m[p][k], m[q][k]);
-                m[p][k] = c * mpk - s * mqk;
-                m[q][k] = s * mpk + c * mqk;
-            }
+            let (mp, mq) = (m[p], m[q]);
+            m[p] = std::array::from_fn(|k| c * mp[k] - s * mq[k]);
+            m[q] = std::array::from_fn(|k| s * mp[k] + c * mq[k]);
             // v <- v J (eigenvectors are the columns v[.][col] -> stored as v[col][row]).
-            for row in 0..3 {
-                let (vp, vq) = (v[p][row], v[q][row]);
-                v[p][row] = c * vp - s * vq;
-                v[q][row] = s * vp + c * vq;
-            }
+            let (vp, vq) = (v[p], v[q]);
+            v[p] = std::array::from_fn(|row| c * vp[row] - s * vq[row]);
+            v[q] = std::array::from_fn(|row| s * vp[row] + c * vq[row]);
         }
     }
     (DVec3::new(m[0][0], m[1][1], m[2][2]), DMat3::from_cols_array_2d(&v))

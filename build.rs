@@ -66,6 +66,8 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
     ("SHADE_SOLID", 5, Glsl::Uint, "RenderParams.method.y: solid shading."),
     // `RenderParams.clip` (Rust: `vocab::Clip::MAX_PLANES`).
     ("CLIP_PLANES", 12, Glsl::Uint, "Clip planes RenderParams holds."),
+    // `RenderParams.surfaces` (Rust: `scene::MAX_SURFACES`).
+    ("SURFACES", 8, Glsl::Uint, "Surfaces (isovalues) RenderParams holds."),
     // `RenderParams.view.y`.
     ("NORMALS_TRILINEAR", 0, Glsl::Uint, "RenderParams.view.y: the trilinear gradient."),
     ("NORMALS_SMOOTH", 1, Glsl::Uint, "RenderParams.view.y: interpolated point gradients."),

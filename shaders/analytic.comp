@@ -66,15 +66,23 @@ float tmax_of(int a, int c, vec3 o, vec3 d) {
     return uintBitsToFloat(0x7f800000u);
 }
 
-// Whether no crossing can lie in the brick of `cell`.
+// Surface k's inside threshold (surface 0's is P.surface.x).
+float threshold(uint k) {
+    return P.thresholds[k / 4u][k % 4u];
+}
+
+// Whether no crossing of any surface can lie in the brick of `cell`.
 bool brick_is_empty(ivec3 cell) {
     int size = int(P.analytic.z);
     ivec3 nb = (P.dims.xyz - 2) / size + 1;  // bricks per axis: ceil(cells / size)
     ivec3 b = cell / size;
     vec2 mm = bricks[(b.z * nb.y + b.y) * nb.x + b.x];
-    float iso = P.surface.x;
-    float tol = SKIP_MARGIN * (max(abs(mm.x), abs(mm.y)) + abs(iso));
-    return mm.x - iso > tol || iso - mm.y > tol;
+    for (uint k = 0u; k < P.view.w; k++) {
+        float iso = threshold(k);
+        float tol = SKIP_MARGIN * (max(abs(mm.x), abs(mm.y)) + abs(iso));
+        if (!(mm.x - iso > tol || iso - mm.y > tol)) return false;
+    }
+    return true;
 }
 
 // The same test for one cell (`render.skip` too): every value the walk decides the predicate on
@@ -107,10 +115,13 @@ void main() {
     r.steps = 0.0;
     r.cell = ivec3(-1);
     r.crossings = P.analytic.w != 0u ? 0 : -1;  // -1: not counted (render.count_crossings)
+    r.surface = -1;
+    r.value = uintBitsToFloat(0x7fc00000u);  // NaN: no [color] value
 
     bool below = P.surface.y > 0.0;
-    float iso = P.surface.x;
-    uint wanted = max(P.analytic.x, 1u);
+    uint surfaces = P.view.w;
+    bool several = surfaces > 1u;
+    uint wanted = max(P.analytic.x, 1u);  // 1 with several surfaces (scene validation)
     bool count_all = P.analytic.w != 0u;
 
     // 1. Index space (the eye's index-space position comes from the CPU, in f64; an
@@ -176,7 +187,9 @@ void main() {
         q_in[a] = clamp(p[a] - c, 0.0, 1.0);
     }
     Corners corners = cell_corners(cell);
-    float g_in = trilerp(corners, q_in) - iso;
+    // The walk carries the interpolant f; surface k decides on g = f - threshold(k), the same
+    // bits as a walk that carried g itself.
+    float f_in = trilerp(corners, q_in);
 
     // 5. Next planes, from plane indices.
     vec3 tmax = vec3(tmax_of(0, cell.x, o, d), tmax_of(1, cell.y, o, d), tmax_of(2, cell.z, o, d));
@@ -199,6 +212,14 @@ void main() {
     uint crossings = 0u;
     bool found = false;
     uint visited = 0u;
+    // The hit cell's segment and, per surface with a crossing there, its bracket (ua, ub, ga,
+    // gb); refined after the walk.
+    ivec3 hit_cell = ivec3(0);
+    vec3 hit_q_in = vec3(0.0), hit_q_out = vec3(0.0);
+    float hit_t_in = 0.0, hit_t_out = 0.0, hit_f_in = 0.0;
+    uint hit_mask = 0u;   // bit k: surface k crosses in the hit cell
+    uint exact_mask = 0u; // bit k: ... exactly at a split point (ua)
+    vec4 brackets[SURFACES];
     bool have_corners = true;
     for (uint pass = 0u; pass < max_passes; pass++) {
         passes++;
@@ -257,55 +278,68 @@ void main() {
                 q_out[a] = clamp(o[a] + t_out * d[a] - float(cell[a]), 0.0, 1.0);
             }
         }
-        float g_out = t_out == t_in ? g_in : trilerp(corners, q_out) - iso;
+        float f_out = t_out == t_in ? f_in : trilerp(corners, q_out);
 
-        if (!jumped && !(P.analytic.y != 0u && cell_is_clear(corners, iso))) {
-            // 6.3 Cubic; 6.4 split points.
-            vec4 cubic = cubic_along(corners, q_in, q_out, g_in);
+        if (!jumped) {
+            // 6.3 Cubic (its c0 is each surface's g_in); 6.4 split points.
+            vec4 shape = cubic_along(corners, q_in, q_out, 0.0);
             float r0, r1;
-            int nd = derivative_roots(cubic, r0, r1);
-            float su[4];
-            float sg[4];
-            su[0] = 0.0;
-            sg[0] = g_in;
-            su[1] = r0;
-            sg[1] = cubic_eval(cubic, r0);
-            su[2] = r1;
-            sg[2] = cubic_eval(cubic, r1);
-            su[nd + 1] = 1.0;
-            sg[nd + 1] = g_out;
+            int nd = derivative_roots(shape, r0, r1);
+            uint cell_mask = 0u;
+            for (uint k = 0u; k < surfaces; k++) {
+                float iso = threshold(k);
+                if (P.analytic.y != 0u && cell_is_clear(corners, iso)) continue;
+                float g_in = f_in - iso;
+                float g_out = f_out - iso;
+                vec4 cubic = vec4(g_in, shape.yzw);
+                float su[4];
+                float sg[4];
+                su[0] = 0.0;
+                sg[0] = g_in;
+                su[1] = r0;
+                sg[1] = cubic_eval(cubic, r0);
+                su[2] = r1;
+                sg[2] = cubic_eval(cubic, r1);
+                su[nd + 1] = 1.0;
+                sg[nd + 1] = g_out;
 
-            // 6.5 Crossings, piece by piece.
-            for (int s = 0; s <= nd; s++) {
-                float ua = su[s], ga = sg[s], ub = su[s + 1], gb = sg[s + 1];
-                bool pa = inside_g(below, ga);
-                bool pb = inside_g(below, gb);
-                if (pa == pb) continue;
-                // A point exactly on the surface closes the bracket: the crossing is there.
-                bool exact = ga == 0.0 || gb == 0.0;
-                float ue = ga == 0.0 ? ua : ub;
-                // A crossing at t = 0 (the ray starts on the surface) is not counted.
-                if (exact && segment_t(t_in, t_out, ue) <= 0.0) continue;
-                crossings++;
-                if (found || crossings != wanted) continue;
-
-                // 7. The hit.
+                // 6.5 Crossings, piece by piece.
+                for (int s = 0; s <= nd; s++) {
+                    float ua = su[s], ga = sg[s], ub = su[s + 1], gb = sg[s + 1];
+                    bool pa = inside_g(below, ga);
+                    bool pb = inside_g(below, gb);
+                    if (pa == pb) continue;
+                    // A point exactly on the surface closes the bracket: the crossing is there.
+                    bool exact = ga == 0.0 || gb == 0.0;
+                    float ue = ga == 0.0 ? ua : ub;
+                    // A crossing at t = 0 (the ray starts on the surface) is not counted.
+                    if (exact && segment_t(t_in, t_out, ue) <= 0.0) continue;
+                    crossings++;
+                    // The shown crossing: the wanted one of the one surface, or each surface's
+                    // first in the first cell where any crosses.
+                    bool shown = several ? (cell_mask & (1u << k)) == 0u : crossings == wanted;
+                    if (found || !shown) continue;
+                    cell_mask |= 1u << k;
+                    if (exact) {
+                        exact_mask |= 1u << k;
+                        brackets[k] = vec4(ue, ue, 0.0, 0.0);
+                    } else {
+                        brackets[k] = vec4(ua, ub, ga, gb);
+                    }
+                    if (!count_all) break;
+                }
+            }
+            if (!found && cell_mask != 0u) {
+                // 7. The hit is in this cell: keep where it is; refined after the walk.
                 found = true;
                 visited = passes;
-                float u = exact ? ue : refine_root(cubic, below, ua, ub, ga, gb, P.method.w);
-                float t = segment_t(t_in, t_out, u);
-                vec3 q = vec3(lerp1(q_in.x, q_out.x, u), lerp1(q_in.y, q_out.y, u),
-                              lerp1(q_in.z, q_out.z, u));
-                vec3 grad = gradient_cell(corners, q) * P.inv_spacing.xyz;
-                vec3 oriented = below ? grad : -grad;
-                float len = length(oriented);
-                r.normal = len > 0.0 && !isinf(len) ? oriented / len : -dir;
-                r.normal = scene_normal(vec3(cell) + q, r.normal);
-                r.depth = t;
-                r.position = eye + t * dir;
-                r.cell = cell;
-                r.rgba = vec4(shade(r.normal, dir, t, float(visited), vec3(cell) + q, cell), 1.0);
-                if (!count_all) break;
+                hit_mask = cell_mask;
+                hit_cell = cell;
+                hit_q_in = q_in;
+                hit_q_out = q_out;
+                hit_t_in = t_in;
+                hit_t_out = t_out;
+                hit_f_in = f_in;
             }
         }
         // Nothing after the hit changes the image unless every crossing is counted.
@@ -327,10 +361,48 @@ void main() {
         }
         if (left_box) break;
         have_corners = false;
-        g_in = g_out;
+        f_in = f_out;
         t_in = t_out;
     }
 
+    // 7. The hit: each surface crossing in the hit cell refined, the nearest kept (ties: the
+    // lower surface), then its attributes. Out of the loop on purpose: llvmpipe runs a
+    // branch's code for every lane under a mask, so code in the walk's body costs on every
+    // cell of every ray.
+    if (found) {
+        Corners k8 = cell_corners(hit_cell);
+        vec4 shape = cubic_along(k8, hit_q_in, hit_q_out, 0.0);
+        float hit_t = INF;
+        float hit_u = 0.0;
+        uint hit_surface = 0u;
+        for (uint k = 0u; k < surfaces; k++) {
+            if ((hit_mask & (1u << k)) == 0u) continue;
+            vec4 b = brackets[k];
+            vec4 cubic = vec4(hit_f_in - threshold(k), shape.yzw);
+            float u = (exact_mask & (1u << k)) != 0u
+                ? b.x : refine_root(cubic, below, b.x, b.y, b.z, b.w, P.method.w);
+            float t = segment_t(hit_t_in, hit_t_out, u);
+            if (t < hit_t) {
+                hit_t = t;
+                hit_u = u;
+                hit_surface = k;
+            }
+        }
+        vec3 hit_q = vec3(lerp1(hit_q_in.x, hit_q_out.x, hit_u),
+                          lerp1(hit_q_in.y, hit_q_out.y, hit_u),
+                          lerp1(hit_q_in.z, hit_q_out.z, hit_u));
+        vec3 grad = gradient_cell(k8, hit_q) * P.inv_spacing.xyz;
+        vec3 oriented = below ? grad : -grad;
+        float len = length(oriented);
+        r.normal = len > 0.0 && !isinf(len) ? oriented / len : -dir;
+        r.normal = scene_normal(vec3(hit_cell) + hit_q, r.normal);
+        r.depth = hit_t;
+        r.position = eye + hit_t * dir;
+        r.cell = hit_cell;
+        r.surface = several ? int(hit_surface) : -1;
+        r.rgba = vec4(shade(r.normal, dir, hit_t, float(visited), vec3(hit_cell) + hit_q,
+                            hit_cell, P.surface_color[hit_surface].rgb), 1.0);
+    }
     r.steps = float(found ? visited : passes);
     r.crossings = count_all ? int(crossings) : -1;
     pixels[px_local.y * P.image.w + px_local.x] = r;

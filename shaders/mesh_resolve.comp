@@ -56,6 +56,10 @@ void main() {
     r.cell = ivec3(-1);
     // Counted only when asked for (`render.count_crossings`, P.analytic.w); -1: no channel.
     r.crossings = P.analytic.w != 0u ? int(counts[2u * i + 1u]) : -1;
+    // One surface per pass: several isovalues are drawn one after the other and composited
+    // on the host (`render::mesh`), which sets `surface`.
+    r.surface = -1;
+    r.value = uintBitsToFloat(0x7fc00000u);  // NaN: no [color] value
 
     uint64_t key = vis[i];
     if (key != NO_HIT) {
@@ -81,7 +85,7 @@ void main() {
         r.position = hit;
         r.normal = n;
         r.cell = cell_of(u);
-        r.rgba = vec4(shade(n, d, t, r.steps, u, r.cell), 1.0);
+        r.rgba = vec4(shade(n, d, t, r.steps, u, r.cell, P.color.rgb), 1.0);
     }
     pixels[i] = r;
 }

@@ -44,40 +44,66 @@ void main() {
     r.steps = 0.0;
     r.cell = ivec3(-1);
     r.crossings = -1;
+    r.surface = -1;
+    r.value = uintBitsToFloat(0x7fc00000u);  // NaN: no [color] value
 
     float t0, t1;
     if (clip_box(o, d, t0, t1) && clip_interval(o, d, t0, t1)) {
         uint n = P.method.z;
         CellCache cache = cache_empty();
+        uint surfaces = P.view.w;
         float ta = t0;
         float fa = field_cached(cache, to_grid(o + d * t0));
-        bool ina = is_inside(fa);
+        uint ina = inside_mask(fa);
         uint count = 1u;
+        // The march only finds the first interval [ta, tb] where the predicate of any surface
+        // changes; the refinement and the hit's attributes come after the loop on purpose:
+        // llvmpipe runs a branch's code for every lane under a mask, so code in the loop's
+        // body costs on every sample of every ray.
+        uint flipped = 0u;  // bit k: surface k's predicate changes in [ta, tb]
+        float tb = t0;
+        float fb = fa;
         for (uint i = 1u; i < n; i++) {
-            float tb = t0 + (t1 - t0) * (float(i) / float(n - 1u));
-            float fb = field_cached(cache, to_grid(o + d * tb));
+            tb = t0 + (t1 - t0) * (float(i) / float(n - 1u));
+            fb = field_cached(cache, to_grid(o + d * tb));
             count++;
-            if (is_inside(fb) != ina) {
-                // Refine: keep [ta, tb] bracketing the change of the predicate.
-                for (int k = 0; k < REFINE_BISECTIONS; k++) {
-                    float tm = 0.5 * (ta + tb);
-                    float fm = field_cached(cache, to_grid(o + d * tm));
-                    if (is_inside(fm) == ina) { ta = tm; fa = fm; } else { tb = tm; fb = fm; }
-                }
-                float s = fb != fa ? clamp((P.surface.x - fa) / (fb - fa), 0.0, 1.0) : 0.5;
-                float th = ta + (tb - ta) * s;
-                vec3 hit = o + d * th;
-                vec3 u = to_grid(hit);
-                r.depth = th;
-                r.position = hit;
-                r.cell = cell_of(u);
-                r.normal = scene_normal(u, normal_at(u, -d));
-                r.steps = float(count);
-                r.rgba = vec4(shade(r.normal, d, th, r.steps, u, r.cell), 1.0);
-                break;
-            }
+            flipped = inside_mask(fb) ^ ina;
+            if (flipped != 0u) break;
             ta = tb;
             fa = fb;
+        }
+        if (flipped != 0u) {
+            // Each surface that changes in [ta, tb] refined alone (as if it were the only
+            // one); the nearest kept, ties to the lower surface.
+            float th = uintBitsToFloat(0x7f800000u);
+            uint hit_surface = 0u;
+            for (uint k = 0u; k < surfaces; k++) {
+                if ((flipped & (1u << k)) == 0u) continue;
+                float thr = P.thresholds[k / 4u][k % 4u];
+                bool in_k = inside_of(fa, thr);
+                float a = ta, b = tb, va = fa, vb = fb;
+                // Refine: keep [a, b] bracketing the change of the predicate.
+                for (int j = 0; j < REFINE_BISECTIONS; j++) {
+                    float tm = 0.5 * (a + b);
+                    float fm = field_cached(cache, to_grid(o + d * tm));
+                    if (inside_of(fm, thr) == in_k) { a = tm; va = fm; } else { b = tm; vb = fm; }
+                }
+                float s = vb != va ? clamp((thr - va) / (vb - va), 0.0, 1.0) : 0.5;
+                float t = a + (b - a) * s;
+                if (t < th) {
+                    th = t;
+                    hit_surface = k;
+                }
+            }
+            vec3 hit = o + d * th;
+            vec3 u = to_grid(hit);
+            r.depth = th;
+            r.position = hit;
+            r.cell = cell_of(u);
+            r.normal = scene_normal(u, normal_at(u, -d));
+            r.surface = surfaces > 1u ? int(hit_surface) : -1;
+            r.rgba = vec4(shade(r.normal, d, th, float(count), u, r.cell,
+                                P.surface_color[hit_surface].rgb), 1.0);
         }
         r.steps = float(count);
     }

@@ -27,7 +27,7 @@ use crate::vocab::Placement;
 
 /// One pixel of every output channel (the EXR channels of the interface contract).
 ///
-/// std430 layout, 64 bytes; mirrored by `struct Pixel` in `shaders/include/pixel.glsl`.
+/// std430 layout, 80 bytes; mirrored by `struct Pixel` in `shaders/include/pixel.glsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Pixel {
@@ -46,16 +46,26 @@ pub struct Pixel {
     /// Number of isovalue crossings along the ray inside the box, where the method counts them
     /// (analytic); -1 where it does not.
     pub crossings: i32,
+    /// Which surface was hit (its index in `surface.isovalues`), with several isovalues; -1 on
+    /// a miss and everywhere with one isovalue (no channel).
+    pub surface: i32,
+    /// The quantity `[color] by` colours the surface with, at the hit; NaN on a miss and
+    /// everywhere without `[color]` (no channel).
+    pub value: f32,
+    /// std430 pads the struct to a multiple of 16 bytes.
+    pub pad: [u32; 2],
 }
 
 const _: () = {
-    assert!(std::mem::size_of::<Pixel>() == 64);
+    assert!(std::mem::size_of::<Pixel>() == 80);
     assert!(std::mem::offset_of!(Pixel, normal) == 16);
     assert!(std::mem::offset_of!(Pixel, depth) == 28);
     assert!(std::mem::offset_of!(Pixel, position) == 32);
     assert!(std::mem::offset_of!(Pixel, steps) == 44);
     assert!(std::mem::offset_of!(Pixel, cell) == 48);
     assert!(std::mem::offset_of!(Pixel, crossings) == 60);
+    assert!(std::mem::offset_of!(Pixel, surface) == 64);
+    assert!(std::mem::offset_of!(Pixel, value) == 68);
 };
 
 impl Pixel {
@@ -91,6 +101,36 @@ impl Pixel {
         self.position = p.as_vec3().to_array();
         self.normal = n.as_vec3().to_array();
     }
+}
+
+/// The records of several surfaces' one-surface renders of the same rays (`layers`, in surface
+/// order) combined, pixel by pixel, as one render of all of them: the nearest hit wins (ties:
+/// the lower surface) with its `iso_index` set; `steps` and `crossings` are summed (for the
+/// mesh method, whose every surface's triangles are tested; -1 stays "not counted").
+pub fn composite_surfaces(layers: &[Vec<Pixel>]) -> Vec<Pixel> {
+    let Some(first) = layers.first() else { return Vec::new() };
+    (0..first.len())
+        .map(|i| {
+            let mut best: Option<(usize, Pixel)> = None;
+            let (mut steps, mut crossings) = (0.0f32, 0i32);
+            for (k, layer) in layers.iter().enumerate() {
+                let p = layer[i];
+                steps += p.steps;
+                crossings =
+                    if p.crossings < 0 || crossings < 0 { -1 } else { crossings + p.crossings };
+                if p.is_hit() && best.as_ref().map_or(true, |(_, b)| p.depth < b.depth) {
+                    best = Some((k, p));
+                }
+            }
+            let mut out = match best {
+                Some((k, p)) => Pixel { surface: k as i32, ..p },
+                None => first[i],
+            };
+            out.steps = steps;
+            out.crossings = crossings;
+            out
+        })
+        .collect()
 }
 
 /// [`Pixel::place`] for every pixel.
@@ -173,6 +213,9 @@ pub enum Written {
     /// Only when some pixel holds a count (a value >= 0); -1 means "not counted", and a file
     /// without the channel reads back as -1 everywhere.
     WhereCounted,
+    /// Only when some pixel holds a finite value; NaN means "no value", and a file without
+    /// the channel reads back as NaN everywhere.
+    WhereFinite,
 }
 
 /// How a `Pixel` member's type converts to and from the EXR's 32-bit float samples.
@@ -277,10 +320,17 @@ channel_table! {
     CellZ = "cell.Z", Integer, Value(-1.0), Always, cell[2];
     /// Isovalue crossings along the ray, where the method counts them.
     Crossings = "crossings", Integer, Value(-1.0), WhereCounted, crossings;
+    /// Index of the surface hit (`surface.isovalues`), with several isovalues.
+    Surface = "iso_index", Integer, Value(-1.0), WhereCounted, surface;
+    /// The value `[color] by` maps through the colormap, at the hit.
+    ColorValue = "color.value", Other, Value(f32::NAN), WhereFinite, value;
 }
 
-// Every member of `Pixel` is one 4-byte channel: a member without a table row fails here.
-const _: () = assert!(Channel::ALL.len() * 4 == std::mem::size_of::<Pixel>());
+// Every member of `Pixel` but the padding is one 4-byte channel: a member without a table row
+// fails here.
+const _: () = assert!(
+    Channel::ALL.len() * 4 + std::mem::size_of::<[u32; 2]>() == std::mem::size_of::<Pixel>()
+);
 
 impl Channel {
     /// The channel named `name` (as written in the EXR).

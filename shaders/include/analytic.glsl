@@ -116,7 +116,7 @@ int derivative_roots(vec4 c, out float r0, out float r1) {
 }
 
 // The inside predicate on g = f - iso (reference: `inside_g`); `below` is true for
-// inside = "below". IEEE subtraction keeps the sign, so this equals is_inside(f). (A GPU that
+// inside = "below". IEEE subtraction keeps the sign, so this equals inside_of(f, iso). (A GPU that
 // flushes denormals can turn a tiny difference into 0, i.e. outside: a rounding-level difference
 // from the f64 reference.)
 bool inside_g(bool below, float g) {

@@ -4,8 +4,19 @@
 
 // THE inside rule (Rust: `Inside::contains`): strictly below (or above) is inside; equal is
 // outside.
-bool is_inside(float v) {
-    return P.surface.y > 0.0 ? v < P.surface.x : v > P.surface.x;
+// The inside predicate against one surface's threshold (P.thresholds; surface 0's is
+// P.surface.x).
+bool inside_of(float v, float threshold) {
+    return P.surface.y > 0.0 ? v < threshold : v > threshold;
+}
+
+// Bit k set: v is inside surface k (k < P.view.w).
+uint inside_mask(float v) {
+    uint m = 0u;
+    for (uint k = 0u; k < P.view.w; k++) {
+        if (inside_of(v, P.thresholds[k / 4u][k % 4u])) m |= 1u << k;
+    }
+    return m;
 }
 
 float grid_value(ivec3 p) {

@@ -23,9 +23,12 @@ struct RenderParams {
     uvec4 analytic;    // x: which crossing is the hit (>= 1), y: 1 = empty-space skipping,
                        // z: brick size in cells (the min/max grid of the skipping)
     uvec4 view;        // x: 1 = orthographic camera, y: normals (NORMALS_TRILINEAR or
-                       // NORMALS_SMOOTH), z: clip planes in use
+                       // NORMALS_SMOOTH), z: clip planes in use, w: surfaces (>= 1)
     vec4 clip[CLIP_PLANES];  // xyz: normal, w: offset, in the grid's frame; each removes
                              // dot(normal, p) > offset
+    vec4 thresholds[SURFACES / 4];   // surface k's inside threshold (as surface.x, which is
+                                     // surface 0's) is thresholds[k / 4][k % 4]
+    vec4 surface_color[SURFACES];    // rgb: surface k's colour (surface_color[0] == color)
 };
 
 // The method codes (METHOD_FIXED_STEP, METHOD_ANALYTIC, METHOD_MESH) and shading codes

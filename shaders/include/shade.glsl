@@ -14,9 +14,8 @@ vec3 heat(float x) {
 }
 
 // Colour of a hit: unit normal n, unit ray direction dir, distance depth, `steps` visited,
-// grid coordinates u of the hit and its cell.
-vec3 shade(vec3 n, vec3 dir, float depth, float steps, vec3 u, ivec3 cell) {
-    vec3 base = P.color.rgb;
+// grid coordinates u of the hit and its cell, the surface's colour `base`.
+vec3 shade(vec3 n, vec3 dir, float depth, float steps, vec3 u, ivec3 cell, vec3 base) {
     switch (P.method.y) {
     case SHADE_NORMAL:
         return n * 0.5 + 0.5;

@@ -33,6 +33,10 @@ void main() {
     bits[15] = P.analytic;
     bits[16] = P.view;
     for (int i = 0; i < CLIP_PLANES; i++) bits[17 + i] = floatBitsToUint(P.clip[i]);
+    for (int i = 0; i < SURFACES / 4; i++)
+        bits[17 + CLIP_PLANES + i] = floatBitsToUint(P.thresholds[i]);
+    for (int i = 0; i < SURFACES; i++)
+        bits[17 + CLIP_PLANES + SURFACES / 4 + i] = floatBitsToUint(P.surface_color[i]);
 
     Pixel p;
     p.rgba = vec4(1.0, 2.0, 3.0, 4.0);
@@ -42,5 +46,9 @@ void main() {
     p.steps = 12.0;
     p.cell = ivec3(13, 14, 15);
     p.crossings = 16;
+    p.surface = 17;
+    p.value = 18.0;
+    p.pad0 = 19u;
+    p.pad1 = 20u;
     pixels[1] = p;
 }

@@ -18,7 +18,7 @@
 //!   CPU path), or when there is no usable Vulkan device; else on the GPU. The summary line on
 //!   stderr says which and why.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use super::{Cli, Failure};
@@ -110,20 +110,42 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
     let started = Instant::now();
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let opts = ExtractOptions { keep_quads: args.quads, ..Default::default() };
-    let (mut mesh, ran_on, why) = match backend {
-        Backend::Cpu => (extract_cpu(&scene, &grid, args.time, opts)?, Backend::Cpu, String::new()),
-        Backend::Gpu => {
-            let (mesh, ran_on) = extract_gpu(cli, vulkan_device, &scene, &grid, args.time, opts)?;
-            (mesh, ran_on, String::new())
+    // Several isovalues: one mesh per surface, merged, each vertex labelled with its surface.
+    let mut meshes = Vec::with_capacity(scene.surface.count);
+    let (mut ran_on, mut why) = (Backend::Cpu, String::new());
+    let time = args.time;
+    for k in 0..scene.surface.count {
+        let one = scene.single_surface(k);
+        let (mesh, on, reason) = match backend {
+            Backend::Cpu => (extract_cpu(&one, &grid, time, opts)?, Backend::Cpu, String::new()),
+            Backend::Gpu => {
+                let (mesh, ran_on) =
+                    extract_gpu(cli, vulkan_device.clone(), &one, &grid, time, opts)?;
+                (mesh, ran_on, String::new())
+            }
+            Backend::Auto => extract_auto(cli, vulkan_device.clone(), &one, &grid, time, opts)?,
+        };
+        let mut mesh = mesh;
+        mesh.place(&scene.field.placement);
+        if scene.clip.count > 0 {
+            mesh = mesh.clipped(&scene.clip);
         }
-        Backend::Auto => extract_auto(cli, vulkan_device, &scene, &grid, args.time, opts)?,
-    };
-    mesh.place(&scene.field.placement);
-    if scene.clip.count > 0 {
-        mesh = mesh.clipped(&scene.clip);
+        meshes.push(mesh);
+        (ran_on, why) = (on, reason);
     }
+    let (mesh, labels) = match meshes.len() {
+        1 => (meshes.pop().expect("one mesh"), None),
+        _ => {
+            let (merged, labels) = mesh::merge(&meshes);
+            (merged, Some(labels))
+        }
+    };
     let elapsed = started.elapsed().as_secs_f64() * 1e3;
-    write_mesh(&args.output, &mesh, format)?;
+    // Whole or not at all.
+    atomic::write_with(&args.output, |w| {
+        export::write_labelled(&mesh, labels.as_deref(), format, w)
+    })
+    .map_err(Failure::input)?;
 
     if args.stats {
         println!("{}", mesh::stats::compute(&mesh));
@@ -323,11 +345,6 @@ fn extract_on(
 
 fn scene_name(scene: &Scene) -> String {
     scene.path.as_ref().map_or_else(|| "scene".to_string(), |p| p.display().to_string())
-}
-
-/// Writes `mesh` to `path` whole or not at all.
-pub fn write_mesh(path: &Path, mesh: &Mesh, format: Format) -> Result<(), Failure> {
-    atomic::write_with(path, |w| export::write(mesh, format, w)).map_err(Failure::input)
 }
 
 #[cfg(test)]

@@ -35,8 +35,20 @@ impl Format {
 
 /// Writes `mesh` to `w` in `format`.
 pub fn write<W: Write>(mesh: &Mesh, format: Format, w: W) -> io::Result<()> {
+    write_labelled(mesh, None, format, w)
+}
+
+/// [`write`], with each vertex's surface (`mesh::merge`) where there are several: PLY gives
+/// the vertex a `uchar surface` property; OBJ and STL have no per-vertex labels (OBJ and STL
+/// readers would drop them) and are written as [`write`] does.
+pub fn write_labelled<W: Write>(
+    mesh: &Mesh,
+    labels: Option<&[u32]>,
+    format: Format,
+    w: W,
+) -> io::Result<()> {
     match format {
-        Format::Ply => write_ply(mesh, w),
+        Format::Ply => write_ply_labelled(mesh, labels, w),
         Format::Obj => write_obj(mesh, w),
         Format::Stl => write_stl(mesh, w),
     }
@@ -53,21 +65,30 @@ fn faces(mesh: &Mesh) -> (&[u32], usize) {
 /// Binary little-endian PLY: `vertex` with float `x y z nx ny nz`, `face` with
 /// `list uchar uint vertex_indices`.
 pub fn write_ply<W: Write>(mesh: &Mesh, w: W) -> io::Result<()> {
+    write_ply_labelled(mesh, None, w)
+}
+
+/// [`write_ply`], plus `property uchar surface` after the normal when `labels` are given.
+pub fn write_ply_labelled<W: Write>(mesh: &Mesh, labels: Option<&[u32]>, w: W) -> io::Result<()> {
     let mut w = BufWriter::new(w);
     let (faces, n) = faces(mesh);
+    let label_property = if labels.is_some() { "property uchar surface\n" } else { "" };
     write!(
         w,
         "ply\nformat binary_little_endian 1.0\ncomment isoview {}\n\
          element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
-         property float nx\nproperty float ny\nproperty float nz\n\
+         property float nx\nproperty float ny\nproperty float nz\n{label_property}\
          element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
         crate::VERSION,
         mesh.positions.len(),
         faces.len() / n
     )?;
-    for (p, q) in mesh.positions.iter().zip(&mesh.normals) {
+    for (i, (p, q)) in mesh.positions.iter().zip(&mesh.normals).enumerate() {
         for c in p.iter().chain(q) {
             w.write_all(&c.to_le_bytes())?;
+        }
+        if let Some(l) = labels {
+            w.write_all(&[l[i] as u8])?;
         }
     }
     for f in faces.chunks_exact(n) {

@@ -100,6 +100,27 @@ pub struct Mesh {
     pub quads: Option<Vec<u32>>,
 }
 
+/// Several surfaces' meshes as one: their vertices and faces one after the other (surface 0
+/// first), and each vertex's surface (`surface.isovalues` index), the PLY's `surface` property.
+pub fn merge(meshes: &[Mesh]) -> (Mesh, Vec<u32>) {
+    let mut out = Mesh::default();
+    let mut labels = Vec::new();
+    let quads = meshes.iter().all(|m| m.quads.is_some()) && !meshes.is_empty();
+    let mut all_quads = Vec::new();
+    for (k, m) in meshes.iter().enumerate() {
+        let base = out.positions.len() as u32;
+        out.positions.extend_from_slice(&m.positions);
+        out.normals.extend_from_slice(&m.normals);
+        out.indices.extend(m.indices.iter().map(|i| i + base));
+        if let (true, Some(q)) = (quads, &m.quads) {
+            all_quads.extend(q.iter().map(|i| i + base));
+        }
+        labels.resize(labels.len() + m.positions.len(), k as u32);
+    }
+    out.quads = quads.then_some(all_quads);
+    (out, labels)
+}
+
 impl Mesh {
     /// Number of vertices.
     pub fn vertex_count(&self) -> usize {

@@ -118,13 +118,15 @@ pub fn encode_frame(path: &Path, frame: &Frame) -> Result<Vec<u8>, OutputError> 
 }
 
 /// The channels [`write_frame`] writes for `frame`, in table order: every [`Written::Always`]
-/// channel, and each [`Written::WhereCounted`] one where some pixel holds a count (>= 0).
+/// channel, each [`Written::WhereCounted`] one where some pixel holds a count (>= 0), and each
+/// [`Written::WhereFinite`] one where some pixel holds a finite value.
 pub fn written_channels(frame: &Frame) -> Vec<Channel> {
     Channel::ALL
         .into_iter()
         .filter(|c| match c.written() {
             Written::Always => true,
             Written::WhereCounted => frame.pixels.iter().any(|p| c.get(p) >= 0.0),
+            Written::WhereFinite => frame.pixels.iter().any(|p| c.get(p).is_finite()),
         })
         .collect()
 }
@@ -432,7 +434,7 @@ impl ExrImage {
 
     /// The pixels of an EXR that isoview wrote, read back through the channel table: every
     /// [`Written::Always`] channel must be there; a missing [`Written::WhereCounted`] one
-    /// reads as -1 (not counted). Errors name the file and the missing channel.
+    /// reads as -1 (not counted), a missing [`Written::WhereFinite`] one as NaN. Errors name the file and the missing channel.
     pub fn frame_pixels(&self) -> Result<Vec<Pixel>, OutputError> {
         let n = self.width * self.height;
         let mut pixels = vec![Pixel::default(); n];
@@ -444,6 +446,7 @@ impl ExrImage {
                     }
                 }
                 (None, Written::WhereCounted) => pixels.iter_mut().for_each(|p| c.set(p, -1.0)),
+                (None, Written::WhereFinite) => pixels.iter_mut().for_each(|p| c.set(p, f32::NAN)),
                 (None, Written::Always) => {
                     return Err(OutputError::invalid(
                         &self.path,
@@ -643,6 +646,9 @@ mod tests {
                 steps: 7.0,
                 cell: [1, 2, 3],
                 crossings: -1,
+                surface: -1,
+                value: f32::NAN,
+                pad: [0; 2],
             })
             .collect();
         Frame { width: w, height: h, pixels, info: info() }

@@ -14,7 +14,7 @@
 use glam::DVec3;
 
 use super::field::{cell_of, clip_box, gradient_at, to_grid, value_at};
-use super::shade::{render_with, RayHit};
+use super::shade::{nearest_surface, render_with, RayHit};
 use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::scene::{Inside, Scene};
@@ -109,6 +109,7 @@ pub fn march_clipped(
                 normal: oriented_normal(grid, u, inside, dir),
                 grid_coords: u,
                 cell: cell_of(grid, u),
+                surface: 0,
             };
             return March { hit: Some(hit), steps: count, margin };
         }
@@ -119,11 +120,14 @@ pub fn march_clipped(
 
 /// The whole image, as the GPU's fixed-step pass produces it.
 pub fn render(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
-    let (iso, inside, steps) = (scene.surface.isovalue, scene.surface.inside, scene.render.steps);
+    let (isos, inside, steps) =
+        (scene.surface.isovalues(), scene.surface.inside, scene.render.steps);
     let clip = scene.clip.in_grid_frame(&scene.field.placement);
     render_with(scene, grid, |o, d| {
-        let m = march_clipped(grid, iso, inside, o, d, steps, &clip);
-        (m.hit, m.steps, -1)
+        nearest_surface(isos.iter().map(|&iso| {
+            let m = march_clipped(grid, iso, inside, o, d, steps, &clip);
+            (m.hit, m.steps, -1)
+        }))
     })
 }
 

@@ -245,6 +245,7 @@ pub fn render(scene: &Scene, grid: &Grid, mesh: &Mesh) -> (Vec<Pixel>, Vec<MeshT
                     normal: interpolated_normal(mesh, tri, h.bary, dir),
                     grid_coords: u,
                     cell: cell_of(grid, u),
+                    surface: 0,
                 }
             });
             let hit = hit.map(|h| super::shade::scene_normal(scene, grid, h));

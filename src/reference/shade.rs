@@ -25,12 +25,41 @@ pub struct RayHit {
     /// Continuous grid coordinates of the hit.
     pub grid_coords: DVec3,
     pub cell: [usize; 3],
+    /// Which surface (index into `surface.isovalues`); 0 with one isovalue.
+    pub surface: usize,
+}
+
+/// What one ray found among several surfaces, from what it found on each alone (in surface
+/// order: hit, steps, crossings), by the rule every method follows: the nearest hit wins
+/// (ties: the lower surface index) and keeps its `steps` (a miss: surface 0's, which every
+/// surface shares: each walked the whole ray); crossings are summed (-1: not counted).
+pub fn nearest_surface(
+    per_surface: impl IntoIterator<Item = (Option<RayHit>, u32, i32)>,
+) -> (Option<RayHit>, u32, i32) {
+    let mut best: Option<(RayHit, u32)> = None;
+    let (mut miss_steps, mut crossings) = (None, 0i32);
+    for (k, (hit, steps, c)) in per_surface.into_iter().enumerate() {
+        miss_steps.get_or_insert(steps);
+        crossings = if c < 0 || crossings < 0 { -1 } else { crossings + c };
+        if let Some(h) = hit {
+            if best.as_ref().map_or(true, |(b, _)| h.t < b.t) {
+                best = Some((RayHit { surface: k, ..h }, steps));
+            }
+        }
+    }
+    match best {
+        Some((h, steps)) => (Some(h), steps, crossings),
+        None => (None, miss_steps.unwrap_or(0), crossings),
+    }
 }
 
 /// Shading inputs that do not change per pixel.
 pub struct Shader {
     mode: Shading,
-    color: DVec3,
+    /// Each surface's colour.
+    colors: Vec<DVec3>,
+    /// Whether the `iso_index` channel is written (several surfaces).
+    several: bool,
     near: f64,
     far: f64,
     steps_scale: f64,
@@ -40,10 +69,13 @@ pub struct Shader {
 impl Shader {
     pub fn new(scene: &Scene, grid: &Grid) -> Self {
         let (near, far) = depth_range(Camera::for_scene(scene).eye, grid);
-        let c = scene.render.color;
+        let colors = (0..scene.surface.count)
+            .map(|k| DVec3::from(scene.surface.color(k, scene.render.color).map(f64::from)))
+            .collect();
         Shader {
             mode: scene.render.shading,
-            color: DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64),
+            colors,
+            several: scene.surface.several(),
             near,
             far,
             steps_scale: steps_scale(scene, grid),
@@ -54,6 +86,7 @@ impl Shader {
     /// Colour of a hit seen along unit direction `dir` after visiting `steps` samples or cells.
     pub fn shade(&self, hit: &RayHit, dir: DVec3, steps: f64) -> DVec3 {
         let lambert = AMBIENT + (1.0 - AMBIENT) * hit.normal.dot(dir).abs();
+        let color = self.colors[hit.surface];
         match self.mode {
             Shading::Normal => hit.normal * 0.5 + 0.5,
             Shading::Depth => {
@@ -72,10 +105,10 @@ impl Shader {
                 if edge.min_element() < CELL_BORDER {
                     tone *= 0.25;
                 }
-                self.color * tone * lambert
+                color * tone * lambert
             }
-            Shading::Solid => self.color,
-            Shading::Lambert => self.color * lambert,
+            Shading::Solid => color,
+            Shading::Lambert => color * lambert,
         }
     }
 }
@@ -105,6 +138,9 @@ impl Shader {
                     steps: steps as f32,
                     cell: h.cell.map(|c| c as i32),
                     crossings,
+                    surface: if self.several { h.surface as i32 } else { -1 },
+                    value: f32::NAN,
+                    pad: [0; 2],
                 }
             }
         }

@@ -48,6 +48,24 @@ impl Renderer {
         gpu_grid: &GpuGrid,
         time: f64,
     ) -> Result<Frame, RenderError> {
+        if scene.surface.several() {
+            // One mesh per surface, each drawn alone, composited: what one draw of the merged
+            // meshes gives (its nearest triangle; ties to the lower surface, whose triangles
+            // come first; every triangle tested), without a merged mesh on the device.
+            let mut layers = Vec::with_capacity(scene.surface.count);
+            let mut info = None;
+            for k in 0..scene.surface.count {
+                let frame =
+                    self.render_scene_mesh(&scene.single_surface(k), grid, gpu_grid, time)?;
+                layers.push(frame.pixels);
+                info.get_or_insert(frame.info);
+            }
+            let (width, height) = (scene.image.width, scene.image.height);
+            let mut info = info.expect("at least two surfaces");
+            info.extra = self.frame_info(scene, grid, time).extra;
+            let pixels = crate::frame::composite_surfaces(&layers);
+            return Ok(Frame { width, height, pixels, info });
+        }
         let cpu = !scene.render.mesh.on_gpu()
             || (scene.render.mesh == MeshAlgorithm::Mc33 && !self.ctx.info.float64);
         let mesh = if cpu {

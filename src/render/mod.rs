@@ -115,14 +115,7 @@ pub struct Renderer {
 
 /// 256 linear RGBA entries of a colorous gradient (its sRGB colours decoded), for shaders.
 pub fn linear_colormap(gradient: colorous::Gradient) -> Vec<[f32; 4]> {
-    let linear = |u: u8| {
-        let s = u as f32 / 255.0;
-        if s <= 0.04045 {
-            s / 12.92
-        } else {
-            ((s + 0.055) / 1.055).powf(2.4)
-        }
-    };
+    let linear = |u: u8| crate::scene::srgb_to_linear(u as f32 / 255.0);
     (0..256)
         .map(|i| {
             let c = gradient.eval_continuous(i as f64 / 255.0);
@@ -263,7 +256,7 @@ impl Renderer {
         Ok(Frame { width, height, pixels, info })
     }
 
-    fn frame_info(&self, scene: &Scene, grid: &Grid, time: f64) -> FrameInfo {
+    pub(crate) fn frame_info(&self, scene: &Scene, grid: &Grid, time: f64) -> FrameInfo {
         let r = &scene.render;
         let mut extra = vec![
             ("shading".to_string(), r.shading.name().to_string()),
@@ -279,6 +272,17 @@ impl Renderer {
                 extra.push(("crossing".into(), r.crossing.to_string()));
             }
             Method::Mesh => extra.push(("mesh".into(), r.mesh.name().to_string())),
+        }
+        if scene.surface.several() {
+            let isos: Vec<String> = scene.surface.isovalues().iter().map(f64::to_string).collect();
+            extra.push(("isovalues".into(), format!("[{}]", isos.join(", "))));
+            let colors: Vec<String> = (0..scene.surface.count)
+                .map(|k| {
+                    let [r, g, b] = scene.surface.color(k, r.color);
+                    format!("[{r}, {g}, {b}]")
+                })
+                .collect();
+            extra.push(("surface_colors".into(), colors.join("; ")));
         }
         if scene.clip.count > 0 {
             let planes: Vec<String> = scene

@@ -5,7 +5,7 @@ use glam::DVec3;
 
 use crate::camera::Camera;
 use crate::field::Grid;
-use crate::scene::{Inside, Method, Normals, Scene, Shading};
+use crate::scene::{Inside, Method, Normals, Scene, Shading, MAX_SURFACES};
 use crate::shaders::consts;
 use crate::vocab::Clip;
 
@@ -32,11 +32,17 @@ pub struct RenderParams {
     pub analytic: [u32; 4],
     pub view: [u32; 4],
     pub clip: [[f32; 4]; Clip::MAX_PLANES],
+    pub thresholds: [[f32; 4]; MAX_SURFACES / 4],
+    pub surface_color: [[f32; 4]; MAX_SURFACES],
 }
 
 const _: () = {
     assert!(consts::CLIP_PLANES as usize == Clip::MAX_PLANES);
-    assert!(std::mem::size_of::<RenderParams>() == (17 + Clip::MAX_PLANES) * 16);
+    assert!(consts::SURFACES as usize == MAX_SURFACES && MAX_SURFACES % 4 == 0);
+    assert!(
+        std::mem::size_of::<RenderParams>()
+            == (17 + Clip::MAX_PLANES + MAX_SURFACES / 4 + MAX_SURFACES) * 16
+    );
     assert!(std::mem::offset_of!(RenderParams, dims) == 9 * 16);
     assert!(std::mem::offset_of!(RenderParams, debug) == 13 * 16);
     assert!(std::mem::offset_of!(RenderParams, eye_grid) == 14 * 16);
@@ -85,6 +91,12 @@ pub fn surface_threshold(isovalue: f64, inside: Inside) -> f32 {
     crate::passes::extract::inside_threshold(isovalue, inside == Inside::Below)
 }
 
+/// Surface `k`'s colour as the shaders take it (linear RGB, 1).
+fn surface_color(scene: &Scene, k: usize) -> [f32; 4] {
+    let [r, g, b] = scene.surface.color(k, scene.render.color);
+    [r, g, b, 1.0]
+}
+
 /// Distances from the eye that map to white and black in `depth` shading: the near and far
 /// side of the grid box's bounding sphere.
 pub fn depth_range(eye: DVec3, grid: &Grid) -> (f64, f64) {
@@ -125,7 +137,7 @@ impl RenderParams {
             box_max: v4(grid.max, 0.0),
             inv_spacing: v4(inv, 0.0),
             background: r.background,
-            color: [r.color[0], r.color[1], r.color[2], 1.0],
+            color: surface_color(scene, 0),
             dims: [nx as i32, ny as i32, nz as i32, 0],
             // The whole image (stride 1); `Renderer::render_progressive` draws every s-th pixel.
             image: [scene.image.width, scene.image.height, 1, scene.image.width],
@@ -144,11 +156,24 @@ impl RenderParams {
                 crate::passes::bricks::BRICK as u32,
                 r.count_crossings as u32,
             ],
-            view: [cam.orthographic as u32, normals_code(r.normals), clip.count as u32, 0],
+            view: [
+                cam.orthographic as u32,
+                normals_code(r.normals),
+                clip.count as u32,
+                scene.surface.count as u32,
+            ],
             clip: std::array::from_fn(|i| {
                 let (n, offset) = clip.planes[i];
                 [n.x as f32, n.y as f32, n.z as f32, offset as f32]
             }),
+            thresholds: {
+                let mut t = [[0.0; 4]; MAX_SURFACES / 4];
+                for (k, iso) in scene.surface.isovalues().into_iter().enumerate() {
+                    t[k / 4][k % 4] = surface_threshold(iso, scene.surface.inside);
+                }
+                t
+            },
+            surface_color: std::array::from_fn(|k| surface_color(scene, k)),
         }
     }
 }

@@ -24,6 +24,18 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// This scene with surface `k` of `surface.isovalues` as its only surface, in that
+    /// surface's colour (how the mesh method draws several surfaces, and how tests check the
+    /// several-surface rule).
+    pub fn single_surface(&self, k: usize) -> Scene {
+        let mut one = self.clone();
+        let color = self.surface.color(k, self.render.color);
+        one.surface.isovalue = self.surface.isovalues()[k];
+        one.surface.count = 1;
+        one.surface.colors = Some([color; MAX_SURFACES]);
+        one
+    }
+
     /// A scene over `field` with every other key at the contract's default (for scenes built
     /// in code; files go through [`super::load`]).
     pub fn new(field: crate::field::FieldSpec) -> Scene {
@@ -103,20 +115,74 @@ impl Default for CameraSettings {
     }
 }
 
+/// Most surfaces one scene renders (`surface.isovalues`).
+pub const MAX_SURFACES: usize = 8;
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceSettings {
     /// The isovalue every method uses: `isovalue`, or resolved from the samples at load time
-    /// by [`SurfaceSettings::rule`].
+    /// by [`SurfaceSettings::rule`]; with `isovalues`, the first of them (surface 0).
     pub isovalue: f64,
     pub inside: Inside,
     /// How the isovalue was chosen.
     pub rule: IsoRule,
+    /// `isovalues = [a, b, ...]`: the surfaces after the first (`a` is `isovalue`), in order;
+    /// `count` is how many surfaces there are in all (1: a single isovalue).
+    pub more: [f64; MAX_SURFACES - 1],
+    pub count: usize,
+    /// `colors = [[r, g, b], ...]`, one linear RGB per surface; None: surface 0 is
+    /// `render.color` and surface k > 0 the k-th colour of [`SURFACE_PALETTE`].
+    pub colors: Option<[[f32; 3]; MAX_SURFACES]>,
 }
 
 impl Default for SurfaceSettings {
     /// Isovalue 0, values below it inside (signed distance convention).
     fn default() -> Self {
-        SurfaceSettings { isovalue: 0.0, inside: Inside::Below, rule: IsoRule::Value }
+        SurfaceSettings {
+            isovalue: 0.0,
+            inside: Inside::Below,
+            rule: IsoRule::Value,
+            more: [0.0; MAX_SURFACES - 1],
+            count: 1,
+            colors: None,
+        }
+    }
+}
+
+/// The colours of surfaces 1, 2, ... when `surface.colors` is not given: colorous's Tableau10
+/// from its second entry (its first, blue, stays for 0 if a scene asks), sRGB decoded to linear.
+pub const SURFACE_PALETTE: usize = 10;
+
+impl SurfaceSettings {
+    /// Every surface's isovalue, surface 0 first.
+    pub fn isovalues(&self) -> Vec<f64> {
+        std::iter::once(self.isovalue).chain(self.more[..self.count - 1].iter().copied()).collect()
+    }
+
+    /// Whether the scene has more than one surface.
+    pub fn several(&self) -> bool {
+        self.count > 1
+    }
+
+    /// Surface `k`'s linear RGB, given the scene's `render.color`.
+    pub fn color(&self, k: usize, render_color: [f32; 3]) -> [f32; 3] {
+        match (&self.colors, k) {
+            (Some(c), _) => c[k],
+            (None, 0) => render_color,
+            (None, k) => {
+                let c = colorous::TABLEAU10[k % SURFACE_PALETTE];
+                [c.r, c.g, c.b].map(|u| srgb_to_linear(u as f32 / 255.0))
+            }
+        }
+    }
+}
+
+/// The sRGB transfer function's inverse (IEC 61966-2-1).
+pub fn srgb_to_linear(s: f32) -> f32 {
+    if s <= 0.04045 {
+        s / 12.92
+    } else {
+        ((s + 0.055) / 1.055).powf(2.4)
     }
 }
 

@@ -9,7 +9,7 @@ use super::tree::{Node, Origin, Source, Value};
 use super::{
     Ambiguity, CameraSettings, HermiteNormals, ImageSettings, Inside, IsoRule, MeshAlgorithm,
     Method, Normals, Projection, RenderSettings, Scene, Shading, SharpSettings, SliceSettings,
-    SurfaceSettings,
+    SurfaceSettings, MAX_SURFACES,
 };
 use crate::field::stats::{self, Stats};
 use crate::field::{FieldSpec, GridLimits, SourceKind};
@@ -54,6 +54,13 @@ pub(crate) fn scene(
     let clip = clip(&root)?;
     // Last: an isovalue picked from the data samples the whole field.
     let surface = resolve_isovalue(&surface_table, surface, &field, limits)?;
+    if surface.several() && render.crossing > 1 {
+        return Err(root.table("render")?.err(
+            SceneErrorKind::Value,
+            "crossing",
+            "must be 1 with several isovalues (the nearest crossing of any surface is shown)",
+        ));
+    }
     Ok(Scene { path: None, image, camera, field, surface, render, slice, clip })
 }
 
@@ -205,10 +212,17 @@ fn fit(c: &mut CameraSettings, field: &FieldSpec, image: &ImageSettings) {
 }
 
 /// The isovalue keys: at most one may be given.
-const ISO_KEYS: [&str; 3] = ["isovalue", "isovalue_sigma", "isovalue_percentile"];
+const ISO_KEYS: [&str; 4] = ["isovalue", "isovalues", "isovalue_sigma", "isovalue_percentile"];
 
 fn surface(t: &View) -> Result<SurfaceSettings> {
-    t.check_keys(&["isovalue", "isovalue_sigma", "isovalue_percentile", "inside"])?;
+    t.check_keys(&[
+        "isovalue",
+        "isovalues",
+        "isovalue_sigma",
+        "isovalue_percentile",
+        "inside",
+        "colors",
+    ])?;
     let d = SurfaceSettings::default();
     let insides = Inside::ALL.map(|i| (i.name(), i));
     let given: Vec<&str> = ISO_KEYS.into_iter().filter(|k| t.get(k).is_some()).collect();
@@ -230,8 +244,8 @@ fn surface(t: &View) -> Result<SurfaceSettings> {
             SceneErrorKind::Value,
             second,
             format!(
-                "give one of isovalue, isovalue_sigma and isovalue_percentile, not both {first} \
-                 and {second}"
+                "give one of isovalue, isovalues, isovalue_sigma and isovalue_percentile, not \
+                 both {first} and {second}"
             ),
         ));
     }
@@ -252,7 +266,56 @@ fn surface(t: &View) -> Result<SurfaceSettings> {
         }
         _ => IsoRule::Value,
     };
-    Ok(SurfaceSettings { isovalue, inside, rule })
+    let mut out = SurfaceSettings { isovalue, inside, rule, ..d };
+    if given.first() == Some(&"isovalues") {
+        let values = list(t, "isovalues", "numbers", read::number)?;
+        out.isovalue = values[0];
+        out.more[..values.len() - 1].copy_from_slice(&values[1..]);
+        out.count = values.len();
+    }
+    if t.get("colors").is_some() {
+        let mut colors = list(t, "colors", "[r, g, b] colours", colour::<3>)?;
+        // An override of the isovalues keeps the file's colours for the surfaces it keeps.
+        if overridden.is_some() && colors.len() > out.count {
+            colors.truncate(out.count);
+        }
+        if colors.len() != out.count {
+            return Err(t.err(
+                SceneErrorKind::Value,
+                "colors",
+                format!(
+                    "needs one colour per surface: {} for {} isovalue(s)",
+                    colors.len(),
+                    out.count
+                ),
+            ));
+        }
+        let mut all = [[0.0; 3]; MAX_SURFACES];
+        all[..colors.len()].copy_from_slice(&colors);
+        out.colors = Some(all);
+    }
+    Ok(out)
+}
+
+/// An array of 1 to [`MAX_SURFACES`] items, each read by `item`.
+fn list<T>(
+    t: &View,
+    key: &str,
+    what: &str,
+    item: impl Fn(&Source, &str, &Node) -> Result<T>,
+) -> Result<Vec<T>> {
+    let node = t.get(key).expect("the caller checked the key is there");
+    let Value::Array(items) = &node.value else {
+        return Err(read::type_error(t.src, &t.key(key), node, &format!("an array of {what}")));
+    };
+    if items.is_empty() || items.len() > MAX_SURFACES {
+        return Err(t.err(
+            SceneErrorKind::Value,
+            key,
+            format!("must hold 1 to {MAX_SURFACES} {what}, got {}", items.len()),
+        ));
+    }
+    items.iter().map(|n| item(t.src, &t.key(key), n)).collect()
 }
 
 /// The isovalue of `isovalue_sigma` or `isovalue_percentile`, resolved once from the samples

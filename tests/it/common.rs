@@ -179,6 +179,12 @@ pub fn reference_pixels(scene: &Scene, grid: &Grid) -> Vec<isoview::frame::Pixel
     match scene.render.method {
         Method::Analytic => reference::analytic::render(scene, grid),
         Method::FixedStep => reference::fixed_step::render(scene, grid),
+        Method::Mesh if scene.surface.several() => {
+            let layers: Vec<_> = (0..scene.surface.count)
+                .map(|k| reference_pixels(&scene.single_surface(k), grid))
+                .collect();
+            isoview::frame::composite_surfaces(&layers)
+        }
         Method::Mesh => {
             let m = isoview::render::mesh::scene_mesh(scene, grid).unwrap();
             reference::mesh::render(scene, grid, &m).0

@@ -32,8 +32,8 @@ fn shared_structs_have_the_same_layout_on_the_gpu() {
     ubo.write(std::slice::from_ref(&params)).unwrap();
     let mut bits = Buffer::new(&ctx, "probe bits", bytes, usage, MemoryLocation::GpuToCpu).unwrap();
     bits.write(&vec![SENTINEL; words]).unwrap();
-    let mut px = Buffer::new(&ctx, "probe pixels", 128, usage, MemoryLocation::GpuToCpu).unwrap();
-    px.write(&[SENTINEL; 32]).unwrap();
+    let mut px = Buffer::new(&ctx, "probe pixels", 160, usage, MemoryLocation::GpuToCpu).unwrap();
+    px.write(&[SENTINEL; 40]).unwrap();
 
     let pipeline = ComputePipeline::new(
         &ctx,
@@ -73,6 +73,9 @@ fn shared_structs_have_the_same_layout_on_the_gpu() {
             steps: 12.0,
             cell: [13, 14, 15],
             crossings: 16,
+            surface: 17,
+            value: 18.0,
+            pad: [19, 20],
         }
     );
 }
@@ -326,14 +329,27 @@ fn every_shared_struct_matches_its_glsl_in_every_shader() {
                 eye_grid,
                 analytic,
                 view,
-                clip
+                clip,
+                thresholds,
+                surface_color
             }),
             "RenderParams",
             &any,
             5,
         ),
         (
-            rust_struct!(Pixel { rgba, normal, depth, position, steps, cell, crossings }),
+            rust_struct!(Pixel {
+                rgba,
+                normal,
+                depth,
+                position,
+                steps,
+                cell,
+                crossings,
+                surface,
+                value,
+                pad => ["pad0", "pad1"]
+            }),
             "Pixel",
             &any,
             4,

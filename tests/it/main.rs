@@ -33,3 +33,4 @@ mod sharp;
 mod slice;
 mod sources;
 mod stats;
+mod surfaces;

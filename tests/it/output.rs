@@ -57,6 +57,9 @@ pub fn test_frame(w: u32, h: u32) -> Frame {
                     steps: 10.0 + i,
                     cell: [x as i32, y as i32, 47],
                     crossings: (x % 3) as i32,
+                    surface: (x % 2) as i32,
+                    value: 0.5 - i,
+                    pad: [0; 2],
                 }
             });
         }
@@ -82,6 +85,8 @@ fn channel_of(p: &Pixel, name: &str) -> f32 {
         "cell.Y" => p.cell[1] as f32,
         "cell.Z" => p.cell[2] as f32,
         "crossings" => p.crossings as f32,
+        "iso_index" => p.surface as f32,
+        "color.value" => p.value,
         _ => unreachable!("{name}"),
     }
 }
@@ -100,7 +105,7 @@ fn exr_round_trip_of_every_channel_and_attribute() {
     let mut want = names.clone();
     want.sort();
     let got: Vec<&str> = img.channel_names().collect();
-    assert_eq!(got, want, "all 16 channels, stored sorted by name");
+    assert_eq!(got, want, "all 18 channels, stored sorted by name");
     for name in names {
         let c = img.channel(name).unwrap();
         assert_eq!(c.kind, SampleKind::F32, "{name}");
@@ -153,9 +158,20 @@ fn crossings_channel_only_when_some_pixel_counts_them() {
     out_exr::write_frame(&path, &frame).unwrap();
     let img = out_exr::read(&path).unwrap();
     assert!(img.channel("crossings").is_none());
-    assert_eq!(img.channels.len(), 15);
+    assert_eq!(img.channels.len(), 17);
     // Read back, a missing `crossings` is "not counted" again.
     assert_eq!(img.frame_pixels().unwrap(), frame.pixels);
+
+    // The same for `iso_index` (-1: one surface) and `color.value` (NaN: no [color]).
+    for p in &mut frame.pixels {
+        (p.surface, p.value) = (-1, f32::NAN);
+    }
+    out_exr::write_frame(&path, &frame).unwrap();
+    let img = out_exr::read(&path).unwrap();
+    assert!(img.channel("iso_index").is_none() && img.channel("color.value").is_none());
+    assert_eq!(img.channels.len(), 15);
+    let bits = |p: &[Pixel]| bytemuck::cast_slice::<Pixel, u32>(p).to_vec();
+    assert_eq!(bits(&img.frame_pixels().unwrap()), bits(&frame.pixels));
 }
 
 #[test]
@@ -182,12 +198,15 @@ fn the_channel_table_matches_the_contract() {
             ("cell.Y", "integer"),
             ("cell.Z", "integer"),
             ("crossings", "integer"),
+            ("iso_index", "integer"),
+            ("color.value", "other"),
         ]
     );
     let miss = Pixel::miss([0.1, 0.2, 0.3, 0.4], 9.0);
+    let bits = |p: &Pixel| bytemuck::bytes_of(p).to_vec();
     assert_eq!(
-        miss,
-        Pixel {
+        bits(&miss),
+        bits(&Pixel {
             rgba: [0.1, 0.2, 0.3, 0.4],
             normal: [0.0; 3],
             depth: f32::INFINITY,
@@ -195,7 +214,10 @@ fn the_channel_table_matches_the_contract() {
             steps: 9.0,
             cell: [-1; 3],
             crossings: -1,
-        }
+            surface: -1,
+            value: f32::NAN,
+            pad: [0; 2],
+        })
     );
     for c in Channel::ALL {
         assert_eq!(c.get(&miss).to_bits(), channel_of(&miss, c.name()).to_bits(), "{c:?}");

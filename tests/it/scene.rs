@@ -115,7 +115,12 @@ color = [1, 0.5, 0]
     assert_eq!(s.field.bounds.max, DVec3::new(1.0, 2.0, 3.5));
     assert_eq!(
         s.surface,
-        SurfaceSettings { isovalue: 0.25, inside: Inside::Above, rule: IsoRule::Value }
+        SurfaceSettings {
+            isovalue: 0.25,
+            inside: Inside::Above,
+            rule: IsoRule::Value,
+            ..Default::default()
+        }
     );
     let r = s.render;
     assert_eq!((r.method, r.steps, r.newton_steps), (Method::Mesh, 64, 0));

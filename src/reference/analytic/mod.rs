@@ -163,7 +163,7 @@ use glam::DVec3;
 
 use crate::field::Grid;
 use crate::frame::Pixel;
-use crate::reference::shade::{render_with, RayHit};
+use crate::reference::shade::{nearest_surface, render_with, RayHit};
 use crate::reference::trilinear::{cell_corners, gradient, lerp3, trilerp};
 use crate::scene::{Inside, Scene};
 use crate::vocab::Clip;
@@ -319,19 +319,36 @@ pub fn options(scene: &Scene) -> AnalyticOptions {
 /// `render.count_crossings` and -1 without (the GPU then stops at the hit). (With
 /// `render.skip` on, the GPU's `steps` counts less work; every other channel is the same.)
 pub fn render(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
-    let (iso, inside, opts) = (scene.surface.isovalue, scene.surface.inside, options(scene));
+    let (isos, inside, opts) = (scene.surface.isovalues(), scene.surface.inside, options(scene));
+    let count = scene.render.count_crossings;
     render_with(scene, grid, |o, d| {
-        let a = trace(grid, iso, inside, o, d, &opts);
+        nearest_surface(isos.iter().map(|&iso| trace_one(grid, iso, inside, o, d, &opts, count)))
+    })
+}
+
+/// One surface's (hit, cells visited, crossings) for [`render`].
+fn trace_one(
+    grid: &Grid,
+    iso: f64,
+    inside: Inside,
+    o: DVec3,
+    d: DVec3,
+    opts: &AnalyticOptions,
+    count_crossings: bool,
+) -> (Option<RayHit>, u32, i32) {
+    {
+        let a = trace(grid, iso, inside, o, d, opts);
         let hit = a.hit.map(|h| RayHit {
             t: h.t,
             position: h.position,
             normal: h.normal,
             grid_coords: DVec3::new(h.cell[0] as f64, h.cell[1] as f64, h.cell[2] as f64) + h.local,
             cell: h.cell.map(|c| c as usize),
+            surface: 0,
         });
-        let crossings = if scene.render.count_crossings { a.crossings as i32 } else { -1 };
+        let crossings = if count_crossings { a.crossings as i32 } else { -1 };
         (hit, a.cells_visited, crossings)
-    })
+    }
 }
 
 /// Ray parameter of segment parameter `u`: `t_in + u (t_out - t_in)`, at most `t_out`, and

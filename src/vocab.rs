@@ -74,10 +74,17 @@ impl MeshAlgorithm {
         }
     }
 
-    /// Whether the GPU extraction passes implement it; the others are extracted on the CPU
-    /// (`mesh::extract_with`) wherever a GPU extraction is asked for, with a note.
-    pub fn on_gpu(self) -> bool {
-        !matches!(self, MeshAlgorithm::DualContouringQef | MeshAlgorithm::ExtendedMc)
+    /// Whether the GPU extraction passes implement it with these settings
+    /// (`dual-contouring-qef`: uniform, trilinear Hermite data); the others are extracted on
+    /// the CPU (`mesh::extract_with`) wherever a GPU extraction is asked for, with a note.
+    pub fn on_gpu(self, sharp: &SharpSettings) -> bool {
+        match self {
+            MeshAlgorithm::ExtendedMc => false,
+            MeshAlgorithm::DualContouringQef => {
+                sharp.hermite == HermiteNormals::Trilinear && sharp.mesh_error.is_none()
+            }
+            _ => true,
+        }
     }
 
     /// Whether it reads Hermite data (crossings with normals) and the [`SharpSettings`].

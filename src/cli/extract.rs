@@ -306,10 +306,15 @@ fn extract_on(
     time: f64,
     opts: ExtractOptions,
 ) -> Result<(Mesh, Backend), Failure> {
-    if !scene.render.mesh.on_gpu() {
+    if !scene.render.mesh.on_gpu(&scene.render.sharp) {
         eprintln!(
-            "isoview: note: {} is extracted on the CPU (it has no GPU extraction passes)",
-            scene.render.mesh.name()
+            "isoview: note: {} is extracted on the CPU (no GPU extraction passes for it{})",
+            scene.render.mesh.name(),
+            if scene.render.mesh == crate::scene::MeshAlgorithm::DualContouringQef {
+                " with hermite = \"source\" or mesh_error"
+            } else {
+                ""
+            }
         );
         return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
     }
@@ -323,8 +328,11 @@ fn extract_on(
     }
     let image =
         crate::gpu::Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values)?;
-    let gpu_opts =
-        crate::passes::extract::GpuExtractOptions { split: opts.split, ..Default::default() };
+    let gpu_opts = crate::passes::extract::GpuExtractOptions {
+        split: opts.split,
+        sharp: Some(scene.render.sharp),
+        ..Default::default()
+    };
     let gpu_mesh = crate::passes::extract::Extractor::new(&ctx)
         .and_then(|mut x| {
             x.extract(

@@ -18,8 +18,8 @@
 //! Rules: the planes of grid cell `c` are added in `dual.rs`'s edge order (x edges, y edges,
 //! z edges; within axis `a` by the offsets along `(a+1, a+2) mod 3`: (0,0), (1,0), (0,1),
 //! (1,1)); the vertex is [`Qef::solve`] with `render.qef_threshold`, clamped into the cell
-//! when `render.qef_clamp`; the vertex normal is the field's at the vertex, as for every dual
-//! method.
+//! when `render.qef_clamp`; the vertex normal is the field's at the vertex clamped into its
+//! cell (the same point when clamping).
 
 use glam::DVec3;
 

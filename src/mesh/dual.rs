@@ -107,9 +107,11 @@ impl Padded<'_, '_, '_> {
         Some((u, ia))
     }
 
-    /// The vertex of padded cell `c`, if active: its index-space position and the index-space
-    /// inside → outside direction summed over its crossed edges.
-    fn cell_vertex(&self, c: [usize; 3]) -> Option<(DVec3, DVec3)> {
+    /// The vertex of padded cell `c`, if active: its index-space position, the index-space
+    /// inside → outside direction summed over its crossed edges, and where its normal is
+    /// taken (the vertex, or for `dual-contouring-qef` the vertex clamped into its cell: an
+    /// unclamped QEF vertex may leave the cell, and the GPU's slab holds its own cells only).
+    fn cell_vertex(&self, c: [usize; 3]) -> Option<(DVec3, DVec3, DVec3)> {
         // A cell is active iff its corners are not all on one side (its edges connect all 8
         // corners): 8 inside tests settle the common case of a cell far from the surface
         // before the 12 edges are looked at.
@@ -143,8 +145,16 @@ impl Padded<'_, '_, '_> {
         }
         let grid_cell = (0..3).all(|a| c[a] >= self.pad && c[a] - self.pad + 1 < self.f.dims[a]);
         match self.qef {
-            Some(q) if grid_cell => Some((q.vertex(c.map(|x| x - self.pad)), dir)),
-            _ => Some((sum / f64::from(n), dir)),
+            Some(q) if grid_cell => {
+                let g = c.map(|x| x - self.pad);
+                let u = q.vertex(g);
+                let lo = DVec3::new(g[0] as f64, g[1] as f64, g[2] as f64);
+                Some((u, dir, u.clamp(lo, lo + 1.0)))
+            }
+            _ => {
+                let u = sum / f64::from(n);
+                Some((u, dir, u))
+            }
         }
     }
 
@@ -226,9 +236,9 @@ pub(crate) fn extract_slab(
                     let c = [cx, cy, qz];
                     slot[cx + nc[0] * cy] = match g.cell_vertex(c) {
                         None => u32::MAX,
-                        Some((u, _)) if !own => verts.push_borrowed(f, u)?,
-                        Some((u, dir)) => match g.padding_normal(c) {
-                            None => verts.push(f, u, dir)?,
+                        Some((u, _, _)) if !own => verts.push_borrowed(f, u)?,
+                        Some((u, dir, at)) => match g.padding_normal(c) {
+                            None => verts.push_normal_at(f, u, at, dir)?,
                             Some(n) => {
                                 let id = verts.push(f, u, dir)?;
                                 verts.normals[id as usize] = [n.x as f32, n.y as f32, n.z as f32];

@@ -66,7 +66,7 @@ impl Renderer {
             let pixels = crate::frame::composite_surfaces(&layers);
             return Ok(Frame { width, height, pixels, info });
         }
-        let cpu = !scene.render.mesh.on_gpu()
+        let cpu = !scene.render.mesh.on_gpu(&scene.render.sharp)
             || (scene.render.mesh == MeshAlgorithm::Mc33 && !self.ctx.info.float64);
         let mesh = if cpu {
             mesh_render::upload(&self.ctx, &scene_mesh_at(scene, grid, time)?)?
@@ -81,7 +81,7 @@ impl Renderer {
                 scene.surface.isovalue,
                 scene.surface.inside,
                 scene.render.mesh,
-                &GpuExtractOptions::default(),
+                &GpuExtractOptions { sharp: Some(scene.render.sharp), ..Default::default() },
             )?
         };
         self.render_mesh(scene, grid, gpu_grid, &mesh, time)

@@ -727,6 +727,22 @@ fn extract_cli_runs_the_sharp_meshes() {
         let text = String::from_utf8_lossy(&o.stdout);
         assert!(text.contains("boundary edges: 0"), "{text}");
     }
+    // Uniform, trilinear: the GPU passes.
+    let o = isoview(
+        &[
+            "extract",
+            &scene_path,
+            "-o",
+            &out,
+            "--device",
+            "gpu",
+            "--set",
+            "render.mesh=\"dual-contouring-qef\"",
+        ],
+        &[],
+    );
+    let err = stderr(&o);
+    assert!(o.status.success() && err.contains("(dual-contouring-qef on gpu"), "{err}");
     let o = isoview(
         &["extract", &scene_path, "-o", &out, "--set", "render.mesh_error=0.05", "--device", "cpu"],
         &[],

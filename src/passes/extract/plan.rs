@@ -36,9 +36,11 @@ impl Kind {
             MeshAlgorithm::MarchingCubes => Kind::Edges { mt: false, mc33: false },
             MeshAlgorithm::MarchingTetrahedra => Kind::Edges { mt: true, mc33: false },
             MeshAlgorithm::SurfaceNets => Kind::Dual { pad: 0 },
-            MeshAlgorithm::DualContouring => Kind::Dual { pad: 1 },
+            MeshAlgorithm::DualContouring | MeshAlgorithm::DualContouringQef => {
+                Kind::Dual { pad: 1 }
+            }
             MeshAlgorithm::Mc33 => Kind::Edges { mt: false, mc33: true },
-            MeshAlgorithm::DualContouringQef | MeshAlgorithm::ExtendedMc => return None,
+            MeshAlgorithm::ExtendedMc => return None,
         })
     }
 

@@ -377,4 +377,19 @@ pub struct FrameInfo {
     pub driver: String,
     /// Further `key = value` facts (method parameters, colormap scales).
     pub extra: Vec<(String, String)>,
+    /// The colour bar of `[color] by` (the PNG preview draws it).
+    pub legend: Option<Legend>,
+}
+
+/// What the colour bar of a `[color] by` picture shows: the colormap and the values at its
+/// ends (`render::color` makes it; the PNG preview draws it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Legend {
+    /// `[color] by`, for the label.
+    pub by: &'static str,
+    pub colormap: &'static str,
+    pub lo: f64,
+    pub hi: f64,
+    /// 256 linear RGB entries.
+    pub lut: Vec<[f32; 3]>,
 }

@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use super::{Cli, Failure};
-use crate::frame::{Channel, Written};
 use crate::output;
 use crate::render::{GpuGrid, Progressive, Renderer};
 use crate::scene::Scene;
@@ -193,12 +192,9 @@ fn write_outputs(
 }
 
 /// Opens the tev image of the render to `exr`: named as the file, with the channels the EXR
-/// will have (`crossings` where the method counts them).
+/// will have.
 fn open_tev(address: &str, exr: &Path, scene: &Scene) -> Result<output::tev::TevImage, Failure> {
-    let counted =
-        scene.render.method != crate::scene::Method::FixedStep && scene.render.count_crossings;
-    let channels: Vec<Channel> =
-        Channel::ALL.into_iter().filter(|c| c.written() == Written::Always || counted).collect();
+    let channels = crate::render::scene_channels(scene);
     let name = exr.display().to_string();
     output::tev::TevImage::open(address, &name, scene.image.width, scene.image.height, channels)
         .map_err(Failure::input)

@@ -61,4 +61,28 @@ impl Grid {
             .iter()
             .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)))
     }
+
+    /// Position `pos` (the grid's frame) → continuous grid coordinates, clamped into the box
+    /// (as `shaders/include/field.glsl` addresses the grid).
+    pub fn to_grid(&self, pos: DVec3) -> DVec3 {
+        let [nx, ny, nz] = self.dims.map(|d| (d - 1) as f64);
+        ((pos - self.min) / self.spacing()).clamp(DVec3::ZERO, DVec3::new(nx, ny, nz))
+    }
+
+    /// The cell holding grid coordinates `u` (the last grid plane belongs to the last cell).
+    pub fn cell_of(&self, u: DVec3) -> [usize; 3] {
+        let c = self.cells();
+        [
+            (u.x.floor().max(0.0) as usize).min(c[0] - 1),
+            (u.y.floor().max(0.0) as usize).min(c[1] - 1),
+            (u.z.floor().max(0.0) as usize).min(c[2] - 1),
+        ]
+    }
+
+    /// The trilinear interpolant at grid coordinates `u`, in f64 (`super::trilinear`'s order).
+    pub fn value_at(&self, u: DVec3) -> f64 {
+        let c = self.cell_of(u);
+        let f = u - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+        super::trilinear::trilerp(&self.corners(c[0], c[1], c[2]).map(f64::from), f)
+    }
 }

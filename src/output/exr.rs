@@ -633,6 +633,7 @@ mod tests {
             device: "llvmpipe".into(),
             driver: "Mesa".into(),
             extra: vec![("b".into(), "2".into()), ("a".into(), "1".into())],
+            legend: None,
         }
     }
 

@@ -10,6 +10,7 @@
 
 pub mod atomic;
 pub mod exr;
+pub mod legend;
 pub mod png;
 pub mod tev;
 

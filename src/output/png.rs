@@ -42,7 +42,8 @@ pub fn to_srgb8(rgba: [f32; 4]) -> [u8; 4] {
     [enc(rgba[0]), enc(rgba[1]), enc(rgba[2]), quantise(rgba[3])]
 }
 
-/// Writes the frame's beauty as an sRGB RGBA8 PNG, atomically.
+/// Writes the frame's beauty as an sRGB RGBA8 PNG, atomically; a `[color] by` render gets its
+/// colour bar under the picture ([`super::legend`]).
 pub fn write_preview(path: &Path, frame: &Frame) -> Result<(), OutputError> {
     let (w, h) = (frame.width as usize, frame.height as usize);
     if frame.pixels.len() != w * h {
@@ -51,17 +52,27 @@ pub fn write_preview(path: &Path, frame: &Frame) -> Result<(), OutputError> {
             format!("frame has {} pixels, expected {w}x{h} = {}", frame.pixels.len(), w * h),
         ));
     }
-    write_rgba8(path, frame.width, frame.height, &preview_rgba8(frame))
+    let (height, rgba) = preview_rgba8(frame);
+    write_rgba8(path, frame.width, height, &rgba)
 }
 
-/// The frame's beauty as 8-bit sRGB RGBA, row 0 at the top (what [`write_preview`] encodes).
-pub fn preview_rgba8(frame: &Frame) -> Vec<u8> {
-    frame.pixels.iter().flat_map(|p| to_srgb8(p.rgba)).collect()
+/// The frame's beauty as 8-bit sRGB RGBA, row 0 at the top, with the colour bar's rows under
+/// it when the frame has a legend (what [`write_preview`] encodes), and its height in rows.
+pub fn preview_rgba8(frame: &Frame) -> (u32, Vec<u8>) {
+    let mut rgba: Vec<u8> = frame.pixels.iter().flat_map(|p| to_srgb8(p.rgba)).collect();
+    match &frame.info.legend {
+        None => (frame.height, rgba),
+        Some(legend) => {
+            rgba.extend(super::legend::rows(legend, frame.width));
+            (frame.height + super::legend::ROWS, rgba)
+        }
+    }
 }
 
 /// The PNG bytes [`write_preview`] writes (`path` only names the file in errors).
 pub fn encode_preview(path: &Path, frame: &Frame) -> Result<Vec<u8>, OutputError> {
-    encode_rgba8(path, frame.width, frame.height, &preview_rgba8(frame))
+    let (height, rgba) = preview_rgba8(frame);
+    encode_rgba8(path, frame.width, height, &rgba)
 }
 
 /// Writes 8-bit RGBA pixels (row-major, row 0 at the top) as a PNG, atomically.

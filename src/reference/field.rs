@@ -7,28 +7,19 @@ use glam::DVec3;
 use super::trilinear::{cell_corners, gradient, trilerp};
 use crate::field::Grid;
 
-/// World position → continuous grid coordinates, clamped into the box.
+/// World position → continuous grid coordinates, clamped into the box ([`Grid::to_grid`]).
 pub fn to_grid(grid: &Grid, pos: DVec3) -> DVec3 {
-    let last =
-        DVec3::new((grid.dims[0] - 1) as f64, (grid.dims[1] - 1) as f64, (grid.dims[2] - 1) as f64);
-    ((pos - grid.min) / grid.spacing()).clamp(DVec3::ZERO, last)
+    grid.to_grid(pos)
 }
 
-/// The cell holding grid coordinates `u` (the last grid plane belongs to the last cell).
+/// The cell holding grid coordinates `u` ([`Grid::cell_of`]).
 pub fn cell_of(grid: &Grid, u: DVec3) -> [usize; 3] {
-    let c = grid.cells();
-    [
-        (u.x.floor().max(0.0) as usize).min(c[0] - 1),
-        (u.y.floor().max(0.0) as usize).min(c[1] - 1),
-        (u.z.floor().max(0.0) as usize).min(c[2] - 1),
-    ]
+    grid.cell_of(u)
 }
 
-/// Field value at grid coordinates `u`.
+/// Field value at grid coordinates `u` ([`Grid::value_at`]).
 pub fn value_at(grid: &Grid, u: DVec3) -> f64 {
-    let c = cell_of(grid, u);
-    let f = u - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
-    trilerp(&cell_corners(grid, c), f)
+    grid.value_at(u)
 }
 
 /// World-space gradient at grid coordinates `u`.

@@ -3,6 +3,7 @@
 //! also reads the grid's brick min/max grid (empty-space skipping), built on the GPU the first
 //! time an analytic render uses an uploaded grid and kept with it.
 
+pub mod color;
 pub mod mesh;
 pub mod params;
 
@@ -11,7 +12,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::field::Grid;
-use crate::frame::{Frame, FrameInfo, Pixel};
+use crate::frame::{Channel, Frame, FrameInfo, Pixel};
 use crate::gpu::{Buffer, ComputePipeline, Context, GpuError, Image3d};
 use crate::passes::mesh_render::MeshPipelines;
 use crate::passes::raymarch::{RayInputs, RayPass};
@@ -30,6 +31,9 @@ pub enum RenderError {
     Unsupported(&'static str),
     #[error("render.method = \"mesh\": {0}")]
     Mesh(#[from] crate::mesh::MeshError),
+    /// `[field2]` could not be sampled.
+    #[error("[field2]: {0}")]
+    Field2(#[from] crate::field::FieldError),
     /// [`Progressive::after_band`] said stop (a newer state made this frame stale).
     #[error("the render was abandoned between bands")]
     Cancelled,
@@ -93,6 +97,22 @@ impl GpuGrid {
     pub fn bricks(&self) -> Option<&Buffer> {
         self.bricks.get()
     }
+}
+
+/// The channels a render of `scene` writes (what `output::exr::written_channels` finds in its
+/// frame, known before rendering): every always-written one, `crossings` where the method
+/// counts them, `iso_index` with several isovalues, `color.value` with `[color] by`.
+pub fn scene_channels(scene: &Scene) -> Vec<Channel> {
+    let counted = scene.render.method != Method::FixedStep && scene.render.count_crossings;
+    Channel::ALL
+        .into_iter()
+        .filter(|c| match c {
+            Channel::Crossings => counted,
+            Channel::Surface => scene.surface.several(),
+            Channel::ColorValue => scene.color.by != crate::scene::ColorBy::Surface,
+            _ => c.written() == crate::frame::Written::Always,
+        })
+        .collect()
 }
 
 /// Owns the pipelines and constant resources; renders any number of frames.
@@ -189,7 +209,11 @@ impl Renderer {
             Method::FixedStep => &self.raymarch,
             Method::Analytic => &self.analytic,
             Method::Mesh => {
-                let whole = self.render_scene_mesh(scene, grid, gpu_grid, time)?;
+                let mut whole = self.render_scene_mesh(scene, grid, gpu_grid, time)?;
+                if let Some(colorer) = color::Colorer::new(scene, grid, time)? {
+                    colorer.apply(&mut whole.pixels, whole.width, 0, 1);
+                    whole.info.legend = Some(colorer.legend);
+                }
                 let frame = subsample(whole, stride);
                 let band = crate::passes::Band { row_offset: 0, rows: frame.height };
                 return match (how.after_band)(band, &frame.pixels) {
@@ -231,15 +255,19 @@ impl Renderer {
                 bricks,
             },
         )?;
-        // The hook sees each band as the frame will hold it: placed in world space.
+        // The hook sees each band as the frame will hold it: placed in world space, coloured.
         let placement = scene.field.placement;
+        let colorer = color::Colorer::new(scene, grid, time)?;
         let after_band = how.after_band;
         let placed_band = |band: crate::passes::Band, records: &[Pixel]| {
-            if placement.is_identity() {
+            if placement.is_identity() && colorer.is_none() {
                 return after_band(band, records);
             }
             let mut placed = records.to_vec();
             crate::frame::place_pixels(&mut placed, &placement);
+            if let Some(c) = &colorer {
+                c.apply(&mut placed, width, band.row_offset, stride);
+            }
             after_band(band, &placed)
         };
         let drawn = bands.run_until(pass.name(), placed_band, |rec, band| {
@@ -250,6 +278,10 @@ impl Renderer {
         crate::frame::place_pixels(&mut pixels, &scene.field.placement);
         self.last_gpu_ms = gpu_ms;
         let mut info = self.frame_info(scene, grid, time);
+        if let Some(c) = colorer {
+            c.apply(&mut pixels, width, 0, stride);
+            info.legend = Some(c.legend);
+        }
         if stride > 1 {
             info.extra.push(("stride".into(), stride.to_string()));
         }
@@ -283,6 +315,13 @@ impl Renderer {
                 })
                 .collect();
             extra.push(("surface_colors".into(), colors.join("; ")));
+        }
+        if scene.color.by != crate::scene::ColorBy::Surface {
+            extra.push(("color.by".into(), scene.color.by.name().into()));
+            extra.push(("color.colormap".into(), scene.color.colormap_name().into()));
+            if let Some([lo, hi]) = scene.color.range {
+                extra.push(("color.range".into(), format!("[{lo}, {hi}]")));
+            }
         }
         if scene.clip.count > 0 {
             let planes: Vec<String> = scene
@@ -321,6 +360,7 @@ impl Renderer {
             device: self.ctx.info.name.clone(),
             driver: self.ctx.info.driver_info.clone(),
             extra,
+            legend: None,
         }
     }
 }

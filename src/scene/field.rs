@@ -36,7 +36,23 @@ fn all_keys() -> Vec<&'static str> {
 
 /// Reads and checks `[field]`.
 pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result<FieldSpec> {
-    let t = root.table("field")?;
+    field_named(root, "field", base_dir, limits)
+}
+
+/// `[field2]`, the second scalar field `[color] by = "field2"` samples: the keys of `[field]`.
+pub(crate) fn field2(
+    root: &View,
+    base_dir: &Path,
+    limits: &GridLimits,
+) -> Result<Option<FieldSpec>> {
+    match root.get("field2") {
+        None => Ok(None),
+        Some(_) => field_named(root, "field2", base_dir, limits).map(Some),
+    }
+}
+
+fn field_named(root: &View, name: &str, base_dir: &Path, limits: &GridLimits) -> Result<FieldSpec> {
+    let t = root.table(name)?;
     let names: Vec<String> = SourceKind::ALL.iter().map(|k| format!("\"{}\"", k.name())).collect();
     if t.table.is_none() {
         let listed = match names.split_last() {
@@ -55,7 +71,7 @@ pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result
         return Err(t.missing("source", &format!("one of {}", names.join(", "))));
     };
     let kinds: Vec<(&str, SourceKind)> = SourceKind::ALL.iter().map(|k| (k.name(), *k)).collect();
-    let kind = choice(t.src, "field.source", source_node, &kinds)?;
+    let kind = choice(t.src, &t.key("source"), source_node, &kinds)?;
     let common: &[&str] = if kind.own_box().is_some() { &COMMON[..1] } else { &COMMON };
     let allowed: Vec<&str> = common.iter().chain(kind.keys()).copied().collect();
     let source = kind.name();

@@ -21,6 +21,10 @@ pub struct Scene {
     pub slice: SliceSettings,
     /// `[[clip]]` planes and boxes, world space.
     pub clip: crate::vocab::Clip,
+    /// `[color]`: what colours the surface.
+    pub color: ColorSettings,
+    /// `[field2]`: the second scalar field `[color] by = "field2"` samples at the hit.
+    pub field2: Option<crate::field::FieldSpec>,
 }
 
 impl Scene {
@@ -48,6 +52,8 @@ impl Scene {
             render: RenderSettings::default(),
             slice: SliceSettings::default(),
             clip: crate::vocab::Clip::NONE,
+            color: ColorSettings::default(),
+            field2: None,
         }
     }
 }
@@ -112,6 +118,76 @@ impl Default for CameraSettings {
             projection: Projection::Perspective,
             ortho_height: 2.0 * DVec3::new(2.2, 1.6, 2.4).length() * 20f64.to_radians().tan(),
         }
+    }
+}
+
+/// `[color] by`: the quantity mapped through the colormap at each hit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ColorBy {
+    /// Each surface in its own colour (`surface.colors` / `render.color`): no `[color]`.
+    Surface,
+    /// The isovalue of the surface hit (several isovalues through one colormap).
+    Value,
+    /// `[field2]` sampled trilinearly at the hit.
+    Field2,
+    /// The hit's world x, y or z.
+    X,
+    Y,
+    Z,
+}
+
+impl ColorBy {
+    pub const ALL: [ColorBy; 6] =
+        [ColorBy::Surface, ColorBy::Value, ColorBy::Field2, ColorBy::X, ColorBy::Y, ColorBy::Z];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            ColorBy::Surface => "surface",
+            ColorBy::Value => "value",
+            ColorBy::Field2 => "field2",
+            ColorBy::X => "x",
+            ColorBy::Y => "y",
+            ColorBy::Z => "z",
+        }
+    }
+}
+
+/// The colormaps `[color] colormap` names (colorous's gradients).
+pub const COLORMAPS: [(&str, colorous::Gradient); 12] = [
+    ("viridis", colorous::VIRIDIS),
+    ("inferno", colorous::INFERNO),
+    ("magma", colorous::MAGMA),
+    ("plasma", colorous::PLASMA),
+    ("cividis", colorous::CIVIDIS),
+    ("turbo", colorous::TURBO),
+    ("spectral", colorous::SPECTRAL),
+    ("red-blue", colorous::RED_BLUE),
+    ("cool", colorous::COOL),
+    ("warm", colorous::WARM),
+    ("greys", colorous::GREYS),
+    ("blues", colorous::BLUES),
+];
+
+/// `[color]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ColorSettings {
+    pub by: ColorBy,
+    /// An index into [`COLORMAPS`] (`colormap = "viridis"`, the default).
+    pub colormap: usize,
+    /// `range = [lo, hi]`: the values at the colormap's ends; None: from the data (the
+    /// isovalues, the box's world extent, or `[field2]`'s samples).
+    pub range: Option<[f64; 2]>,
+}
+
+impl Default for ColorSettings {
+    fn default() -> Self {
+        ColorSettings { by: ColorBy::Surface, colormap: 0, range: None }
+    }
+}
+
+impl ColorSettings {
+    pub fn colormap_name(&self) -> &'static str {
+        COLORMAPS[self.colormap].0
     }
 }
 

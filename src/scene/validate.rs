@@ -7,9 +7,9 @@ use super::error::SceneErrorKind;
 use super::read::{self, choice, integer, number_where, numbers, vec3, Result, View};
 use super::tree::{Node, Origin, Source, Value};
 use super::{
-    Ambiguity, CameraSettings, HermiteNormals, ImageSettings, Inside, IsoRule, MeshAlgorithm,
-    Method, Normals, Projection, RenderSettings, Scene, Shading, SharpSettings, SliceSettings,
-    SurfaceSettings, MAX_SURFACES,
+    Ambiguity, CameraSettings, ColorBy, ColorSettings, HermiteNormals, ImageSettings, Inside,
+    IsoRule, MeshAlgorithm, Method, Normals, Projection, RenderSettings, Scene, Shading,
+    SharpSettings, SliceSettings, SurfaceSettings, COLORMAPS, MAX_SURFACES,
 };
 use crate::field::stats::{self, Stats};
 use crate::field::{FieldSpec, GridLimits, SourceKind};
@@ -27,7 +27,8 @@ pub const MAX_CROSSING: i64 = 1 << 20;
 /// Deepest quadtree refinement of a slice below the grid's cells.
 pub const MAX_SLICE_DEPTH: i64 = 10;
 
-const TABLES: [&str; 7] = ["image", "camera", "field", "surface", "render", "slice", "clip"];
+const TABLES: [&str; 9] =
+    ["image", "camera", "field", "surface", "render", "slice", "clip", "color", "field2"];
 
 /// Validates the whole tree into a scene. `base_dir` resolves relative data paths.
 pub(crate) fn scene(
@@ -61,7 +62,46 @@ pub(crate) fn scene(
             "must be 1 with several isovalues (the nearest crossing of any surface is shown)",
         ));
     }
-    Ok(Scene { path: None, image, camera, field, surface, render, slice, clip })
+    let field2 = super::field::field2(&root, base_dir, limits)?;
+    let color = color(&root.table("color")?, field2.is_some())?;
+    if field2.is_some() && color.by != ColorBy::Field2 {
+        return Err(root.src.err(
+            SceneErrorKind::Value,
+            root.get("field2").map_or(root.at, |n| n.at),
+            "field2",
+            "is only read by [color] by = \"field2\"; add that or remove [field2]",
+        ));
+    }
+    Ok(Scene { path: None, image, camera, field, surface, render, slice, clip, color, field2 })
+}
+
+/// `[color]`: `by`, `colormap`, `range`.
+fn color(t: &View, has_field2: bool) -> Result<ColorSettings> {
+    t.check_keys(&["by", "colormap", "range"])?;
+    let d = ColorSettings::default();
+    let bys = ColorBy::ALL.map(|b| (b.name(), b));
+    let by = t.or("by", d.by, |s, k, n| choice(s, k, n, &bys))?;
+    let maps: Vec<(&str, usize)> =
+        COLORMAPS.iter().enumerate().map(|(i, (n, _))| (*n, i)).collect();
+    let colormap = t.or("colormap", d.colormap, |s, k, n| choice(s, k, n, &maps))?;
+    let range = match t.get("range") {
+        None => None,
+        Some(_) => {
+            let [lo, hi] = t.required("range", "[lo, hi]", numbers::<2>)?;
+            if lo >= hi {
+                return Err(t.err(SceneErrorKind::Value, "range", "needs lo < hi"));
+            }
+            Some([lo, hi])
+        }
+    };
+    if by == ColorBy::Field2 && !has_field2 {
+        return Err(t.err(
+            SceneErrorKind::Missing,
+            "by",
+            "\"field2\" needs a [field2] table (the keys of [field])",
+        ));
+    }
+    Ok(ColorSettings { by, colormap, range })
 }
 
 /// `[[clip]]`: an array of tables, each a plane (`normal`, `offset`: removes

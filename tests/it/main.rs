@@ -6,6 +6,7 @@
 mod analytic;
 mod cli;
 mod clip;
+mod color;
 mod common;
 mod compare;
 mod extract_cli;

@@ -37,6 +37,7 @@ fn info() -> FrameInfo {
             ("newton_steps".into(), "10".into()),
             ("colormap.range".into(), "[0, 1]".into()),
         ],
+        legend: None,
     }
 }
 

@@ -3,7 +3,8 @@
 //! mc33) on the current Vulkan device and the multi-threaded CPU extraction
 //! (`mesh::extract_parallel`, all cores, rayon) against the f64 CPU references
 //! (`mesh::extract`, one thread) and the crates `fast-surface-nets` (surface nets) and
-//! `isosurface` (marching cubes), all in the same run. Prints markdown tables; never asserts on
+//! `isosurface` (marching cubes), all in the same run; then the sharp-feature and adaptive
+//! meshes (CPU) beside uniform dual contouring. Prints markdown tables; never asserts on
 //! time (it asserts that the parallel mesh equals the reference's).
 //!
 //! Voxels are cells, `(n - 1)³` for `n³` grid points. GPU times are wall-clock around
@@ -282,6 +283,60 @@ fn main() {
                     reference / par,
                     gpu / par,
                     peer.map_or_else(|| "–".into(), |p| format!("{:.2}", p / par)),
+                );
+            }
+        }
+    }
+    sharp(&sizes);
+}
+
+/// The sharp-feature and adaptive meshes (CPU only) against uniform dual contouring on a
+/// sphere and a box (trilinear Hermite data: the grid alone): threaded where the algorithm
+/// is, ms (median of 3) and triangles.
+fn sharp(sizes: &[usize]) {
+    use isoview::mesh::extract_parallel_with;
+    use isoview::scene::SharpSettings;
+    println!();
+    println!("| field | grid | mesh | ms | triangles | × uniform dual-contouring ms |");
+    println!("|---|---|---|---:|---:|---:|");
+    for &n in sizes {
+        let cell = 2.0 / (n - 1) as f64;
+        let fields = [
+            ("sphere", sdf_grid(SdfShape::Sphere { radius: 0.6 }, n)),
+            ("box", sdf_grid(SdfShape::Box { half_extents: DVec3::new(0.6, 0.4, 0.3) }, n)),
+        ];
+        for (field, grid) in &fields {
+            let mut base = f64::NAN;
+            for (name, algo, eps) in [
+                ("dual-contouring", MeshAlgorithm::DualContouring, None),
+                ("dual-contouring-qef", MeshAlgorithm::DualContouringQef, None),
+                ("extended-mc", MeshAlgorithm::ExtendedMc, None),
+                (
+                    "dual-contouring-qef, mesh_error = 1 cell",
+                    MeshAlgorithm::DualContouringQef,
+                    Some(1.0),
+                ),
+                (
+                    "dual-contouring-qef, mesh_error = 4 cells",
+                    MeshAlgorithm::DualContouringQef,
+                    Some(4.0),
+                ),
+            ] {
+                let sharp =
+                    SharpSettings { mesh_error: eps.map(|e| e * cell), ..Default::default() };
+                let opts = ExtractOptions::default();
+                let (s, m) = time(|| {
+                    extract_parallel_with(grid, 0.0, Inside::Below, algo, opts, &sharp, None)
+                        .unwrap()
+                });
+                if algo == MeshAlgorithm::DualContouring {
+                    base = s;
+                }
+                println!(
+                    "| {field} | {n}³ | {name} | {:.1} | {} | {:.2} |",
+                    s * 1e3,
+                    m.triangle_count(),
+                    s / base
                 );
             }
         }

@@ -124,6 +124,8 @@ void main() {
     r.crossings = P.analytic.w != 0u ? 0 : -1;  // -1: not counted (render.count_crossings)
     r.surface = -1;
     r.value = uintBitsToFloat(0x7fc00000u);  // NaN: no [color] value
+    r.pad0 = 0u;
+    r.pad1 = 0u;
 
     bool below = P.surface.y > 0.0;
     uint surfaces = P.view.w;

@@ -60,6 +60,8 @@ void main() {
     // on the host (`render::mesh`), which sets `surface`.
     r.surface = -1;
     r.value = uintBitsToFloat(0x7fc00000u);  // NaN: no [color] value
+    r.pad0 = 0u;
+    r.pad1 = 0u;
 
     uint64_t key = vis[i];
     if (key != NO_HIT) {

@@ -46,6 +46,8 @@ void main() {
     r.crossings = -1;
     r.surface = -1;
     r.value = uintBitsToFloat(0x7fc00000u);  // NaN: no [color] value
+    r.pad0 = 0u;
+    r.pad1 = 0u;
 
     float t0, t1;
     if (clip_box(o, d, t0, t1) && clip_interval(o, d, t0, t1)) {

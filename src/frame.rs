@@ -151,7 +151,7 @@ pub enum ChannelClass {
     Normal,
     /// `P.*`, `position.*`, `Position.*`.
     Position,
-    /// `steps`, `crossings`, `cell.*`, and every UINT channel: exact by default.
+    /// `steps`, `crossings`, `iso_index`, `cell.*`, and every UINT channel: exact by default.
     Integer,
     /// Anything else.
     Other,

@@ -42,16 +42,23 @@ pub enum MeshAlgorithm {
     SurfaceNets,
     DualContouring,
     MarchingTetrahedra,
+    /// Dual contouring of Hermite data (Ju et al. 2002): one vertex per active cell at the
+    /// minimiser of its edge planes' quadratic error function (`mesh/dcqef.rs`).
+    DualContouringQef,
+    /// Kobbelt et al.'s feature-sensitive marching cubes (2001) (`mesh/emc.rs`).
+    ExtendedMc,
 }
 
 impl MeshAlgorithm {
     /// Every algorithm, in the order the contract lists them.
-    pub const ALL: [MeshAlgorithm; 5] = [
+    pub const ALL: [MeshAlgorithm; 7] = [
         MeshAlgorithm::MarchingCubes,
         MeshAlgorithm::Mc33,
         MeshAlgorithm::SurfaceNets,
         MeshAlgorithm::DualContouring,
         MeshAlgorithm::MarchingTetrahedra,
+        MeshAlgorithm::DualContouringQef,
+        MeshAlgorithm::ExtendedMc,
     ];
 
     /// The name as written in scene files.
@@ -62,6 +69,84 @@ impl MeshAlgorithm {
             MeshAlgorithm::SurfaceNets => "surface-nets",
             MeshAlgorithm::DualContouring => "dual-contouring",
             MeshAlgorithm::MarchingTetrahedra => "marching-tetrahedra",
+            MeshAlgorithm::DualContouringQef => "dual-contouring-qef",
+            MeshAlgorithm::ExtendedMc => "extended-mc",
+        }
+    }
+
+    /// Whether the GPU extraction passes implement it with these settings
+    /// (`dual-contouring-qef`: uniform, trilinear Hermite data); the others are extracted on
+    /// the CPU (`mesh::extract_with`) wherever a GPU extraction is asked for, with a note.
+    pub fn on_gpu(self, sharp: &SharpSettings) -> bool {
+        match self {
+            MeshAlgorithm::ExtendedMc => false,
+            MeshAlgorithm::DualContouringQef => {
+                sharp.hermite == HermiteNormals::Trilinear && sharp.mesh_error.is_none()
+            }
+            _ => true,
+        }
+    }
+
+    /// Whether it reads Hermite data (crossings with normals) and the [`SharpSettings`].
+    pub fn is_sharp(self) -> bool {
+        matches!(self, MeshAlgorithm::DualContouringQef | MeshAlgorithm::ExtendedMc)
+    }
+}
+
+/// `render.hermite`: where the sharp-feature meshes take each crossed edge's crossing and
+/// normal from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HermiteNormals {
+    /// The crossing of the samples' linear interpolation along the edge (as every method) and
+    /// the gradient of the trilinear interpolant there: works for any source.
+    Trilinear,
+    /// The source itself (sources that can be evaluated anywhere: `sdf`, `expr`, `corners`,
+    /// `mesh`): the crossing found on the source along the edge, the normal from the source's
+    /// central-difference gradient there. Recovers features the samples only blur.
+    Source,
+}
+
+impl HermiteNormals {
+    pub const ALL: [HermiteNormals; 2] = [HermiteNormals::Trilinear, HermiteNormals::Source];
+
+    /// The name as written in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            HermiteNormals::Trilinear => "trilinear",
+            HermiteNormals::Source => "source",
+        }
+    }
+}
+
+/// The settings of the sharp-feature and adaptive meshes (`render.hermite`, `qef_threshold`,
+/// `qef_clamp`, `feature_angle`, `mesh_error`); defaults in [`SharpSettings::default`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SharpSettings {
+    pub hermite: HermiteNormals,
+    /// QEF solve: singular values below this fraction of the largest are dropped (the
+    /// pseudo-inverse's threshold), so the vertex moves towards the crossings' mean along
+    /// directions the planes do not pin down. In `(0, 1)`.
+    pub qef_threshold: f64,
+    /// QEF solve: clamp the vertex into its cell (else it may leave the cell where planes
+    /// are nearly parallel but not quite).
+    pub qef_clamp: bool,
+    /// Extended MC: a cell's surface piece is a feature when two of its crossings' normals
+    /// are further apart than this angle, in degrees.
+    pub feature_angle_deg: f64,
+    /// Dual contouring QEF: `Some(ε)` builds an octree and collapses cells whose vertex stays
+    /// within ε (world units) of every tangent plane below it (adaptive); None: uniform.
+    pub mesh_error: Option<f64>,
+}
+
+impl Default for SharpSettings {
+    /// Trilinear Hermite data, threshold 0.1 (Ju et al.'s value), clamped, 30°, uniform.
+    fn default() -> Self {
+        SharpSettings {
+            hermite: HermiteNormals::Trilinear,
+            qef_threshold: 0.1,
+            qef_clamp: true,
+            feature_angle_deg: 30.0,
+            mesh_error: None,
         }
     }
 }

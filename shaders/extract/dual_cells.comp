@@ -30,6 +30,10 @@ void main() {
         box = mix(vec3(0.0), vec3(-1.0), equal(c, ivec3(0)));
         box = mix(box, vec3(1.0), equal(c, cells - 1));
     }
-    vec3 normal = box != vec3(0.0) ? normalize(box) : normal_at(c - pad(), cv.local, cv.fallback);
+    // dual-contouring-qef: the normal at the vertex clamped into its cell (an unclamped vertex
+    // may leave it; the slab holds the samples of its own cells only), as `dual.rs` does.
+    ivec3 base = c - pad();
+    vec3 local = qef_on() ? clamp(cv.local, vec3(0.0), vec3(1.0)) : cv.local;
+    vec3 normal = box != vec3(0.0) ? normalize(box) : normal_at(base, local, cv.fallback);
     normals[v] = vec4(normal, 0.0);
 }

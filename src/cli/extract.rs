@@ -113,15 +113,17 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
     // Several isovalues: one mesh per surface, merged, each vertex labelled with its surface.
     let mut meshes = Vec::with_capacity(scene.surface.count);
     let (mut ran_on, mut why) = (Backend::Cpu, String::new());
+    let time = args.time;
     for k in 0..scene.surface.count {
         let one = scene.single_surface(k);
         let (mesh, on, reason) = match backend {
-            Backend::Cpu => (extract_cpu(&one, &grid, opts)?, Backend::Cpu, String::new()),
+            Backend::Cpu => (extract_cpu(&one, &grid, time, opts)?, Backend::Cpu, String::new()),
             Backend::Gpu => {
-                let (mesh, ran_on) = extract_gpu(cli, vulkan_device.clone(), &one, &grid, opts)?;
+                let (mesh, ran_on) =
+                    extract_gpu(cli, vulkan_device.clone(), &one, &grid, time, opts)?;
                 (mesh, ran_on, String::new())
             }
-            Backend::Auto => extract_auto(cli, vulkan_device.clone(), &one, &grid, opts)?,
+            Backend::Auto => extract_auto(cli, vulkan_device.clone(), &one, &grid, time, opts)?,
         };
         let mut mesh = mesh;
         mesh.place(&scene.field.placement);
@@ -168,9 +170,16 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
 }
 
 /// The CPU extraction on all cores: the f64 reference's mesh, bit for bit.
-pub fn extract_cpu(scene: &Scene, grid: &Grid, opts: ExtractOptions) -> Result<Mesh, Failure> {
+pub fn extract_cpu(
+    scene: &Scene,
+    grid: &Grid,
+    time: f64,
+    opts: ExtractOptions,
+) -> Result<Mesh, Failure> {
     let s = &scene.surface;
-    mesh::extract_parallel(grid, s.isovalue, s.inside, scene.render.mesh, opts)
+    let source = crate::field::PointField::from_spec(&scene.field, time);
+    let (algo, sharp) = (scene.render.mesh, &scene.render.sharp);
+    mesh::extract_parallel_with(grid, s.isovalue, s.inside, algo, opts, sharp, source.as_ref())
         .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))
 }
 
@@ -183,32 +192,33 @@ fn extract_auto(
     vulkan_device: Option<String>,
     scene: &Scene,
     grid: &Grid,
+    time: f64,
     opts: ExtractOptions,
 ) -> Result<(Mesh, Backend, String), Failure> {
     if opts.keep_quads {
         let why = "; auto: --quads needs the CPU extraction".to_string();
-        return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu, why));
+        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
     }
     // The cheap probe first: a CPU device needs no device opened.
     if let Some(name) = probe_cpu_device(vulkan_device.as_deref()) {
         let why = format!("; auto: the Vulkan device {name} is a CPU");
-        return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu, why));
+        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
     }
     let ctx = match open_context(cli, vulkan_device) {
         Ok(ctx) => ctx,
         Err(e) => {
             let why = format!("; auto: no usable Vulkan device ({e})");
-            return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu, why));
+            return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
         }
     };
     // `DeviceInfo::device_type` is the gpu crate's wording of `vk::PhysicalDeviceType::CPU`.
     if ctx.info.device_type.starts_with("CPU") {
         let why = format!("; auto: the Vulkan device {} is a CPU", ctx.info.name);
         drop(ctx);
-        return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu, why));
+        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
     }
     let why = format!("; auto: the Vulkan device {} is a {}", ctx.info.name, ctx.info.device_type);
-    let (mesh, ran_on) = extract_on(ctx, scene, grid, opts)?;
+    let (mesh, ran_on) = extract_on(ctx, scene, grid, time, opts)?;
     Ok((mesh, ran_on, why))
 }
 
@@ -278,13 +288,14 @@ fn extract_gpu(
     vulkan_device: Option<String>,
     scene: &Scene,
     grid: &Grid,
+    time: f64,
     opts: ExtractOptions,
 ) -> Result<(Mesh, Backend), Failure> {
     if opts.keep_quads {
         eprintln!("isoview: note: --quads extracts on the CPU (the GPU extraction has no quads)");
-        return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu));
+        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
     }
-    extract_on(open_context(cli, vulkan_device)?, scene, grid, opts)
+    extract_on(open_context(cli, vulkan_device)?, scene, grid, time, opts)
 }
 
 /// The GPU extraction on `ctx` (see [`extract_gpu`]); `opts.keep_quads` must be false.
@@ -292,20 +303,36 @@ fn extract_on(
     ctx: std::sync::Arc<crate::gpu::Context>,
     scene: &Scene,
     grid: &Grid,
+    time: f64,
     opts: ExtractOptions,
 ) -> Result<(Mesh, Backend), Failure> {
+    if !scene.render.mesh.on_gpu(&scene.render.sharp) {
+        eprintln!(
+            "isoview: note: {} is extracted on the CPU (no GPU extraction passes for it{})",
+            scene.render.mesh.name(),
+            if scene.render.mesh == crate::scene::MeshAlgorithm::DualContouringQef {
+                " with hermite = \"source\" or mesh_error"
+            } else {
+                ""
+            }
+        );
+        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
+    }
     if scene.render.mesh == crate::scene::MeshAlgorithm::Mc33 && !ctx.info.float64 {
         eprintln!(
             "isoview: note: mc33 is extracted on the CPU ({} has no 64-bit floats, which the \
              GPU mc33 passes need)",
             ctx.info.name
         );
-        return Ok((extract_cpu(scene, grid, opts)?, Backend::Cpu));
+        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
     }
     let image =
         crate::gpu::Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values)?;
-    let gpu_opts =
-        crate::passes::extract::GpuExtractOptions { split: opts.split, ..Default::default() };
+    let gpu_opts = crate::passes::extract::GpuExtractOptions {
+        split: opts.split,
+        sharp: Some(scene.render.sharp),
+        ..Default::default()
+    };
     let gpu_mesh = crate::passes::extract::Extractor::new(&ctx)
         .and_then(|mut x| {
             x.extract(

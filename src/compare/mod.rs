@@ -120,7 +120,7 @@ fn class_by_name(name: &str) -> ChannelClass {
     };
     let group = layer.rsplit('.').next().unwrap_or("");
     match (group, base) {
-        (_, "steps" | "crossings") | ("cell", _) => ChannelClass::Integer,
+        (_, "steps" | "crossings" | "iso_index") | ("cell", _) => ChannelClass::Integer,
         ("N" | "normal" | "Normal", _) => ChannelClass::Normal,
         ("P" | "position" | "Position", _) => ChannelClass::Position,
         (_, "Z" | "ZBack") => ChannelClass::Depth,

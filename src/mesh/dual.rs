@@ -44,6 +44,7 @@ use std::ops::Range;
 
 use glam::DVec3;
 
+use super::dcqef::DcQef;
 use super::edges::Vertices;
 use super::field::Field;
 use super::slabs::{self, Part};
@@ -58,14 +59,16 @@ pub(crate) enum Boundary {
 }
 
 /// The grid as the dual methods see it: padded by `pad` points on every side.
-struct Padded<'f, 'g> {
+struct Padded<'f, 'g, 'q> {
     f: &'f Field<'g>,
     pad: usize,
     /// Cells per axis.
     nc: [usize; 3],
+    /// `dual-contouring-qef`'s vertex rule for the cells of the grid; None: the mean.
+    qef: Option<&'q DcQef<'q, 'q, 'q>>,
 }
 
-impl Padded<'_, '_> {
+impl Padded<'_, '_, '_> {
     /// The grid point of padded point `q`, if it lies in the grid.
     fn real(&self, q: [usize; 3]) -> Option<[usize; 3]> {
         let mut p = [0; 3];
@@ -104,9 +107,11 @@ impl Padded<'_, '_> {
         Some((u, ia))
     }
 
-    /// The vertex of padded cell `c`, if active: its index-space position and the index-space
-    /// inside → outside direction summed over its crossed edges.
-    fn cell_vertex(&self, c: [usize; 3]) -> Option<(DVec3, DVec3)> {
+    /// The vertex of padded cell `c`, if active: its index-space position, the index-space
+    /// inside → outside direction summed over its crossed edges, and where its normal is
+    /// taken (the vertex, or for `dual-contouring-qef` the vertex clamped into its cell: an
+    /// unclamped QEF vertex may leave the cell, and the GPU's slab holds its own cells only).
+    fn cell_vertex(&self, c: [usize; 3]) -> Option<(DVec3, DVec3, DVec3)> {
         // A cell is active iff its corners are not all on one side (its edges connect all 8
         // corners): 8 inside tests settle the common case of a cell far from the surface
         // before the 12 edges are looked at.
@@ -135,7 +140,22 @@ impl Padded<'_, '_> {
                 }
             }
         }
-        (n > 0).then(|| (sum / f64::from(n), dir))
+        if n == 0 {
+            return None;
+        }
+        let grid_cell = (0..3).all(|a| c[a] >= self.pad && c[a] - self.pad + 1 < self.f.dims[a]);
+        match self.qef {
+            Some(q) if grid_cell => {
+                let g = c.map(|x| x - self.pad);
+                let u = q.vertex(g);
+                let lo = DVec3::new(g[0] as f64, g[1] as f64, g[2] as f64);
+                Some((u, dir, u.clamp(lo, lo + 1.0)))
+            }
+            _ => {
+                let u = sum / f64::from(n);
+                Some((u, dir, u))
+            }
+        }
     }
 
     /// Outward box normal of a padding cell (None for a cell of the grid).
@@ -160,9 +180,12 @@ pub(crate) fn extract(
     f: &Field,
     boundary: Boundary,
     opts: ExtractOptions,
+    qef: Option<&DcQef>,
 ) -> Result<Mesh, MeshError> {
     let layers = cell_layers(f, boundary);
-    slabs::run(f, layers, layers, opts.keep_quads, |cells| extract_slab(f, boundary, opts, cells))
+    slabs::run(f, layers, layers, opts.keep_quads, |cells| {
+        extract_slab(f, boundary, opts, qef, cells)
+    })
 }
 
 /// Padding of the grid for `boundary`.
@@ -178,7 +201,7 @@ pub(crate) fn cell_layers(f: &Field, boundary: Boundary) -> usize {
     f.dims[2] + 2 * padding(boundary) - 1
 }
 
-/// The vertices of (padded) cell layers `cells` and the quads of the crossed edges starting in
+/// The vertices of (padded) cell layers `cells` (placed by `qef` when given) and the quads of the crossed edges starting in
 /// point layers `cells.start + 1 ..= cells.end` (from point layer 0 in the first slab, to the
 /// last in the last one), numbered locally (see `slabs`). The quads of a slab's top point layer
 /// need the cells of the layer above, which the next slab owns: they are numbered after the
@@ -187,12 +210,13 @@ pub(crate) fn extract_slab(
     f: &Field,
     boundary: Boundary,
     opts: ExtractOptions,
+    qef: Option<&DcQef>,
     cells: Range<usize>,
 ) -> Result<Part, MeshError> {
     let pad = padding(boundary);
     let np = f.dims.map(|n| n + 2 * pad);
     let nc = np.map(|n| n - 1);
-    let g = Padded { f, pad, nc };
+    let g = Padded { f, pad, nc, qef };
 
     let mut verts = Vertices::default();
     let mut quads: Vec<u32> = Vec::new();
@@ -212,9 +236,9 @@ pub(crate) fn extract_slab(
                     let c = [cx, cy, qz];
                     slot[cx + nc[0] * cy] = match g.cell_vertex(c) {
                         None => u32::MAX,
-                        Some((u, _)) if !own => verts.push_borrowed(f, u)?,
-                        Some((u, dir)) => match g.padding_normal(c) {
-                            None => verts.push(f, u, dir)?,
+                        Some((u, _, _)) if !own => verts.push_borrowed(f, u)?,
+                        Some((u, dir, at)) => match g.padding_normal(c) {
+                            None => verts.push_normal_at(f, u, at, dir)?,
                             Some(n) => {
                                 let id = verts.push(f, u, dir)?;
                                 verts.normals[id as usize] = [n.x as f32, n.y as f32, n.z as f32];

@@ -95,6 +95,16 @@ impl<'a> Field<'a> {
         crossing(a, b, self.iso)
     }
 
+    /// World-space position of index-space point `u`.
+    pub fn world_f64(&self, u: DVec3) -> DVec3 {
+        self.grid.min + u * self.spacing
+    }
+
+    /// World-space size of one cell.
+    pub fn spacing(&self) -> DVec3 {
+        self.spacing
+    }
+
     /// World-space position of index-space point `u`, rounded to f32.
     pub fn world(&self, u: DVec3) -> [f32; 3] {
         let p = self.grid.min + u * self.spacing;

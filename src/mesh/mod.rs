@@ -50,6 +50,9 @@
 //! | `surface-nets` | one per active cell, mean of its crossings | one quad per crossed interior edge | `dual` |
 //! | `dual-contouring` | as surface nets, on a grid closed at its boundary (GEL) | one quad per crossed edge | `dual` |
 //! | `mc33` | as marching cubes | the trilinear interpolant's topology per cell (Chernyaev's MC33 cases) | `mc33` |
+//! | `dual-contouring-qef` | as dual contouring, at the minimiser of the cell's QEF (Hermite data) | as dual contouring | `dcqef`, `qef`, `hermite` |
+//! | `dual-contouring-qef` with `mesh_error` | one per leaf of an octree collapsed where the QEF stays under ε | Ju et al.'s cell/face/edge procedure | `octree` |
+//! | `extended-mc` | as marching cubes, plus one per feature piece of a cell at its QEF minimiser | marching cubes', feature pieces fanned, edges flipped onto features | `emc`, `qef`, `hermite` |
 //!
 //! Each module's documentation states its exact rules.
 //!
@@ -58,21 +61,26 @@
 //! for bit (`slabs`).
 
 mod clip;
+mod dcqef;
 mod dual;
 mod edges;
+mod emc;
 pub mod export;
 mod field;
+mod hermite;
 mod mc;
 mod mc33;
 mod mt;
+mod octree;
+mod qef;
 mod slabs;
 pub mod stats;
 pub mod tables;
 #[cfg(test)]
 mod tests;
 
-use crate::field::Grid;
-use crate::vocab::{Inside, MeshAlgorithm};
+use crate::field::{Grid, PointField};
+use crate::vocab::{HermiteNormals, Inside, MeshAlgorithm, SharpSettings};
 
 /// An indexed triangle mesh in world space.
 ///
@@ -183,10 +191,16 @@ pub enum MeshError {
     BadGrid { dims: [usize; 3], got: usize, want: usize },
     #[error("the mesh would have more than 2^32 - 1 {what}; use a coarser grid")]
     TooLarge { what: &'static str },
+    #[error(
+        "hermite = \"source\" needs a source that can be evaluated off the grid (sdf, expr, \
+         corners, mesh); use hermite = \"trilinear\""
+    )]
+    NoPointSource,
 }
 
 /// Extracts the isosurface `{x : f(x) = iso}` of `grid`'s trilinear interpolant as an indexed
 /// triangle mesh, inside per `inside`, with algorithm `algo`: the single-threaded reference.
+/// The sharp-feature meshes take the default [`SharpSettings`] (trilinear Hermite data).
 pub fn extract(
     grid: &Grid,
     iso: f64,
@@ -194,15 +208,78 @@ pub fn extract(
     algo: MeshAlgorithm,
     opts: ExtractOptions,
 ) -> Result<Mesh, MeshError> {
+    extract_with(grid, iso, inside, algo, opts, &SharpSettings::default(), None)
+}
+
+/// [`extract`] with the sharp-feature meshes' settings; `source` is the field's source as a
+/// function of world position, which `hermite = "source"` needs (else
+/// [`MeshError::NoPointSource`]). The other algorithms ignore both.
+pub fn extract_with(
+    grid: &Grid,
+    iso: f64,
+    inside: Inside,
+    algo: MeshAlgorithm,
+    opts: ExtractOptions,
+    sharp: &SharpSettings,
+    source: Option<&PointField>,
+) -> Result<Mesh, MeshError> {
     check(grid, iso)?;
     let f = field::Field::new(grid, iso, inside);
     match algo {
         MeshAlgorithm::MarchingCubes => mc::extract(&f),
         MeshAlgorithm::MarchingTetrahedra => mt::extract(&f),
-        MeshAlgorithm::SurfaceNets => dual::extract(&f, dual::Boundary::Open, opts),
-        MeshAlgorithm::DualContouring => dual::extract(&f, dual::Boundary::Closed, opts),
+        MeshAlgorithm::SurfaceNets => dual::extract(&f, dual::Boundary::Open, opts, None),
+        MeshAlgorithm::DualContouring => dual::extract(&f, dual::Boundary::Closed, opts, None),
         MeshAlgorithm::Mc33 => mc33::extract(&f),
+        MeshAlgorithm::DualContouringQef => {
+            let q = dc_qef(&f, sharp, source)?;
+            match sharp.mesh_error {
+                Some(eps) => octree::extract(&q, eps),
+                None => dual::extract(&f, dual::Boundary::Closed, opts, Some(&q)),
+            }
+        }
+        MeshAlgorithm::ExtendedMc => emc(&f, sharp, source)?.extract(),
     }
+}
+
+/// The Hermite data source of the settings.
+fn hermite<'f, 'g, 's>(
+    f: &'f field::Field<'g>,
+    sharp: &SharpSettings,
+    source: Option<&'s PointField<'s>>,
+) -> Result<hermite::Hermite<'f, 'g, 's>, MeshError> {
+    let source = match sharp.hermite {
+        HermiteNormals::Trilinear => None,
+        HermiteNormals::Source => Some(source.ok_or(MeshError::NoPointSource)?),
+    };
+    Ok(hermite::Hermite { f, source })
+}
+
+/// `extended-mc` from the settings.
+fn emc<'f, 'g, 's>(
+    f: &'f field::Field<'g>,
+    sharp: &SharpSettings,
+    source: Option<&'s PointField<'s>>,
+) -> Result<emc::Emc<'f, 'g, 's>, MeshError> {
+    Ok(emc::Emc {
+        hermite: hermite(f, sharp, source)?,
+        threshold: sharp.qef_threshold,
+        clamp: sharp.qef_clamp,
+        cos_feature: sharp.feature_angle_deg.to_radians().cos(),
+    })
+}
+
+/// `dual-contouring-qef`'s vertex rule from the settings.
+fn dc_qef<'f, 'g, 's>(
+    f: &'f field::Field<'g>,
+    sharp: &SharpSettings,
+    source: Option<&'s PointField<'s>>,
+) -> Result<dcqef::DcQef<'f, 'g, 's>, MeshError> {
+    Ok(dcqef::DcQef {
+        hermite: hermite(f, sharp, source)?,
+        threshold: sharp.qef_threshold,
+        clamp: sharp.qef_clamp,
+    })
 }
 
 /// [`extract`] on all threads of the current `rayon` pool: the grid is cut into slabs of cell
@@ -219,6 +296,20 @@ pub fn extract_parallel(
     extract_in_slabs(grid, iso, inside, algo, opts, None)
 }
 
+/// [`extract_parallel`] with the sharp-feature settings of [`extract_with`]: equal to
+/// [`extract_with`] bit for bit.
+pub fn extract_parallel_with(
+    grid: &Grid,
+    iso: f64,
+    inside: Inside,
+    algo: MeshAlgorithm,
+    opts: ExtractOptions,
+    sharp: &SharpSettings,
+    source: Option<&PointField>,
+) -> Result<Mesh, MeshError> {
+    extract_in_slabs_with(grid, iso, inside, algo, opts, None, sharp, source)
+}
+
 /// [`extract_parallel`] with slabs of `depth` cell layers (`None`: the default depth). The
 /// dual methods count the padded cell layers of `dual-contouring` (one more at each end).
 pub fn extract_in_slabs(
@@ -229,12 +320,30 @@ pub fn extract_in_slabs(
     opts: ExtractOptions,
     depth: Option<usize>,
 ) -> Result<Mesh, MeshError> {
+    let sharp = SharpSettings::default();
+    extract_in_slabs_with(grid, iso, inside, algo, opts, depth, &sharp, None)
+}
+
+/// [`extract_in_slabs`] with the sharp-feature settings of [`extract_with`].
+#[allow(clippy::too_many_arguments)]
+pub fn extract_in_slabs_with(
+    grid: &Grid,
+    iso: f64,
+    inside: Inside,
+    algo: MeshAlgorithm,
+    opts: ExtractOptions,
+    depth: Option<usize>,
+    sharp: &SharpSettings,
+    source: Option<&PointField>,
+) -> Result<Mesh, MeshError> {
     check(grid, iso)?;
     let f = field::Field::new(grid, iso, inside);
     let f = &f;
     let layers = match algo {
         MeshAlgorithm::SurfaceNets => dual::cell_layers(f, dual::Boundary::Open),
-        MeshAlgorithm::DualContouring => dual::cell_layers(f, dual::Boundary::Closed),
+        MeshAlgorithm::DualContouring | MeshAlgorithm::DualContouringQef => {
+            dual::cell_layers(f, dual::Boundary::Closed)
+        }
         _ => grid.dims[2] - 1,
     };
     let depth = depth.unwrap_or_else(|| slabs::default_depth(layers));
@@ -247,11 +356,23 @@ pub fn extract_in_slabs(
         }
         MeshAlgorithm::Mc33 => slabs::run(f, layers, depth, false, |c| mc33::extract_slab(f, c)),
         MeshAlgorithm::SurfaceNets => slabs::run(f, layers, depth, opts.keep_quads, |c| {
-            dual::extract_slab(f, dual::Boundary::Open, opts, c)
+            dual::extract_slab(f, dual::Boundary::Open, opts, None, c)
         }),
         MeshAlgorithm::DualContouring => slabs::run(f, layers, depth, opts.keep_quads, |c| {
-            dual::extract_slab(f, dual::Boundary::Closed, opts, c)
+            dual::extract_slab(f, dual::Boundary::Closed, opts, None, c)
         }),
+        MeshAlgorithm::DualContouringQef => {
+            let q = dc_qef(f, sharp, source)?;
+            if let Some(eps) = sharp.mesh_error {
+                // Not cut into slabs (see `octree`): the reference itself.
+                return octree::extract(&q, eps);
+            }
+            slabs::run(f, layers, depth, opts.keep_quads, |c| {
+                dual::extract_slab(f, dual::Boundary::Closed, opts, Some(&q), c)
+            })
+        }
+        // Not cut into slabs (see `emc`): the reference itself.
+        MeshAlgorithm::ExtendedMc => emc(f, sharp, source)?.extract(),
     }
 }
 

@@ -16,21 +16,31 @@ use crate::passes::Bands;
 use crate::scene::{MeshAlgorithm, Scene};
 
 /// The mesh of `scene`'s surface over `grid`, extracted on the CPU (the reference of what
-/// `render.method = "mesh"` draws).
+/// `render.method = "mesh"` draws) at time 0.
 pub fn scene_mesh(scene: &Scene, grid: &Grid) -> Result<Mesh, RenderError> {
-    Ok(mesh::extract(
+    scene_mesh_at(scene, grid, 0.0)
+}
+
+/// [`scene_mesh`] of the grid sampled at `time` (`render.hermite = "source"` evaluates the
+/// source at that time).
+pub fn scene_mesh_at(scene: &Scene, grid: &Grid, time: f64) -> Result<Mesh, RenderError> {
+    let source = crate::field::PointField::from_spec(&scene.field, time);
+    Ok(mesh::extract_with(
         grid,
         scene.surface.isovalue,
         scene.surface.inside,
         scene.render.mesh,
         ExtractOptions::default(),
+        &scene.render.sharp,
+        source.as_ref(),
     )?)
 }
 
 impl Renderer {
     /// Extracts the scene's mesh from the uploaded grid on the GPU (the mesh stays on the
     /// device) and draws it. On a device without `shaderFloat64`, which the mc33 passes need,
-    /// `mc33` is extracted on the CPU and uploaded. The picture goes to `sink` band by band.
+    /// `mc33` is extracted on the CPU and uploaded, as are the algorithms without GPU passes
+    /// ([`MeshAlgorithm::on_gpu`]). The picture goes to `sink` band by band.
     pub(super) fn render_scene_mesh(
         &mut self,
         scene: &Scene,
@@ -60,8 +70,10 @@ impl Renderer {
             sink.begin(width, height, &info)?;
             return sink.band(crate::passes::Band { row_offset: 0, rows: height }, &pixels);
         }
-        let mesh = if scene.render.mesh == MeshAlgorithm::Mc33 && !self.ctx.info.float64 {
-            mesh_render::upload(&self.ctx, &scene_mesh(scene, grid)?)?
+        let cpu = !scene.render.mesh.on_gpu(&scene.render.sharp)
+            || (scene.render.mesh == MeshAlgorithm::Mc33 && !self.ctx.info.float64);
+        let mesh = if cpu {
+            mesh_render::upload(&self.ctx, &scene_mesh_at(scene, grid, time)?)?
         } else {
             if self.extractor.is_none() {
                 self.extractor = Some(Extractor::new(&self.ctx)?);
@@ -73,7 +85,7 @@ impl Renderer {
                 scene.surface.isovalue,
                 scene.surface.inside,
                 scene.render.mesh,
-                &GpuExtractOptions::default(),
+                &GpuExtractOptions { sharp: Some(scene.render.sharp), ..Default::default() },
             )?
         };
         self.render_mesh_to(scene, grid, gpu_grid, &mesh, time, sink)

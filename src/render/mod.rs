@@ -74,7 +74,9 @@ impl From<crate::passes::extract::GpuMeshError> for RenderError {
         match e {
             GpuMeshError::Gpu(g) => RenderError::Gpu(g),
             GpuMeshError::Mesh(m) => RenderError::Mesh(m),
-            GpuMeshError::Unsupported(what) => RenderError::Unsupported(what),
+            GpuMeshError::Unsupported(what) | GpuMeshError::CpuOnly(what) => {
+                RenderError::Unsupported(what)
+            }
         }
     }
 }

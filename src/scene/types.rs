@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use glam::DVec3;
 
-pub use crate::vocab::{Bounds, Inside, MeshAlgorithm, SdfShape};
+pub use crate::vocab::{Bounds, HermiteNormals, Inside, MeshAlgorithm, SdfShape, SharpSettings};
 
 /// A validated scene: everything a render or an extraction needs, nothing unchecked.
 #[derive(Clone, Debug)]
@@ -385,6 +385,8 @@ pub struct RenderSettings {
     /// fast), and the EXR has no `crossings` channel.
     pub count_crossings: bool,
     pub mesh: MeshAlgorithm,
+    /// Settings of the sharp-feature meshes (`hermite`, `qef_threshold`, `qef_clamp`).
+    pub sharp: SharpSettings,
     pub shading: Shading,
     pub normals: Normals,
     /// Linear RGBA of pixels whose ray misses.
@@ -405,6 +407,7 @@ impl Default for RenderSettings {
             crossing: 1,
             count_crossings: false,
             mesh: MeshAlgorithm::MarchingCubes,
+            sharp: SharpSettings::default(),
             shading: Shading::Lambert,
             normals: Normals::Trilinear,
             background: [0.0, 0.0, 0.0, 0.0],

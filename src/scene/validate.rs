@@ -7,9 +7,9 @@ use super::error::SceneErrorKind;
 use super::read::{self, choice, integer, number_where, numbers, vec3, Result, View};
 use super::tree::{Node, Origin, Source, Value};
 use super::{
-    Ambiguity, CameraSettings, ColorBy, ColorSettings, ImageSettings, Inside, IsoRule,
-    MeshAlgorithm, Method, Normals, Projection, RenderSettings, Scene, Shading, SliceSettings,
-    SurfaceSettings, COLORMAPS, MAX_SURFACES,
+    Ambiguity, CameraSettings, ColorBy, ColorSettings, HermiteNormals, ImageSettings, Inside,
+    IsoRule, MeshAlgorithm, Method, Normals, Projection, RenderSettings, Scene, Shading,
+    SharpSettings, SliceSettings, SurfaceSettings, COLORMAPS, MAX_SURFACES,
 };
 use crate::field::stats::{self, Stats};
 use crate::field::{FieldSpec, GridLimits, SourceKind};
@@ -49,7 +49,9 @@ pub(crate) fn scene(
     let camera = camera(&root.table("camera")?, &field, &image)?;
     let surface_table = root.table("surface")?;
     let surface = surface(&surface_table)?;
-    let render = render(&root.table("render")?)?;
+    let render_table = root.table("render")?;
+    let render = render(&render_table)?;
+    check_hermite(&render_table, &render, &field)?;
     let clip = clip(&root)?;
     // Last: an isovalue picked from the data samples the whole field.
     let surface = resolve_isovalue(&surface_table, surface, &field, limits)?;
@@ -404,6 +406,11 @@ fn render(t: &View) -> Result<RenderSettings> {
         "normals",
         "background",
         "color",
+        "hermite",
+        "qef_threshold",
+        "qef_clamp",
+        "feature_angle",
+        "mesh_error",
     ])?;
     let d = RenderSettings::default();
     let methods = Method::ALL.map(|m| (m.name(), m));
@@ -422,11 +429,58 @@ fn render(t: &View) -> Result<RenderSettings> {
             as u32,
         count_crossings: t.or("count_crossings", d.count_crossings, read::boolean)?,
         mesh: t.or("mesh", d.mesh, |s, k, n| choice(s, k, n, &meshes))?,
+        sharp: sharp(t)?,
         shading: t.or("shading", d.shading, |s, k, n| choice(s, k, n, &shadings))?,
         normals: t.or("normals", d.normals, |s, k, n| choice(s, k, n, &normals))?,
         background: t.or("background", d.background, colour::<4>)?,
         color: t.or("color", d.color, colour::<3>)?,
     })
+}
+
+/// The sharp-feature meshes' keys of `[render]` (`SharpSettings`).
+fn sharp(t: &View) -> Result<SharpSettings> {
+    let d = SharpSettings::default();
+    let hermites = HermiteNormals::ALL.map(|h| (h.name(), h));
+    Ok(SharpSettings {
+        hermite: t.or("hermite", d.hermite, |s, k, n| choice(s, k, n, &hermites))?,
+        qef_threshold: t.or("qef_threshold", d.qef_threshold, |s, k, n| {
+            number_where(s, k, n, |x| x > 0.0 && x < 1.0, "must be in (0, 1)")
+        })?,
+        qef_clamp: t.or("qef_clamp", d.qef_clamp, read::boolean)?,
+        feature_angle_deg: t.or("feature_angle", d.feature_angle_deg, |s, k, n| {
+            number_where(s, k, n, |x| x > 0.0 && x < 180.0, "must be in (0, 180) degrees")
+        })?,
+        mesh_error: t.or("mesh_error", d.mesh_error, |s, k, n| {
+            number_where(s, k, n, |x| x > 0.0, "must be a positive length (world units)").map(Some)
+        })?,
+    })
+}
+
+/// `render.hermite = "source"` needs a source that can be evaluated off the grid;
+/// `render.mesh_error` is the adaptive `dual-contouring-qef`'s.
+fn check_hermite(t: &View, render: &RenderSettings, field: &FieldSpec) -> Result<()> {
+    if render.sharp.mesh_error.is_some() && render.mesh != MeshAlgorithm::DualContouringQef {
+        return Err(t.err(
+            SceneErrorKind::Value,
+            "mesh_error",
+            format!(
+                "the adaptive octree is built for mesh = \"dual-contouring-qef\", not \"{}\"",
+                render.mesh.name()
+            ),
+        ));
+    }
+    if render.sharp.hermite == HermiteNormals::Source && !field.source.supports().point {
+        return Err(t.err(
+            SceneErrorKind::Value,
+            "hermite",
+            format!(
+                "\"source\" takes crossings and normals from the field's source, which needs \
+                 an {} source (this field is sampled data); use \"trilinear\"",
+                SourceKind::names_where(|k| k.supports().point)
+            ),
+        ));
+    }
+    Ok(())
 }
 
 fn slice(t: &View, field: &FieldSpec) -> Result<SliceSettings> {

@@ -405,7 +405,7 @@ fn diff_exr_and_heat_map_png_are_written() {
     assert!(d.channel("forgiven").is_some() && d.channel("ratio").is_some());
     assert!(d.channel("flip").is_some());
     assert!(d.attribute("isoview/compare/verdict").unwrap().starts_with("FAIL"));
-    assert_eq!(d.channels.len(), 16 + 4);
+    assert_eq!(d.channels.len(), 18 + 4);
 
     let heat = image::open(&png).unwrap().to_rgba8();
     assert_eq!(heat.dimensions(), (6, 5));
@@ -494,7 +494,7 @@ fn new_channels_in_b_are_a_mismatch_unless_asked_for() {
     let (code, out, err) = run(&[s(&old), s(&new), "--new-channels"]);
     assert_eq!(code, 0, "{out}{err}");
     assert!(out.contains("not in A, not compared (new channels): crossings"), "{out}");
-    assert!(out.contains("15 channels compared") && out.contains("PASS: identical"), "{out}");
+    assert!(out.contains("17 channels compared") && out.contains("PASS: identical"), "{out}");
     // A channel only A has is still a mismatch.
     let (code, _, err) = run(&[s(&new), s(&old), "--new-channels"]);
     assert_eq!(code, 2);

@@ -31,6 +31,7 @@ mod projection;
 mod render;
 mod scene;
 mod serve;
+mod sharp;
 mod slice;
 mod sources;
 mod stats;

@@ -526,9 +526,9 @@ fn override_errors_name_the_override() {
         "--set render.stpes=64: render.stpes: unknown key (did you mean \"steps\"?)"
     );
     assert_eq!(
-        error(CELL, &["colour=1"]),
-        "--set colour=1: colour: unknown table or key (a scene has the tables [image], [camera], \
-         [field], [surface], [render], [slice], [clip])"
+        error(CELL, &["lighting=1"]),
+        "--set lighting=1: lighting: unknown table or key (a scene has the tables [image], \
+         [camera], [field], [surface], [render], [slice], [clip], [color], [field2])"
     );
     assert_eq!(
         error(CELL, &["render.steps"]),
@@ -597,7 +597,7 @@ fn load_reads_files_and_reports_io_errors() {
     let unknown = dir.join("unknown.toml");
     std::fs::write(&unknown, format!("{CELL}[render]\nfoo = 1\n")).unwrap();
     let e = scene::load(&unknown, &[]).unwrap_err().to_string();
-    assert_eq!(e, format!("{}:5:1: render.foo: unknown key ([render] has method, steps, newton_steps, skip, crossing, count_crossings, mesh, shading, normals, background, color)", unknown.display()));
+    assert_eq!(e, format!("{}:5:1: render.foo: unknown key ([render] has method, steps, newton_steps, skip, crossing, count_crossings, mesh, shading, normals, background, color, hermite, qef_threshold, qef_clamp, feature_angle, mesh_error)", unknown.display()));
 }
 
 #[test]

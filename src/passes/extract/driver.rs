@@ -156,8 +156,12 @@ impl GpuMesh {
 }
 
 /// Options of [`Extractor::extract`].
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct GpuExtractOptions {
+    /// `dual-contouring-qef`'s settings (None: the defaults); only `qef_threshold` and
+    /// `qef_clamp` are used: trilinear Hermite data on a uniform grid is what the passes do
+    /// ([`MeshAlgorithm::on_gpu`]).
+    pub sharp: Option<crate::vocab::SharpSettings>,
     /// Quad split of `surface-nets` and `dual-contouring`. [`QuadSplit::Fixed`] reproduces the
     /// CPU reference bit for bit; [`QuadSplit::Shorter`] compares f32 diagonals, so near ties
     /// may split the other way than the f64 reference.
@@ -307,7 +311,11 @@ impl Extractor {
             ))
             .into());
         }
-        let kind = Kind::new(algo);
+        let sharp = opts.sharp.unwrap_or_default();
+        if !algo.on_gpu(&sharp) {
+            return Err(GpuMeshError::CpuOnly(algo.name()));
+        }
+        let kind = Kind::new(algo).ok_or(GpuMeshError::CpuOnly(algo.name()))?;
         if kind.mc33() {
             if self.passes.mc33.is_none() {
                 self.passes.mc33 = Mc33Passes::new(&self.ctx)?;
@@ -319,7 +327,12 @@ impl Extractor {
         let range = self.ctx.info.max_storage_buffer_range;
         let binding_bytes = opts.max_binding_bytes.unwrap_or(range).min(range);
         let mut slabs = Slabs::new(kind, grid.dims, binding_bytes, opts.max_slab_layers)?;
-        let params = plan::params(grid, iso, inside, kind.pad());
+        let mut params = plan::params(grid, iso, inside, kind.pad());
+        if algo == MeshAlgorithm::DualContouringQef {
+            // dual.glsl's `qef_on`: bit 0 on, bit 1 clamp; w: the threshold's bits.
+            params.iso_bits[2] = 1 | (u32::from(sharp.qef_clamp) << 1);
+            params.iso_bits[3] = (sharp.qef_threshold as f32).to_bits();
+        }
         let (s, mut run) = self.scratch(image, &params, slabs.scratch(), kind.mc33())?;
         let mut pieces = Vec::new();
         while let Some(slab) = slabs.next() {

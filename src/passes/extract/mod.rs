@@ -54,6 +54,8 @@ pub enum GpuMeshError {
          lacks; extract it on the CPU (--device cpu)"
     )]
     Unsupported(&'static str),
+    #[error("render.mesh = \"{0}\" has no GPU extraction; extract it on the CPU (--device cpu)")]
+    CpuOnly(&'static str),
 }
 
 /// Workgroup size of the extraction passes (`local_size_x`).
@@ -94,7 +96,8 @@ pub struct ExtractParams {
     /// for inside = below, -1 for above.
     pub iso: [f32; 4],
     /// x, y: the bits of the f64 isovalue, low word first (`packDouble2x32`); the mc33 passes
-    /// decide topology in f64 as the CPU reference does. z, w: unused.
+    /// decide topology in f64 as the CPU reference does. z: `dual-contouring-qef` flags (bit 0
+    /// on, bit 1 clamp into the cell), w: its singular-value threshold's f32 bits.
     pub iso_bits: [u32; 4],
 }
 

@@ -30,14 +30,18 @@ pub enum Kind {
 }
 
 impl Kind {
-    pub fn new(algo: MeshAlgorithm) -> Self {
-        match algo {
+    /// None for the algorithms the passes do not implement ([`MeshAlgorithm::on_gpu`]).
+    pub fn new(algo: MeshAlgorithm) -> Option<Self> {
+        Some(match algo {
             MeshAlgorithm::MarchingCubes => Kind::Edges { mt: false, mc33: false },
             MeshAlgorithm::MarchingTetrahedra => Kind::Edges { mt: true, mc33: false },
             MeshAlgorithm::SurfaceNets => Kind::Dual { pad: 0 },
-            MeshAlgorithm::DualContouring => Kind::Dual { pad: 1 },
+            MeshAlgorithm::DualContouring | MeshAlgorithm::DualContouringQef => {
+                Kind::Dual { pad: 1 }
+            }
             MeshAlgorithm::Mc33 => Kind::Edges { mt: false, mc33: true },
-        }
+            MeshAlgorithm::ExtendedMc => return None,
+        })
     }
 
     pub fn mc33(self) -> bool {
@@ -558,7 +562,7 @@ mod tests {
         assert_eq!(owned(&[u32::MAX, 4, 1, 1]), (5, 0));
         assert_eq!(MC.counts(4, 6), counts(4, 6));
         assert_eq!(DC.counts(4, 6), counts(6, 8));
-        let mc33 = Kind::new(MeshAlgorithm::Mc33).counts(4, 6);
+        let mc33 = Kind::new(MeshAlgorithm::Mc33).unwrap().counts(4, 6);
         assert_eq!(mc33, SlabCounts { vertices: 4, crossed: 6, ..Default::default() });
     }
 }

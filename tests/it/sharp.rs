@@ -232,39 +232,6 @@ fn closed_and_oriented(m: &Mesh, what: &str) {
 
 // ---- Hausdorff distance ------------------------------------------------------------------------
 
-/// Closest point to `p` on triangle `abc` (Ericson, Real-Time Collision Detection 5.1.5).
-fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return a + ab * (d1 / (d1 - d3));
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return a + ac * (d2 / (d2 - d6));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    }
-    let denom = 1.0 / (va + vb + vc);
-    a + ab * (vb * denom) + ac * (vc * denom)
-}
-
 /// Points of the exact surface `f = 0`: the vertices of a 3× finer marching-cubes mesh,
 /// projected onto the surface by a few Newton steps along the (central-difference) gradient,
 /// more than two cells inside the grid's box (where a mesh open at the box, as the adaptive
@@ -339,7 +306,8 @@ fn hausdorff(m: &Mesh, f: &'static Sdf) -> f64 {
                     for &t in buckets.get(&(k + glam::IVec3::new(dx, dy, dz))).into_iter().flatten()
                     {
                         let [a, b, c] = tris[t];
-                        best = best.min(p.distance(closest_on_triangle(p, a, b, c)));
+                        best = best
+                            .min(p.distance(isoview::field::mesh_sdf::closest_point(p, a, b, c)));
                     }
                 }
             }

@@ -83,6 +83,29 @@ struct Corners {
     vec4 hi;
 };
 
+#ifdef GRID_POOL
+// One page lookup for the 8 corners (they are all in c's slot).
+Corners cell_corners(ivec3 c) {
+    Corners k;
+    ivec3 nb = (P.dims.xyz - 2) / BRICK + 1;
+    ivec3 b = c / BRICK;
+    int brick = (b.z * nb.y + b.y) * nb.x + b.x;
+    uint slot = pages[brick];
+    if (slot == NO_PAGE) {
+        float v = bricks[brick].x;
+        k.lo = vec4(v);
+        k.hi = vec4(v);
+        return k;
+    }
+    ivec3 l = c - (b * BRICK - POOL_APRON);
+    const int SY = SLOT;
+    const int SZ = SLOT * SLOT;
+    int i = int(slot) * SLOT * SZ + l.z * SZ + l.y * SY + l.x;
+    k.lo = vec4(pool[i], pool[i + 1], pool[i + SY], pool[i + SY + 1]);
+    k.hi = vec4(pool[i + SZ], pool[i + SZ + 1], pool[i + SZ + SY], pool[i + SZ + SY + 1]);
+    return k;
+}
+#else
 Corners cell_corners(ivec3 c) {
     Corners k;
     k.lo = vec4(cell_value(c, c), cell_value(c, c + ivec3(1, 0, 0)),
@@ -91,6 +114,7 @@ Corners cell_corners(ivec3 c) {
                 cell_value(c, c + ivec3(0, 1, 1)), cell_value(c, c + ivec3(1, 1, 1)));
     return k;
 }
+#endif
 
 // Trilinear interpolation at local coordinates f in [0,1]^3.
 float trilinear_local(Corners k, vec3 f) {

@@ -278,8 +278,19 @@ fn pool_errors_are_one_line() {
         .to_string();
     assert_eq!(
         e,
-        "f.raw: the bricks the isovalues need (1 of 1 bricks of 8^3 cells) take 5.2 KiB in the \
-         brick pool, over the cap of 1 KiB; raise the cap with ISOVIEW_MAX_GRID_MIB=1 (or \
+        "f.raw: the bricks the isovalues need (1 of 1 bricks of 8^3 cells) and the brick tables \
+         take 5.2 KiB on the device, over the cap of 1 KiB; raise the cap with \
+         ISOVIEW_MAX_GRID_MIB=1 (or GridLimits::max_bytes)"
+    );
+    // An 8192^3 grid's tables alone (2^30 bricks, 12 GiB) are refused before any scan.
+    let e = pool::check_tables([8193, 8193, 8193], &GridLimits::default(), "big.raw")
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        e,
+        "big.raw: a grid of 8193x8193x8193 points has 1073741824 bricks of 8^3 cells, whose \
+         tables (min/max and page table, 12 bytes a brick) take 12288 MiB on the device, over \
+         the cap of 1024 MiB; raise the cap with ISOVIEW_MAX_GRID_MIB=12288 (or \
          GridLimits::max_bytes)"
     );
 }

@@ -100,7 +100,7 @@ enum Storage {
     /// Every point (of the grid or the block), as a 3D image.
     Image(Image3d),
     /// The resident bricks' slots and the page table.
-    Pool(pool::Pool),
+    Pool(Box<pool::Pool>),
 }
 
 impl GpuGrid {
@@ -146,7 +146,7 @@ impl GpuGrid {
     ) -> Result<Self, GpuError> {
         let pool = pool::Pool::upload(ctx, grid, residency)?;
         let gpu = GpuGrid {
-            storage: Storage::Pool(pool),
+            storage: Storage::Pool(Box::new(pool)),
             dims: grid.dims,
             bricks: std::cell::OnceCell::new(),
             block: None,

@@ -141,7 +141,9 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     let mut meshes = Vec::with_capacity(scene.surface.count);
     let (mut ran_on, mut why) = (Backend::Cpu, String::new());
     #[cfg_attr(not(feature = "mpi"), allow(unused_mut, unused_variables))]
-    let mut gathered = std::time::Duration::ZERO;
+    let (mut gathered, mut own_share) = (std::time::Duration::ZERO, std::time::Duration::ZERO);
+    #[cfg_attr(not(feature = "mpi"), allow(unused_variables))]
+    let sampled = started.elapsed();
     let time = args.time;
     for k in 0..scene.surface.count {
         let one = scene.single_surface(k);
@@ -149,18 +151,23 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
         if let Some(w) = ranks {
             #[cfg(feature = "mpi")]
             match extract_ranks(w, &one, &grid, time, opts)? {
-                crate::cluster::Extracted::Whole(mut mesh, joined) => {
+                crate::cluster::Extracted::Whole(mut mesh, own, joined) => {
                     mesh.place(&scene.field.placement);
                     if scene.clip.count > 0 {
                         mesh = mesh.clipped(&scene.clip);
                     }
                     meshes.push(mesh);
+                    own_share += own;
                     gathered += joined;
                     ran_on = Backend::Cpu;
+                    let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
                     why = format!(
-                        "; mpi: {} ranks, rank 0 gathered and joined in {:.0} ms",
+                        "; mpi: {} ranks; rank 0 sampled the field in {:.0} ms, meshed its share \
+                         in {:.0} ms, gathered and joined in {:.0} ms",
                         w.size(),
-                        gathered.as_secs_f64() * 1e3
+                        ms(sampled),
+                        ms(own_share),
+                        ms(gathered)
                     );
                 }
                 crate::cluster::Extracted::Sent => {}

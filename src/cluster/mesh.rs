@@ -32,9 +32,9 @@ const CHUNK: usize = 1 << 26;
 
 /// How a rank's share of an extraction ended.
 pub enum Extracted {
-    /// Rank 0: the whole mesh, and the time it spent receiving and joining the others' parts
-    /// (waiting for the slowest rank included).
-    Whole(Mesh, Duration),
+    /// Rank 0: the whole mesh, the time it spent on its own share, and the time it spent
+    /// receiving and joining the others' parts (waiting for the slowest rank included).
+    Whole(Mesh, Duration, Duration),
     /// Another rank: its part went to rank 0.
     Sent,
     /// Another rank failed and rank 0 reports it; this rank exits quietly.
@@ -48,7 +48,9 @@ impl World {
         let (n, rank) = (self.size(), self.rank());
         let layers = window::cell_layers(x.algo, grid.dims);
         let cells = window::share(layers, n, rank);
+        let started = Instant::now();
         let mine = extract_share(grid, x, cells);
+        let own = started.elapsed();
         if rank != 0 {
             let root = self.comm.process_at_rank(0);
             let failed = mine.is_err();
@@ -97,7 +99,7 @@ impl World {
         };
         let mut whole_ok = u32::from(mesh.is_ok());
         self.comm.process_at_rank(0).broadcast_into(&mut whole_ok);
-        Ok(Extracted::Whole(mesh?, started.elapsed()))
+        Ok(Extracted::Whole(mesh?, own, started.elapsed()))
     }
 
     /// What `extract` cannot split across ranks in `scene` (None: it can); `gpu`: the GPU

@@ -58,6 +58,15 @@ pub enum FieldError {
     )]
     TooLarge { what: String, dims: [u64; 3], bytes: u128, cap: u64 },
 
+    /// `field.residency = "active"`: the bricks the isovalues need would exceed the memory cap.
+    #[error(
+        "{what}: the bricks the isovalues need ({resident} of {bricks} bricks of 8^3 cells) take \
+         {} in the brick pool, over the cap of {}; raise the cap with {GRID_CAP_ENV}={} (or \
+         GridLimits::max_bytes)",
+        mib(*bytes as u128), mib(*cap as u128), bytes.div_ceil(1 << 20)
+    )]
+    PoolTooLarge { what: String, resident: usize, bricks: usize, bytes: u64, cap: u64 },
+
     /// A sample is NaN or infinite; `index` is the first such grid point (x fastest).
     #[error("{what}: value {value} at grid point [{}, {}, {}]{detail} is not finite", index[0], index[1], index[2])]
     NonFinite { what: String, index: [usize; 3], value: f32, detail: String },

@@ -151,7 +151,8 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
         if let Some(w) = ranks {
             #[cfg(feature = "mpi")]
             match extract_ranks(w, &one, &grid, time, opts)? {
-                crate::cluster::Extracted::Whole(mut mesh, own, joined) => {
+                crate::cluster::Extracted::Whole(mesh, own, joined) => {
+                    let mut mesh = *mesh;
                     mesh.place(&scene.field.placement);
                     if scene.clip.count > 0 {
                         mesh = mesh.clipped(&scene.clip);

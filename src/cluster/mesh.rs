@@ -34,7 +34,7 @@ const CHUNK: usize = 1 << 26;
 pub enum Extracted {
     /// Rank 0: the whole mesh, the time it spent on its own share, and the time it spent
     /// receiving and joining the others' parts (waiting for the slowest rank included).
-    Whole(Mesh, Duration, Duration),
+    Whole(Box<Mesh>, Duration, Duration),
     /// Another rank: its part went to rank 0.
     Sent,
     /// Another rank failed and rank 0 reports it; this rank exits quietly.
@@ -99,7 +99,7 @@ impl World {
         };
         let mut whole_ok = u32::from(mesh.is_ok());
         self.comm.process_at_rank(0).broadcast_into(&mut whole_ok);
-        Ok(Extracted::Whole(mesh?, own, started.elapsed()))
+        Ok(Extracted::Whole(Box::new(mesh?), own, started.elapsed()))
     }
 
     /// What `extract` cannot split across ranks in `scene` (None: it can); `gpu`: the GPU

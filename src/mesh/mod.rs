@@ -68,6 +68,7 @@ mod emc;
 pub mod export;
 mod field;
 mod hermite;
+pub mod mapped;
 mod mc;
 mod mc33;
 mod mt;

@@ -27,7 +27,8 @@
 //!   one. The active bricks and their 26 neighbours are resident, so the image is the whole
 //!   grid's whenever a step is shorter than 2^8 BRICK = 2048 cells (always, in practice).
 //!
-//! The cap (`ISOVIEW_MAX_GRID_MIB`) applies to the pool: the resident slots' bytes.
+//! The cap (`ISOVIEW_MAX_GRID_MIB`) applies to what the device holds: the resident slots and
+//! the brick tables (12 bytes a brick), the tables checked before the file is scanned.
 
 use std::sync::Arc;
 
@@ -59,6 +60,25 @@ pub const CLEAR_MARGIN: f32 = 2.0 / 1024.0;
 pub fn clear(mm: [f32; 2], iso: f32) -> bool {
     let tol = CLEAR_MARGIN * (mm[0].abs().max(mm[1].abs()) + iso.abs());
     mm[0] - iso > tol || iso - mm[1] > tol
+}
+
+/// Device bytes per brick of the brick tables: the min/max grid (8) and the page table (4).
+pub const TABLE_BYTES: u64 = 12;
+
+/// Refuses, before the file is scanned, a grid whose brick tables alone are over the cap.
+pub fn check_tables(dims: [usize; 3], limits: &GridLimits, what: &str) -> Result<(), FieldError> {
+    let bricks = brick_counts(dims).iter().map(|&n| n as u64).product::<u64>();
+    let bytes = bricks.saturating_mul(TABLE_BYTES);
+    if bytes > limits.max_bytes {
+        return Err(FieldError::TablesTooLarge {
+            what: what.to_string(),
+            dims,
+            bricks,
+            bytes,
+            cap: limits.max_bytes,
+        });
+    }
+    Ok(())
 }
 
 /// Which bricks are in the pool.
@@ -121,9 +141,9 @@ impl Residency {
         self.resident.len() as u64 * (SLOT * SLOT * SLOT * 4) as u64
     }
 
-    /// Refuses a pool over the cap, naming what it would need.
+    /// Refuses a pool over the cap (with the brick tables), naming what it would need.
     pub fn check(&self, limits: &GridLimits, what: &str) -> Result<(), FieldError> {
-        let bytes = self.pool_bytes();
+        let bytes = self.pool_bytes() + self.pages.len() as u64 * TABLE_BYTES;
         if bytes > limits.max_bytes {
             return Err(FieldError::PoolTooLarge {
                 what: what.to_string(),
@@ -272,6 +292,7 @@ pub fn upload_for(
 ) -> Result<PooledGrid, PoolError> {
     let started = std::time::Instant::now();
     let shape = grid.shape();
+    check_tables(grid.dims, limits, &grid.label())?;
     let ranges = grid.brick_ranges(BRICK)?;
     let scanned = started.elapsed();
     // The thresholds exactly as the shaders get them.

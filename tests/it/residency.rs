@@ -278,8 +278,63 @@ fn pool_errors_are_one_line() {
         .to_string();
     assert_eq!(
         e,
-        "f.raw: the bricks the isovalues need (1 of 1 bricks of 8^3 cells) take 5.2 KiB in the \
-         brick pool, over the cap of 1 KiB; raise the cap with ISOVIEW_MAX_GRID_MIB=1 (or \
+        "f.raw: the bricks the isovalues need (1 of 1 bricks of 8^3 cells) and the brick tables \
+         take 5.2 KiB on the device, over the cap of 1 KiB; raise the cap with \
+         ISOVIEW_MAX_GRID_MIB=1 (or GridLimits::max_bytes)"
+    );
+    // An 8192^3 grid's tables alone (2^30 bricks, 12 GiB) are refused before any scan.
+    let e = pool::check_tables([8193, 8193, 8193], &GridLimits::default(), "big.raw")
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        e,
+        "big.raw: a grid of 8193x8193x8193 points has 1073741824 bricks of 8^3 cells, whose \
+         tables (min/max and page table, 12 bytes a brick) take 12288 MiB on the device, over \
+         the cap of 1024 MiB; raise the cap with ISOVIEW_MAX_GRID_MIB=12288 (or \
          GridLimits::max_bytes)"
     );
+}
+
+/// Extraction from the map, a window of a few layers at a time, equals the whole grid's
+/// multi-threaded extraction bit for bit (positions, normals, numbering, triangle order) for
+/// every method it splits, with ranges wholly outside joined without being extracted.
+#[test]
+fn mapped_extraction_equals_the_whole_grids() {
+    use isoview::mesh::window::Extraction;
+    use isoview::mesh::{self, ExtractOptions};
+    use isoview::vocab::{MeshAlgorithm, SharpSettings};
+    let dir = scratch("residency-extract");
+    let mut rng = Rng::new(77);
+    let sharp = SharpSettings::default();
+    for (c, algo) in [
+        MeshAlgorithm::MarchingCubes,
+        MeshAlgorithm::Mc33,
+        MeshAlgorithm::SurfaceNets,
+        MeshAlgorithm::DualContouring,
+        MeshAlgorithm::MarchingTetrahedra,
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        // Shells in the lower part of a tall box: the upper layers are all outside.
+        let grid =
+            grid_from([23 + c, 19, 57], DVec3::splat(-1.0), DVec3::new(1.0, 1.0, 4.0), |p| {
+                let k = DVec3::new(3.0, 4.0, 5.0);
+                (p - DVec3::new(0.1, 0.0, 0.2)).length() + 0.05 * k.dot(p).sin()
+            });
+        let file = dir.join(format!("e{c}.raw"));
+        write_raw(&file, &grid);
+        let mapped = MappedGrid::open(&raw_spec(&file, &grid, Residency::Active)).unwrap().unwrap();
+        let iso = rng.range(0.5, 0.8);
+        let inside = [Inside::Below, Inside::Above][c % 2];
+        let opts = ExtractOptions::default();
+        let whole =
+            mesh::extract_parallel_with(&grid, iso, inside, algo, opts, &sharp, None).unwrap();
+        let x = Extraction { iso, inside, algo, opts, sharp: &sharp, source: None };
+        // Windows of about 5 point layers: many ranges, most of the upper ones skipped.
+        let window = 5 * grid.dims[0] * grid.dims[1] * 4;
+        let from_map = isoview::mesh::mapped::extract_mapped(&mapped, &x, window).unwrap();
+        assert!(whole.triangle_count() > 100, "{algo:?}: too few triangles");
+        assert_eq!(from_map, whole, "{algo:?}");
+    }
 }

@@ -17,6 +17,11 @@
 //!   (lavapipe, where the compute passes are software on the same cores and slower than the
 //!   CPU path), or when there is no usable Vulkan device; else on the GPU. The summary line on
 //!   stderr says which and why.
+//!
+//! Under an MPI launcher with more than one rank (`--features mpi`, `cluster::mesh`), the
+//! CPU extraction is split: each rank meshes a range of cell layers and rank 0 joins them
+//! and writes the file, which is byte for byte the one process's `--device cpu` file. The
+//! GPU extraction and the methods that are not cut into slabs are refused there in one line.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -92,7 +97,25 @@ pub fn resolve_device(
     }
 }
 
+/// The MPI ranks of this run (`cluster::World`); uninhabited without the feature.
+#[cfg(feature = "mpi")]
+type Ranks = crate::cluster::World;
+#[cfg(not(feature = "mpi"))]
+type Ranks = std::convert::Infallible;
+
 pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
+    #[cfg(feature = "mpi")]
+    if let Some(w) = crate::cluster::world() {
+        // Every rank reads the same input and so meets the same failures; rank 0 says it.
+        return match run_on(cli, args, Some(&w)) {
+            Err(f) if w.rank() != 0 => Ok(f.code),
+            other => other,
+        };
+    }
+    run_on(cli, args, None)
+}
+
+fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, Failure> {
     let format = Format::from_path(&args.output).ok_or_else(|| {
         Failure::input(format!(
             "-o {}: the file name must end in .ply, .obj or .stl",
@@ -106,6 +129,10 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
     let (backend, vulkan_device) =
         resolve_device(cli.device.as_deref(), cli.device_from_command_line, env.as_deref());
     let scene = super::load_scene(&args.scene, &args.sets)?;
+    #[cfg(feature = "mpi")]
+    if let Some(why) = ranks.and_then(|w| w.refuses_extract(&scene, backend == Backend::Gpu)) {
+        return Err(Failure::input(why));
+    }
 
     let started = Instant::now();
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
@@ -113,9 +140,42 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
     // Several isovalues: one mesh per surface, merged, each vertex labelled with its surface.
     let mut meshes = Vec::with_capacity(scene.surface.count);
     let (mut ran_on, mut why) = (Backend::Cpu, String::new());
+    #[cfg_attr(not(feature = "mpi"), allow(unused_mut, unused_variables))]
+    let (mut gathered, mut own_share) = (std::time::Duration::ZERO, std::time::Duration::ZERO);
+    #[cfg_attr(not(feature = "mpi"), allow(unused_variables))]
+    let sampled = started.elapsed();
     let time = args.time;
     for k in 0..scene.surface.count {
         let one = scene.single_surface(k);
+        #[cfg_attr(not(feature = "mpi"), allow(unused_variables))]
+        if let Some(w) = ranks {
+            #[cfg(feature = "mpi")]
+            match extract_ranks(w, &one, &grid, time, opts)? {
+                crate::cluster::Extracted::Whole(mesh, own, joined) => {
+                    let mut mesh = *mesh;
+                    mesh.place(&scene.field.placement);
+                    if scene.clip.count > 0 {
+                        mesh = mesh.clipped(&scene.clip);
+                    }
+                    meshes.push(mesh);
+                    own_share += own;
+                    gathered += joined;
+                    ran_on = Backend::Cpu;
+                    let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+                    why = format!(
+                        "; mpi: {} ranks; rank 0 sampled the field in {:.0} ms, meshed its share \
+                         in {:.0} ms, gathered and joined in {:.0} ms",
+                        w.size(),
+                        ms(sampled),
+                        ms(own_share),
+                        ms(gathered)
+                    );
+                }
+                crate::cluster::Extracted::Sent => {}
+                crate::cluster::Extracted::FailedElsewhere => return Ok(super::EXIT_INPUT),
+            }
+            continue;
+        }
         let (mesh, on, reason) = match backend {
             Backend::Cpu => (extract_cpu(&one, &grid, time, opts)?, Backend::Cpu, String::new()),
             Backend::Gpu => {
@@ -132,6 +192,10 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
         }
         meshes.push(mesh);
         (ran_on, why) = (on, reason);
+    }
+    #[cfg(feature = "mpi")]
+    if ranks.is_some_and(|w| w.rank() != 0) {
+        return Ok(0); // rank 0 writes
     }
     let (mesh, labels) = match meshes.len() {
         1 => (meshes.pop().expect("one mesh"), None),
@@ -167,6 +231,28 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
         );
     }
     Ok(0)
+}
+
+/// This rank's share of the CPU extraction under MPI, joined on rank 0 (`cluster::mesh`).
+#[cfg(feature = "mpi")]
+fn extract_ranks(
+    w: &Ranks,
+    scene: &Scene,
+    grid: &Grid,
+    time: f64,
+    opts: ExtractOptions,
+) -> Result<crate::cluster::Extracted, Failure> {
+    let s = &scene.surface;
+    let source = crate::field::PointField::from_spec(&scene.field, time);
+    let x = mesh::window::Extraction {
+        iso: s.isovalue,
+        inside: s.inside,
+        algo: scene.render.mesh,
+        opts,
+        sharp: &scene.render.sharp,
+        source: source.as_ref(),
+    };
+    w.extract(grid, &x).map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))
 }
 
 /// The CPU extraction on all cores: the f64 reference's mesh, bit for bit.

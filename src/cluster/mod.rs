@@ -1,6 +1,9 @@
 //! Many processes through MPI (`--features mpi`): `mpirun -np N isoview render scene.toml -o
 //! out.exr` splits the grid into N blocks, each rank uploads and traces only its block, and
-//! the ranks composite every pixel on rank 0, which writes the files.
+//! the ranks composite every pixel on rank 0, which writes the files. `mpirun -np N isoview
+//! extract scene.toml -o out.ply` splits the grid's cell layers along z into N ranges, each
+//! rank meshes its range, and rank 0 joins them into the single-process CPU mesh (`mesh`
+//! below, and `mesh::window`).
 //!
 //! ```text
 //!   rank r:  sample field -> Block::of_rank (cells + one shared plane + ghost plane)
@@ -29,7 +32,11 @@
 //! along the ray) and `--tev`.
 //!
 //! Stopgap: each rank still samples (reads) the whole field and cuts its block out; it
-//! uploads and traces only the block.
+//! uploads and traces only the block (`render`), or meshes only its window of point layers
+//! (`extract`).
+
+mod mesh;
+pub use mesh::Extracted;
 
 use mpi::collective::SystemOperation;
 use mpi::environment::Universe;

@@ -207,6 +207,7 @@ impl SlabMesh {
 /// Extracts the cell layers `cells` (as [`cell_layers`] counts them) of the grid `lattice`
 /// from `window`, which holds its point layers `first..first + window.dims[2]` (at least
 /// [`point_layers`]), in slabs on the current rayon pool. Empty `cells`: an empty mesh.
+/// `window.min` and `window.max` are not read: positions come from `lattice`.
 pub fn extract_window(
     window: &Grid,
     first: usize,

@@ -40,7 +40,7 @@ fn random_grid(rng: &mut Rng) -> Grid {
 fn cut(grid: &Grid, layers: &Range<usize>) -> Grid {
     let plane = grid.dims[0] * grid.dims[1];
     let values = grid.values[plane * layers.start..plane * layers.end].to_vec();
-    Grid { dims: [grid.dims[0], grid.dims[1], layers.len()], values, ..grid.clone() }
+    Grid { dims: [grid.dims[0], grid.dims[1], layers.len()], min: grid.min, max: grid.max, values }
 }
 
 fn bits(m: &Mesh) -> (Vec<[u32; 3]>, Vec<[u32; 3]>) {

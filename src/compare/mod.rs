@@ -62,7 +62,7 @@ mod stream;
 
 pub use flip::{flip_beauty, FlipStats, PIXELS_PER_DEGREE};
 pub use output::{heat_map_rgba8, write_diff_exr, write_heat_map_png};
-pub use stream::{compare_files, compare_files_in_bands, flip_halo, Outputs, BAND_ROWS};
+pub use stream::{band_rows, compare_files, compare_files_in_bands, flip_halo, Outputs};
 
 use std::fmt;
 use std::path::{Path, PathBuf};

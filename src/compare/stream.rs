@@ -25,7 +25,10 @@
 //!   outputs are written in pass 2, row by row ([`crate::output::exr_planes`],
 //!   [`crate::output::png::Rgba8Stream`]), each to a temporary file renamed at the end.
 //!
-//! Memory: a band of [`BAND_ROWS`] rows plus halos of the channels read, FLIP's working
+//! - FLIP is computed once, in pass 1, and its map (4 bytes a pixel) kept for the later
+//!   passes in an unlinked temporary file ([`std::env::temp_dir`]): disk, not memory.
+//!
+//! Memory: a band of [`band_rows`] rows plus halos of the channels read, FLIP's working
 //! images for those rows (about 100 bytes a pixel), and 512 KiB per percentile.
 
 use std::path::Path;
@@ -43,8 +46,17 @@ use crate::output::exr_planes::PlaneStream;
 use crate::output::png::{to_srgb8, Rgba8Stream};
 use crate::output::OutputError;
 
-/// Rows per band.
-pub const BAND_ROWS: usize = 32;
+/// Pixels per band: rows of about this many pixels (at least [`MIN_BAND_ROWS`], at most
+/// [`MAX_BAND_ROWS`]). About 2 MiB per channel and image, and FLIP's halo (10 rows each side)
+/// adds little to bands of this height.
+pub const BAND_PIXELS: usize = 1 << 19;
+pub const MIN_BAND_ROWS: usize = 32;
+pub const MAX_BAND_ROWS: usize = 256;
+
+/// The band height [`compare_files`] uses for images `width` pixels wide.
+pub fn band_rows(width: usize) -> usize {
+    (BAND_PIXELS / width.max(1)).clamp(MIN_BAND_ROWS, MAX_BAND_ROWS)
+}
 
 /// Files a comparison writes.
 #[derive(Clone, Copy, Debug, Default)]
@@ -99,6 +111,8 @@ struct Run<'t> {
     flip: Option<Result<([usize; 3], [usize; 3]), String>>,
     halo: usize,
     band_rows: usize,
+    /// FLIP's map from pass 1, for the later passes.
+    spill: Spill,
 }
 
 /// Everything one band gives, in the band's row-major order.
@@ -135,7 +149,8 @@ pub fn compare_files(
     t: &Thresholds,
     outputs: Outputs<'_>,
 ) -> Result<(Report, Option<OutputError>), CompareError> {
-    compare_files_in_bands(a, b, t, outputs, BAND_ROWS)
+    let rows = ExrRows::open(a).map(|r| band_rows(r.width))?;
+    compare_files_in_bands(a, b, t, outputs, rows)
 }
 
 /// [`compare_files`] with bands of `band_rows` rows (tests vary it; any value gives the
@@ -211,6 +226,7 @@ impl<'t> Run<'t> {
             flip,
             halo: shift_halo.max(flip_rows),
             band_rows,
+            spill: Spill::default(),
         })
     }
 
@@ -414,7 +430,12 @@ impl Run<'_> {
         mut pass: Pass<'_>,
         mut on_band: impl FnMut(&Run<'_>, usize, usize, &Band) -> Result<(), CompareError>,
     ) -> Result<(), CompareError> {
-        self.keep(pass.need_channels, pass.need_flip);
+        // FLIP is computed in pass 1 only (R, G, B read then); later passes read its spill.
+        let first = pass.flip_sum.is_some();
+        self.keep(pass.need_channels, pass.need_flip && first);
+        if pass.need_flip {
+            self.spill.rewind()?;
+        }
         pass.rel.iter_mut().flatten().for_each(Select::begin);
         pass.flip_sel.iter_mut().for_each(Select::begin);
         let mut y0 = 0;
@@ -423,7 +444,23 @@ impl Run<'_> {
             let lo = y0.saturating_sub(self.halo);
             self.a.load(lo, y1 + self.halo)?;
             self.b.load(lo, y1 + self.halo)?;
-            let band = self.band(y0, y1, &mut pass);
+            let mut band = self.band(y0, y1, &mut pass);
+            if pass.need_flip {
+                let map = if pass.flip_sum.is_some() {
+                    let map = self.flip_rows(y0, y1);
+                    self.spill.write(&map)?;
+                    map
+                } else {
+                    self.spill.read((y1 - y0) * self.w)?
+                };
+                for s in pass.flip_sel.iter_mut() {
+                    map.iter().for_each(|&v| s.offer(key32(v)));
+                }
+                if let Some(sum) = pass.flip_sum.as_deref_mut() {
+                    map.iter().for_each(|&v| *sum += f64::from(v));
+                }
+                band.flip = Some(map);
+            }
             on_band(self, y0, y1, &band)?;
             y0 = y1;
         }
@@ -518,16 +555,6 @@ impl Run<'_> {
             }
             band.ratio = ratio;
             band.hard = hard;
-        }
-        if pass.need_flip {
-            let map = self.flip_rows(y0, y1);
-            for s in pass.flip_sel.iter_mut() {
-                map.iter().for_each(|&v| s.offer(key32(v)));
-            }
-            if let Some(sum) = pass.flip_sum.as_deref_mut() {
-                map.iter().for_each(|&v| *sum += f64::from(v));
-            }
-            band.flip = Some(map);
         }
         band
     }
@@ -767,5 +794,94 @@ impl Writers {
             }
         }
         self.error
+    }
+}
+
+/// FLIP's error map written in pass 1 and read back, band by band, in later passes: an
+/// unlinked temporary file (gone when the process ends, whatever happens).
+#[derive(Default)]
+struct Spill {
+    file: Option<std::fs::File>,
+    writer: Option<std::io::BufWriter<std::fs::File>>,
+    reader: Option<std::io::BufReader<std::fs::File>>,
+}
+
+impl Spill {
+    fn error(e: std::io::Error) -> CompareError {
+        CompareError::Output(OutputError::io(&std::env::temp_dir(), "spill FLIP to", e))
+    }
+
+    /// Starts writing (first call) or reading from the top (later calls).
+    fn rewind(&mut self) -> Result<(), CompareError> {
+        use std::io::{Seek, SeekFrom, Write};
+        match &self.file {
+            None => {
+                let path = std::env::temp_dir().join(format!(
+                    ".isoview-compare-flip.{}.{:?}.tmp",
+                    std::process::id(),
+                    std::time::SystemTime::now()
+                        .duration_since(std::time::UNIX_EPOCH)
+                        .unwrap_or_default()
+                        .as_nanos()
+                ));
+                let file = std::fs::OpenOptions::new()
+                    .read(true)
+                    .write(true)
+                    .create_new(true)
+                    .open(&path)
+                    .map_err(Self::error)?;
+                let _ = std::fs::remove_file(&path); // unlinked: the open file stays
+                self.writer = Some(std::io::BufWriter::new(file.try_clone().map_err(Self::error)?));
+                self.file = Some(file);
+            }
+            Some(file) => {
+                if let Some(mut w) = self.writer.take() {
+                    w.flush().map_err(Self::error)?;
+                }
+                let mut f = file.try_clone().map_err(Self::error)?;
+                f.seek(SeekFrom::Start(0)).map_err(Self::error)?;
+                self.reader = Some(std::io::BufReader::new(f));
+            }
+        }
+        Ok(())
+    }
+
+    fn write(&mut self, values: &[f32]) -> Result<(), CompareError> {
+        use std::io::Write;
+        let w =
+            self.writer.as_mut().ok_or_else(|| Self::error(std::io::Error::other("not open")))?;
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        w.write_all(&bytes).map_err(Self::error)
+    }
+
+    fn read(&mut self, n: usize) -> Result<Vec<f32>, CompareError> {
+        use std::io::Read;
+        let r =
+            self.reader.as_mut().ok_or_else(|| Self::error(std::io::Error::other("not open")))?;
+        let mut bytes = vec![0u8; n * 4];
+        r.read_exact(&mut bytes).map_err(Self::error)?;
+        Ok(bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flip_halo_is_the_wider_filter_radius() {
+        // At 67 ppd: spatial ceil(3 * sqrt(0.04 / (2 pi^2)) * 67) = 10, feature ceil(8.24) = 9.
+        assert_eq!(flip_halo(PIXELS_PER_DEGREE), 10);
+        assert_eq!(flip_halo(10.0), 2);
+    }
+
+    #[test]
+    fn band_heights() {
+        assert_eq!(band_rows(4096), 128);
+        assert_eq!(band_rows(1), MAX_BAND_ROWS);
+        assert_eq!(band_rows(1 << 20), MIN_BAND_ROWS);
+        assert_eq!(nearest_rank(0.99, 100), 98);
+        assert_eq!(nearest_rank(1.0, 7), 6);
+        assert_eq!(nearest_rank(0.5, 1), 0);
     }
 }

@@ -205,6 +205,8 @@ fn band_by_band_equals_the_whole_image_comparison() {
     let variants: Vec<(&str, Thresholds)> = vec![
         ("default", Thresholds::default()),
         ("shift", Thresholds { shift: true, ..Thresholds::default() }),
+        // Without FLIP's 10-row halo: only the shift window's one row.
+        ("shift, no FLIP", Thresholds { shift: true, flip: false, ..Thresholds::default() }),
         (
             "relative, hard, percentages",
             Thresholds {
@@ -325,15 +327,17 @@ fn big_exr(path: &Path, w: usize, h: usize, seed: u32) {
 }
 
 /// 4096 x 2048 against 64 x 32: the whole-image comparison held both images (5 channels), the
-/// per-pixel maps and FLIP's working images of the whole picture, over 1 GiB here; band by
-/// band, memory grows by a few bands' worth.
+/// per-pixel maps and FLIP's working images of the whole picture (README "Large data": over
+/// 1 GiB here); band by band, memory grows by a few bands' worth.
 #[test]
 fn a_large_compare_stays_in_bounded_memory() {
     let dir = scratch("cmp-stream-peak");
     let run = |w: usize, h: usize| {
         let (a, b) = (dir.join(format!("a{w}.exr")), dir.join(format!("b{w}.exr")));
+        let start = std::time::Instant::now();
         big_exr(&a, w, h, 0);
         big_exr(&b, w, h, 1);
+        let made = start.elapsed().as_secs_f64();
         let (diff, png) = (dir.join(format!("d{w}.exr")), dir.join(format!("d{w}.png")));
         let (code, mib) = crate::stream::peak_rss_mib(&[
             "compare",
@@ -344,6 +348,8 @@ fn a_large_compare_stays_in_bounded_memory() {
             "--png",
             png.to_str().unwrap(),
         ]);
+        let compared = start.elapsed().as_secs_f64() - made;
+        eprintln!("{w}x{h}: inputs written in {made:.1} s, compared in {compared:.1} s");
         assert_eq!(code, 1, "{w}x{h}: the pictures differ");
         assert_eq!(out_exr::read(&diff).unwrap().width, w);
         mib
@@ -352,6 +358,7 @@ fn a_large_compare_stays_in_bounded_memory() {
     let large = run(4096, 2048);
     let image_mib = 4096.0 * 2048.0 * 5.0 * 4.0 / (1 << 20) as f64;
     eprintln!("compare peak RSS {small:.0} MiB at 64x32, {large:.0} MiB at 4096x2048 (one image: {image_mib:.0} MiB)");
-    assert!(large - small < 100.0, "peak RSS grew {:.0} MiB", large - small);
+    // Bands of 128 rows at this width: about 80 MiB. Holding both images alone is 320 MiB.
+    assert!(large - small < 200.0, "peak RSS grew {:.0} MiB", large - small);
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -6,7 +6,8 @@
 //! positives, every bit for negatives). A pass either counts the next 16 bits of the keys
 //! that share the digits found so far (a 65 536-bucket histogram: 512 KiB), or, once at most
 //! [`COLLECT`] keys remain candidates, keeps those keys and picks the k-th. So f32 takes at
-//! most two passes after the first, f64 at most four, and usually one:
+//! most two passes after the first, f64 at most four, and usually one; none when the keys in
+//! the chosen bucket are all equal (each bucket's smallest and largest key are kept):
 //!
 //! ```text
 //!   pass 1: histogram of the top 16 bits -> bucket holding rank k, rank within it
@@ -31,6 +32,10 @@ pub struct Select {
     /// Keys starting with `prefix` (unknown before the first pass).
     candidates: Option<u64>,
     hist: Vec<u64>,
+    /// Smallest and largest key counted in each bucket: a bucket whose keys are all equal
+    /// (all zeros, typically) gives the answer without another pass.
+    lo: Vec<u64>,
+    hi: Vec<u64>,
     kept: Vec<u64>,
     answer: Option<u64>,
 }
@@ -70,6 +75,8 @@ impl Select {
             rank,
             candidates: None,
             hist: Vec::new(),
+            lo: Vec::new(),
+            hi: Vec::new(),
             kept: Vec::new(),
             answer: None,
         }
@@ -99,6 +106,8 @@ impl Select {
             self.kept = Vec::with_capacity(self.candidates.unwrap_or(0) as usize);
         } else {
             self.hist = vec![0; 1 << DIGIT];
+            self.lo = vec![u64::MAX; 1 << DIGIT];
+            self.hi = vec![0; 1 << DIGIT];
         }
     }
 
@@ -115,7 +124,10 @@ impl Select {
             self.kept.push(key);
         } else {
             let shift = self.bits - self.known - DIGIT;
-            self.hist[((key >> shift) & 0xffff) as usize] += 1;
+            let d = ((key >> shift) & 0xffff) as usize;
+            self.hist[d] += 1;
+            self.lo[d] = self.lo[d].min(key);
+            self.hi[d] = self.hi[d].max(key);
         }
     }
 
@@ -136,6 +148,7 @@ impl Select {
             return Ok(());
         }
         let hist = std::mem::take(&mut self.hist);
+        let (lo, hi) = (std::mem::take(&mut self.lo), std::mem::take(&mut self.hi));
         let mut below = 0u64;
         for (digit, &count) in hist.iter().enumerate() {
             if self.rank < below + count {
@@ -145,6 +158,8 @@ impl Select {
                 self.candidates = Some(count);
                 if self.known == self.bits {
                     self.answer = Some(self.prefix);
+                } else if lo[digit] == hi[digit] {
+                    self.answer = Some(lo[digit]);
                 }
                 return Ok(());
             }
@@ -205,10 +220,15 @@ mod tests {
         // More candidates than COLLECT in every 16-bit bucket: all four digits by histogram.
         v = vec![0.75; COLLECT as usize + 10];
         v[3] = 0.75 + f64::EPSILON;
+        v[4] = 0.75 + 2.0 * f64::EPSILON;
         let (x, passes) = run64(&v, COLLECT + 9);
+        assert_eq!((x, passes), (0.75 + 2.0 * f64::EPSILON, 4));
+        let (x, passes) = run64(&v, COLLECT + 8);
         assert_eq!((x, passes), (0.75 + f64::EPSILON, 4));
         let (x, passes) = run64(&v, 0);
         assert_eq!((x, passes), (0.75, 4));
+        // All equal: found in the first pass.
+        assert_eq!(run64(&[0.0; 1000], 989), (0.0, 1));
     }
 
     #[test]

@@ -76,7 +76,16 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
     ("MODE_MT", 1, Glsl::Uint, "classify.comp mode: marching tetrahedra."),
     ("MODE_DUAL", 2, Glsl::Uint, "classify.comp mode: surface nets and dual contouring."),
     ("MODE_MC33", 3, Glsl::Uint, "classify.comp mode: MC33."),
+    // The brick pool of `field.residency = "active"` (render/pool.rs, field.glsl).
+    ("POOL_APRON", 1, Glsl::Int, "Points a pool slot holds around its brick's points, per side."),
+    ("NO_PAGE", 0xffff_ffff, Glsl::Uint, "Page table entry of a brick not in the pool."),
 ];
+
+/// Shaders compiled a second time with a `#define`: (file under `shaders/`, suffix of the
+/// second SPIR-V's name, the macro). `GRID_POOL`: the ray passes reading the grid from the brick
+/// pool instead of a 3D image (`field.residency = "active"`).
+const VARIANTS: &[(&str, &str, &str)] =
+    &[("analytic.comp", "pool", "GRID_POOL"), ("raymarch.comp", "pool", "GRID_POOL")];
 
 fn shared(name: &str) -> u32 {
     SHARED.iter().find(|c| c.0 == name).map(|c| c.1).unwrap()
@@ -137,57 +146,19 @@ fn main() {
         if path.extension().and_then(|e| e.to_str()) != Some("comp") {
             continue;
         }
-        let source = std::fs::read_to_string(path).unwrap();
-        let mut options = shaderc::CompileOptions::new().unwrap();
-        options.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_2 as u32);
-        options.set_optimization_level(shaderc::OptimizationLevel::Performance);
-        options.set_generate_debug_info();
-        for (name, value, glsl, _) in SHARED {
-            let literal = match glsl {
-                Glsl::Int => value.to_string(),
-                Glsl::Uint => format!("{value}u"),
-            };
-            options.add_macro_definition(name, Some(&literal));
-        }
-        let inc = include_dir.clone();
-        options.set_include_callback(move |name, _ty, from, _depth| {
-            let from_dir = Path::new(from).parent().map(Path::to_path_buf).unwrap_or_default();
-            for dir in [from_dir, inc.clone()] {
-                let candidate = dir.join(name);
-                if let Ok(content) = std::fs::read_to_string(&candidate) {
-                    return Ok(shaderc::ResolvedInclude {
-                        resolved_name: candidate.display().to_string(),
-                        content,
-                    });
-                }
+        let rel = path.strip_prefix(&root).unwrap().to_path_buf();
+        let mut builds = vec![(rel.with_extension(""), None)];
+        for (file, suffix, define) in VARIANTS {
+            if rel == Path::new(file) {
+                let stem = rel.with_extension("").display().to_string();
+                builds.push((PathBuf::from(format!("{stem}_{suffix}")), Some(*define)));
             }
-            Err(format!("include {name} not found (from {from})"))
-        });
-        let artifact = compiler
-            .compile_into_spirv(
-                &source,
-                shaderc::ShaderKind::Compute,
-                &path.display().to_string(),
-                "main",
-                Some(&options),
-            )
-            .unwrap_or_else(|e| panic!("{e}"));
-        let rel = path.strip_prefix(&root).unwrap().with_extension("");
-        let name: String = rel
-            .to_string_lossy()
-            .chars()
-            .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_uppercase() } else { '_' })
-            .collect();
-        let spv = out_dir.join(format!("{name}.spv"));
-        std::fs::write(&spv, artifact.as_binary_u8()).unwrap();
-        writeln!(
-            generated,
-            "/// SPIR-V of `shaders/{}`.\npub const {name}: &[u8] = include_bytes!(\"{}\");",
-            rel.with_extension("comp").display(),
-            spv.display()
-        )
-        .unwrap();
-        all.push((rel.with_extension("comp").display().to_string(), name));
+        }
+        for (rel, define) in builds {
+            let name =
+                compile(&compiler, path, &include_dir, &out_dir, &rel, define, &mut generated);
+            all.push((path.strip_prefix(&root).unwrap().display().to_string(), name));
+        }
     }
     generated += "/// Every shader: (path under `shaders/`, SPIR-V).\npub const ALL: &[(&str, &[u8])] = &[\n";
     for (path, name) in &all {
@@ -195,4 +166,71 @@ fn main() {
     }
     generated += "];\n";
     std::fs::write(out_dir.join("shaders.rs"), generated).unwrap();
+}
+
+/// Compiles one shader (with `define` set, for a variant) into `out_dir`, adds its constant to
+/// `generated` and returns the constant's name (from `rel`, the path under `shaders/` without
+/// the extension).
+fn compile(
+    compiler: &shaderc::Compiler,
+    path: &Path,
+    include_dir: &Path,
+    out_dir: &Path,
+    rel: &Path,
+    define: Option<&str>,
+    generated: &mut String,
+) -> String {
+    let source = std::fs::read_to_string(path).unwrap();
+    let mut options = shaderc::CompileOptions::new().unwrap();
+    options.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_2 as u32);
+    options.set_optimization_level(shaderc::OptimizationLevel::Performance);
+    options.set_generate_debug_info();
+    for (name, value, glsl, _) in SHARED {
+        let literal = match glsl {
+            Glsl::Int => value.to_string(),
+            Glsl::Uint => format!("{value}u"),
+        };
+        options.add_macro_definition(name, Some(&literal));
+    }
+    if let Some(d) = define {
+        options.add_macro_definition(d, Some("1"));
+    }
+    let inc = include_dir.to_path_buf();
+    options.set_include_callback(move |name, _ty, from, _depth| {
+        let from_dir = Path::new(from).parent().map(Path::to_path_buf).unwrap_or_default();
+        for dir in [from_dir, inc.clone()] {
+            let candidate = dir.join(name);
+            if let Ok(content) = std::fs::read_to_string(&candidate) {
+                return Ok(shaderc::ResolvedInclude {
+                    resolved_name: candidate.display().to_string(),
+                    content,
+                });
+            }
+        }
+        Err(format!("include {name} not found (from {from})"))
+    });
+    let artifact = compiler
+        .compile_into_spirv(
+            &source,
+            shaderc::ShaderKind::Compute,
+            &path.display().to_string(),
+            "main",
+            Some(&options),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    let name: String = rel
+        .to_string_lossy()
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_uppercase() } else { '_' })
+        .collect();
+    let spv = out_dir.join(format!("{name}.spv"));
+    std::fs::write(&spv, artifact.as_binary_u8()).unwrap();
+    writeln!(
+        generated,
+        "/// SPIR-V of `shaders/{}`.\npub const {name}: &[u8] = include_bytes!(\"{}\");",
+        rel.with_extension("comp").display(),
+        spv.display()
+    )
+    .unwrap();
+    name
 }

@@ -20,6 +20,7 @@ fn torus_grid(n: usize) -> Grid {
         resolution: [n, n, n],
         bounds: Bounds { min: DVec3::splat(-1.0), max: DVec3::splat(1.0) },
         placement: Default::default(),
+        residency: isoview::field::Residency::Whole,
     };
     spec.sample(0.0).expect("torus grid")
 }

@@ -40,7 +40,14 @@ layout(local_size_x = RAY_GROUP, local_size_y = RAY_GROUP) in;  // build.rs
 #include "pixel.glsl"
 
 layout(std140, binding = 0) uniform Params { RenderParams P; };
+#ifdef GRID_POOL
+// `field.residency = "active"` (render/pool.rs): the grid's resident bricks, one slot of
+// (BRICK + 1 + 2 POOL_APRON)^3 points each, and the page table of every brick.
+layout(std430, binding = 1) readonly buffer Pool { float pool[]; };
+layout(std430, binding = 5) readonly buffer Pages { uint pages[]; };
+#else
 layout(binding = 1) uniform sampler3D u_grid;
+#endif
 layout(std430, binding = 2) writeonly buffer Out { Pixel pixels[]; };
 layout(std430, binding = 3) readonly buffer Colormap { vec4 colormap[256]; };
 layout(std430, binding = 4) readonly buffer Bricks { vec2 bricks[]; };
@@ -101,8 +108,20 @@ bool cell_is_clear(Corners k, float iso) {
 // Whether this process traces `cell` (P.block_lo .. P.block_hi: the whole grid, or an MPI
 // rank's block). Cells outside are walked (so `steps`, the brick jumps and the t of every
 // plane are the whole walk's) but not evaluated: their values are on another rank.
+//
+// With the brick pool (GRID_POOL) a cell is also owned only when its brick is in the pool: the
+// bricks left out are those brick_is_empty calls empty, which hold no crossing at all (not even
+// one of rounding: the margin), so walking them without evaluating gives the whole walk's
+// crossings, `steps` and carried values (re-evaluated on entering a resident cell, as between
+// blocks), and the image is bit for bit the one of the whole grid, skipping on or off.
 bool owned(ivec3 cell) {
-    return all(greaterThanEqual(cell, P.block_lo.xyz)) && all(lessThan(cell, P.block_hi.xyz));
+    bool in_block =
+        all(greaterThanEqual(cell, P.block_lo.xyz)) && all(lessThan(cell, P.block_hi.xyz));
+#ifdef GRID_POOL
+    return in_block && resident(cell);
+#else
+    return in_block;
+#endif
 }
 
 void main() {
@@ -419,7 +438,7 @@ void main() {
         vec3 oriented = below ? grad : -grad;
         float len = length(oriented);
         r.normal = len > 0.0 && !isinf(len) ? oriented / len : -dir;
-        r.normal = scene_normal(vec3(hit_cell) + hit_q, r.normal);
+        r.normal = scene_normal(vec3(hit_cell) + hit_q, hit_cell, r.normal);
         r.depth = hit_t;
         r.position = eye + hit_t * dir;
         r.cell = hit_cell;

@@ -82,7 +82,7 @@ void main() {
         }
         vec3 hit = o + d * t;
         vec3 u = to_grid(hit);
-        n = scene_normal(u, n);
+        n = scene_normal(u, cell_of(u), n);
         r.depth = t;
         r.position = hit;
         r.normal = n;

@@ -16,9 +16,20 @@ layout(local_size_x = RAY_GROUP, local_size_y = RAY_GROUP) in;  // build.rs
 #include "pixel.glsl"
 
 layout(std140, binding = 0) uniform Params { RenderParams P; };
+#ifdef GRID_POOL
+// `field.residency = "active"` (render/pool.rs): the grid's resident bricks, one slot of
+// (BRICK + 1 + 2 POOL_APRON)^3 points each, and the page table of every brick.
+layout(std430, binding = 1) readonly buffer Pool { float pool[]; };
+layout(std430, binding = 5) readonly buffer Pages { uint pages[]; };
+#else
 layout(binding = 1) uniform sampler3D u_grid;
+#endif
 layout(std430, binding = 2) writeonly buffer Out { Pixel pixels[]; };
 layout(std430, binding = 3) readonly buffer Colormap { vec4 colormap[256]; };
+#ifdef GRID_POOL
+// The brick min/max grid: a brick not in the pool reads as its minimum (field.glsl).
+layout(std430, binding = 4) readonly buffer Bricks { vec2 bricks[]; };
+#endif
 layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 
 #include "field.glsl"
@@ -102,7 +113,7 @@ void main() {
             r.depth = th;
             r.position = hit;
             r.cell = cell_of(u);
-            r.normal = scene_normal(u, normal_at(u, -d));
+            r.normal = scene_normal(u, r.cell, normal_at(u, -d));
             r.surface = surfaces > 1u ? int(hit_surface) : -1;
             r.rgba = vec4(shade(r.normal, d, th, float(count), u, r.cell,
                                 P.surface_color[hit_surface].rgb), 1.0);

@@ -1,6 +1,13 @@
 // The trilinear field on the grid, read exactly with texelFetch (no hardware filtering: real
 // GPUs filter with ~8-bit weights). Mirrors `reference::field` (f64).
-// Needs: `RenderParams P` and `sampler3D u_grid` declared before inclusion.
+// Needs: `RenderParams P` and `sampler3D u_grid` declared before inclusion; with GRID_POOL
+// (`field.residency = "active"`, render/pool.rs) instead `float pool[]`, `uint pages[]` and
+// `vec2 bricks[]`.
+//
+// Every read of a grid point names the cell it is read for (`cell_value(c, p)`): with the pool,
+// the point is read from the slot of that cell's brick, which holds the brick's points and
+// POOL_APRON more on every side (the central differences of smooth normals at the brick's
+// points), so a cell never needs a second brick.
 
 // THE inside rule (Rust: `Inside::contains`): strictly below (or above) is inside; equal is
 // outside.
@@ -19,11 +26,44 @@ uint inside_mask(float v) {
     return m;
 }
 
+#ifdef GRID_POOL
+// Points per edge of a pool slot.
+const int SLOT = BRICK + 1 + 2 * POOL_APRON;
+
+// The page table entry of the brick holding `cell`: its slot in the pool, or NO_PAGE.
+uint page_of(ivec3 cell) {
+    ivec3 nb = (P.dims.xyz - 2) / BRICK + 1;  // bricks per axis: ceil(cells / BRICK)
+    ivec3 b = cell / BRICK;
+    return pages[(b.z * nb.y + b.y) * nb.x + b.x];
+}
+
+// Whether the pool holds the brick of `cell`.
+bool resident(ivec3 cell) {
+    return page_of(cell) != NO_PAGE;
+}
+
+// Grid point p, read for a cell c of a resident brick (p within POOL_APRON of c's brick). A
+// cell of a brick not in the pool reads as the brick's minimum: every value in such a brick is
+// on the same side of every isovalue as it (render/pool.rs says where that matters).
+float cell_value(ivec3 c, ivec3 p) {
+    uint slot = page_of(c);
+    ivec3 b = c / BRICK;
+    if (slot == NO_PAGE) {
+        ivec3 nb = (P.dims.xyz - 2) / BRICK + 1;
+        return bricks[(b.z * nb.y + b.y) * nb.x + b.x].x;
+    }
+    // Clamped: a smooth normal on a brick's far face reads one point past the apron with
+    // weight 0 (see smooth_gradient); any finite value leaves it unchanged.
+    ivec3 l = clamp(p - (b * BRICK - POOL_APRON), ivec3(0), ivec3(SLOT - 1));
+    return pool[int(slot) * SLOT * SLOT * SLOT + (l.z * SLOT + l.y) * SLOT + l.x];
+}
+#else
 // The value at grid point p (global indices; u_grid may hold only a block of the grid, from
-// P.block_origin on).
-float grid_value(ivec3 p) {
+// P.block_origin on), read for cell c (any cell: the image holds every point).
+float cell_value(ivec3 c, ivec3 p) {
     return texelFetch(u_grid, p - P.block_origin.xyz, 0).r;
 }
+#endif
 
 // World position -> continuous grid coordinates, clamped into the box.
 vec3 to_grid(vec3 pos) {
@@ -43,14 +83,38 @@ struct Corners {
     vec4 hi;
 };
 
+#ifdef GRID_POOL
+// One page lookup for the 8 corners (they are all in c's slot).
 Corners cell_corners(ivec3 c) {
     Corners k;
-    k.lo = vec4(grid_value(c), grid_value(c + ivec3(1, 0, 0)),
-                grid_value(c + ivec3(0, 1, 0)), grid_value(c + ivec3(1, 1, 0)));
-    k.hi = vec4(grid_value(c + ivec3(0, 0, 1)), grid_value(c + ivec3(1, 0, 1)),
-                grid_value(c + ivec3(0, 1, 1)), grid_value(c + ivec3(1, 1, 1)));
+    ivec3 nb = (P.dims.xyz - 2) / BRICK + 1;
+    ivec3 b = c / BRICK;
+    int brick = (b.z * nb.y + b.y) * nb.x + b.x;
+    uint slot = pages[brick];
+    if (slot == NO_PAGE) {
+        float v = bricks[brick].x;
+        k.lo = vec4(v);
+        k.hi = vec4(v);
+        return k;
+    }
+    ivec3 l = c - (b * BRICK - POOL_APRON);
+    const int SY = SLOT;
+    const int SZ = SLOT * SLOT;
+    int i = int(slot) * SLOT * SZ + l.z * SZ + l.y * SY + l.x;
+    k.lo = vec4(pool[i], pool[i + 1], pool[i + SY], pool[i + SY + 1]);
+    k.hi = vec4(pool[i + SZ], pool[i + SZ + 1], pool[i + SZ + SY], pool[i + SZ + SY + 1]);
     return k;
 }
+#else
+Corners cell_corners(ivec3 c) {
+    Corners k;
+    k.lo = vec4(cell_value(c, c), cell_value(c, c + ivec3(1, 0, 0)),
+                cell_value(c, c + ivec3(0, 1, 0)), cell_value(c, c + ivec3(1, 1, 0)));
+    k.hi = vec4(cell_value(c, c + ivec3(0, 0, 1)), cell_value(c, c + ivec3(1, 0, 1)),
+                cell_value(c, c + ivec3(0, 1, 1)), cell_value(c, c + ivec3(1, 1, 1)));
+    return k;
+}
+#endif
 
 // Trilinear interpolation at local coordinates f in [0,1]^3.
 float trilinear_local(Corners k, vec3 f) {
@@ -111,8 +175,9 @@ vec3 normal_at(vec3 u, vec3 fallback) {
 }
 
 // `render.normals = "smooth"` (Rust: `reference::field::smooth_gradient_at`): the gradient at
-// grid point p by central differences in index units, one-sided on the box's faces.
-vec3 point_gradient(ivec3 p) {
+// grid point p by central differences in index units, one-sided on the box's faces (its points
+// read for cell c).
+vec3 point_gradient(ivec3 c, ivec3 p) {
     ivec3 last = P.dims.xyz - 1;
     vec3 g;
     for (int a = 0; a < 3; a++) {
@@ -121,30 +186,32 @@ vec3 point_gradient(ivec3 p) {
         ivec3 lo = p[a] == 0 ? p : p - e;
         ivec3 hi = p[a] == last[a] ? p : p + e;
         float w = (p[a] == 0 || p[a] == last[a]) ? 1.0 : 0.5;
-        g[a] = (grid_value(hi) - grid_value(lo)) * w;
+        g[a] = (cell_value(c, hi) - cell_value(c, lo)) * w;
     }
     return g;
 }
 
 // The point gradients of u's cell interpolated trilinearly at u (z, then y, then x, as
-// `trilinear_local`), in world units.
-vec3 smooth_gradient(vec3 u) {
+// `trilinear_local`), in world units. The points are read for cell `via`, the cell the hit was
+// found in: u's cell (cell_of) is `via` or, for a hit on via's far face, its neighbour across it,
+// whose far points then weigh 0 and whose other points are within POOL_APRON of via's brick.
+vec3 smooth_gradient(ivec3 via, vec3 u) {
     ivec3 c = cell_of(u);
     vec3 f = u - vec3(c);
-    vec3 g00 = mix(point_gradient(c), point_gradient(c + ivec3(0, 0, 1)), f.z);
-    vec3 g10 = mix(point_gradient(c + ivec3(1, 0, 0)), point_gradient(c + ivec3(1, 0, 1)), f.z);
-    vec3 g01 = mix(point_gradient(c + ivec3(0, 1, 0)), point_gradient(c + ivec3(0, 1, 1)), f.z);
-    vec3 g11 = mix(point_gradient(c + ivec3(1, 1, 0)), point_gradient(c + ivec3(1, 1, 1)), f.z);
+    vec3 g00 = mix(point_gradient(via, c), point_gradient(via, c + ivec3(0, 0, 1)), f.z);
+    vec3 g10 = mix(point_gradient(via, c + ivec3(1, 0, 0)), point_gradient(via, c + ivec3(1, 0, 1)), f.z);
+    vec3 g01 = mix(point_gradient(via, c + ivec3(0, 1, 0)), point_gradient(via, c + ivec3(0, 1, 1)), f.z);
+    vec3 g11 = mix(point_gradient(via, c + ivec3(1, 1, 0)), point_gradient(via, c + ivec3(1, 1, 1)), f.z);
     vec3 g = mix(mix(g00, g01, f.y), mix(g10, g11, f.y), f.x);
     return g * P.inv_spacing.xyz;
 }
 
-// The normal the scene asks for at grid coordinates u, given the exact one: unchanged for
-// "trilinear"; for "smooth" the interpolated point gradient, inside to outside, or `exact`
-// where it vanishes.
-vec3 scene_normal(vec3 u, vec3 exact) {
+// The normal the scene asks for at grid coordinates u (a hit found in cell `via`), given the
+// exact one: unchanged for "trilinear"; for "smooth" the interpolated point gradient, inside to
+// outside, or `exact` where it vanishes.
+vec3 scene_normal(vec3 u, ivec3 via, vec3 exact) {
     if (P.view.y != NORMALS_SMOOTH) return exact;
-    vec3 g = smooth_gradient(u) * P.surface.y;
+    vec3 g = smooth_gradient(via, u) * P.surface.y;
     float len = length(g);
     return len > 0.0 && !isinf(len) ? g / len : exact;
 }

@@ -133,8 +133,25 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         );
         bar
     });
-    // A field that does not depend on time is sampled and uploaded once.
+    // A field that does not depend on time is sampled and uploaded once; a memory-mapped one
+    // (`field.residency`) is scanned and its active bricks uploaded once.
     let mut cached: Option<(crate::field::Grid, GpuGrid)> = None;
+    let limits = crate::field::GridLimits::from_env().map_err(Failure::input)?;
+    if let Some(mapped) = crate::render::pool::mapped_for(&scene, &limits).map_err(pool_failure)? {
+        #[cfg(feature = "mpi")]
+        if world.is_some() {
+            return Err(Failure::input(
+                "field.residency = \"active\" is not available under MPI (each rank uploads its \
+                 block of the whole grid instead)",
+            ));
+        }
+        let pooled = crate::render::pool::upload_for(&ctx, &scene, &mapped, &limits)
+            .map_err(pool_failure)?;
+        if rank0 {
+            eprintln!("isoview: {}", pooled.summary);
+        }
+        cached = Some((pooled.shape, pooled.gpu));
+    }
     for (time, exr, png) in &frames {
         let started = Instant::now();
         if cached.is_none() || scene.field.is_time_varying() {
@@ -213,6 +230,13 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         bar.finish();
     }
     Ok(0)
+}
+
+fn pool_failure(e: crate::render::pool::PoolError) -> Failure {
+    match e {
+        crate::render::pool::PoolError::Gpu(g) => Failure::gpu(g),
+        other => Failure::input(other),
+    }
 }
 
 fn render_failure(e: crate::render::RenderError) -> Failure {

@@ -58,6 +58,26 @@ pub enum FieldError {
     )]
     TooLarge { what: String, dims: [u64; 3], bytes: u128, cap: u64 },
 
+    /// `field.residency = "active"`: the bricks the isovalues need, with the brick tables
+    /// (min/max and page table: 12 bytes a brick), would exceed the memory cap.
+    #[error(
+        "{what}: the bricks the isovalues need ({resident} of {bricks} bricks of 8^3 cells) and \
+         the brick tables take {} on the device, over the cap of {}; raise the cap with \
+         {GRID_CAP_ENV}={} (or GridLimits::max_bytes)",
+        mib(*bytes as u128), mib(*cap as u128), bytes.div_ceil(1 << 20)
+    )]
+    PoolTooLarge { what: String, resident: usize, bricks: usize, bytes: u64, cap: u64 },
+
+    /// `field.residency = "active"`: the brick tables alone would exceed the memory cap
+    /// (refused before the file is scanned).
+    #[error(
+        "{what}: a grid of {}x{}x{} points has {bricks} bricks of 8^3 cells, whose tables \
+         (min/max and page table, 12 bytes a brick) take {} on the device, over the cap of {}; \
+         raise the cap with {GRID_CAP_ENV}={} (or GridLimits::max_bytes)",
+        dims[0], dims[1], dims[2], mib(*bytes as u128), mib(*cap as u128), bytes.div_ceil(1 << 20)
+    )]
+    TablesTooLarge { what: String, dims: [usize; 3], bricks: u64, bytes: u64, cap: u64 },
+
     /// A sample is NaN or infinite; `index` is the first such grid point (x fastest).
     #[error("{what}: value {value} at grid point [{}, {}, {}]{detail} is not finite", index[0], index[1], index[2])]
     NonFinite { what: String, index: [usize; 3], value: f32, detail: String },

@@ -18,6 +18,27 @@ pub struct FieldSpec {
     /// Where the grid's frame sits in world space (identity unless a file's header orients
     /// it); every method works in the grid's frame and maps its outputs through this.
     pub placement: Placement,
+    /// How much of the grid is read and uploaded (`field.residency`; `npy` and `raw` only).
+    pub residency: Residency,
+}
+
+/// `field.residency`: whether a render reads the whole grid or only the bricks its isovalues
+/// need from a memory-mapped file (README "Large data").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Residency {
+    /// The whole grid, read into memory and uploaded (the cap applies to the grid).
+    #[default]
+    Whole,
+    /// The file memory-mapped; the ray methods upload only the active bricks (the cap applies
+    /// to them), `extract` streams slabs; other commands refuse.
+    Active,
+    /// `Active` when the whole grid is over the cap, else `Whole`.
+    Auto,
+}
+
+impl Residency {
+    pub const NAMES: [(&'static str, Residency); 3] =
+        [("whole", Residency::Whole), ("active", Residency::Active), ("auto", Residency::Auto)];
 }
 
 impl FieldSpec {
@@ -28,6 +49,7 @@ impl FieldSpec {
             resolution: [2, 2, 2],
             bounds,
             placement: Placement::IDENTITY,
+            residency: Residency::Whole,
         }
     }
 
@@ -43,6 +65,7 @@ impl FieldSpec {
             resolution,
             bounds,
             placement: Placement::IDENTITY,
+            residency: Residency::Whole,
         }
     }
 
@@ -53,6 +76,7 @@ impl FieldSpec {
             bounds: Bounds { min: grid.min, max: grid.max },
             source: FieldSource::Grid(std::sync::Arc::new(grid)),
             placement: Placement::IDENTITY,
+            residency: Residency::Whole,
         }
     }
 
@@ -67,6 +91,7 @@ impl FieldSpec {
             resolution,
             bounds,
             placement: Placement::IDENTITY,
+            residency: Residency::Whole,
         })
     }
 

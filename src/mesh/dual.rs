@@ -183,9 +183,7 @@ pub(crate) fn extract(
     qef: Option<&DcQef>,
 ) -> Result<Mesh, MeshError> {
     let layers = cell_layers(f, boundary);
-    slabs::run(f, layers, layers, opts.keep_quads, |cells| {
-        extract_slab(f, boundary, opts, qef, cells)
-    })
+    slabs::run(layers, layers, opts.keep_quads, |cells| extract_slab(f, boundary, opts, qef, cells))
 }
 
 /// Padding of the grid for `boundary`.
@@ -285,7 +283,7 @@ pub(crate) fn extract_slab(
             }
         }
     }
-    Ok(Part { verts, indices, quads, centres: Vec::new() })
+    Ok(Part { verts, indices, quads, added: Vertices::default() })
 }
 
 /// Appends the two triangles of `quad` per `rule`.

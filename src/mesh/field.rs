@@ -8,10 +8,17 @@ use crate::field::Grid;
 use crate::vocab::Inside;
 
 pub(crate) struct Field<'a> {
-    pub grid: &'a Grid,
+    /// The samples held: point layers `first..first + grid.dims[2]` of the whole grid (all
+    /// of it unless this is a window, see `window`).
+    grid: &'a Grid,
+    /// The first point layer `grid` holds.
+    first: usize,
     pub iso: f64,
     pub inside: Inside,
+    /// Points of the whole grid, which every index (`i, j, k`, index-space `u`) refers to.
     pub dims: [usize; 3],
+    /// World-space corner of the whole grid's point (0, 0, 0).
+    min: DVec3,
     /// World-space size of one cell.
     spacing: DVec3,
 }
@@ -56,17 +63,47 @@ pub(crate) fn trilinear(v: &[f64; 8], x: f64, y: f64, z: f64) -> f64 {
 
 impl<'a> Field<'a> {
     pub fn new(grid: &'a Grid, iso: f64, inside: Inside) -> Self {
-        Field { grid, iso, inside, dims: grid.dims, spacing: grid.spacing() }
+        Field {
+            grid,
+            first: 0,
+            iso,
+            inside,
+            dims: grid.dims,
+            min: grid.min,
+            spacing: grid.spacing(),
+        }
     }
 
-    /// Linear index of point `(i, j, k)`.
+    /// The field of the whole grid `lattice` of which `grid` holds the point layers
+    /// `first..first + grid.dims[2]` (its x and y extents are the whole grid's). Indices stay
+    /// the whole grid's, so the arithmetic, and every result, is the whole grid's bit for bit;
+    /// reading a point layer outside the window panics (an index out of bounds), which the
+    /// window tests rely on to prove `window::point_layers` holds enough.
+    pub fn window(
+        grid: &'a Grid,
+        first: usize,
+        lattice: &super::window::Lattice,
+        iso: f64,
+        inside: Inside,
+    ) -> Self {
+        debug_assert_eq!(grid.dims[..2], lattice.dims[..2]);
+        let (dims, min, spacing) = (lattice.dims, lattice.min, lattice.spacing());
+        Field { grid, first, iso, inside, dims, min, spacing }
+    }
+
+    /// Linear index of point `(i, j, k)` in the whole grid.
     pub fn index(&self, i: usize, j: usize, k: usize) -> usize {
         i + self.dims[0] * (j + self.dims[1] * k)
     }
 
+    /// Index into the held samples of point `(i, j, k)` of the whole grid.
+    fn held(&self, i: usize, j: usize, k: usize) -> usize {
+        i + self.dims[0] * (j + self.dims[1] * (k - self.first))
+    }
+
     /// Sample at point `(i, j, k)`, widened to f64.
     pub fn value(&self, i: usize, j: usize, k: usize) -> f64 {
-        f64::from(self.grid.values[self.index(i, j, k)])
+        f64::from(self.grid.values[self.held(i, j, k)])
     }
 
     /// The inside rule at point `(i, j, k)`.
@@ -76,7 +113,7 @@ impl<'a> Field<'a> {
 
     /// Corner values of cell `(i, j, k)` in f64.
     pub fn corners(&self, i: usize, j: usize, k: usize) -> [f64; 8] {
-        self.grid.corners(i, j, k).map(f64::from)
+        self.grid.corners(i, j, k - self.first).map(f64::from)
     }
 
     /// Bitmask of the inside corners of cell `(i, j, k)`: bit `n` for corner `n`.
@@ -97,7 +134,7 @@ impl<'a> Field<'a> {
 
     /// World-space position of index-space point `u`.
     pub fn world_f64(&self, u: DVec3) -> DVec3 {
-        self.grid.min + u * self.spacing
+        self.min + u * self.spacing
     }
 
     /// World-space size of one cell.
@@ -107,7 +144,7 @@ impl<'a> Field<'a> {
 
     /// World-space position of index-space point `u`, rounded to f32.
     pub fn world(&self, u: DVec3) -> [f32; 3] {
-        let p = self.grid.min + u * self.spacing;
+        let p = self.min + u * self.spacing;
         [p.x as f32, p.y as f32, p.z as f32]
     }
 

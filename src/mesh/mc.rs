@@ -42,7 +42,7 @@ pub(crate) fn case_index(corner_mask: u8) -> usize {
 /// The reference: the whole grid as one slab.
 pub(crate) fn extract(f: &Field) -> Result<Mesh, MeshError> {
     let layers = f.dims[2] - 1;
-    slabs::run(f, layers, layers, false, |cells| extract_slab(f, cells))
+    slabs::run(layers, layers, false, |cells| extract_slab(f, cells))
 }
 
 /// The vertices of the edges starting in point layers `cells` (and in the last point layer if

@@ -499,7 +499,7 @@ fn tube(p: &[usize], q: &[usize], pos: &dyn Fn(usize) -> DVec3) -> Vec<[Vert; 3]
 /// The reference: the whole grid as one slab.
 pub(crate) fn extract(f: &Field) -> Result<Mesh, MeshError> {
     let layers = f.dims[2] - 1;
-    slabs::run(f, layers, layers, false, |cells| extract_slab(f, cells))
+    slabs::run(layers, layers, false, |cells| extract_slab(f, cells))
 }
 
 /// The edge vertices of the edges starting in point layers `cells` (and in the last point
@@ -509,9 +509,10 @@ pub(crate) fn extract_slab(f: &Field, cells: Range<usize>) -> Result<Part, MeshE
     let [nx, ny, _] = f.dims;
     let mut verts = Vertices::default();
     let mut indices = Vec::new();
-    // Added vertices (index-space position, fallback normal direction), numbered after all
-    // edge vertices; triangles refer to added vertex c as `u32::MAX - c` until the end.
-    let mut centres: Vec<(DVec3, DVec3)> = Vec::new();
+    // Added vertices, numbered after all edge vertices; triangles refer to added vertex c as
+    // `u32::MAX - c` until the join. Positioned here, where the field is at hand (a window's
+    // join may run where it is not, see `window`).
+    let mut centres = Vertices::default();
     let mut edges = EdgeLayers::new(f, FAMILIES);
     let sign = match f.inside {
         Inside::Below => -1.0,
@@ -588,8 +589,8 @@ pub(crate) fn extract_slab(f: &Field, cells: Range<usize>) -> Result<Part, MeshE
                                             }
                                             Vert::Edge(_) => unreachable!(),
                                         };
-                                        let id = u32::MAX - centres.len() as u32;
-                                        centres.push((u, dir));
+                                        let id = u32::MAX - centres.positions.len() as u32;
+                                        centres.push(f, u, dir)?;
                                         added.push((v, id));
                                         id
                                     }
@@ -602,5 +603,5 @@ pub(crate) fn extract_slab(f: &Field, cells: Range<usize>) -> Result<Part, MeshE
             }
         }
     }
-    Ok(Part { verts, indices, quads: Vec::new(), centres })
+    Ok(Part { verts, indices, quads: Vec::new(), added: centres })
 }

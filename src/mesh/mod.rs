@@ -68,6 +68,7 @@ mod emc;
 pub mod export;
 mod field;
 mod hermite;
+pub mod mapped;
 mod mc;
 mod mc33;
 mod mt;
@@ -78,6 +79,7 @@ pub mod stats;
 pub mod tables;
 #[cfg(test)]
 mod tests;
+pub mod window;
 
 use crate::field::{Grid, PointField};
 use crate::vocab::{HermiteNormals, Inside, MeshAlgorithm, SharpSettings};
@@ -191,6 +193,10 @@ pub enum MeshError {
     BadGrid { dims: [usize; 3], got: usize, want: usize },
     #[error("the mesh would have more than 2^32 - 1 {what}; use a coarser grid")]
     TooLarge { what: &'static str },
+    #[error("{0} is not extracted in z-ranges")]
+    NotInSlabs(&'static str),
+    #[error("bad window: {0}")]
+    BadWindow(String),
     #[error(
         "hermite = \"source\" needs a source that can be evaluated off the grid (sdf, expr, \
          corners, mesh); use hermite = \"trilinear\""
@@ -338,42 +344,14 @@ pub fn extract_in_slabs_with(
 ) -> Result<Mesh, MeshError> {
     check(grid, iso)?;
     let f = field::Field::new(grid, iso, inside);
-    let f = &f;
-    let layers = match algo {
-        MeshAlgorithm::SurfaceNets => dual::cell_layers(f, dual::Boundary::Open),
-        MeshAlgorithm::DualContouring | MeshAlgorithm::DualContouringQef => {
-            dual::cell_layers(f, dual::Boundary::Closed)
-        }
-        _ => grid.dims[2] - 1,
-    };
-    let depth = depth.unwrap_or_else(|| slabs::default_depth(layers));
-    match algo {
-        MeshAlgorithm::MarchingCubes => {
-            slabs::run(f, layers, depth, false, |c| mc::extract_slab(f, c))
-        }
-        MeshAlgorithm::MarchingTetrahedra => {
-            slabs::run(f, layers, depth, false, |c| mt::extract_slab(f, c))
-        }
-        MeshAlgorithm::Mc33 => slabs::run(f, layers, depth, false, |c| mc33::extract_slab(f, c)),
-        MeshAlgorithm::SurfaceNets => slabs::run(f, layers, depth, opts.keep_quads, |c| {
-            dual::extract_slab(f, dual::Boundary::Open, opts, None, c)
-        }),
-        MeshAlgorithm::DualContouring => slabs::run(f, layers, depth, opts.keep_quads, |c| {
-            dual::extract_slab(f, dual::Boundary::Closed, opts, None, c)
-        }),
-        MeshAlgorithm::DualContouringQef => {
-            let q = dc_qef(f, sharp, source)?;
-            if let Some(eps) = sharp.mesh_error {
-                // Not cut into slabs (see `octree`): the reference itself.
-                return octree::extract(&q, eps);
-            }
-            slabs::run(f, layers, depth, opts.keep_quads, |c| {
-                dual::extract_slab(f, dual::Boundary::Closed, opts, Some(&q), c)
-            })
-        }
-        // Not cut into slabs (see `emc`): the reference itself.
-        MeshAlgorithm::ExtendedMc => emc(f, sharp, source)?.extract(),
+    if window::not_in_slabs(algo, sharp).is_some() {
+        // Not cut into slabs (see `emc`, `octree`): the reference itself.
+        return extract_with(grid, iso, inside, algo, opts, sharp, source);
     }
+    let layers = window::cell_layers(algo, grid.dims);
+    let depth = depth.unwrap_or_else(|| slabs::default_depth(layers));
+    let x = window::Extraction { iso, inside, algo, opts, sharp, source };
+    slabs::finish(window::extract_part(&f, &x, 0..layers, depth)?, x.keeps_quads())
 }
 
 /// Rejects a non-finite isovalue and a grid whose samples do not match its dimensions.

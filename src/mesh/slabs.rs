@@ -22,34 +22,40 @@
 //! (and quads) are written in cell (or edge) order within a slab, and slabs are joined in
 //! order, which is the reference's order.
 //!
-//! MC33's added vertices come after all edge vertices; a slab refers to its `c`-th added
-//! vertex as `u32::MAX - c` (as the reference does), and the join replaces the placeholder by
-//! the total edge vertex count plus the added vertices of the slabs below plus `c`.
+//! MC33's added vertices come after all edge vertices; a slab positions its `c`-th added
+//! vertex itself (the field is at hand there) and refers to it as `u32::MAX - c` (as the
+//! reference does); the join replaces the placeholder by the total edge vertex count plus the
+//! added vertices of the slabs below plus `c`.
+//!
+//! The join is incremental ([`Join`]): slabs are pushed in order, and the joined slabs so far
+//! are themselves a part of the same form (local ids from 0, the next slab's vertices past its
+//! own, added vertices as placeholders), so consecutive slabs can be joined where they were
+//! extracted and the results joined again: a rank joins its slabs, rank 0 joins the ranks'
+//! (`window`, `cluster`).
 //!
 //! The reference itself is the one-slab case of the same functions.
 
 use std::ops::Range;
 
-use glam::DVec3;
 use rayon::prelude::*;
 
 use super::edges::Vertices;
-use super::field::Field;
 use super::{to_u32, Mesh, MeshError};
 
 /// What one slab extracted, numbered locally (its first own vertex is 0).
 #[derive(Default)]
 pub(crate) struct Part {
-    /// The slab's own vertices, in the reference's order.
+    /// The slab's own vertices, in the reference's order (followed, until the join, by the
+    /// positions of the dual methods' borrowed vertices, see [`Vertices::push_borrowed`]).
     pub verts: Vertices,
-    /// Triangles, three local vertex ids each; ids at or past `verts.positions.len()` are
-    /// vertices of the next slab; ids above `u32::MAX - centres.len()` are added vertices
-    /// (MC33).
+    /// Triangles, three local vertex ids each; ids at or past `verts.normals.len()` are
+    /// vertices of the next slab; ids above `u32::MAX - added.normals.len()` are added
+    /// vertices (MC33).
     pub indices: Vec<u32>,
     /// Quads of the dual methods, four local vertex ids each.
     pub quads: Vec<u32>,
-    /// MC33's added vertices: index-space position and fallback normal direction.
-    pub centres: Vec<(DVec3, DVec3)>,
+    /// MC33's added vertices, positioned, in the order of their placeholders.
+    pub added: Vertices,
 }
 
 /// Default slab depth for `layers` cell layers: about 8 slabs per worker thread, so that
@@ -60,86 +66,112 @@ pub(crate) fn default_depth(layers: usize) -> usize {
     layers.div_ceil(8 * threads).max(4)
 }
 
-/// Extracts the `layers` cell layers in slabs of `depth` layers (the last one shorter) on the
-/// current rayon pool with `slab`, and joins the parts. `keep_quads` returns the quads too.
+/// Extracts the cell layers `cells` in slabs of `depth` layers (the last one shorter) on the
+/// current rayon pool with `slab`, and joins the parts into one part (numbered from the
+/// first vertex of `cells`). No layers: an empty part.
+pub(crate) fn run_part(
+    cells: Range<usize>,
+    depth: usize,
+    slab: impl Fn(Range<usize>) -> Result<Part, MeshError> + Sync,
+) -> Result<Part, MeshError> {
+    let depth = depth.max(1);
+    let ranges: Vec<Range<usize>> =
+        cells.clone().step_by(depth).map(|a| a..(a + depth).min(cells.end)).collect();
+    let parts = match ranges.len() {
+        0 => return Ok(Part::default()),
+        1 => vec![slab(ranges[0].clone())?],
+        _ => ranges.into_par_iter().map(&slab).collect::<Result<Vec<_>, _>>()?,
+    };
+    let mut join = Join::default();
+    for p in parts {
+        join.push(p)?;
+    }
+    Ok(join.part)
+}
+
+/// [`run_part`] over all `layers` cell layers, finished into the mesh; `keep_quads` returns
+/// the quads too.
 pub(crate) fn run(
-    f: &Field,
     layers: usize,
     depth: usize,
     keep_quads: bool,
     slab: impl Fn(Range<usize>) -> Result<Part, MeshError> + Sync,
 ) -> Result<Mesh, MeshError> {
-    let depth = depth.max(1);
-    let ranges: Vec<Range<usize>> =
-        (0..layers).step_by(depth).map(|a| a..(a + depth).min(layers)).collect();
-    let parts = if ranges.len() == 1 {
-        vec![slab(ranges[0].clone())?]
-    } else {
-        ranges.into_par_iter().map(&slab).collect::<Result<Vec<_>, _>>()?
-    };
-    join(f, parts, keep_quads)
+    let part = run_part(0..layers, depth, slab)?;
+    finish(part, keep_quads)
 }
 
-/// Joins the slabs' parts (in slab order) into one mesh in the reference's numbering.
-pub(crate) fn join(f: &Field, mut parts: Vec<Part>, keep_quads: bool) -> Result<Mesh, MeshError> {
-    // Offsets: exclusive prefix sums of the edge (or cell) vertices and the added vertices.
-    let mut offsets = Vec::with_capacity(parts.len());
-    let (mut edge_total, mut centre_total) = (0usize, 0usize);
-    for p in &parts {
-        offsets.push((edge_total, centre_total));
-        edge_total += p.verts.normals.len();
-        centre_total += p.centres.len();
-    }
-    to_u32(edge_total + centre_total, "vertices")?;
-    to_u32(parts.iter().map(|p| p.indices.len()).sum(), "indices")?;
+/// Joins parts pushed in slab order; the joined part numbers its vertices from 0.
+#[derive(Default)]
+pub(crate) struct Join {
+    pub part: Part,
+}
 
-    // Renumber: local id + the slab's offset; added vertex c of the slab after every edge
-    // vertex and every added vertex of the slabs below.
-    let renumber = |p: &mut Part, (edge_off, centre_off): (usize, usize)| {
-        let first = u32::MAX - p.centres.len() as u32;
-        let has_centres = !p.centres.is_empty();
-        for x in p.indices.iter_mut().chain(p.quads.iter_mut()) {
-            *x = if has_centres && *x > first {
-                (edge_total + centre_off) as u32 + (u32::MAX - *x)
-            } else {
-                *x + edge_off as u32
-            };
-        }
-    };
-    if parts.len() == 1 {
-        renumber(&mut parts[0], offsets[0]);
-    } else {
-        parts.par_iter_mut().zip(offsets).for_each(|(p, o)| renumber(p, o));
-    }
-
-    let mut parts = parts.into_iter();
-    let mut first = parts.next().unwrap_or_default();
-    first.verts.drop_borrowed();
-    let mut mesh = Mesh {
-        positions: first.verts.positions,
-        normals: first.verts.normals,
-        indices: first.indices,
-        quads: Some(first.quads),
-    };
-    let mut centres = first.centres;
-    for mut p in parts {
+impl Join {
+    /// Appends the next slab's part: its local ids move past the vertices joined so far (the
+    /// ids of its next slab's vertices with them), its placeholders past the added vertices
+    /// joined so far.
+    pub fn push(&mut self, mut p: Part) -> Result<(), MeshError> {
         p.verts.drop_borrowed();
-        mesh.positions.extend_from_slice(&p.verts.positions);
-        mesh.normals.extend_from_slice(&p.verts.normals);
-        mesh.indices.extend_from_slice(&p.indices);
-        if let Some(q) = &mut mesh.quads {
-            q.extend_from_slice(&p.quads);
+        let all = &mut self.part;
+        let edge_off = all.verts.normals.len();
+        let added_off = all.added.normals.len();
+        let vertices = edge_off + p.verts.normals.len() + added_off + p.added.normals.len();
+        to_u32(vertices, "vertices")?;
+        to_u32(all.indices.len() + p.indices.len(), "indices")?;
+        let (edge_off, added_off) = (edge_off as u32, added_off as u32);
+        let first_added = u32::MAX - p.added.normals.len() as u32;
+        let has_added = !p.added.normals.is_empty();
+        // An id of the next slab may pass 2^32 - 1 when the whole mesh would; `finish` rejects
+        // that mesh, so wrapping here changes no result.
+        let renumber = |x: &mut u32| {
+            *x = if has_added && *x > first_added {
+                *x - added_off
+            } else {
+                x.wrapping_add(edge_off)
+            };
+        };
+        p.indices.par_iter_mut().with_min_len(1 << 16).for_each(renumber);
+        p.quads.par_iter_mut().with_min_len(1 << 16).for_each(renumber);
+        if edge_off == 0 && added_off == 0 && all.indices.is_empty() && all.quads.is_empty() {
+            *all = p;
+            return Ok(());
         }
-        centres.extend_from_slice(&p.centres);
+        all.verts.positions.extend_from_slice(&p.verts.positions);
+        all.verts.normals.extend_from_slice(&p.verts.normals);
+        all.indices.extend_from_slice(&p.indices);
+        all.quads.extend_from_slice(&p.quads);
+        all.added.positions.extend_from_slice(&p.added.positions);
+        all.added.normals.extend_from_slice(&p.added.normals);
+        Ok(())
     }
-    if !centres.is_empty() {
-        let added: Vec<([f32; 3], [f32; 3])> =
-            centres.par_iter().map(|&(u, dir)| (f.world(u), f.normal(u, dir))).collect();
-        mesh.positions.extend(added.iter().map(|a| a.0));
-        mesh.normals.extend(added.iter().map(|a| a.1));
+}
+
+/// The mesh of a part that holds every slab (every id its own): the added vertices after
+/// every edge vertex, placeholders replaced by their ids; `keep_quads` keeps the quads.
+pub(crate) fn finish(part: Part, keep_quads: bool) -> Result<Mesh, MeshError> {
+    let Part { mut verts, mut indices, mut quads, added } = part;
+    verts.drop_borrowed();
+    let edge_total = verts.normals.len();
+    to_u32(edge_total + added.normals.len(), "vertices")?;
+    if !added.normals.is_empty() {
+        let first_added = u32::MAX - added.normals.len() as u32;
+        let edge_total = edge_total as u32;
+        let place = |x: &mut u32| {
+            if *x > first_added {
+                *x = edge_total + (u32::MAX - *x);
+            }
+        };
+        indices.par_iter_mut().with_min_len(1 << 16).for_each(place);
+        quads.par_iter_mut().with_min_len(1 << 16).for_each(place);
     }
-    if !keep_quads {
-        mesh.quads = None;
-    }
+    let mut mesh = Mesh {
+        positions: verts.positions,
+        normals: verts.normals,
+        indices,
+        quads: keep_quads.then_some(quads),
+    };
+    mesh.positions.extend_from_slice(&added.positions);
+    mesh.normals.extend_from_slice(&added.normals);
     Ok(mesh)
 }

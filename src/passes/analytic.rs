@@ -30,3 +30,15 @@ pub fn pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
         std::mem::size_of::<super::Band>() as u32,
     )
 }
+
+/// The `GRID_POOL` variant (`field.residency = "active"`; bindings
+/// [`POOL_BINDINGS`](super::raymarch::POOL_BINDINGS)).
+pub fn pool_pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
+    ComputePipeline::new(
+        ctx,
+        "analytic (brick pool)",
+        shaders::ANALYTIC_POOL,
+        &super::raymarch::POOL_BINDINGS,
+        std::mem::size_of::<super::Band>() as u32,
+    )
+}

@@ -36,11 +36,42 @@ pub fn pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
     )
 }
 
+/// Bindings of the `GRID_POOL` variants of both ray passes (`field.residency = "active"`):
+/// params (uniform), pool, pixels, colormap, bricks, page table (storage).
+pub const POOL_BINDINGS: [vk::DescriptorType; 6] = [
+    vk::DescriptorType::UNIFORM_BUFFER,
+    vk::DescriptorType::STORAGE_BUFFER,
+    vk::DescriptorType::STORAGE_BUFFER,
+    vk::DescriptorType::STORAGE_BUFFER,
+    vk::DescriptorType::STORAGE_BUFFER,
+    vk::DescriptorType::STORAGE_BUFFER,
+];
+
+/// The `GRID_POOL` variant of this pass.
+pub fn pool_pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
+    ComputePipeline::new(
+        ctx,
+        "raymarch (brick pool)",
+        shaders::RAYMARCH_POOL,
+        &POOL_BINDINGS,
+        std::mem::size_of::<super::Band>() as u32,
+    )
+}
+
+/// Where a ray pass reads the grid.
+#[derive(Clone, Copy)]
+pub enum GridInput<'a> {
+    /// The whole grid (or an MPI rank's block) as a 3D image.
+    Image(&'a Image3d),
+    /// The brick pool, its page table and the brick min/max grid (`render::pool`).
+    Pool { pool: &'a Buffer, pages: &'a Buffer, bricks: &'a Buffer },
+}
+
 /// What a ray pass (this one or [`super::analytic`]) reads and writes.
 pub struct RayInputs<'a> {
     /// `RenderParams` (uniform).
     pub params: &'a Buffer,
-    pub grid: &'a Image3d,
+    pub grid: GridInput<'a>,
     /// The band's `Pixel`s, written.
     pub pixels: &'a Buffer,
     pub colormap: &'a Buffer,
@@ -57,13 +88,26 @@ pub struct RayPass<'a> {
 
 impl<'a> RayPass<'a> {
     pub fn new(pipeline: &'a ComputePipeline, inputs: RayInputs<'a>) -> Result<Self, GpuError> {
-        let mut resources = vec![
-            Resource::Uniform(inputs.params),
-            Resource::Sampled(inputs.grid),
-            Resource::Storage(inputs.pixels),
-            Resource::Storage(inputs.colormap),
-        ];
-        resources.extend(inputs.bricks.map(Resource::Storage));
+        let resources = match inputs.grid {
+            GridInput::Image(image) => {
+                let mut r = vec![
+                    Resource::Uniform(inputs.params),
+                    Resource::Sampled(image),
+                    Resource::Storage(inputs.pixels),
+                    Resource::Storage(inputs.colormap),
+                ];
+                r.extend(inputs.bricks.map(Resource::Storage));
+                r
+            }
+            GridInput::Pool { pool, pages, bricks } => vec![
+                Resource::Uniform(inputs.params),
+                Resource::Storage(pool),
+                Resource::Storage(inputs.pixels),
+                Resource::Storage(inputs.colormap),
+                Resource::Storage(bricks),
+                Resource::Storage(pages),
+            ],
+        };
         let set = pipeline.bind(&resources)?;
         Ok(RayPass { pipeline, set, inputs })
     }
@@ -78,7 +122,10 @@ impl<'a> RayPass<'a> {
     pub fn record(&self, rec: &mut Recorder, width: u32, band: Band) {
         let i = &self.inputs;
         let mut reads = vec![i.params, i.colormap];
-        reads.extend(i.bricks);
+        match i.grid {
+            GridInput::Image(_) => reads.extend(i.bricks),
+            GridInput::Pool { pool, pages, bricks } => reads.extend([pool, pages, bricks]),
+        }
         rec.dispatch(&Compute {
             pipeline: self.pipeline,
             set: &self.set,

@@ -81,7 +81,7 @@ impl Renderer {
             let extractor = self.extractor.as_mut().expect("created above");
             extractor.extract(
                 grid,
-                &gpu_grid.image,
+                gpu_grid.image("render.method = \"mesh\" with field.residency = \"active\"")?,
                 scene.surface.isovalue,
                 scene.surface.inside,
                 scene.render.mesh,
@@ -133,7 +133,7 @@ impl Renderer {
         let bands = Bands::<Pixel>::new(ctx, "pixels", width, height)?;
         let inputs = MeshInputs {
             params: &params_buf,
-            grid: &gpu_grid.image,
+            grid: gpu_grid.image("render.method = \"mesh\" with field.residency = \"active\"")?,
             mesh,
             colormap: &self.colormap,
             pixels: &bands.out,

@@ -7,6 +7,7 @@ pub mod block;
 pub mod color;
 pub mod mesh;
 pub mod params;
+pub mod pool;
 pub mod sink;
 
 use std::sync::Arc;
@@ -17,7 +18,7 @@ use crate::field::Grid;
 use crate::frame::{Channel, Frame, FrameInfo, Pixel};
 use crate::gpu::{Buffer, ComputePipeline, Context, GpuError, Image3d};
 use crate::passes::mesh_render::MeshPipelines;
-use crate::passes::raymarch::{RayInputs, RayPass};
+use crate::passes::raymarch::{GridInput, RayInputs, RayPass};
 use crate::passes::Bands;
 use crate::passes::{analytic, bricks, raymarch};
 use crate::scene::{Method, Normals, Projection, Scene};
@@ -81,22 +82,32 @@ impl From<crate::passes::extract::GpuMeshError> for RenderError {
     }
 }
 
-/// A grid uploaded to the device: the whole grid, or one process's block of it.
+/// A grid uploaded to the device: the whole grid, one process's block of it, or the bricks
+/// of it an isovalue needs ([`pool`]).
 pub struct GpuGrid {
-    pub image: Image3d,
-    /// Points per axis of the uploaded image.
+    storage: Storage,
+    /// Points per axis of the uploaded image (of the whole grid, for a pool).
     pub dims: [usize; 3],
-    /// The brick min/max grid ([`bricks`]), built by the first analytic render.
+    /// The brick min/max grid ([`bricks`]), built by the first analytic render (given, for a
+    /// pool or a block).
     bricks: std::cell::OnceCell<Buffer>,
     /// The block of a larger grid the image holds (None: the whole grid).
     block: Option<block::Block>,
+}
+
+/// How the grid's points are on the device.
+enum Storage {
+    /// Every point (of the grid or the block), as a 3D image.
+    Image(Image3d),
+    /// The resident bricks' slots and the page table.
+    Pool(pool::Pool),
 }
 
 impl GpuGrid {
     pub fn upload(ctx: &Arc<Context>, grid: &Grid) -> Result<Self, GpuError> {
         let extent = grid.dims.map(|d| d as u32);
         Ok(GpuGrid {
-            image: Image3d::upload(ctx, "grid", extent, &grid.values)?,
+            storage: Storage::Image(Image3d::upload(ctx, "grid", extent, &grid.values)?),
             dims: grid.dims,
             bricks: std::cell::OnceCell::new(),
             block: None,
@@ -114,7 +125,7 @@ impl GpuGrid {
     ) -> Result<Self, GpuError> {
         let extent = block.extent.map(|d| d as u32);
         let grid = GpuGrid {
-            image: Image3d::upload(ctx, "grid block", extent, values)?,
+            storage: Storage::Image(Image3d::upload(ctx, "grid block", extent, values)?),
             dims: block.extent,
             bricks: std::cell::OnceCell::new(),
             block: Some(block),
@@ -122,6 +133,43 @@ impl GpuGrid {
         let buffer = Buffer::upload(ctx, "bricks", bricks, vk::BufferUsageFlags::STORAGE_BUFFER)?;
         let _ = grid.bricks.set(buffer);
         Ok(grid)
+    }
+
+    /// Uploads the bricks of a memory-mapped grid that `residency` names into a brick pool
+    /// ([`pool`]), with the grid's brick min/max grid (`ranges`, from
+    /// [`MappedGrid::brick_ranges`](crate::field::mapped::MappedGrid::brick_ranges)).
+    pub fn upload_pool(
+        ctx: &Arc<Context>,
+        grid: &crate::field::mapped::MappedGrid,
+        ranges: &[[f32; 2]],
+        residency: pool::Residency,
+    ) -> Result<Self, GpuError> {
+        let pool = pool::Pool::upload(ctx, grid, residency)?;
+        let gpu = GpuGrid {
+            storage: Storage::Pool(pool),
+            dims: grid.dims,
+            bricks: std::cell::OnceCell::new(),
+            block: None,
+        };
+        let buffer = Buffer::upload(ctx, "bricks", ranges, vk::BufferUsageFlags::STORAGE_BUFFER)?;
+        let _ = gpu.bricks.set(buffer);
+        Ok(gpu)
+    }
+
+    /// The 3D image of every point; an error for a brick pool, which only the ray methods read.
+    pub fn image(&self, what: &'static str) -> Result<&Image3d, RenderError> {
+        match &self.storage {
+            Storage::Image(image) => Ok(image),
+            Storage::Pool(_) => Err(RenderError::Unsupported(what)),
+        }
+    }
+
+    /// Which bricks are on the device, for a brick pool.
+    pub fn residency(&self) -> Option<&pool::Residency> {
+        match &self.storage {
+            Storage::Image(_) => None,
+            Storage::Pool(p) => Some(&p.residency),
+        }
     }
 
     /// The brick min/max grid, once an analytic render has built it (layout: [`bricks`]).
@@ -153,6 +201,9 @@ pub struct Renderer {
     analytic: ComputePipeline,
     bricks: ComputePipeline,
     colormap: Buffer,
+    /// The `GRID_POOL` ray passes (fixed-step, analytic), built on the first render of a brick
+    /// pool.
+    pool_pipelines: Option<(ComputePipeline, ComputePipeline)>,
     /// The mesh render's pipelines, built on the first mesh render (they need 64-bit atomics).
     mesh: Option<MeshPipelines>,
     /// The GPU mesh extraction, built on the first mesh render.
@@ -193,6 +244,7 @@ impl Renderer {
             analytic,
             bricks,
             colormap,
+            pool_pipelines: None,
             mesh: None,
             extractor: None,
             last_gpu_ms: None,
@@ -290,15 +342,25 @@ impl Renderer {
         band_rows: u32,
         sink: &mut dyn FrameSink,
     ) -> Result<(), RenderError> {
+        if gpu_grid.residency().is_some() && self.pool_pipelines.is_none() {
+            self.pool_pipelines =
+                Some((raymarch::pool_pipeline(&self.ctx)?, analytic::pool_pipeline(&self.ctx)?));
+        }
         let pipeline = match scene.render.method {
             Method::FixedStep => &self.raymarch,
             Method::Analytic => &self.analytic,
             Method::Mesh => return Err(RenderError::Unsupported("mesh (as a ray pass)")),
         };
+        let pipeline = match (&self.pool_pipelines, gpu_grid.residency()) {
+            (Some((fixed, _)), Some(_)) if scene.render.method == Method::FixedStep => fixed,
+            (Some((_, exact)), Some(_)) => exact,
+            _ => pipeline,
+        };
         let ctx = &self.ctx;
         self.last_bricks_ms = None;
         if scene.render.method == Method::Analytic && gpu_grid.bricks.get().is_none() {
-            let (built, ms) = bricks::build(ctx, &self.bricks, &gpu_grid.image, gpu_grid.dims)?;
+            let image = gpu_grid.image("the brick min/max grid of a brick pool")?;
+            let (built, ms) = bricks::build(ctx, &self.bricks, image, gpu_grid.dims)?;
             let _ = gpu_grid.bricks.set(built);
             self.last_bricks_ms = ms;
         }
@@ -326,11 +388,21 @@ impl Renderer {
             Method::Analytic => gpu_grid.bricks.get(),
             _ => None,
         };
+        let grid_input = match &gpu_grid.storage {
+            Storage::Image(image) => GridInput::Image(image),
+            Storage::Pool(p) => GridInput::Pool {
+                pool: &p.pool,
+                pages: &p.pages,
+                bricks: gpu_grid.bricks.get().ok_or_else(|| {
+                    GpuError::Bug("a brick pool was uploaded without its brick grid".into())
+                })?,
+            },
+        };
         let pass = RayPass::new(
             pipeline,
             RayInputs {
                 params: &params_buf,
-                grid: &gpu_grid.image,
+                grid: grid_input,
                 pixels: &bands.out,
                 colormap: &self.colormap,
                 bricks,

@@ -17,7 +17,7 @@ use super::read::{self, choice, integer, number_where, points3, string, vec3, Re
 use super::tree::{Origin, Source};
 use super::validate::show_vec;
 use super::Bounds;
-use crate::field::{FieldError, FieldSpec, GridLimits, Need, Params, Rule, SourceKind};
+use crate::field::{FieldError, FieldSpec, GridLimits, Need, Params, Residency, Rule, SourceKind};
 use crate::vocab::Placement;
 
 const COMMON: [&str; 2] = ["source", "bounds"];
@@ -90,6 +90,14 @@ fn field_named(root: &View, name: &str, base_dir: &Path, limits: &GridLimits) ->
         })
     })?;
 
+    // `residency` (npy and raw: the kinds listing it): with "active" or "auto" the whole grid
+    // may be over the cap (the cap then applies to the bricks a render uploads).
+    let residency = match t.get("residency") {
+        Some(node) => choice(t.src, &t.key("residency"), node, &Residency::NAMES)?,
+        None => Residency::Whole,
+    };
+    let unlimited = GridLimits { max_bytes: u64::MAX };
+    let limits = if residency == Residency::Whole { limits } else { &unlimited };
     let parsed = kind.parse(&FieldParams { t: &t, base_dir, limits })?;
     // A `bounds` key wins over a file header's box and orientation (kinds that set their own
     // box refuse the key above); without either, the grid's index space.
@@ -98,7 +106,13 @@ fn field_named(root: &View, name: &str, base_dir: &Path, limits: &GridLimits) ->
         (None, Some(b)) => (b, parsed.placement.unwrap_or_default()),
         (None, None) => (Bounds::index_space(parsed.resolution), Placement::IDENTITY),
     };
-    Ok(FieldSpec { source: parsed.source, resolution: parsed.resolution, bounds, placement })
+    Ok(FieldSpec {
+        source: parsed.source,
+        resolution: parsed.resolution,
+        bounds,
+        placement,
+        residency,
+    })
 }
 
 /// The `[field]` table as a source's [`Params`].

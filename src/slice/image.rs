@@ -178,7 +178,9 @@ impl SliceRenderer {
             &self.pipeline,
             SliceInputs {
                 params: &params_buf,
-                grid: &grid.image,
+                grid: grid
+                    .image("a slice of a brick pool")
+                    .map_err(|e| GpuError::Bug(e.to_string()))?,
                 pixels: &bands.out,
                 colormap: &self.colormap,
                 tile_starts: &start,

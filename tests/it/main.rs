@@ -30,6 +30,7 @@ mod physical;
 mod placement;
 mod projection;
 mod render;
+mod residency;
 mod scene;
 mod serve;
 mod sharp;

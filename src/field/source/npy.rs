@@ -9,7 +9,7 @@ use crate::field::{FieldError, Grid, GridLimits, NpySource};
 
 pub(super) const INFO: Info = Info {
     name: "npy",
-    keys: &["path"],
+    keys: &["path", "residency"],
     own_box: None,
     supports: Supports { point: false, time: false },
 };

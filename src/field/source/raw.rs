@@ -8,7 +8,7 @@ use crate::field::{Endian, FieldError, Grid, GridLimits, RawSource, SampleType};
 
 pub(super) const INFO: Info = Info {
     name: "raw",
-    keys: &["path", "dims", "dtype", "endian"],
+    keys: &["path", "dims", "dtype", "endian", "residency"],
     own_box: None,
     supports: Supports { point: false, time: false },
 };

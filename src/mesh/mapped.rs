@@ -1,0 +1,50 @@
+//! Extraction from a memory-mapped grid (`field.residency = "active"`): the cell layers in
+//! z-ranges, each read from the map into a window of the point layers it needs
+//! ([`super::window`]), extracted, joined, and the window dropped before the next is read, so
+//! memory holds one window and the mesh, never the grid.
+//!
+//! A window whose every point is outside the surface holds no vertex and no face (no edge
+//! changes sign, and the closing faces of `dual-contouring` only close inside regions), so its
+//! range joins as an empty mesh without being extracted: on a sparse file, reading it is all
+//! the work. The joined mesh is the whole grid's bit for bit (`tests/it/residency.rs`).
+
+use super::window::{self, Extraction, Joiner, Lattice, SlabMesh};
+use super::{Mesh, MeshError};
+use crate::field::mapped::MappedGrid;
+
+/// Bytes of samples one window holds at most (at least its range's point layers).
+pub const WINDOW_BYTES: usize = 256 << 20;
+
+/// The mesh of `x` over the whole mapped grid, read `window_bytes` at a time (at most; at least
+/// the layers one cell layer needs).
+pub fn extract_mapped(
+    grid: &MappedGrid,
+    x: &Extraction,
+    window_bytes: usize,
+) -> Result<Mesh, MeshError> {
+    let lattice = Lattice { dims: grid.dims, min: grid.min, max: grid.max };
+    let [nx, ny, _] = grid.dims;
+    let layers = window::cell_layers(x.algo, grid.dims);
+    // Cell layers per range: the window holds them plus up to 4 ghost layers.
+    let plane = nx * ny * 4;
+    let depth = (window_bytes / plane).saturating_sub(4).max(1);
+    let mut joiner = Joiner::new();
+    let mut start = 0;
+    while start < layers {
+        let cells = start..(start + depth).min(layers);
+        let points = window::point_layers(x.algo, grid.dims, cells.clone());
+        let n = [nx, ny, points.len()];
+        let values = grid.read_box([0, 0, points.start], n);
+        let outside = values.iter().all(|&v| !x.inside.contains(v as f64, x.iso));
+        let part = if outside {
+            SlabMesh::default()
+        } else {
+            let held = crate::field::Grid { dims: n, min: grid.min, max: grid.max, values };
+            window::extract_window(&held, points.start, &lattice, x, cells.clone())?
+        };
+        joiner.push(part)?;
+        grid.release();
+        start = cells.end;
+    }
+    joiner.finish(x.keeps_quads())
+}

@@ -96,6 +96,12 @@ struct Acc {
     finite: usize,
 }
 
+/// The coverage channel's name, its index in A and in B, and the hit rule.
+type CoverageSource = (String, usize, usize, fn(f32) -> bool);
+
+/// The indices of R, G, B in A and in B.
+type RgbPair = ([usize; 3], [usize; 3]);
+
 /// The whole comparison's state.
 struct Run<'t> {
     a: ExrRows,
@@ -106,9 +112,9 @@ struct Run<'t> {
     plans: Vec<Plan>,
     new_channels: Vec<String>,
     /// Coverage channel name and its index in A and B, with the hit rule.
-    coverage: Option<(String, usize, usize, fn(f32) -> bool)>,
+    coverage: Option<CoverageSource>,
     /// R, G, B in A and in B, or why FLIP is not computed (`None`: not asked for).
-    flip: Option<Result<([usize; 3], [usize; 3]), String>>,
+    flip: Option<Result<RgbPair, String>>,
     halo: usize,
     band_rows: usize,
     /// FLIP's map from pass 1, for the later passes.
@@ -256,7 +262,7 @@ impl<'t> Run<'t> {
         outputs: Outputs<'_>,
     ) -> Result<(Report, Option<OutputError>), CompareError> {
         let n = self.w * self.h;
-        let mut acc: Vec<Acc> = self.plans.iter().map(|p| Acc::new(p)).collect();
+        let mut acc: Vec<Acc> = self.plans.iter().map(Acc::new).collect();
         let mut rel: Vec<Option<Select>> =
             self.plans.iter().map(|_| Some(Select::new(64, 0))).collect();
         let flip_ok = matches!(self.flip, Some(Ok(_)));
@@ -351,7 +357,7 @@ fn end_pass(rel: &mut [Option<Select>], flip: &mut [Select]) -> Result<(), Compa
 }
 
 /// R, G, B of both images, or the note the whole-image FLIP gives when it cannot run.
-fn flip_channels(a: &ExrRows, b: &ExrRows) -> Result<([usize; 3], [usize; 3]), String> {
+fn flip_channels(a: &ExrRows, b: &ExrRows) -> Result<RgbPair, String> {
     if a.width == 0 || a.height == 0 {
         return Err("not computed: the images differ in size".into());
     }

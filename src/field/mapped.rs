@@ -8,7 +8,7 @@
 //! pass holds (a slab of brick layers), not the file.
 //!
 //! [`MappedGrid::brick_ranges`] is the one pass every use starts with: the min/max of every
-//! brick of [`BRICK`](crate::passes::bricks::BRICK)³ cells over its (BRICK + 1)³ points, in the
+//! brick of `passes::bricks::BRICK`³ cells over its (BRICK + 1)³ points, in the
 //! layout of `passes::bricks` (the GPU builds the same grid from an uploaded image: min and max
 //! are exact, so both are bit for bit equal), and the finiteness check of every sample.
 

@@ -1,5 +1,7 @@
 //! `isoview compare A.exr B.exr`: per-channel comparison of two float EXRs (A the reference,
-//! B under test), a table on stdout, optional difference EXR and heat-map PNG.
+//! B under test), a table on stdout, optional difference EXR and heat-map PNG. The files are
+//! read and the outputs written band by band ([`crate::compare::compare_files`]), so memory
+//! does not grow with the image.
 //!
 //! Exit status: 0 pass (or warn), 1 a difference over the thresholds, 2 bad input (a missing
 //! or unreadable file, a size or channel mismatch, an output that cannot be written), with one
@@ -9,10 +11,8 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use crate::compare::{
-    compare, write_diff_exr, write_heat_map_png, ChannelClass, Thresholds, DEFAULT_FAIL,
-    DEFAULT_WARN,
+    compare_files, ChannelClass, Outputs, Thresholds, DEFAULT_FAIL, DEFAULT_WARN,
 };
-use crate::output::exr;
 
 /// Arguments of `isoview compare`.
 #[derive(Clone, Debug, clap::Args)]
@@ -121,28 +121,15 @@ pub fn run_with(args: &CompareArgs, out: &mut dyn Write, err: &mut dyn Write) ->
         let _ = writeln!(err, "isoview: {e}");
         2
     };
-    let a = match exr::read(&args.a) {
-        Ok(a) => a,
-        Err(e) => return fail(err, &e),
-    };
-    let b = match exr::read(&args.b) {
-        Ok(b) => b,
-        Err(e) => return fail(err, &e),
-    };
-    let report = match compare(&a, &b, &args.thresholds()) {
+    let outputs = Outputs { diff: args.diff.as_deref(), png: args.png.as_deref() };
+    let (report, output_error) = match compare_files(&args.a, &args.b, &args.thresholds(), outputs)
+    {
         Ok(r) => r,
         Err(e) => return fail(err, &e),
     };
     let _ = write!(out, "{report}");
-    if let Some(path) = &args.diff {
-        if let Err(e) = write_diff_exr(path, &a, &b, &report) {
-            return fail(err, &e);
-        }
-    }
-    if let Some(path) = &args.png {
-        if let Err(e) = write_heat_map_png(path, &report) {
-            return fail(err, &e);
-        }
+    if let Some(e) = output_error {
+        return fail(err, &e);
     }
     report.verdict.exit_code()
 }

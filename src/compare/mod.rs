@@ -56,12 +56,16 @@
 
 mod flip;
 mod output;
+mod rows;
+mod select;
+mod stream;
 
 pub use flip::{flip_beauty, FlipStats, PIXELS_PER_DEGREE};
 pub use output::{heat_map_rgba8, write_diff_exr, write_heat_map_png};
+pub use stream::{band_rows, compare_files, compare_files_in_bands, flip_halo, Outputs};
 
 use std::fmt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use crate::frame::Channel;
 pub use crate::frame::ChannelClass;
@@ -291,13 +295,21 @@ pub struct Report {
     /// Why FLIP was not computed, when it was asked for and could not be.
     pub flip_note: Option<String>,
     pub verdict: Verdict,
+    /// The per-pixel results, from the whole-image [`compare`]; `None` from the band-by-band
+    /// [`compare_files`], which writes its outputs as the bands go by instead of keeping them.
+    pub maps: Option<PixelMaps>,
+}
+
+/// Per-pixel results of a whole-image comparison (what the diff outputs are made of).
+#[derive(Clone, Debug)]
+pub struct PixelMaps {
     /// Per pixel, row-major.
     pub pixels: Vec<PixelState>,
     /// Per pixel: the largest `d / tolerance` over the channels (inf for non-finite mismatches
     /// and for any difference where the tolerance is 0).
     pub ratio: Vec<f32>,
     /// The FLIP error map, when computed.
-    pub flip_map: Option<Vec<f32>>,
+    pub flip: Option<Vec<f32>>,
 }
 
 impl Report {
@@ -482,14 +494,24 @@ fn select_channels(
     t: &Thresholds,
 ) -> Result<(Vec<String>, Vec<String>), CompareError> {
     let names = |img: &ExrImage| img.channel_names().map(str::to_string).collect::<Vec<_>>();
+    select_names((&a.path, &names(a)), (&b.path, &names(b)), t)
+}
+
+/// [`select_channels`] from each image's path and channel names (in file order).
+fn select_names(
+    a: (&Path, &[String]),
+    b: (&Path, &[String]),
+    t: &Thresholds,
+) -> Result<(Vec<String>, Vec<String>), CompareError> {
+    let has = |names: &[String], n: &String| names.contains(n);
     match &t.only {
         Some(only) => {
-            for img in [a, b] {
-                if let Some(missing) = only.iter().find(|n| img.channel(n).is_none()) {
+            for (path, names) in [a, b] {
+                if let Some(missing) = only.iter().find(|n| !has(names, n)) {
                     return Err(CompareError::MissingChannel {
-                        path: img.path.clone(),
+                        path: path.to_path_buf(),
                         channel: missing.clone(),
-                        available: names(img),
+                        available: names.to_vec(),
                     });
                 }
             }
@@ -498,19 +520,17 @@ fn select_channels(
             Ok((v, Vec::new()))
         }
         None => {
-            let only_a: Vec<String> =
-                names(a).into_iter().filter(|n| b.channel(n).is_none()).collect();
-            let only_b: Vec<String> =
-                names(b).into_iter().filter(|n| a.channel(n).is_none()).collect();
+            let only_a: Vec<String> = a.1.iter().filter(|n| !has(b.1, n)).cloned().collect();
+            let only_b: Vec<String> = b.1.iter().filter(|n| !has(a.1, n)).cloned().collect();
             if !only_a.is_empty() || (!only_b.is_empty() && !t.new_channels) {
                 return Err(CompareError::ChannelMismatch {
-                    a: a.path.clone(),
+                    a: a.0.to_path_buf(),
                     only_a,
-                    b: b.path.clone(),
+                    b: b.0.to_path_buf(),
                     only_b,
                 });
             }
-            Ok((names(a), only_b))
+            Ok((a.1.to_vec(), only_b))
         }
     }
 }
@@ -708,9 +728,7 @@ pub fn compare(a: &ExrImage, b: &ExrImage, t: &Thresholds) -> Result<Report, Com
         flip,
         flip_note,
         verdict,
-        pixels,
-        ratio,
-        flip_map,
+        maps: Some(PixelMaps { pixels, ratio, flip: flip_map }),
     })
 }
 

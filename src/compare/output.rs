@@ -20,13 +20,13 @@
 
 use std::path::Path;
 
-use super::{PixelState, Report};
+use super::{PixelMaps, PixelState, Report};
 use crate::output::exr::{write_channels, ExrImage};
 use crate::output::png::write_rgba8;
 use crate::output::OutputError;
 
 /// B − A under the NaN/inf equality rules.
-fn signed_difference(a: f32, b: f32) -> f32 {
+pub(super) fn signed_difference(a: f32, b: f32) -> f32 {
     match super::difference(a, b) {
         Some(0.0) => 0.0,
         _ => b - a,
@@ -40,6 +40,7 @@ pub fn write_diff_exr(
     b: &ExrImage,
     report: &Report,
 ) -> Result<(), OutputError> {
+    let maps = report_maps(path, report)?;
     let mut channels = Vec::new();
     for s in &report.channels {
         let (Some(ca), Some(cb)) = (a.channel(&s.name), b.channel(&s.name)) else {
@@ -52,49 +53,66 @@ pub fn write_diff_exr(
         channels.push((format!("diff.{}", s.name), d));
     }
     let mask = |want: PixelState| {
-        report.pixels.iter().map(|&p| if p == want { 1.0 } else { 0.0 }).collect::<Vec<f32>>()
+        maps.pixels.iter().map(|&p| if p == want { 1.0 } else { 0.0 }).collect::<Vec<f32>>()
     };
     channels.push(("fail".to_string(), mask(PixelState::Fail)));
     if report.thresholds.shift {
         channels.push(("forgiven".to_string(), mask(PixelState::Forgiven)));
     }
-    channels.push(("ratio".to_string(), report.ratio.clone()));
-    if let Some(flip) = &report.flip_map {
+    channels.push(("ratio".to_string(), maps.ratio.clone()));
+    if let Some(flip) = &maps.flip {
         channels.push(("flip".to_string(), flip.clone()));
     }
-    let attributes = [
+    write_channels(path, report.width, report.height, channels, &diff_attributes(report))
+}
+
+/// The header attributes of the difference EXR.
+pub(super) fn diff_attributes(report: &Report) -> [(String, String); 4] {
+    [
         ("isoview/compare/a".to_string(), report.a.display().to_string()),
         ("isoview/compare/b".to_string(), report.b.display().to_string()),
         ("isoview/compare/verdict".to_string(), report.verdict_line()),
         ("isoview/version".to_string(), crate::VERSION.to_string()),
-    ];
-    write_channels(path, report.width, report.height, channels, &attributes)
+    ]
 }
 
-/// The heat map described in the module docs, as RGBA8 pixels.
-pub fn heat_map_rgba8(report: &Report) -> Vec<u8> {
-    report
-        .pixels
-        .iter()
-        .zip(&report.ratio)
-        .flat_map(|(&state, &r)| match state {
-            PixelState::Same => [0, 0, 0, 255],
-            PixelState::Fail => {
-                let c = colorous::MAGMA.eval_continuous(1.0);
-                [c.r, c.g, c.b, 255]
-            }
-            PixelState::Forgiven => [0, 200, 255, 255],
-            PixelState::Close | PixelState::Warn => {
-                let t = if r > 0.0 {
-                    ((f64::from(r).log10() + 6.0) / 6.0).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                let c = colorous::MAGMA.eval_continuous(0.15 + 0.6 * t);
-                [c.r, c.g, c.b, 255]
-            }
-        })
-        .collect()
+/// The per-pixel maps of a whole-image report.
+fn report_maps<'r>(path: &Path, report: &'r Report) -> Result<&'r PixelMaps, OutputError> {
+    report.maps.as_ref().ok_or_else(|| {
+        OutputError::invalid(
+            path,
+            "internal: a band-by-band report keeps no per-pixel maps (its outputs are written \
+             during the comparison)",
+        )
+    })
+}
+
+/// The heat map described in the module docs, as RGBA8 pixels (`None` for a band-by-band
+/// report, which keeps no per-pixel maps).
+pub fn heat_map_rgba8(report: &Report) -> Option<Vec<u8>> {
+    let maps = report.maps.as_ref()?;
+    Some(maps.pixels.iter().zip(&maps.ratio).flat_map(|(&s, &r)| heat_rgba8(s, r)).collect())
+}
+
+/// The heat-map colour of one pixel from its state and ratio.
+pub(super) fn heat_rgba8(state: PixelState, ratio: f32) -> [u8; 4] {
+    match state {
+        PixelState::Same => [0, 0, 0, 255],
+        PixelState::Fail => {
+            let c = colorous::MAGMA.eval_continuous(1.0);
+            [c.r, c.g, c.b, 255]
+        }
+        PixelState::Forgiven => [0, 200, 255, 255],
+        PixelState::Close | PixelState::Warn => {
+            let t = if ratio > 0.0 {
+                ((f64::from(ratio).log10() + 6.0) / 6.0).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let c = colorous::MAGMA.eval_continuous(0.15 + 0.6 * t);
+            [c.r, c.g, c.b, 255]
+        }
+    }
 }
 
 /// Writes the heat map PNG, atomically.
@@ -103,5 +121,7 @@ pub fn write_heat_map_png(path: &Path, report: &Report) -> Result<(), OutputErro
         u32::try_from(report.width).map_err(|_| OutputError::invalid(path, "image too wide"))?,
         u32::try_from(report.height).map_err(|_| OutputError::invalid(path, "image too tall"))?,
     );
-    write_rgba8(path, w, h, &heat_map_rgba8(report))
+    report_maps(path, report)?;
+    let rgba = heat_map_rgba8(report).unwrap_or_default();
+    write_rgba8(path, w, h, &rgba)
 }

@@ -179,6 +179,16 @@ pub fn write_channels(
         check_name(path, &name)?;
         list.push(AnyChannel::new(text(&name), FlatSamples::F32(values)));
     }
+    let attributes = text_layer_attributes(path, text_attributes)?;
+    let bytes = encode(path, width, height, list, attributes)?;
+    atomic::write_bytes(path, &bytes)
+}
+
+/// The layer attributes of [`write_channels`]: `software` and the text attributes.
+fn text_layer_attributes(
+    path: &Path,
+    text_attributes: &[(String, String)],
+) -> Result<LayerAttributes, OutputError> {
     let mut attributes = LayerAttributes {
         software_name: Some(text(&format!("isoview {}", crate::VERSION))),
         ..LayerAttributes::default()
@@ -187,8 +197,32 @@ pub fn write_channels(
         check_name(path, name)?;
         attributes.other.insert(text(name), AttributeValue::Text(text(value)));
     }
-    let bytes = encode(path, width, height, list, attributes)?;
-    atomic::write_bytes(path, &bytes)
+    Ok(attributes)
+}
+
+/// The header [`write_channels`] would write for these channel names and attributes (for
+/// the streaming writer of named channels, which writes the samples itself).
+pub(super) fn named_channel_headers(
+    path: &Path,
+    width: usize,
+    height: usize,
+    names: &[String],
+    text_attributes: &[(String, String)],
+) -> Result<exr::meta::Headers, OutputError> {
+    if width == 0 || height == 0 || names.is_empty() {
+        return Err(OutputError::invalid(
+            path,
+            format!("cannot write an empty {width}x{height} image with {} channels", names.len()),
+        ));
+    }
+    let mut list = Vec::with_capacity(names.len());
+    for name in names {
+        check_name(path, name)?;
+        list.push(AnyChannel::new(text(name), FlatSamples::F32(Vec::new())));
+    }
+    let attributes = text_layer_attributes(path, text_attributes)?;
+    let image = layer_image(path, width, height, list, attributes)?;
+    Ok(image.write().non_parallel().infer_meta_data())
 }
 
 /// Rejects a channel or attribute name OpenEXR cannot store.

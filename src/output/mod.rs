@@ -7,11 +7,14 @@
 //!   byte-deterministically; and a general reader ([`exr::read`]) for EXRs from any writer.
 //! - [`exr_stream`]: the same file written band by band as a render draws it (memory: one
 //!   block of scan lines), byte for byte what [`exr`] writes from a whole frame.
+//! - [`exr_planes`]: named float channels written row by row (`compare --diff`), byte for
+//!   byte what [`exr::write_channels`] writes.
 //! - [`png`]: an 8-bit sRGB preview of the beauty (RGBA).
 //! - [`tev`]: a frame sent to the tev HDR viewer over TCP (its remote-control protocol).
 
 pub mod atomic;
 pub mod exr;
+pub mod exr_planes;
 pub mod exr_stream;
 pub mod legend;
 pub mod png;

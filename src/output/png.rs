@@ -145,6 +145,69 @@ fn png_error(path: &Path, e: png::EncodingError) -> OutputError {
     OutputError::io(path, "encode PNG", std::io::Error::other(e))
 }
 
+/// An RGBA8 PNG written a few rows at a time (`compare --png` on images of any size): the
+/// bytes of [`write_rgba8`], memory one band.
+pub struct Rgba8Stream {
+    temp: atomic::TempFile,
+    writer: Option<png::StreamWriter<'static, std::fs::File>>,
+    row_bytes: usize,
+    rows_left: usize,
+}
+
+impl Rgba8Stream {
+    /// Starts `path` (a temporary file beside it) for a `width` × `height` RGBA8 image.
+    pub fn create(path: &Path, width: u32, height: u32) -> Result<Self, OutputError> {
+        if width == 0 || height == 0 {
+            return Err(OutputError::invalid(
+                path,
+                format!("cannot write an empty {width}x{height} image"),
+            ));
+        }
+        let temp = atomic::TempFile::create(path)?;
+        let file = temp.file().try_clone().map_err(|e| temp.error("write", e))?;
+        let writer = stream_encoder(path, file, width, height)?;
+        Ok(Rgba8Stream {
+            temp,
+            writer: Some(writer),
+            row_bytes: width as usize * 4,
+            rows_left: height as usize,
+        })
+    }
+
+    /// The next whole rows (RGBA8, row-major), in order from row 0.
+    pub fn push_rows(&mut self, rgba: &[u8]) -> Result<(), OutputError> {
+        let rows = rgba.len() / self.row_bytes;
+        if rgba.len() % self.row_bytes != 0 || rows > self.rows_left {
+            return Err(OutputError::invalid(
+                self.temp.path(),
+                format!("{} bytes are not whole RGBA8 rows within the image", rgba.len()),
+            ));
+        }
+        let writer = self.writer.as_mut().ok_or_else(|| {
+            OutputError::invalid(self.temp.path(), "internal: rows after a failed write")
+        })?;
+        if let Err(e) = writer.write_all(rgba) {
+            self.writer = None;
+            return Err(self.temp.error("write", e));
+        }
+        self.rows_left -= rows;
+        Ok(())
+    }
+
+    /// Ends the PNG and moves it into place; every row must have arrived.
+    pub fn finish(mut self) -> Result<(), OutputError> {
+        if self.rows_left != 0 {
+            let reason = format!("{} rows were never written", self.rows_left);
+            return Err(OutputError::invalid(self.temp.path(), reason));
+        }
+        let writer = self.writer.take().ok_or_else(|| {
+            OutputError::invalid(self.temp.path(), "internal: finish after a failed write")
+        })?;
+        writer.finish().map_err(|e| self.temp.error("write", std::io::Error::other(e)))?;
+        self.temp.commit()
+    }
+}
+
 /// A preview PNG written band by band as a render draws it: the rows are filtered and
 /// deflated as they arrive (the encoder of [`encode_rgba8`]), so memory stays at one band and
 /// the bytes are [`write_preview`]'s.

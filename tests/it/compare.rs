@@ -456,7 +456,7 @@ fn compares_isoview_output_with_a_half_float_piz_copy() {
     let r =
         compare(&out_exr::read(&a).unwrap(), &out_exr::read(&b).unwrap(), &Thresholds::default())
             .unwrap();
-    assert!(r.pixels.contains(&PixelState::Fail));
+    assert!(r.maps.unwrap().pixels.contains(&PixelState::Fail));
 }
 
 #[test]

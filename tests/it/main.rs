@@ -10,6 +10,7 @@ mod cluster;
 mod color;
 mod common;
 mod compare;
+mod compare_stream;
 mod extract_cli;
 mod extract_gpu;
 mod formats;

@@ -231,7 +231,7 @@ fn frames_are_streamed_one_by_one() {
 /// kernel for that one child (`wait4`'s rusage), not for this test binary's other children.
 /// Mesa's shader cache is off, so every run pays the same shader compile (LLVM's peak is a few
 /// hundred MiB on lavapipe; a warm cache would hide it on some runs and not on others).
-fn peak_rss_mib(args: &[&str]) -> (i32, f64) {
+pub(crate) fn peak_rss_mib(args: &[&str]) -> (i32, f64) {
     use std::process::{Command, Stdio};
     let child = Command::new(env!("CARGO_BIN_EXE_isoview"))
         .args(args)

@@ -27,6 +27,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use super::{Cli, Failure};
+use crate::field::mapped::MappedGrid;
 use crate::field::Grid;
 use crate::mesh::export::{self, Format};
 use crate::mesh::{self, ExtractOptions, Mesh};
@@ -135,8 +136,20 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     }
 
     let started = Instant::now();
-    let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let opts = ExtractOptions { keep_quads: args.quads, ..Default::default() };
+    let limits = crate::field::GridLimits::from_env().map_err(Failure::input)?;
+    if let Some(mapped) =
+        MappedGrid::for_residency(&scene.field, &limits).map_err(Failure::input)?
+    {
+        if ranks.is_some() {
+            return Err(Failure::input(
+                "field.residency = \"active\" is not available under MPI (each rank meshes its \
+                 share of the whole grid instead)",
+            ));
+        }
+        return extract_mapped(args, format, &scene, &mapped, opts, started);
+    }
+    let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     // Several isovalues: one mesh per surface, merged, each vertex labelled with its surface.
     let mut meshes = Vec::with_capacity(scene.surface.count);
     let (mut ran_on, mut why) = (Backend::Cpu, String::new());
@@ -197,6 +210,30 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     if ranks.is_some_and(|w| w.rank() != 0) {
         return Ok(0); // rank 0 writes
     }
+    let what = Summary { scene: &scene, ran_on, why, started, range: Some(grid.range()) };
+    write_meshes(args, format, meshes, what)
+}
+
+/// What the summary line says besides the mesh's size.
+struct Summary<'a> {
+    scene: &'a Scene,
+    ran_on: Backend,
+    /// Appended to where it ran ("; auto: ...").
+    why: String,
+    started: Instant,
+    /// The samples' range, for the note on an empty mesh (None: not known).
+    range: Option<(f32, f32)>,
+}
+
+/// Merges the meshes of the surfaces (labelling each vertex with its surface when there are
+/// several), writes the file atomically, prints the statistics and the summary line.
+fn write_meshes(
+    args: &ExtractArgs,
+    format: Format,
+    mut meshes: Vec<Mesh>,
+    what: Summary,
+) -> Result<i32, Failure> {
+    let Summary { scene, ran_on, why, started, range } = what;
     let (mesh, labels) = match meshes.len() {
         1 => (meshes.pop().expect("one mesh"), None),
         _ => {
@@ -222,8 +259,7 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
         ran_on.name(),
         args.output.display()
     );
-    if mesh.triangle_count() == 0 {
-        let (lo, hi) = grid.range();
+    if let (0, Some((lo, hi))) = (mesh.triangle_count(), range) {
         eprintln!(
             "isoview: note: the mesh is empty: no grid edge crosses isovalue {} (samples span \
              [{lo}, {hi}])",
@@ -231,6 +267,43 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
         );
     }
     Ok(0)
+}
+
+/// `field.residency = "active"`: every surface extracted on the CPU from the memory-mapped
+/// file, a window of point layers at a time (`mesh::mapped`), the mesh the whole grid's.
+fn extract_mapped(
+    args: &ExtractArgs,
+    format: Format,
+    scene: &Scene,
+    grid: &MappedGrid,
+    opts: ExtractOptions,
+    started: Instant,
+) -> Result<i32, Failure> {
+    let mut meshes = Vec::with_capacity(scene.surface.count);
+    for k in 0..scene.surface.count {
+        let s = scene.single_surface(k).surface;
+        let x = mesh::window::Extraction {
+            iso: s.isovalue,
+            inside: s.inside,
+            algo: scene.render.mesh,
+            opts,
+            sharp: &scene.render.sharp,
+            source: None,
+        };
+        let mut mesh = mesh::mapped::extract_mapped(grid, &x, mesh::mapped::WINDOW_BYTES)
+            .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
+        mesh.place(&scene.field.placement);
+        if scene.clip.count > 0 {
+            mesh = mesh.clipped(&scene.clip);
+        }
+        meshes.push(mesh);
+    }
+    let why = format!(
+        "; field.residency: streamed from the {}x{}x{} memory-mapped file",
+        grid.dims[0], grid.dims[1], grid.dims[2]
+    );
+    let what = Summary { scene, ran_on: Backend::Cpu, why, started, range: None };
+    write_meshes(args, format, meshes, what)
 }
 
 /// This rank's share of the CPU extraction under MPI, joined on rank 0 (`cluster::mesh`).

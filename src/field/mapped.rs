@@ -74,6 +74,23 @@ impl MappedGrid {
         }))
     }
 
+    /// The map of `spec`'s file when its residency asks for one: `"active"`, or `"auto"` with
+    /// the whole grid over the cap; None to read the grid whole.
+    pub fn for_residency(
+        spec: &FieldSpec,
+        limits: &super::GridLimits,
+    ) -> Result<Option<MappedGrid>, FieldError> {
+        if spec.residency == super::Residency::Whole {
+            return Ok(None);
+        }
+        let Some(grid) = MappedGrid::open(spec)? else { return Ok(None) };
+        let mapped = match spec.residency {
+            super::Residency::Auto => grid.f32_bytes() > limits.max_bytes,
+            _ => true,
+        };
+        Ok(mapped.then_some(grid))
+    }
+
     /// The grid's geometry: dims and box, no values (what the render path reads of a grid).
     pub fn shape(&self) -> Grid {
         Grid { dims: self.dims, min: self.min, max: self.max, values: Vec::new() }

@@ -262,16 +262,7 @@ pub fn mapped_for(
     scene: &crate::scene::Scene,
     limits: &GridLimits,
 ) -> Result<Option<MappedGrid>, PoolError> {
-    use crate::field::Residency;
-    let Some(grid) = MappedGrid::open(&scene.field)? else { return Ok(None) };
-    let pooled = match scene.field.residency {
-        Residency::Whole => false,
-        Residency::Active => true,
-        Residency::Auto => grid.f32_bytes() > limits.max_bytes,
-    };
-    if !pooled {
-        return Ok(None);
-    }
+    let Some(grid) = MappedGrid::for_residency(&scene.field, limits)? else { return Ok(None) };
     if scene.render.method == crate::scene::Method::Mesh {
         return Err(PoolError::Refused(
             "field.residency = \"active\": render.method = \"mesh\" needs the whole grid; use \

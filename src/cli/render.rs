@@ -154,6 +154,30 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
     }
     for (time, exr, png) in &frames {
         let started = Instant::now();
+        // Under MPI a raw or npy file is mapped and each rank reads only its block.
+        #[cfg(feature = "mpi")]
+        if let (Some(w), None) = (&world, &cached) {
+            if let Some(m) = crate::field::mapped::MappedGrid::open(&scene.field)
+                .map_err(Failure::input)?
+            {
+                let block = w.block(m.dims);
+                let values = m.read_box(block.origin, block.extent);
+                m.release();
+                if let Some(at) = values.iter().position(|v| !v.is_finite()) {
+                    let e = block.extent;
+                    let p = [at % e[0], (at / e[0]) % e[1], at / (e[0] * e[1])];
+                    let [i, j, k] = [0, 1, 2].map(|a| block.origin[a] + p[a]);
+                    eprintln!(
+                        "isoview: rank {}: {}: value {} at grid point [{i}, {j}, {k}] is not finite",
+                        w.rank(),
+                        m.label(),
+                        values[at]
+                    );
+                    w.abort(super::EXIT_INPUT);
+                }
+                cached = Some((m.shape(), w.upload_block(&ctx, m.dims, block, values)?));
+            }
+        }
         if cached.is_none() || scene.field.is_time_varying() {
             let grid = scene.field.sample(*time).map_err(Failure::input)?;
             #[cfg(feature = "mpi")]

@@ -5,7 +5,8 @@
 //! extraction, byte for byte.
 //!
 //! ```text
-//!   rank r:  sample field -> cut point_layers(share r) -> extract_window -> SlabMesh
+//!   rank r:  read point_layers(share r) (from the mapped raw/npy file, or cut from the
+//!            sampled field) -> extract_window -> SlabMesh
 //!            -> [status, words] --send--> rank 0
 //!   rank 0:  its own SlabMesh, then rank 1's, 2's, ... pushed into a Joiner (prefix-summed
 //!            offsets, MC33 placeholders) -> Mesh -> written by the CLI as one process does
@@ -22,6 +23,7 @@ use mpi::point_to_point::{Destination, Source};
 use mpi::topology::Communicator;
 
 use super::World;
+use crate::field::mapped::MappedGrid;
 use crate::field::Grid;
 use crate::mesh::window::{self, Extraction, Joiner, Lattice, SlabMesh};
 use crate::mesh::Mesh;
@@ -44,9 +46,9 @@ pub enum Extracted {
 impl World {
     /// Extracts this rank's share of `grid`'s cell layers and joins the shares on rank 0.
     /// Err: the one-line message that this rank (rank 0) reports.
-    pub fn extract(&self, grid: &Grid, x: &Extraction) -> Result<Extracted, String> {
+    pub fn extract(&self, grid: Points, x: &Extraction) -> Result<Extracted, String> {
         let (n, rank) = (self.size(), self.rank());
-        let layers = window::cell_layers(x.algo, grid.dims);
+        let layers = window::cell_layers(x.algo, grid.lattice().dims);
         let cells = window::share(layers, n, rank);
         let started = Instant::now();
         let mine = extract_share(grid, x, cells);
@@ -121,40 +123,64 @@ impl World {
     }
 }
 
-/// The mesh of cell layers `cells` of `grid`, extracted from a copy of only the point layers
-/// they need: the path a rank holding only those layers takes (until the field sources can
-/// sample a window, each rank samples the whole grid and cuts its window out).
+/// Where a rank reads the grid's points.
+#[derive(Clone, Copy)]
+pub enum Points<'a> {
+    /// A grid every rank sampled whole (computed and parsed sources).
+    Sampled(&'a Grid),
+    /// A raw or npy file every rank maps, reading only its window's layers.
+    Mapped(&'a MappedGrid),
+}
+
+impl Points<'_> {
+    /// The whole grid's dims and box.
+    pub fn lattice(&self) -> Lattice {
+        match self {
+            Points::Sampled(g) => Lattice::of(g),
+            Points::Mapped(m) => Lattice { dims: m.dims, min: m.min, max: m.max },
+        }
+    }
+
+    /// Point layers `layers` of the whole grid (x fastest); a mapped file's checked finite.
+    fn layers(&self, layers: std::ops::Range<usize>) -> Result<Vec<f32>, String> {
+        match self {
+            Points::Sampled(g) => {
+                let plane = g.dims[0] * g.dims[1];
+                Ok(g.values[plane * layers.start..plane * layers.end].to_vec())
+            }
+            Points::Mapped(m) => {
+                let n = [m.dims[0], m.dims[1], layers.len()];
+                let values = m.read_box([0, 0, layers.start], n);
+                m.release();
+                match values.iter().position(|v| !v.is_finite()) {
+                    None => Ok(values),
+                    Some(at) => {
+                        let (i, j, k) = (at % n[0], (at / n[0]) % n[1], at / (n[0] * n[1]));
+                        Err(format!(
+                            "{}: value {} at grid point [{i}, {j}, {}] is not finite",
+                            m.label(),
+                            values[at],
+                            layers.start + k
+                        ))
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The mesh of cell layers `cells` of the grid, extracted from only the point layers they
+/// need: a mapped file's read from the map (so a rank holds its window only), a sampled
+/// grid's copied out of it.
 fn extract_share(
-    grid: &Grid,
+    grid: Points,
     x: &Extraction,
     cells: std::ops::Range<usize>,
 ) -> Result<SlabMesh, String> {
-    let need = window::point_layers(x.algo, grid.dims, cells.clone());
-    let plane = grid.dims[0] * grid.dims[1];
-    let values = grid.values[plane * need.start..plane * need.end].to_vec();
-    let dims = [grid.dims[0], grid.dims[1], need.len()];
-    let held = Grid { dims, min: grid.min, max: grid.max, values };
-    window::extract_window(&held, need.start, &Lattice::of(grid), x, cells)
-        .map_err(|e| e.to_string())
-}
-
-/// Sends `[status, length]` and then `words` in chunks of at most [`CHUNK`].
-fn send(to: &impl Destination, status: u32, words: &[u32]) {
-    let len = words.len() as u64;
-    to.send(&[status, len as u32, (len >> 32) as u32][..]);
-    for c in words.chunks(CHUNK) {
-        to.send(c);
-    }
-}
-
-/// Receives what [`send`] sent.
-fn receive(from: &impl Source) -> (u32, Vec<u32>) {
-    let (head, _) = from.receive_vec::<u32>();
-    let (status, len) = (head[0], (head[1] as usize) | ((head[2] as usize) << 32));
-    let mut words = Vec::with_capacity(len);
-    while words.len() < len {
-        let (c, _) = from.receive_vec::<u32>();
-        words.extend_from_slice(&c);
-    }
-    (status, words)
+    let lattice = grid.lattice();
+    let need = window::point_layers(x.algo, lattice.dims, cells.clone());
+    let values = grid.layers(need.clone())?;
+    let dims = [lattice.dims[0], lattice.dims[1], need.len()];
+    let held = Grid { dims, min: lattice.min, max: lattice.max, values };
+    window::extract_window(&held, need.start, &lattice, x, cells).map_err(|e| e.to_string())
 }

@@ -36,7 +36,7 @@
 //! (`extract`).
 
 mod mesh;
-pub use mesh::Extracted;
+pub use mesh::{Extracted, Points};
 
 use mpi::collective::SystemOperation;
 use mpi::environment::Universe;
@@ -120,9 +120,26 @@ impl World {
         ctx: &std::sync::Arc<Context>,
         grid: &Grid,
     ) -> Result<GpuGrid, crate::gpu::GpuError> {
-        let block = Block::of_rank(grid.dims, self.size(), self.rank());
+        let block = self.block(grid.dims);
         let values = block.values(grid);
-        let local = block.bricks(grid.dims, &values);
+        self.upload_block(ctx, grid.dims, block, values)
+    }
+
+    /// This rank's block of a grid of `dims` points.
+    pub fn block(&self, dims: [usize; 3]) -> Block {
+        Block::of_rank(dims, self.size(), self.rank())
+    }
+
+    /// Uploads this rank's `block` (its points `values`, x fastest, read by the rank alone:
+    /// from a mapped file, or cut from a sampled grid) with the whole grid's brick min/max grid.
+    pub fn upload_block(
+        &self,
+        ctx: &std::sync::Arc<Context>,
+        dims: [usize; 3],
+        block: Block,
+        values: Vec<f32>,
+    ) -> Result<GpuGrid, crate::gpu::GpuError> {
+        let local = block.bricks(dims, &values);
         let mins: Vec<f32> = local.iter().map(|m| m[0]).collect();
         let maxs: Vec<f32> = local.iter().map(|m| m[1]).collect();
         let mut min_all = vec![0f32; mins.len()];

@@ -157,8 +157,8 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         // Under MPI a raw or npy file is mapped and each rank reads only its block.
         #[cfg(feature = "mpi")]
         if let (Some(w), None) = (&world, &cached) {
-            if let Some(m) = crate::field::mapped::MappedGrid::open(&scene.field)
-                .map_err(Failure::input)?
+            if let Some(m) =
+                crate::field::mapped::MappedGrid::open(&scene.field).map_err(Failure::input)?
             {
                 let block = w.block(m.dims);
                 let values = m.read_box(block.origin, block.extent);

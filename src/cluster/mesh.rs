@@ -184,3 +184,24 @@ fn extract_share(
     let held = Grid { dims, min: lattice.min, max: lattice.max, values };
     window::extract_window(&held, need.start, &lattice, x, cells).map_err(|e| e.to_string())
 }
+
+/// Sends `[status, length]` and then `words` in chunks of at most [`CHUNK`].
+fn send(to: &impl Destination, status: u32, words: &[u32]) {
+    let len = words.len() as u64;
+    to.send(&[status, len as u32, (len >> 32) as u32][..]);
+    for c in words.chunks(CHUNK) {
+        to.send(c);
+    }
+}
+
+/// Receives what [`send`] sent.
+fn receive(from: &impl Source) -> (u32, Vec<u32>) {
+    let (head, _) = from.receive_vec::<u32>();
+    let (status, len) = (head[0], (head[1] as usize) | ((head[2] as usize) << 32));
+    let mut words = Vec::with_capacity(len);
+    while words.len() < len {
+        let (c, _) = from.receive_vec::<u32>();
+        words.extend_from_slice(&c);
+    }
+    (status, words)
+}

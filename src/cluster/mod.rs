@@ -31,9 +31,9 @@
 //! `render.crossing` > 1 (the k-th crossing needs the count of crossings in blocks before it
 //! along the ray) and `--tev`.
 //!
-//! Stopgap: each rank still samples (reads) the whole field and cuts its block out; it
-//! uploads and traces only the block (`render`), or meshes only its window of point layers
-//! (`extract`).
+//! Reading: a raw or npy file is memory-mapped and each rank reads only its block (`render`)
+//! or its window of point layers (`extract`, [`Points::Mapped`]); other sources are still
+//! sampled whole by every rank, which cuts its part out.
 
 mod mesh;
 pub use mesh::{Extracted, Points};

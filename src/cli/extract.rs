@@ -116,6 +116,7 @@ pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
     run_on(cli, args, None)
 }
 
+#[cfg_attr(not(feature = "mpi"), allow(unused_variables))]
 fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, Failure> {
     let format = Format::from_path(&args.output).ok_or_else(|| {
         Failure::input(format!(
@@ -138,12 +139,19 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     let started = Instant::now();
     let opts = ExtractOptions { keep_quads: args.quads, ..Default::default() };
     let limits = crate::field::GridLimits::from_env().map_err(Failure::input)?;
-    // Under MPI a raw or npy file is mapped and each rank reads only its layers.
+    // Under MPI a raw or npy file is mapped and each rank reads only its layers; other
+    // sources are sampled whole by every rank.
     #[cfg(feature = "mpi")]
     if let Some(w) = ranks {
-        if let Some(m) = MappedGrid::open(&scene.field).map_err(Failure::input)? {
-            return extract_ranks_mapped(args, format, &scene, w, &m, opts, started);
-        }
+        let time = args.time;
+        let how = Split { args, format, scene: &scene, opts, started };
+        return match MappedGrid::open(&scene.field).map_err(Failure::input)? {
+            Some(m) => extract_ranks(w, crate::cluster::Points::Mapped(&m), how),
+            None => {
+                let grid = scene.field.sample(time).map_err(Failure::input)?;
+                extract_ranks(w, crate::cluster::Points::Sampled(&grid), how)
+            }
+        };
     }
     if let Some(mapped) =
         MappedGrid::for_residency(&scene.field, &limits).map_err(Failure::input)?
@@ -154,42 +162,9 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     // Several isovalues: one mesh per surface, merged, each vertex labelled with its surface.
     let mut meshes = Vec::with_capacity(scene.surface.count);
     let (mut ran_on, mut why) = (Backend::Cpu, String::new());
-    #[cfg_attr(not(feature = "mpi"), allow(unused_mut, unused_variables))]
-    let (mut gathered, mut own_share) = (std::time::Duration::ZERO, std::time::Duration::ZERO);
-    #[cfg_attr(not(feature = "mpi"), allow(unused_variables))]
-    let sampled = started.elapsed();
     let time = args.time;
     for k in 0..scene.surface.count {
         let one = scene.single_surface(k);
-        #[cfg_attr(not(feature = "mpi"), allow(unused_variables))]
-        if let Some(w) = ranks {
-            #[cfg(feature = "mpi")]
-            match extract_ranks(w, &one, &grid, time, opts)? {
-                crate::cluster::Extracted::Whole(mesh, own, joined) => {
-                    let mut mesh = *mesh;
-                    mesh.place(&scene.field.placement);
-                    if scene.clip.count > 0 {
-                        mesh = mesh.clipped(&scene.clip);
-                    }
-                    meshes.push(mesh);
-                    own_share += own;
-                    gathered += joined;
-                    ran_on = Backend::Cpu;
-                    let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
-                    why = format!(
-                        "; mpi: {} ranks; rank 0 sampled the field in {:.0} ms, meshed its share \
-                         in {:.0} ms, gathered and joined in {:.0} ms",
-                        w.size(),
-                        ms(sampled),
-                        ms(own_share),
-                        ms(gathered)
-                    );
-                }
-                crate::cluster::Extracted::Sent => {}
-                crate::cluster::Extracted::FailedElsewhere => return Ok(super::EXIT_INPUT),
-            }
-            continue;
-        }
         let (mesh, on, reason) = match backend {
             Backend::Cpu => (extract_cpu(&one, &grid, time, opts)?, Backend::Cpu, String::new()),
             Backend::Gpu => {
@@ -206,10 +181,6 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
         }
         meshes.push(mesh);
         (ran_on, why) = (on, reason);
-    }
-    #[cfg(feature = "mpi")]
-    if ranks.is_some_and(|w| w.rank() != 0) {
-        return Ok(0); // rank 0 writes
     }
     let what = Summary { scene: &scene, ran_on, why, started, range: Some(grid.range()) };
     write_meshes(args, format, meshes, what)
@@ -307,41 +278,23 @@ fn extract_mapped(
     write_meshes(args, format, meshes, what)
 }
 
-/// This rank's share of the CPU extraction under MPI, joined on rank 0 (`cluster::mesh`).
+/// What an extraction under MPI writes, and how.
 #[cfg(feature = "mpi")]
-fn extract_ranks(
-    w: &Ranks,
-    scene: &Scene,
-    grid: &Grid,
-    time: f64,
-    opts: ExtractOptions,
-) -> Result<crate::cluster::Extracted, Failure> {
-    let s = &scene.surface;
-    let source = crate::field::PointField::from_spec(&scene.field, time);
-    let x = mesh::window::Extraction {
-        iso: s.isovalue,
-        inside: s.inside,
-        algo: scene.render.mesh,
-        opts,
-        sharp: &scene.render.sharp,
-        source: source.as_ref(),
-    };
-    w.extract(crate::cluster::Points::Sampled(grid), &x)
-        .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))
-}
-
-/// Under MPI, a raw or npy file: every rank maps it and meshes its share of every surface from
-/// the point layers it reads; rank 0 joins and writes.
-#[cfg(feature = "mpi")]
-fn extract_ranks_mapped(
-    args: &ExtractArgs,
+struct Split<'a> {
+    args: &'a ExtractArgs,
     format: Format,
-    scene: &Scene,
-    w: &Ranks,
-    grid: &MappedGrid,
+    scene: &'a Scene,
     opts: ExtractOptions,
     started: Instant,
-) -> Result<i32, Failure> {
+}
+
+/// Under MPI: every rank meshes its share of every surface from the point layers it reads
+/// (`cluster::mesh`), rank 0 joins the shares and writes the file.
+#[cfg(feature = "mpi")]
+fn extract_ranks(w: &Ranks, grid: crate::cluster::Points, how: Split) -> Result<i32, Failure> {
+    let Split { args, format, scene, opts, started } = how;
+    let read = started.elapsed();
+    let source = crate::field::PointField::from_spec(&scene.field, args.time);
     let mut meshes = Vec::with_capacity(scene.surface.count);
     let (mut own_share, mut gathered) = (std::time::Duration::ZERO, std::time::Duration::ZERO);
     for k in 0..scene.surface.count {
@@ -352,10 +305,10 @@ fn extract_ranks_mapped(
             algo: scene.render.mesh,
             opts,
             sharp: &scene.render.sharp,
-            source: None,
+            source: source.as_ref(),
         };
         let done = w
-            .extract(crate::cluster::Points::Mapped(grid), &x)
+            .extract(grid, &x)
             .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
         match done {
             crate::cluster::Extracted::Whole(mesh, own, joined) => {
@@ -376,10 +329,15 @@ fn extract_ranks_mapped(
         return Ok(0); // rank 0 writes
     }
     let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+    let reading = match grid {
+        crate::cluster::Points::Mapped(_) => "each rank reads its layers of the mapped file",
+        crate::cluster::Points::Sampled(_) => "each rank samples the whole field",
+    };
     let why = format!(
-        "; mpi: {} ranks, each reading its layers of the memory-mapped file; rank 0 meshed its \
-         share in {:.0} ms, gathered and joined in {:.0} ms",
+        "; mpi: {} ranks, {reading}; rank 0 read or sampled in {:.0} ms, meshed its share in \
+         {:.0} ms, gathered and joined in {:.0} ms",
         w.size(),
+        ms(read),
         ms(own_share),
         ms(gathered)
     );

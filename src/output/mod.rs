@@ -14,6 +14,7 @@
 
 pub mod atomic;
 pub mod exr;
+mod exr_blocks;
 pub mod exr_planes;
 pub mod exr_stream;
 pub mod legend;

@@ -253,15 +253,7 @@ fn extract_mapped(
 ) -> Result<i32, Failure> {
     let mut meshes = Vec::with_capacity(scene.surface.count);
     for k in 0..scene.surface.count {
-        let s = scene.single_surface(k).surface;
-        let x = mesh::window::Extraction {
-            iso: s.isovalue,
-            inside: s.inside,
-            algo: scene.render.mesh,
-            opts,
-            sharp: &scene.render.sharp,
-            source: None,
-        };
+        let x = extraction(scene, k, opts, None);
         let mut mesh = mesh::mapped::extract_mapped(grid, &x, mesh::mapped::WINDOW_BYTES)
             .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
         mesh.place(&scene.field.placement);
@@ -298,15 +290,7 @@ fn extract_ranks(w: &Ranks, grid: crate::cluster::Points, how: Split) -> Result<
     let mut meshes = Vec::with_capacity(scene.surface.count);
     let (mut own_share, mut gathered) = (std::time::Duration::ZERO, std::time::Duration::ZERO);
     for k in 0..scene.surface.count {
-        let s = scene.single_surface(k).surface;
-        let x = mesh::window::Extraction {
-            iso: s.isovalue,
-            inside: s.inside,
-            algo: scene.render.mesh,
-            opts,
-            sharp: &scene.render.sharp,
-            source: source.as_ref(),
-        };
+        let x = extraction(scene, k, opts, source.as_ref());
         let done = w
             .extract(grid, &x)
             .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
@@ -343,6 +327,24 @@ fn extract_ranks(w: &Ranks, grid: crate::cluster::Points, how: Split) -> Result<
     );
     let what = Summary { scene, ran_on: Backend::Cpu, why, started, range: None };
     write_meshes(args, format, meshes, what)
+}
+
+/// Surface `k` of `scene` as the window extraction takes it.
+fn extraction<'a>(
+    scene: &'a Scene,
+    k: usize,
+    opts: ExtractOptions,
+    source: Option<&'a crate::field::PointField<'a>>,
+) -> mesh::window::Extraction<'a> {
+    let s = scene.single_surface(k).surface;
+    mesh::window::Extraction {
+        iso: s.isovalue,
+        inside: s.inside,
+        algo: scene.render.mesh,
+        opts,
+        sharp: &scene.render.sharp,
+        source,
+    }
 }
 
 /// The CPU extraction on all cores: the f64 reference's mesh, bit for bit.

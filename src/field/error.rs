@@ -4,6 +4,10 @@ use std::path::PathBuf;
 
 use super::limits::GRID_CAP_ENV;
 
+/// Appended to [`FieldError::TooLarge`] for the sources that can be memory-mapped.
+pub const RESIDENCY_HINT: &str =
+    ", or read only the bricks a render needs with field.residency = \"auto\"";
+
 /// Why a field could not be sampled: a data file that is missing, malformed or too large, or an
 /// expression that does not parse or produces a non-finite value.
 ///
@@ -51,12 +55,13 @@ pub enum FieldError {
     SizeMismatch { path: PathBuf, expected: u64, actual: u64, layout: String },
 
     /// The grid's `f32` samples would exceed the memory cap; refused before any allocation.
+    /// `hint`: what else the source allows (empty, or [`RESIDENCY_HINT`] for npy and raw).
     #[error(
         "{what}: a grid of {}x{}x{} points needs {} of f32 samples, over the cap of {}; \
-         raise the cap with {GRID_CAP_ENV}={} (or GridLimits::max_bytes)",
+         raise the cap with {GRID_CAP_ENV}={} (or GridLimits::max_bytes){hint}",
         dims[0], dims[1], dims[2], mib(*bytes), mib(*cap as u128), bytes.div_ceil(1 << 20)
     )]
-    TooLarge { what: String, dims: [u64; 3], bytes: u128, cap: u64 },
+    TooLarge { what: String, dims: [u64; 3], bytes: u128, cap: u64, hint: &'static str },
 
     /// `field.residency = "active"`: the bricks the isovalues need, with the brick tables
     /// (min/max and page table: 12 bytes a brick), would exceed the memory cap.

@@ -61,6 +61,7 @@ impl GridLimits {
                 dims,
                 bytes,
                 cap: self.max_bytes,
+                hint: "",
             });
         }
         // Under a u64 cap, so the count fits a u64; usize is 64-bit on every supported target.
@@ -69,6 +70,18 @@ impl GridLimits {
             dims,
             bytes,
             cap: self.max_bytes,
+            hint: "",
         })
+    }
+}
+
+/// `e` with [`super::error::RESIDENCY_HINT`] added when it is [`FieldError::TooLarge`] (for
+/// the npy and raw sources, which `field.residency` can memory-map).
+pub(crate) fn with_residency_hint(e: FieldError) -> FieldError {
+    match e {
+        FieldError::TooLarge { what, dims, bytes, cap, .. } => {
+            FieldError::TooLarge { what, dims, bytes, cap, hint: super::error::RESIDENCY_HINT }
+        }
+        other => other,
     }
 }

@@ -325,7 +325,8 @@ fn npy_over_the_memory_cap_is_refused_without_reading_the_data() {
         format!(
             "t.toml:3:8: field.path: {}: a grid of 100000x100000x100000 points needs 3814697266 MiB \
              of f32 samples, over the cap of 1024 MiB; raise the cap with \
-             ISOVIEW_MAX_GRID_MIB=3814697266 (or GridLimits::max_bytes)",
+             ISOVIEW_MAX_GRID_MIB=3814697266 (or GridLimits::max_bytes), or read only the bricks \
+             a render needs with field.residency = \"auto\"",
             d.join("huge.npy").display()
         )
     );
@@ -422,7 +423,8 @@ fn raw_errors_name_the_file_dims_and_sizes() {
         load_err(&d, &field("[4096, 4096, 4096]", "f32")),
         format!(
             "t.toml:4:8: field.dims: {p}: a grid of 4096x4096x4096 points needs 262144 MiB of f32 samples, \
-             over the cap of 1024 MiB; raise the cap with ISOVIEW_MAX_GRID_MIB=262144 (or GridLimits::max_bytes)"
+             over the cap of 1024 MiB; raise the cap with ISOVIEW_MAX_GRID_MIB=262144 (or GridLimits::max_bytes), \
+             or read only the bricks a render needs with field.residency = \"auto\""
         )
     );
     assert!(load_err(&d, &field("[3, 2, 4]", "u24")).starts_with(

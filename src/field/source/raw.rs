@@ -25,7 +25,7 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
     raw.check(p.limits()).map_err(|e| match e {
         FieldError::Io { .. } => p.data_error("path", e),
         // Too large, truncated or too long: the dims are the likeliest mistake.
-        _ => p.data_error("dims", e),
+        _ => p.data_error("dims", crate::field::limits::with_residency_hint(e)),
     })?;
     Ok(Parsed { source: FieldSource::Raw(raw), resolution: dims, bounds: None, placement: None })
 }

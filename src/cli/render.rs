@@ -161,20 +161,13 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
                 crate::field::mapped::MappedGrid::open(&scene.field).map_err(Failure::input)?
             {
                 let block = w.block(m.dims);
-                let values = m.read_box(block.origin, block.extent);
-                m.release();
-                if let Some(at) = values.iter().position(|v| !v.is_finite()) {
-                    let e = block.extent;
-                    let p = [at % e[0], (at / e[0]) % e[1], at / (e[0] * e[1])];
-                    let [i, j, k] = [0, 1, 2].map(|a| block.origin[a] + p[a]);
-                    eprintln!(
-                        "isoview: rank {}: {}: value {} at grid point [{i}, {j}, {k}] is not finite",
-                        w.rank(),
-                        m.label(),
-                        values[at]
-                    );
-                    w.abort(super::EXIT_INPUT);
-                }
+                let values = match m.read_finite(block.origin, block.extent) {
+                    Ok(values) => values,
+                    Err(e) => {
+                        eprintln!("isoview: rank {}: {e}", w.rank());
+                        w.abort(super::EXIT_INPUT);
+                    }
+                };
                 cached = Some((m.shape(), w.upload_block(&ctx, m.dims, block, values)?));
             }
         }

@@ -150,20 +150,7 @@ impl Points<'_> {
             }
             Points::Mapped(m) => {
                 let n = [m.dims[0], m.dims[1], layers.len()];
-                let values = m.read_box([0, 0, layers.start], n);
-                m.release();
-                match values.iter().position(|v| !v.is_finite()) {
-                    None => Ok(values),
-                    Some(at) => {
-                        let (i, j, k) = (at % n[0], (at / n[0]) % n[1], at / (n[0] * n[1]));
-                        Err(format!(
-                            "{}: value {} at grid point [{i}, {j}, {}] is not finite",
-                            m.label(),
-                            values[at],
-                            layers.start + k
-                        ))
-                    }
-                }
+                m.read_finite([0, 0, layers.start], n).map_err(|e| e.to_string())
             }
         }
     }

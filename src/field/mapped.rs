@@ -151,6 +151,26 @@ impl MappedGrid {
         out
     }
 
+    /// [`MappedGrid::read_box`], checked finite (the first non-finite point, x fastest, is
+    /// named), with the pages read handed back: what a process reading only its part of the
+    /// file (an MPI rank's block or window) takes instead of sampling the grid.
+    pub fn read_finite(&self, lo: [usize; 3], n: [usize; 3]) -> Result<Vec<f32>, FieldError> {
+        let values = self.read_box(lo, n);
+        self.release();
+        match values.iter().position(|v| !v.is_finite()) {
+            None => Ok(values),
+            Some(at) => {
+                let p = [at % n[0], (at / n[0]) % n[1], at / (n[0] * n[1])];
+                Err(FieldError::NonFinite {
+                    what: self.label(),
+                    index: [0, 1, 2].map(|a| lo[a] + p[a]),
+                    value: values[at],
+                    detail: String::new(),
+                })
+            }
+        }
+    }
+
     fn bytes(&self, first: usize, count: usize, size: usize) -> &[u8] {
         let start = self.offset + first * size;
         &self.map[start..start + count * size]
@@ -246,13 +266,5 @@ impl MappedGrid {
             }
         }
         Ok(mm)
-    }
-
-    /// The points of brick `b` (cells `b * brick ..`, its far face included, clamped to the
-    /// grid).
-    pub fn brick_points(&self, b: [usize; 3], brick: usize) -> ([usize; 3], [usize; 3]) {
-        let lo = [0, 1, 2].map(|a| b[a] * brick);
-        let hi = [0, 1, 2].map(|a| (lo[a] + brick).min(self.dims[a] - 1));
-        (lo, [0, 1, 2].map(|a| hi[a] - lo[a] + 1))
     }
 }

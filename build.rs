@@ -83,9 +83,13 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
 
 /// Shaders compiled a second time with a `#define`: (file under `shaders/`, suffix of the
 /// second SPIR-V's name, the macro). `GRID_POOL`: the ray passes reading the grid from the brick
-/// pool instead of a 3D image (`field.residency = "active"`).
-const VARIANTS: &[(&str, &str, &str)] =
-    &[("analytic.comp", "pool", "GRID_POOL"), ("raymarch.comp", "pool", "GRID_POOL")];
+/// pool instead of a 3D image (`field.residency = "active"`); `GRID_BUFFER`: the analytic pass
+/// reading a whole grid from a storage buffer (its default, faster on llvmpipe).
+const VARIANTS: &[(&str, &str, &str)] = &[
+    ("analytic.comp", "pool", "GRID_POOL"),
+    ("analytic.comp", "buffer", "GRID_BUFFER"),
+    ("raymarch.comp", "pool", "GRID_POOL"),
+];
 
 fn shared(name: &str) -> u32 {
     SHARED.iter().find(|c| c.0 == name).map(|c| c.1).unwrap()

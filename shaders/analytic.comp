@@ -5,7 +5,7 @@
 //   1. index space; 2. slab clip to [t_lo, t_hi]; 3. entry point; 4. first cell; 5. next planes
 //   from plane indices; 6. walk the cells: per cell the cubic of the segment, split at the roots
 //   of its derivative, a crossing wherever the inside predicate changes between consecutive
-//   split points (values at cell faces carried from cell to cell), refined by Newton kept in
+//   split points (values at cell faces: the same from both cells), refined by Newton kept in
 //   the bracket; 7. hit attributes.
 // With `render.count_crossings` (`P.analytic.w`) the walk goes on after the hit to count every
 // crossing (the `crossings` channel; only the wanted one, `P.analytic.x`, the k-th, is refined);
@@ -18,11 +18,16 @@
 // is one pass, and a ray whose remaining span lies in an empty brick stops there.
 //
 // Empty-space skipping (`P.analytic.y`): `bricks[]` holds the [min, max] of the corner values of
-// each brick of P.analytic.z^3 cells (built by bricks.comp). When the walk enters a cell whose
-// brick is clearly on one side of the isovalue, it jumps to the last cell of the brick along the
-// ray and only evaluates the value where it leaves the brick, landing in exactly the state
-// (cell, local entry point, carried value, t) the cell-by-cell walk would reach there, so the
-// image is bit for bit the same. See `jump` below for why, and when it is not attempted.
+// each brick of BRICK^3 cells (built by bricks.comp). When the walk enters a cell whose brick is
+// clearly on one side of every isovalue, it jumps to the cell of the brick where the ray leaves
+// it (`leave_box`), landing in exactly the cell and t the cell-by-cell walk reaches there; a
+// cell whose corners are clearly on one side is stepped over without its cubic. The cells it
+// does evaluate get the same numbers as in the cell-by-cell walk (see 6a/6b in main), so the
+// image is bit for bit the same; rays for which a jump is not exact (`may_jump`) step cell by
+// cell.
+//
+// The whole grid is read from a storage buffer (`GRID_BUFFER`, the default), an MPI rank's block
+// from the grid image, a brick pool (`GRID_POOL`) through its page table: field.glsl.
 //
 // Where f32 needs care (the reference is free of tolerances except CONVERGED):
 // - the predicate is decided on g = f - iso as in the reference (`inside_g`);
@@ -45,6 +50,9 @@ layout(std140, binding = 0) uniform Params { RenderParams P; };
 // (BRICK + 1 + 2 POOL_APRON)^3 points each, and the page table of every brick.
 layout(std430, binding = 1) readonly buffer Pool { float pool[]; };
 layout(std430, binding = 5) readonly buffer Pages { uint pages[]; };
+#elif defined(GRID_BUFFER)
+// The whole grid's points, x fastest (a copy of the grid image; render/mod.rs).
+layout(std430, binding = 1) readonly buffer Grid { float grid[]; };
 #else
 layout(binding = 1) uniform sampler3D u_grid;
 #endif
@@ -80,9 +88,10 @@ float threshold(uint k) {
 
 // Whether no crossing of any surface can lie in the brick of `cell`.
 bool brick_is_empty(ivec3 cell) {
-    int size = int(P.analytic.z);
-    ivec3 nb = (P.dims.xyz - 2) / size + 1;  // bricks per axis: ceil(cells / size)
-    ivec3 b = cell / size;
+    // BRICK (P.analytic.z) as the constant: llvmpipe has no vector integer division, and a
+    // division by a variable costs it one scalar division per lane.
+    ivec3 nb = (P.dims.xyz - 2) / BRICK + 1;  // bricks per axis: ceil(cells / BRICK)
+    ivec3 b = cell / BRICK;
     vec2 mm = bricks[(b.z * nb.y + b.y) * nb.x + b.x];
     for (uint k = 0u; k < P.view.w; k++) {
         float iso = threshold(k);
@@ -103,6 +112,169 @@ bool cell_is_clear(Corners k, float iso) {
     float hi = max(max(mx.x, mx.y), max(mx.z, mx.w));
     float tol = SKIP_MARGIN * (max(abs(lo), abs(hi)) + abs(iso));
     return lo - iso > tol || iso - hi > tol;
+}
+
+// 6.1 Where the segment of a cell entered at t_in ends: its nearest plane, or the ray's end.
+float segment_end(vec3 tmax, float t_in, float t_hi) {
+    return max(min(min(tmax.x, min(tmax.y, tmax.z)), t_hi), t_in);
+}
+
+// 6.2 The exit point of the segment [t_in, t_out] of `cell` in local coordinates: exactly on
+// the face for a crossed axis.
+vec3 exit_point(bvec3 crossed, ivec3 cell, vec3 q_in, float t_in, float t_out, vec3 o, vec3 d) {
+    vec3 q_out;
+    for (int a = 0; a < 3; a++) {
+        if (crossed[a]) {
+            q_out[a] = d[a] > 0.0 ? 1.0 : 0.0;
+        } else if (t_out == t_in) {
+            q_out[a] = q_in[a];
+        } else {
+            q_out[a] = clamp(o[a] + t_out * d[a] - float(cell[a]), 0.0, 1.0);
+        }
+    }
+    return q_out;
+}
+
+// The local entry point of a cell entered at t_in > its previous cell's t_in across the planes
+// of `entered`: what 6.6 carries from the previous cell's exit_point (1 - q on the crossed axes).
+vec3 entry_point(bvec3 entered, ivec3 cell, float t_in, vec3 o, vec3 d) {
+    vec3 q;
+    for (int a = 0; a < 3; a++) {
+        q[a] = entered[a] ? (d[a] > 0.0 ? 0.0 : 1.0)
+                          : clamp(o[a] + t_in * d[a] - float(cell[a]), 0.0, 1.0);
+    }
+    return q;
+}
+
+// The entry point of the next cell after a zero-length segment with entry point q: unchanged
+// but on the crossed axes, where it is on the face it came through (6.6 carries 1 - exit).
+vec3 carried(bvec3 crossed, vec3 q, vec3 d) {
+    for (int a = 0; a < 3; a++) {
+        if (crossed[a]) q[a] = d[a] > 0.0 ? 0.0 : 1.0;
+    }
+    return q;
+}
+
+// 6.6 Steps every axis of `crossed` into the next cell and its next plane; false when that
+// leaves the grid.
+bool step_cells(bvec3 crossed, inout ivec3 cell, inout vec3 tmax, vec3 o, vec3 d) {
+    ivec3 ncell = P.dims.xyz - 1;
+    bool left_box = false;
+    for (int a = 0; a < 3; a++) {
+        if (crossed[a]) {
+            cell[a] += d[a] > 0.0 ? 1 : -1;
+            left_box = left_box || cell[a] < 0 || cell[a] > ncell[a] - 1;
+            tmax[a] = tmax_of(a, cell[a], o, d);
+        }
+    }
+    return !left_box;
+}
+
+// Leaves the box of size^3 cells (aligned to multiples of `size`) holding `cell`: returns t_b,
+// where the ray leaves it (at most t_hi, at least t_in), and puts `cell` and `tmax` in the cell
+// the cell-by-cell walk is in when its segment ends at t_b. That walk crosses every plane
+// whose tmax is below t_b, each at its own t, so it is then in the cell whose per-axis index
+// is the first (in travel order) with tmax >= t_b: found from the position at t_b, corrected
+// against the tmax of the planes on either side. size = 1 is one cell (cell and tmax stay).
+// For size > 1 needs tmax strictly increasing along each axis (may_jump) and min(tmax) > t_in.
+float leave_box(int size, inout ivec3 cell, inout vec3 tmax, float t_in, float t_hi, vec3 o,
+                vec3 d) {
+    ivec3 ncell = P.dims.xyz - 1;
+    ivec3 last_cell;
+    float t_b = t_hi;
+    for (int a = 0; a < 3; a++) {
+        // size is 1 or BRICK: no division by a variable (brick_is_empty says why).
+        int first = size == 1 ? cell[a] : (cell[a] / BRICK) * BRICK;
+        last_cell[a] = d[a] > 0.0 ? min(first + size - 1, ncell[a] - 1)
+                                  : (d[a] < 0.0 ? first : cell[a]);
+        t_b = min(t_b, tmax_of(a, last_cell[a], o, d));
+    }
+    t_b = max(t_b, t_in);
+    if (size == 1 || t_b >= t_hi) return t_b;
+    for (int a = 0; a < 3; a++) {
+        if (d[a] == 0.0) continue;
+        int s = d[a] > 0.0 ? 1 : -1;
+        float x = o[a] + t_b * d[a];
+        int c = s > 0 ? int(floor(x)) : int(ceil(x)) - 1;
+        c = s > 0 ? clamp(c, cell[a], last_cell[a]) : clamp(c, last_cell[a], cell[a]);
+        for (int i = 0; i <= size && c != cell[a] && tmax_of(a, c - s, o, d) >= t_b; i++)
+            c -= s;
+        for (int i = 0; i <= size && c != last_cell[a] && tmax_of(a, c, o, d) < t_b; i++)
+            c += s;
+        cell[a] = c;
+        tmax[a] = tmax_of(a, c, o, d);
+    }
+    return t_b;
+}
+
+// Whether every surface is clear of the cell (cell_is_clear): no crossing can lie in it.
+bool cell_all_clear(Corners k) {
+    for (uint s = 0u; s < P.view.w; s++) {
+        if (!cell_is_clear(k, threshold(s))) return false;
+    }
+    return true;
+}
+
+// 6.3–6.5 in one owned cell: the cubic of the segment (its c0 is each surface's g_in), split
+// at the roots of its derivative, a crossing wherever the inside predicate changes between
+// consecutive split points. Counts them into `crossings`; returns the surfaces whose shown
+// crossing is in this cell (bit k; none once `found`), with their brackets.
+uint cell_crossings(Corners corners, vec3 q_in, vec3 q_out, float f_in, float f_out, float t_in,
+                    float t_out, bool found, inout uint crossings, inout uint exact_mask,
+                    inout vec4 brackets[SURFACES]) {
+    bool below = P.surface.y > 0.0;
+    uint surfaces = P.view.w;
+    bool several = surfaces > 1u;
+    uint wanted = max(P.analytic.x, 1u);  // 1 with several surfaces (scene validation)
+    bool count_all = P.analytic.w != 0u;
+    vec4 shape = cubic_along(corners, q_in, q_out, 0.0);
+    float r0, r1;
+    int nd = derivative_roots(shape, r0, r1);
+    uint cell_mask = 0u;
+    for (uint k = 0u; k < surfaces; k++) {
+        float iso = threshold(k);
+        if (P.analytic.y != 0u && cell_is_clear(corners, iso)) continue;
+        float g_in = f_in - iso;
+        float g_out = f_out - iso;
+        vec4 cubic = vec4(g_in, shape.yzw);
+        float su[4];
+        float sg[4];
+        su[0] = 0.0;
+        sg[0] = g_in;
+        su[1] = r0;
+        sg[1] = cubic_eval(cubic, r0);
+        su[2] = r1;
+        sg[2] = cubic_eval(cubic, r1);
+        su[nd + 1] = 1.0;
+        sg[nd + 1] = g_out;
+
+        // 6.5 Crossings, piece by piece.
+        for (int s = 0; s <= nd; s++) {
+            float ua = su[s], ga = sg[s], ub = su[s + 1], gb = sg[s + 1];
+            bool pa = inside_g(below, ga);
+            bool pb = inside_g(below, gb);
+            if (pa == pb) continue;
+            // A point exactly on the surface closes the bracket: the crossing is there.
+            bool exact = ga == 0.0 || gb == 0.0;
+            float ue = ga == 0.0 ? ua : ub;
+            // A crossing at t = 0 (the ray starts on the surface) is not counted.
+            if (exact && segment_t(t_in, t_out, ue) <= 0.0) continue;
+            crossings++;
+            // The shown crossing: the wanted one of the one surface, or each surface's
+            // first in the first cell where any crosses.
+            bool shown = several ? (cell_mask & (1u << k)) == 0u : crossings == wanted;
+            if (found || !shown) continue;
+            cell_mask |= 1u << k;
+            if (exact) {
+                exact_mask |= 1u << k;
+                brackets[k] = vec4(ue, ue, 0.0, 0.0);
+            } else {
+                brackets[k] = vec4(ua, ub, ga, gb);
+            }
+            if (!count_all) break;
+        }
+    }
+    return cell_mask;
 }
 
 // Whether this process traces `cell` (P.block_lo .. P.block_hi: the whole grid, or an MPI
@@ -215,19 +387,6 @@ void main() {
         q_in[a] = clamp(p[a] - c, 0.0, 1.0);
     }
     Corners corners;
-    // The walk carries the interpolant f; surface k decides on g = f - threshold(k), the same
-    // bits as a walk that carried g itself.
-    float f_in = 0.0;
-    // fresh: f_in is not yet this cell's entry value (the walk came from cells of another
-    // block). It is then evaluated from this cell's corners: a face point has the same bits
-    // from both cells sharing the face (trilerp), so it equals the value the whole walk carries.
-    bool fresh = true;
-    bool own = owned(cell);
-    if (own) {
-        corners = cell_corners(cell);
-        f_in = trilerp(corners, q_in);
-        fresh = false;
-    }
 
     // 5. Next planes, from plane indices.
     vec3 tmax = vec3(tmax_of(0, cell.x, o, d), tmax_of(1, cell.y, o, d), tmax_of(2, cell.z, o, d));
@@ -242,7 +401,6 @@ void main() {
         float m = abs(d[a]);
         if (m != 0.0 && !(m > 8.0779356694631609e-28 && m < 1.2379400392853803e27)) may_jump = false;
     }
-    int brick = int(P.analytic.z);
 
     // 6. The walk.
     uint max_passes = uint(ncell.x + ncell.y + ncell.z);
@@ -258,153 +416,97 @@ void main() {
     uint hit_mask = 0u;   // bit k: surface k crosses in the hit cell
     uint exact_mask = 0u; // bit k: ... exactly at a split point (ua)
     vec4 brackets[SURFACES];
-    bool have_corners = true;
-    for (uint pass = 0u; pass < max_passes; pass++) {
-        passes++;
-        float t_out;
-        bool jumped = false;
 
-        // Jump over an empty brick. The cell-by-cell walk from here crosses every plane whose
-        // tmax is below t_b (where the ray leaves the brick), each at its own t, so when it
-        // reaches t_b it is in the cell whose per-axis index is the first (in travel order)
-        // with tmax >= t_b; there it ends its segment at t_b, evaluates the exit value, and
-        // steps. Land in that cell and let the shared code below do the rest.
-        if (may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in && brick_is_empty(cell)) {
-            ivec3 last_cell;
-            float t_b = t_hi;
-            for (int a = 0; a < 3; a++) {
-                int first = (cell[a] / brick) * brick;
-                last_cell[a] = d[a] > 0.0 ? min(first + brick - 1, ncell[a] - 1)
-                                          : (d[a] < 0.0 ? first : cell[a]);
-                t_b = min(t_b, tmax_of(a, last_cell[a], o, d));
+    // The walk is two loops: the inner one only finds the next cell that may hold a crossing
+    // (6a: jumping over empty bricks, stepping over clear cells), the outer one evaluates that
+    // cell (6b), once per such cell. llvmpipe runs every branch of a loop body under a mask on
+    // each iteration, so the cubic out of the inner loop costs per candidate cell, not per cell
+    // walked. Without skipping every owned cell is a candidate: the reference's walk.
+    //
+    // A candidate is evaluated from its own corners and entry point, which are the bits a walk
+    // carrying them from cell to cell would have: the value at a face point is the same from
+    // both cells sharing the face (trilerp), and the entry point is the previous exit point,
+    // computed from the t the cell is entered at, except while every segment so far had length
+    // 0 (a ray starting on a plane), when it is carried from step 4's (`known`).
+    bool skip = P.analytic.y != 0u;
+    bool known = true;        // q_in is `q_known` (step 4's, carried through zero-length cells)
+    vec3 q_known = q_in;
+    bvec3 entered = bvec3(false);  // the axes whose planes the walk crossed into `cell`
+    for (;;) {
+        // 6a. To the next cell that may hold a crossing: cells one by one, and before each,
+        // the empty bricks from there in jumps (a loop of its own: a jump reads one brick's
+        // range, a cell its 8 corners, and llvmpipe pays for every read in a loop body on
+        // every iteration).
+        bool candidate = false;
+        bool ended = false;
+        while (passes < max_passes) {
+            bool empty = false;
+            while (passes < max_passes) {
+                empty = skip && brick_is_empty(cell);
+                if (!(empty && may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in)) break;
+                passes++;
+                float t_b = leave_box(BRICK, cell, tmax, t_in, t_hi, o, d);
+                // The rest of the ray lies in this brick: no crossing is left.
+                ended = t_b >= t_hi;
+                if (ended) break;
+                entered = lessThanEqual(tmax, vec3(t_b));
+                known = false;  // t_b > t_in
+                ended = !step_cells(entered, cell, tmax, o, d);
+                if (ended) break;
+                t_in = t_b;
             }
-            // The rest of the ray lies in this brick: no crossing is left.
-            if (t_b >= t_hi) break;
-            for (int a = 0; a < 3; a++) {
-                if (d[a] == 0.0) continue;
-                int s = d[a] > 0.0 ? 1 : -1;
-                float x = o[a] + t_b * d[a];
-                int c = s > 0 ? int(floor(x)) : int(ceil(x)) - 1;
-                c = s > 0 ? clamp(c, cell[a], last_cell[a]) : clamp(c, last_cell[a], cell[a]);
-                for (int i = 0; i <= brick && c != cell[a] && tmax_of(a, c - s, o, d) >= t_b; i++)
-                    c -= s;
-                for (int i = 0; i <= brick && c != last_cell[a] && tmax_of(a, c, o, d) < t_b; i++)
-                    c += s;
-                cell[a] = c;
-                tmax[a] = tmax_of(a, c, o, d);
-            }
-            own = owned(cell);
-            if (own) corners = cell_corners(cell);
-            have_corners = own;
-            t_out = t_b;
-            jumped = true;
-        } else {
-            own = owned(cell);
-            if (own && !have_corners) corners = cell_corners(cell);
-            if (own && fresh) f_in = trilerp(corners, q_in);
-            fresh = fresh && !own;
-            // 6.1 Segment end.
-            t_out = max(min(min(tmax.x, min(tmax.y, tmax.z)), t_hi), t_in);
-        }
-        bool last = t_out >= t_hi;
-        bvec3 crossed = lessThanEqual(tmax, vec3(t_out));
-
-        // 6.2 Exit point (crossed coordinates exactly on the face) and value.
-        vec3 q_out;
-        for (int a = 0; a < 3; a++) {
-            if (crossed[a]) {
-                q_out[a] = d[a] > 0.0 ? 1.0 : 0.0;
-            } else if (t_out == t_in) {
-                q_out[a] = q_in[a];
-            } else {
-                q_out[a] = clamp(o[a] + t_out * d[a] - float(cell[a]), 0.0, 1.0);
-            }
-        }
-        float f_out = !own ? 0.0 : (t_out == t_in ? f_in : trilerp(corners, q_out));
-
-        if (own && !jumped) {
-            // 6.3 Cubic (its c0 is each surface's g_in); 6.4 split points.
-            vec4 shape = cubic_along(corners, q_in, q_out, 0.0);
-            float r0, r1;
-            int nd = derivative_roots(shape, r0, r1);
-            uint cell_mask = 0u;
-            for (uint k = 0u; k < surfaces; k++) {
-                float iso = threshold(k);
-                if (P.analytic.y != 0u && cell_is_clear(corners, iso)) continue;
-                float g_in = f_in - iso;
-                float g_out = f_out - iso;
-                vec4 cubic = vec4(g_in, shape.yzw);
-                float su[4];
-                float sg[4];
-                su[0] = 0.0;
-                sg[0] = g_in;
-                su[1] = r0;
-                sg[1] = cubic_eval(cubic, r0);
-                su[2] = r1;
-                sg[2] = cubic_eval(cubic, r1);
-                su[nd + 1] = 1.0;
-                sg[nd + 1] = g_out;
-
-                // 6.5 Crossings, piece by piece.
-                for (int s = 0; s <= nd; s++) {
-                    float ua = su[s], ga = sg[s], ub = su[s + 1], gb = sg[s + 1];
-                    bool pa = inside_g(below, ga);
-                    bool pb = inside_g(below, gb);
-                    if (pa == pb) continue;
-                    // A point exactly on the surface closes the bracket: the crossing is there.
-                    bool exact = ga == 0.0 || gb == 0.0;
-                    float ue = ga == 0.0 ? ua : ub;
-                    // A crossing at t = 0 (the ray starts on the surface) is not counted.
-                    if (exact && segment_t(t_in, t_out, ue) <= 0.0) continue;
-                    crossings++;
-                    // The shown crossing: the wanted one of the one surface, or each surface's
-                    // first in the first cell where any crosses.
-                    bool shown = several ? (cell_mask & (1u << k)) == 0u : crossings == wanted;
-                    if (found || !shown) continue;
-                    cell_mask |= 1u << k;
-                    if (exact) {
-                        exact_mask |= 1u << k;
-                        brackets[k] = vec4(ue, ue, 0.0, 0.0);
-                    } else {
-                        brackets[k] = vec4(ua, ub, ga, gb);
-                    }
-                    if (!count_all) break;
+            if (ended || passes >= max_passes) break;
+            passes++;
+            if (!empty && owned(cell)) {
+                corners = cell_corners(cell);
+                if (!skip || !cell_all_clear(corners)) {
+                    candidate = true;
+                    break;
                 }
             }
-            if (!found && cell_mask != 0u) {
-                // 7. The hit is in this cell: keep where it is; refined after the walk.
-                found = true;
-                visited = passes;
-                hit_mask = cell_mask;
-                hit_cell = cell;
-                hit_q_in = q_in;
-                hit_q_out = q_out;
-                hit_t_in = t_in;
-                hit_t_out = t_out;
-                hit_f_in = f_in;
-            }
+            // A cell with no crossing (a cell of an empty brick that cannot be jumped, a clear
+            // cell or another block's): step over it, as 6.6 does.
+            float t_b = segment_end(tmax, t_in, t_hi);
+            if (t_b >= t_hi) break;
+            entered = lessThanEqual(tmax, vec3(t_b));
+            known = known && t_b == t_in;
+            if (known) q_known = carried(entered, q_known, d);
+            if (!step_cells(entered, cell, tmax, o, d)) break;
+            t_in = t_b;
+        }
+        if (!candidate) break;
+
+        // 6b. The candidate cell.
+        q_in = known ? q_known : entry_point(entered, cell, t_in, o, d);
+        float f_in = trilerp(corners, q_in);
+        float t_out = segment_end(tmax, t_in, t_hi);
+        bvec3 crossed = lessThanEqual(tmax, vec3(t_out));
+        vec3 q_out = exit_point(crossed, cell, q_in, t_in, t_out, o, d);
+        float f_out = t_out == t_in ? f_in : trilerp(corners, q_out);
+        uint cell_mask = cell_crossings(corners, q_in, q_out, f_in, f_out, t_in, t_out, found,
+                                        crossings, exact_mask, brackets);
+        if (!found && cell_mask != 0u) {
+            // 7. The hit is in this cell: keep where it is; refined after the walk.
+            found = true;
+            visited = passes;
+            hit_mask = cell_mask;
+            hit_cell = cell;
+            hit_q_in = q_in;
+            hit_q_out = q_out;
+            hit_t_in = t_in;
+            hit_t_out = t_out;
+            hit_f_in = f_in;
         }
         // Nothing after the hit changes the image unless every crossing is counted.
         if (found && !count_all) break;
 
         // 6.6 Advance: step every crossed axis (ties step together: diagonal through an edge
-        // or corner), carry the exit point and value into the next cell.
-        if (last) break;
-        bool left_box = false;
-        for (int a = 0; a < 3; a++) {
-            if (crossed[a]) {
-                cell[a] += d[a] > 0.0 ? 1 : -1;
-                left_box = left_box || cell[a] < 0 || cell[a] > ncell[a] - 1;
-                q_in[a] = 1.0 - q_out[a];
-                tmax[a] = tmax_of(a, cell[a], o, d);
-            } else {
-                q_in[a] = q_out[a];
-            }
-        }
-        if (left_box) break;
-        have_corners = false;
-        f_in = f_out;
-        fresh = !own;
+        // or corner).
+        if (t_out >= t_hi) break;
+        entered = crossed;
+        known = known && t_out == t_in;
+        if (known) q_known = carried(entered, q_in, d);
+        if (!step_cells(crossed, cell, tmax, o, d)) break;
         t_in = t_out;
     }
 

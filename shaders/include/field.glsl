@@ -1,6 +1,7 @@
 // The trilinear field on the grid, read exactly with texelFetch (no hardware filtering: real
 // GPUs filter with ~8-bit weights). Mirrors `reference::field` (f64).
-// Needs: `RenderParams P` and `sampler3D u_grid` declared before inclusion; with GRID_POOL
+// Needs: `RenderParams P` and `sampler3D u_grid` declared before inclusion; with GRID_BUFFER
+// instead `float grid[]` (the whole grid, not a block); with GRID_POOL
 // (`field.residency = "active"`, render/pool.rs) instead `float pool[]`, `uint pages[]` and
 // `vec2 bricks[]`.
 //
@@ -57,6 +58,12 @@ float cell_value(ivec3 c, ivec3 p) {
     ivec3 l = clamp(p - (b * BRICK - POOL_APRON), ivec3(0), ivec3(SLOT - 1));
     return pool[int(slot) * SLOT * SLOT * SLOT + (l.z * SLOT + l.y) * SLOT + l.x];
 }
+#elif defined(GRID_BUFFER)
+// The whole grid in a storage buffer (`grid[]`, x fastest; render/mod.rs): llvmpipe reads a
+// buffer element with a fraction of the instructions of a texelFetch.
+float cell_value(ivec3 c, ivec3 p) {
+    return grid[(p.z * P.dims.y + p.y) * P.dims.x + p.x];
+}
 #else
 // The value at grid point p (global indices; u_grid may hold only a block of the grid, from
 // P.block_origin on), read for cell c (any cell: the image holds every point).
@@ -103,6 +110,16 @@ Corners cell_corners(ivec3 c) {
     int i = int(slot) * SLOT * SZ + l.z * SZ + l.y * SY + l.x;
     k.lo = vec4(pool[i], pool[i + 1], pool[i + SY], pool[i + SY + 1]);
     k.hi = vec4(pool[i + SZ], pool[i + SZ + 1], pool[i + SZ + SY], pool[i + SZ + SY + 1]);
+    return k;
+}
+#elif defined(GRID_BUFFER)
+Corners cell_corners(ivec3 c) {
+    Corners k;
+    int sy = P.dims.x;
+    int sz = P.dims.x * P.dims.y;
+    int i = c.z * sz + c.y * sy + c.x;
+    k.lo = vec4(grid[i], grid[i + 1], grid[i + sy], grid[i + sy + 1]);
+    k.hi = vec4(grid[i + sz], grid[i + sz + 1], grid[i + sz + sy], grid[i + sz + sy + 1]);
     return k;
 }
 #else

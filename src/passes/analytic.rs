@@ -4,6 +4,9 @@
 //!
 //! Bindings: the ray passes' four ([`RAY_BINDINGS`](super::raymarch::RAY_BINDINGS)), then the
 //! brick min/max grid of empty-space skipping ([`super::bricks`]). Push constants: the band.
+//! Three builds of the shader: the grid as a storage buffer ([`buffer_pipeline`], a whole grid:
+//! the default), as the grid image ([`pipeline`], an MPI rank's block or a grid over the
+//! device's storage buffer range), as a brick pool ([`pool_pipeline`]).
 
 use std::sync::Arc;
 
@@ -24,7 +27,7 @@ pub const BINDINGS: [vk::DescriptorType; 5] = [
 pub fn pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
     ComputePipeline::new(
         ctx,
-        "analytic",
+        "analytic (image)",
         shaders::ANALYTIC,
         &BINDINGS,
         std::mem::size_of::<super::Band>() as u32,
@@ -39,6 +42,28 @@ pub fn pool_pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
         "analytic (brick pool)",
         shaders::ANALYTIC_POOL,
         &super::raymarch::POOL_BINDINGS,
+        std::mem::size_of::<super::Band>() as u32,
+    )
+}
+
+/// Bindings of the `GRID_BUFFER` variant: as [`BINDINGS`] with the grid as a storage buffer.
+pub const BUFFER_BINDINGS: [vk::DescriptorType; 5] = [
+    vk::DescriptorType::UNIFORM_BUFFER,
+    vk::DescriptorType::STORAGE_BUFFER,
+    vk::DescriptorType::STORAGE_BUFFER,
+    vk::DescriptorType::STORAGE_BUFFER,
+    vk::DescriptorType::STORAGE_BUFFER,
+];
+
+/// The `GRID_BUFFER` variant, the default for a whole grid: the grid's points in a storage
+/// buffer (a device copy of its image), which llvmpipe reads with far fewer instructions than
+/// a texelFetch (README "Benchmarks").
+pub fn buffer_pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
+    ComputePipeline::new(
+        ctx,
+        "analytic",
+        shaders::ANALYTIC_BUFFER,
+        &BUFFER_BINDINGS,
         std::mem::size_of::<super::Band>() as u32,
     )
 }

@@ -63,6 +63,8 @@ pub fn pool_pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
 pub enum GridInput<'a> {
     /// The whole grid (or an MPI rank's block) as a 3D image.
     Image(&'a Image3d),
+    /// The whole grid's points in a storage buffer (the analytic pass's `GRID_BUFFER` variant).
+    Points(&'a Buffer),
     /// The brick pool, its page table and the brick min/max grid (`render::pool`).
     Pool { pool: &'a Buffer, pages: &'a Buffer, bricks: &'a Buffer },
 }
@@ -99,6 +101,16 @@ impl<'a> RayPass<'a> {
                 r.extend(inputs.bricks.map(Resource::Storage));
                 r
             }
+            GridInput::Points(points) => {
+                let mut r = vec![
+                    Resource::Uniform(inputs.params),
+                    Resource::Storage(points),
+                    Resource::Storage(inputs.pixels),
+                    Resource::Storage(inputs.colormap),
+                ];
+                r.extend(inputs.bricks.map(Resource::Storage));
+                r
+            }
             GridInput::Pool { pool, pages, bricks } => vec![
                 Resource::Uniform(inputs.params),
                 Resource::Storage(pool),
@@ -124,6 +136,7 @@ impl<'a> RayPass<'a> {
         let mut reads = vec![i.params, i.colormap];
         match i.grid {
             GridInput::Image(_) => reads.extend(i.bricks),
+            GridInput::Points(points) => reads.extend([points].into_iter().chain(i.bricks)),
             GridInput::Pool { pool, pages, bricks } => reads.extend([pool, pages, bricks]),
         }
         rec.dispatch(&Compute {

@@ -91,6 +91,10 @@ pub struct GpuGrid {
     /// The brick min/max grid ([`bricks`]), built by the first analytic render (given, for a
     /// pool or a block).
     bricks: std::cell::OnceCell<Buffer>,
+    /// The image's points in a storage buffer, copied on the device by the first analytic
+    /// render of a whole grid (its `GRID_BUFFER` variant): a second copy of the grid on the
+    /// device, read by llvmpipe far faster than the image (README "Exact ray tracing").
+    points: std::cell::OnceCell<Buffer>,
     /// The block of a larger grid the image holds (None: the whole grid).
     block: Option<block::Block>,
 }
@@ -110,6 +114,7 @@ impl GpuGrid {
             storage: Storage::Image(Image3d::upload(ctx, "grid", extent, &grid.values)?),
             dims: grid.dims,
             bricks: std::cell::OnceCell::new(),
+            points: std::cell::OnceCell::new(),
             block: None,
         })
     }
@@ -128,6 +133,7 @@ impl GpuGrid {
             storage: Storage::Image(Image3d::upload(ctx, "grid block", extent, values)?),
             dims: block.extent,
             bricks: std::cell::OnceCell::new(),
+            points: std::cell::OnceCell::new(),
             block: Some(block),
         };
         let buffer = Buffer::upload(ctx, "bricks", bricks, vk::BufferUsageFlags::STORAGE_BUFFER)?;
@@ -149,6 +155,7 @@ impl GpuGrid {
             storage: Storage::Pool(Box::new(pool)),
             dims: grid.dims,
             bricks: std::cell::OnceCell::new(),
+            points: std::cell::OnceCell::new(),
             block: None,
         };
         let buffer = Buffer::upload(ctx, "bricks", ranges, vk::BufferUsageFlags::STORAGE_BUFFER)?;
@@ -194,16 +201,38 @@ pub fn scene_channels(scene: &Scene) -> Vec<Channel> {
         .collect()
 }
 
+/// The ray passes' shaders: method and how the grid is on the device.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum RayShader {
+    FixedStep,
+    FixedStepPool,
+    /// The grid image (an MPI rank's block, or a grid over the device's storage buffer range).
+    Analytic,
+    /// The whole grid in a storage buffer: the default.
+    AnalyticBuffer,
+    AnalyticPool,
+}
+
+impl RayShader {
+    fn pipeline(self, ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
+        match self {
+            RayShader::FixedStep => raymarch::pipeline(ctx),
+            RayShader::FixedStepPool => raymarch::pool_pipeline(ctx),
+            RayShader::Analytic => analytic::pipeline(ctx),
+            RayShader::AnalyticBuffer => analytic::buffer_pipeline(ctx),
+            RayShader::AnalyticPool => analytic::pool_pipeline(ctx),
+        }
+    }
+}
+
 /// Owns the pipelines and constant resources; renders any number of frames.
 pub struct Renderer {
     ctx: Arc<Context>,
-    raymarch: ComputePipeline,
-    analytic: ComputePipeline,
+    /// The ray passes' pipelines, each built on its first use: llvmpipe compiles one in a
+    /// good part of a second, and a render runs one of them.
+    ray_pipelines: std::collections::HashMap<RayShader, ComputePipeline>,
     bricks: ComputePipeline,
     colormap: Buffer,
-    /// The `GRID_POOL` ray passes (fixed-step, analytic), built on the first render of a brick
-    /// pool.
-    pool_pipelines: Option<(ComputePipeline, ComputePipeline)>,
     /// The mesh render's pipelines, built on the first mesh render (they need 64-bit atomics).
     mesh: Option<MeshPipelines>,
     /// The GPU mesh extraction, built on the first mesh render.
@@ -233,18 +262,14 @@ pub fn colormap() -> Vec<[f32; 4]> {
 
 impl Renderer {
     pub fn new(ctx: &Arc<Context>) -> Result<Self, RenderError> {
-        let raymarch = raymarch::pipeline(ctx)?;
-        let analytic = analytic::pipeline(ctx)?;
         let bricks = bricks::pipeline(ctx)?;
         let colormap =
             Buffer::upload(ctx, "colormap", &colormap(), vk::BufferUsageFlags::STORAGE_BUFFER)?;
         Ok(Renderer {
             ctx: ctx.clone(),
-            raymarch,
-            analytic,
+            ray_pipelines: Default::default(),
             bricks,
             colormap,
-            pool_pipelines: None,
             mesh: None,
             extractor: None,
             last_gpu_ms: None,
@@ -342,20 +367,27 @@ impl Renderer {
         band_rows: u32,
         sink: &mut dyn FrameSink,
     ) -> Result<(), RenderError> {
-        if gpu_grid.residency().is_some() && self.pool_pipelines.is_none() {
-            self.pool_pipelines =
-                Some((raymarch::pool_pipeline(&self.ctx)?, analytic::pool_pipeline(&self.ctx)?));
+        let shader = match (scene.render.method, &gpu_grid.storage) {
+            (Method::Mesh, _) => return Err(RenderError::Unsupported("mesh (as a ray pass)")),
+            (Method::FixedStep, Storage::Pool(_)) => RayShader::FixedStepPool,
+            (Method::FixedStep, Storage::Image(_)) => RayShader::FixedStep,
+            (Method::Analytic, Storage::Pool(_)) => RayShader::AnalyticPool,
+            (Method::Analytic, Storage::Image(image)) => {
+                let bytes = image.extent.iter().map(|&e| e as u64).product::<u64>() * 4;
+                if gpu_grid.block.is_none() && bytes <= self.ctx.info.max_storage_buffer_range {
+                    if gpu_grid.points.get().is_none() {
+                        let _ = gpu_grid.points.set(image.copy_to_buffer("grid points")?);
+                    }
+                    RayShader::AnalyticBuffer
+                } else {
+                    RayShader::Analytic
+                }
+            }
+        };
+        if !self.ray_pipelines.contains_key(&shader) {
+            self.ray_pipelines.insert(shader, shader.pipeline(&self.ctx)?);
         }
-        let pipeline = match scene.render.method {
-            Method::FixedStep => &self.raymarch,
-            Method::Analytic => &self.analytic,
-            Method::Mesh => return Err(RenderError::Unsupported("mesh (as a ray pass)")),
-        };
-        let pipeline = match (&self.pool_pipelines, gpu_grid.residency()) {
-            (Some((fixed, _)), Some(_)) if scene.render.method == Method::FixedStep => fixed,
-            (Some((_, exact)), Some(_)) => exact,
-            _ => pipeline,
-        };
+        let pipeline = &self.ray_pipelines[&shader];
         let ctx = &self.ctx;
         self.last_bricks_ms = None;
         if scene.render.method == Method::Analytic && gpu_grid.bricks.get().is_none() {
@@ -388,9 +420,15 @@ impl Renderer {
             Method::Analytic => gpu_grid.bricks.get(),
             _ => None,
         };
-        let grid_input = match &gpu_grid.storage {
-            Storage::Image(image) => GridInput::Image(image),
-            Storage::Pool(p) => GridInput::Pool {
+        let grid_input = match (&gpu_grid.storage, shader) {
+            (Storage::Image(_), RayShader::AnalyticBuffer) => GridInput::Points(
+                gpu_grid
+                    .points
+                    .get()
+                    .ok_or_else(|| GpuError::Bug("grid points not copied".into()))?,
+            ),
+            (Storage::Image(image), _) => GridInput::Image(image),
+            (Storage::Pool(p), _) => GridInput::Pool {
                 pool: &p.pool,
                 pages: &p.pages,
                 bricks: gpu_grid.bricks.get().ok_or_else(|| {

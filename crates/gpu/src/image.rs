@@ -53,7 +53,11 @@ impl Image3d {
             .array_layers(1)
             .samples(vk::SampleCountFlags::TYPE_1)
             .tiling(vk::ImageTiling::OPTIMAL)
-            .usage(vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST)
+            .usage(
+                vk::ImageUsageFlags::SAMPLED
+                    | vk::ImageUsageFlags::TRANSFER_DST
+                    | vk::ImageUsageFlags::TRANSFER_SRC,
+            )
             .sharing_mode(vk::SharingMode::EXCLUSIVE)
             .initial_layout(vk::ImageLayout::UNDEFINED);
         // SAFETY: valid device; destroyed below if the allocation fails, then by the `Image3d`
@@ -187,6 +191,90 @@ impl Image3d {
             z += depth;
         }
         Ok(image)
+    }
+}
+
+impl Image3d {
+    /// A device-local storage buffer holding the image's texels, x fastest (the layout
+    /// `upload` took them in), copied on the device. The image stays in
+    /// `SHADER_READ_ONLY_OPTIMAL`; the buffer is ready for compute shaders to read.
+    pub fn copy_to_buffer(&self, name: &str) -> Result<Buffer, GpuError> {
+        let ctx = &self.ctx;
+        let device = &ctx.device;
+        let texels = self.extent.iter().map(|&e| e as u64).product::<u64>();
+        let buffer = Buffer::new(
+            ctx,
+            name,
+            texels * 4,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )?;
+        let range = vk::ImageSubresourceRange::default()
+            .aspect_mask(vk::ImageAspectFlags::COLOR)
+            .level_count(1)
+            .layer_count(1);
+        let [width, height, depth] = self.extent;
+        ctx.submit(&format!("copy to {name}"), |cmd| {
+            // SAFETY: cmd is recording; image and buffer are alive until the fence wait.
+            unsafe {
+                barrier(
+                    device,
+                    cmd,
+                    self.raw,
+                    range,
+                    (
+                        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    ),
+                    (vk::AccessFlags::SHADER_READ, vk::AccessFlags::TRANSFER_READ),
+                    (vk::PipelineStageFlags::COMPUTE_SHADER, vk::PipelineStageFlags::TRANSFER),
+                );
+                let region = vk::BufferImageCopy::default()
+                    .image_subresource(
+                        vk::ImageSubresourceLayers::default()
+                            .aspect_mask(vk::ImageAspectFlags::COLOR)
+                            .layer_count(1),
+                    )
+                    .image_extent(vk::Extent3D { width, height, depth });
+                device.cmd_copy_image_to_buffer(
+                    cmd,
+                    self.raw,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    buffer.raw,
+                    &[region],
+                );
+                barrier(
+                    device,
+                    cmd,
+                    self.raw,
+                    range,
+                    (
+                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                    ),
+                    (vk::AccessFlags::TRANSFER_READ, vk::AccessFlags::SHADER_READ),
+                    (vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::COMPUTE_SHADER),
+                );
+                let written = vk::BufferMemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                    .dst_access_mask(vk::AccessFlags::SHADER_READ)
+                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .buffer(buffer.raw)
+                    .size(vk::WHOLE_SIZE);
+                device.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::PipelineStageFlags::COMPUTE_SHADER,
+                    vk::DependencyFlags::empty(),
+                    &[],
+                    &[written],
+                    &[],
+                );
+            }
+            Ok(())
+        })?;
+        Ok(buffer)
     }
 }
 

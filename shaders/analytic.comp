@@ -20,7 +20,7 @@
 // Empty-space skipping (`P.analytic.y`): `bricks[]` holds the [min, max] of the corner values of
 // each brick of BRICK^3 cells (built by bricks.comp). When the walk enters a cell whose brick is
 // clearly on one side of every isovalue, it jumps to the cell of the brick where the ray leaves
-// it (`leave_box`), landing in exactly the cell and t the cell-by-cell walk reaches there; a
+// it (`leave_brick`), landing in exactly the cell and t the cell-by-cell walk reaches there; a
 // cell whose corners are clearly on one side is stepped over without its cubic. The cells it
 // does evaluate get the same numbers as in the cell-by-cell walk (see 6a/6b in main), so the
 // image is bit for bit the same; rays for which a jump is not exact (`may_jump`) step cell by
@@ -170,36 +170,32 @@ bool step_cells(bvec3 crossed, inout ivec3 cell, inout vec3 tmax, vec3 o, vec3 d
     return !left_box;
 }
 
-// Leaves the box of size^3 cells (aligned to multiples of `size`) holding `cell`: returns t_b,
-// where the ray leaves it (at most t_hi, at least t_in), and puts `cell` and `tmax` in the cell
-// the cell-by-cell walk is in when its segment ends at t_b. That walk crosses every plane
-// whose tmax is below t_b, each at its own t, so it is then in the cell whose per-axis index
-// is the first (in travel order) with tmax >= t_b: found from the position at t_b, corrected
-// against the tmax of the planes on either side. size = 1 is one cell (cell and tmax stay).
-// For size > 1 needs tmax strictly increasing along each axis (may_jump) and min(tmax) > t_in.
-float leave_box(int size, inout ivec3 cell, inout vec3 tmax, float t_in, float t_hi, vec3 o,
-                vec3 d) {
+// Leaves the brick (BRICK^3 cells) holding `cell`: returns t_b, where the ray leaves it (at
+// most t_hi), and puts `cell` and `tmax` in the cell the cell-by-cell walk is in when its
+// segment ends at t_b. That walk crosses every plane whose tmax is below t_b, each at its own t,
+// so it is then in the cell whose per-axis index is the first (in travel order) with
+// tmax >= t_b: found from the position at t_b, corrected against the tmax of the planes on
+// either side. Needs tmax strictly increasing along each axis (may_jump) and min(tmax) > t_in.
+float leave_brick(inout ivec3 cell, inout vec3 tmax, float t_hi, vec3 o, vec3 d) {
     ivec3 ncell = P.dims.xyz - 1;
     ivec3 last_cell;
     float t_b = t_hi;
     for (int a = 0; a < 3; a++) {
-        // size is 1 or BRICK: no division by a variable (brick_is_empty says why).
-        int first = size == 1 ? cell[a] : (cell[a] / BRICK) * BRICK;
-        last_cell[a] = d[a] > 0.0 ? min(first + size - 1, ncell[a] - 1)
+        int first = (cell[a] / BRICK) * BRICK;  // a constant: brick_is_empty says why
+        last_cell[a] = d[a] > 0.0 ? min(first + BRICK - 1, ncell[a] - 1)
                                   : (d[a] < 0.0 ? first : cell[a]);
         t_b = min(t_b, tmax_of(a, last_cell[a], o, d));
     }
-    t_b = max(t_b, t_in);
-    if (size == 1 || t_b >= t_hi) return t_b;
+    if (t_b >= t_hi) return t_b;
     for (int a = 0; a < 3; a++) {
         if (d[a] == 0.0) continue;
         int s = d[a] > 0.0 ? 1 : -1;
         float x = o[a] + t_b * d[a];
         int c = s > 0 ? int(floor(x)) : int(ceil(x)) - 1;
         c = s > 0 ? clamp(c, cell[a], last_cell[a]) : clamp(c, last_cell[a], cell[a]);
-        for (int i = 0; i <= size && c != cell[a] && tmax_of(a, c - s, o, d) >= t_b; i++)
+        for (int i = 0; i <= BRICK && c != cell[a] && tmax_of(a, c - s, o, d) >= t_b; i++)
             c -= s;
-        for (int i = 0; i <= size && c != last_cell[a] && tmax_of(a, c, o, d) < t_b; i++)
+        for (int i = 0; i <= BRICK && c != last_cell[a] && tmax_of(a, c, o, d) < t_b; i++)
             c += s;
         cell[a] = c;
         tmax[a] = tmax_of(a, c, o, d);
@@ -417,10 +413,10 @@ void main() {
     uint exact_mask = 0u; // bit k: ... exactly at a split point (ua)
     vec4 brackets[SURFACES];
 
-    // The walk is two loops: the inner one only finds the next cell that may hold a crossing
+    // The walk is nested loops: the inner ones only find the next cell that may hold a crossing
     // (6a: jumping over empty bricks, stepping over clear cells), the outer one evaluates that
     // cell (6b), once per such cell. llvmpipe runs every branch of a loop body under a mask on
-    // each iteration, so the cubic out of the inner loop costs per candidate cell, not per cell
+    // each iteration, so the cubic out of the inner loops costs per candidate cell, not per cell
     // walked. Without skipping every owned cell is a candidate: the reference's walk.
     //
     // A candidate is evaluated from its own corners and entry point, which are the bits a walk
@@ -445,7 +441,7 @@ void main() {
                 empty = skip && brick_is_empty(cell);
                 if (!(empty && may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in)) break;
                 passes++;
-                float t_b = leave_box(BRICK, cell, tmax, t_in, t_hi, o, d);
+                float t_b = leave_brick(cell, tmax, t_hi, o, d);
                 // The rest of the ray lies in this brick: no crossing is left.
                 ended = t_b >= t_hi;
                 if (ended) break;

@@ -132,8 +132,10 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
         resolve_device(cli.device.as_deref(), cli.device_from_command_line, env.as_deref());
     let scene = super::load_scene(&args.scene, &args.sets)?;
     #[cfg(feature = "mpi")]
-    if let Some(why) = ranks.and_then(|w| w.refuses_extract(&scene, backend == Backend::Gpu)) {
-        return Err(Failure::input(why));
+    if let Some(w) = ranks {
+        if let Some(why) = w.refuses_extract(&scene, backend == Backend::Gpu) {
+            return Ok(w.refuse(&why, super::EXIT_INPUT));
+        }
     }
 
     let started = Instant::now();

@@ -112,10 +112,7 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         let tev = args.tev.as_ref().map(|_| "--tev is not available under MPI".to_string());
         if let Some(why) = w.refuses(&scene).or(tev) {
             // Every rank finds the same; rank 0 says it.
-            return match w.rank() {
-                0 => Err(Failure::input(why)),
-                _ => Ok(super::EXIT_INPUT),
-            };
+            return Ok(w.refuse(&why, super::EXIT_INPUT));
         }
     }
     #[cfg(feature = "mpi")]

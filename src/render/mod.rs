@@ -228,8 +228,8 @@ impl RayShader {
 /// Owns the pipelines and constant resources; renders any number of frames.
 pub struct Renderer {
     ctx: Arc<Context>,
-    /// The ray passes' pipelines, each built on its first use: llvmpipe compiles one in a
-    /// good part of a second, and a render runs one of them.
+    /// The ray passes' pipelines, each built on its first use (a render runs one of them;
+    /// llvmpipe takes a good part of a second to compile one when Mesa's shader cache is cold).
     ray_pipelines: std::collections::HashMap<RayShader, ComputePipeline>,
     bricks: ComputePipeline,
     colormap: Buffer,

@@ -198,8 +198,11 @@ pub(crate) fn read_samples(
 ///
 /// A transpose whose reads or writes stride by a whole layer or row misses the cache on
 /// every sample (256³ f32: 0.3 s, most of an extraction's load). Here each task fills `T`
-/// whole output layers: it reads runs of `T` consecutive samples (one `(i, j)`, `T` values of
-/// k) and writes them into `T` rows of `nx` samples, which stay in cache while `i` sweeps.
+/// whole output layers a tile at a time: `T` runs of `T` consecutive samples (`T` values of
+/// i, for one j, `T` values of k each) read into a local tile, then written out as `T` runs
+/// along i. Going through the tile matters: the runs on either side lie a whole layer (or
+/// row of rows) apart, a power of two for power-of-two grids, so they map to one cache set,
+/// and touching them element by element thrashes it.
 fn z_fastest_to_x_fastest(stored: &[f32], dims: [usize; 3]) -> Vec<f32> {
     use rayon::prelude::*;
     const T: usize = 16;
@@ -212,11 +215,19 @@ fn z_fastest_to_x_fastest(stored: &[f32], dims: [usize; 3]) -> Vec<f32> {
     out.par_chunks_mut(layer * T).enumerate().for_each(|(b, layers)| {
         let k0 = b * T;
         let kn = layers.len() / layer;
+        let mut tile = [[0.0f32; T]; T];
         for j in 0..ny {
-            for i in 0..nx {
-                let from = &stored[(i * ny + j) * nz + k0..][..kn];
-                for (dk, &v) in from.iter().enumerate() {
-                    layers[i + nx * (j + ny * dk)] = v;
+            for i0 in (0..nx).step_by(T) {
+                let n = T.min(nx - i0);
+                for (di, run) in tile[..n].iter_mut().enumerate() {
+                    let from = ((i0 + di) * ny + j) * nz + k0;
+                    run[..kn].copy_from_slice(&stored[from..from + kn]);
+                }
+                for dk in 0..kn {
+                    let to = &mut layers[i0 + nx * (j + ny * dk)..][..n];
+                    for (di, v) in to.iter_mut().enumerate() {
+                        *v = tile[di][dk];
+                    }
                 }
             }
         }

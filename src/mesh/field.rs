@@ -106,6 +106,18 @@ impl<'a> Field<'a> {
         f64::from(self.grid.values[self.held(i, j, k)])
     }
 
+    /// The held samples of point layer `k` of the whole grid, x fastest.
+    pub fn layer(&self, k: usize) -> &'a [f32] {
+        let n = self.dims[0] * self.dims[1];
+        &self.grid.values[(k - self.first) * n..][..n]
+    }
+
+    /// The inside rule at each of `values` as 1 or 0, into `out` (resized to match).
+    pub fn inside_flags(&self, values: &[f32], out: &mut Vec<u8>) {
+        out.clear();
+        out.extend(values.iter().map(|&v| u8::from(self.inside.contains(f64::from(v), self.iso))));
+    }
+
     /// The inside rule at point `(i, j, k)`.
     pub fn is_inside(&self, i: usize, j: usize, k: usize) -> bool {
         self.inside.contains(self.value(i, j, k), self.iso)
@@ -113,7 +125,13 @@ impl<'a> Field<'a> {
 
     /// Corner values of cell `(i, j, k)` in f64.
     pub fn corners(&self, i: usize, j: usize, k: usize) -> [f64; 8] {
-        self.grid.corners(i, j, k - self.first).map(f64::from)
+        // The 8 loads addressed from one base (the extractors call this for every vertex's
+        // normal); the values are `Grid::corners`'s.
+        let [nx, ny, _] = self.dims;
+        let p = self.held(i, j, k);
+        let (y, z) = (nx, nx * ny);
+        let v = &self.grid.values[p..=p + z + y + 1];
+        [v[0], v[1], v[y], v[y + 1], v[z], v[z + 1], v[z + y], v[z + y + 1]].map(f64::from)
     }
 
     /// Bitmask of the inside corners of cell `(i, j, k)`: bit `n` for corner `n`.

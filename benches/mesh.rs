@@ -12,7 +12,9 @@
 //! counts after each slab's scan and the output allocation, like the timings of Usher's
 //! WebGPU/Vulkan marching cubes; the GPU-timestamp sum is printed beside them. Every time is the
 //! median of 3 runs after one warm-up, except the CPU references (one run).
-//! `ISOVIEW_BENCH_SIZES=64,128` picks other grid sizes.
+//! `ISOVIEW_BENCH_SIZES=64,128` picks other grid sizes; `ISOVIEW_BENCH_GPU=0` leaves out the GPU
+//! rows (no Vulkan device is opened: the CPU rows alone, on a host where lavapipe would take
+//! the same cores); `ISOVIEW_BENCH_SHARP=0` leaves out the sharp-feature table.
 
 use std::time::Instant;
 
@@ -77,7 +79,7 @@ fn noise_grid(n: usize) -> Grid {
 }
 
 /// `/proc/loadavg`'s first three fields (other work on the host skews every time here,
-/// lavapipe's most, as it runs on the same cores).
+/// lavapipe's most, as it runs on the same cores); `ISOVIEW_BENCH_SHARP=0` leaves out the sharp-feature table.
 fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")
         .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
@@ -127,7 +129,8 @@ struct Row {
 }
 
 fn main() {
-    let ctx = match Context::new(&ContextOptions::default()) {
+    let with_gpu = std::env::var("ISOVIEW_BENCH_GPU").map_or(true, |v| v != "0");
+    let ctx = match with_gpu.then(|| Context::new(&ContextOptions::default())).transpose() {
         Ok(c) => c,
         Err(e) => {
             eprintln!("bench: {e}");
@@ -138,10 +141,16 @@ fn main() {
         .ok()
         .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
         .unwrap_or_else(|| vec![128, 256]);
-    let mut extractor = Extractor::new(&ctx).expect("extractor");
+    let mut extractor = ctx.as_ref().map(|c| Extractor::new(c).expect("extractor"));
     let opts = GpuExtractOptions::default();
     let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-    println!("device: {} ({}); host: {threads} CPU threads", ctx.info.name, ctx.info.driver_info);
+    match &ctx {
+        Some(c) => println!(
+            "device: {} ({}); host: {threads} CPU threads",
+            c.info.name, c.info.driver_info
+        ),
+        None => println!("device: none (ISOVIEW_BENCH_GPU=0); host: {threads} CPU threads"),
+    }
     println!("load average at start: {}", load_average());
     println!();
 
@@ -153,8 +162,9 @@ fn main() {
             ("noise", noise_grid(n)),
         ];
         for (field, grid) in &fields {
-            let image =
-                Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values).unwrap();
+            let image = ctx.as_ref().map(|c| {
+                Image3d::upload(c, "grid", grid.dims.map(|d| d as u32), &grid.values).unwrap()
+            });
             for algo in
                 [MeshAlgorithm::MarchingCubes, MeshAlgorithm::SurfaceNets, MeshAlgorithm::Mc33]
             {
@@ -193,14 +203,16 @@ fn main() {
                     par.vertex_count(),
                     par.triangle_count(),
                 );
-                let (s, (v, t, ms)) = time(|| {
-                    let m = extractor
-                        .extract(grid, &image, 0.0, Inside::Below, algo, &opts)
-                        .expect("GPU extraction");
-                    (m.vertex_count as usize, m.triangle_count as usize, extractor.last.gpu_ms)
-                });
-                assert_eq!((v, t), (cpu.vertex_count(), cpu.triangle_count()), "GPU vs CPU");
-                row(format!("isoview GPU {}", algo.name()), s, ms, v, t);
+                if let (Some(x), Some(image)) = (extractor.as_mut(), &image) {
+                    let (s, (v, t, ms)) = time(|| {
+                        let m = x
+                            .extract(grid, image, 0.0, Inside::Below, algo, &opts)
+                            .expect("GPU extraction");
+                        (m.vertex_count as usize, m.triangle_count as usize, x.last.gpu_ms)
+                    });
+                    assert_eq!((v, t), (cpu.vertex_count(), cpu.triangle_count()), "GPU vs CPU");
+                    row(format!("isoview GPU {}", algo.name()), s, ms, v, t);
+                }
                 match algo {
                     MeshAlgorithm::MarchingCubes => {
                         let (s, (v, t)) = time(|| {
@@ -288,7 +300,9 @@ fn main() {
             }
         }
     }
-    sharp(&sizes);
+    if std::env::var("ISOVIEW_BENCH_SHARP").map_or(true, |v| v != "0") {
+        sharp(&sizes);
+    }
 }
 
 /// The sharp-feature and adaptive meshes (CPU only) against uniform dual contouring on a

@@ -83,7 +83,13 @@ pub(crate) fn run_part(
         _ => ranges.into_par_iter().map(&slab).collect::<Result<Vec<_>, _>>()?,
     };
     let mut join = Join::default();
-    for p in parts {
+    let mut parts = parts.into_iter();
+    if let Some(first) = parts.next() {
+        join.push(first)?;
+    }
+    let rest: Vec<Part> = parts.collect();
+    join.reserve(&rest);
+    for p in rest {
         join.push(p)?;
     }
     Ok(join.part)
@@ -108,6 +114,19 @@ pub(crate) struct Join {
 }
 
 impl Join {
+    /// Makes room for `parts` at once: grown slab by slab, the joined vectors are copied
+    /// and their pages faulted in again at every doubling.
+    pub fn reserve(&mut self, parts: &[Part]) {
+        let sum = |f: fn(&Part) -> usize| parts.iter().map(f).sum::<usize>();
+        let all = &mut self.part;
+        all.verts.positions.reserve(sum(|p| p.verts.normals.len()));
+        all.verts.normals.reserve(sum(|p| p.verts.normals.len()));
+        all.indices.reserve(sum(|p| p.indices.len()));
+        all.quads.reserve(sum(|p| p.quads.len()));
+        all.added.positions.reserve(sum(|p| p.added.normals.len()));
+        all.added.normals.reserve(sum(|p| p.added.normals.len()));
+    }
+
     /// Appends the next slab's part: its local ids move past the vertices joined so far (the
     /// ids of its next slab's vertices with them), its placeholders past the added vertices
     /// joined so far.

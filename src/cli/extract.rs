@@ -192,7 +192,7 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
         meshes.push(mesh);
         (ran_on, why) = (on, reason);
     }
-    let what = Summary { scene: &scene, ran_on, why, started, range: Some(grid.range()) };
+    let what = Summary { scene: &scene, ran_on, why, started, samples: Some(&grid) };
     write_meshes(args, format, meshes, what)
 }
 
@@ -203,8 +203,9 @@ struct Summary<'a> {
     /// Appended to where it ran ("; auto: ...").
     why: String,
     started: Instant,
-    /// The samples' range, for the note on an empty mesh (None: not known).
-    range: Option<(f32, f32)>,
+    /// The samples, whose range the note on an empty mesh gives (None: not at hand). Taken
+    /// only then: a pass over every sample (256³: tens of ms) for a line rarely printed.
+    samples: Option<&'a Grid>,
 }
 
 /// Merges the meshes of the surfaces (labelling each vertex with its surface when there are
@@ -215,7 +216,7 @@ fn write_meshes(
     mut meshes: Vec<Mesh>,
     what: Summary,
 ) -> Result<i32, Failure> {
-    let Summary { scene, ran_on, why, started, range } = what;
+    let Summary { scene, ran_on, why, started, samples } = what;
     let (mesh, labels) = match meshes.len() {
         1 => (meshes.pop().expect("one mesh"), None),
         _ => {
@@ -241,7 +242,7 @@ fn write_meshes(
         ran_on.name(),
         args.output.display()
     );
-    if let (0, Some((lo, hi))) = (mesh.triangle_count(), range) {
+    if let (0, Some((lo, hi))) = (mesh.triangle_count(), samples.map(Grid::range)) {
         eprintln!(
             "isoview: note: the mesh is empty: no grid edge crosses isovalue {} (samples span \
              [{lo}, {hi}])",
@@ -276,7 +277,7 @@ fn extract_mapped(
         "; field.residency: streamed from the {}x{}x{} memory-mapped file",
         grid.dims[0], grid.dims[1], grid.dims[2]
     );
-    let what = Summary { scene, ran_on: Backend::Cpu, why, started, range: None };
+    let what = Summary { scene, ran_on: Backend::Cpu, why, started, samples: None };
     write_meshes(args, format, meshes, what)
 }
 
@@ -335,7 +336,7 @@ fn extract_ranks(w: &Ranks, grid: crate::cluster::Points, how: Split) -> Result<
         ms(own_share),
         ms(gathered)
     );
-    let what = Summary { scene, ran_on: Backend::Cpu, why, started, range: None };
+    let what = Summary { scene, ran_on: Backend::Cpu, why, started, samples: None };
     write_meshes(args, format, meshes, what)
 }
 

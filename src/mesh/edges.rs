@@ -195,6 +195,14 @@ impl<'f, 'g> EdgeLayers<'f, 'g> {
         Ok(())
     }
 
+    /// Nonzero for each cell of row `j` of cell layer `k` (into `out`, `nx - 1` long) that
+    /// has corners on both sides, from the flags of point layers `k` and `k + 1` (see
+    /// [`EdgeLayers::corner_mask`]).
+    pub fn active_cells(&self, j: usize, k: usize, out: &mut [u8]) {
+        let nx = self.f.dims[0];
+        cell_row_differs(&self.inside[k % 2], &self.inside[(k + 1) % 2], nx * j, nx, out);
+    }
+
     /// Bitmask of the inside corners of cell `(i, j, k)` (bit `n` for corner `n`, as
     /// [`Field::corner_mask`]), from the flags of point layers `k` and `k + 1`, both of which
     /// must have been built or numbered last.
@@ -232,5 +240,25 @@ impl<'f, 'g> EdgeLayers<'f, 'g> {
         let fam = self.families.iter().position(|&x| x == bits).expect("edge family in use");
         let o = offset(lo);
         self.id(cell[0] + o[0], cell[1] + o[1], cell[2] + o[2], fam)
+    }
+}
+
+/// For the cells of one row (corner 0 at point `r + cx` of the lower point layer `lo`, the
+/// upper `hi`, rows `nx` points long): nonzero iff the cell's corners are not all on one side.
+pub(crate) fn cell_row_differs(lo: &[u8], hi: &[u8], r: usize, nx: usize, out: &mut [u8]) {
+    let n = out.len();
+    let (a, b, c, d) =
+        (&lo[r..r + n], &lo[r + 1..r + 1 + n], &lo[r + nx..][..n], &lo[r + nx + 1..][..n]);
+    let (e, g, h, k) =
+        (&hi[r..r + n], &hi[r + 1..r + 1 + n], &hi[r + nx..][..n], &hi[r + nx + 1..][..n]);
+    for x in 0..n {
+        let v = a[x];
+        out[x] = (v ^ b[x])
+            | (v ^ c[x])
+            | (v ^ d[x])
+            | (v ^ e[x])
+            | (v ^ g[x])
+            | (v ^ h[x])
+            | (v ^ k[x]);
     }
 }

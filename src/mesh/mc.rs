@@ -70,15 +70,15 @@ pub(crate) fn extract_slab(f: &Field, cells: Range<usize>) -> Result<Part, MeshE
     let mut verts = Vertices::default();
     let mut indices = Vec::new();
     let mut edges = EdgeLayers::new(f, FAMILIES);
+    let mut active = vec![0u8; nx - 1];
     edges.build(cells.start, &mut verts)?;
     for k in cells.clone() {
         edges.enter_cell_layer(k, &cells, &mut verts)?;
         for j in 0..ny - 1 {
-            for i in 0..nx - 1 {
+            // Cells with corners on one side have no triangles (Bourke's rows 0 and 255).
+            edges.active_cells(j, k, &mut active);
+            for i in (0..nx - 1).filter(|&i| active[i] != 0) {
                 let mask = edges.corner_mask(i, j, k);
-                if mask == 0 || mask == 0xff {
-                    continue; // no crossed edge: no triangles (Bourke's rows 0 and 255 are empty)
-                }
                 let row = &MC_TRIANGLES[CASE_OF_MASK[usize::from(mask)]];
                 for tri in row.chunks_exact(3).take_while(|t| t[0] >= 0) {
                     let v = |e: i8| {

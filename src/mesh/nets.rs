@@ -86,7 +86,7 @@ pub(crate) fn extract_slab(
             slot.fill(u32::MAX);
             for cy in 0..ncy {
                 let r = nx * cy;
-                cell_row_differs(lo, hi, r, nx, &mut differs[..ncx]);
+                super::edges::cell_row_differs(lo, hi, r, nx, &mut differs[..ncx]);
                 for cx in (0..ncx).filter(|&cx| differs[cx] != 0) {
                     let p = r + cx;
                     let corner = |n: usize| {
@@ -178,26 +178,6 @@ pub(crate) fn extract_slab(
         }
     }
     Ok(Part { verts, indices, quads, added: Vertices::default() })
-}
-
-/// For the cells of one row (corner 0 at point `r + cx` of the lower point layer `lo`, the
-/// upper `hi`, rows `nx` points long): nonzero iff the cell's corners are not all on one side.
-fn cell_row_differs(lo: &[u8], hi: &[u8], r: usize, nx: usize, out: &mut [u8]) {
-    let n = out.len();
-    let (a, b, c, d) =
-        (&lo[r..r + n], &lo[r + 1..r + 1 + n], &lo[r + nx..][..n], &lo[r + nx + 1..][..n]);
-    let (e, g, h, k) =
-        (&hi[r..r + n], &hi[r + 1..r + 1 + n], &hi[r + nx..][..n], &hi[r + nx + 1..][..n]);
-    for x in 0..n {
-        let v = a[x];
-        out[x] = (v ^ b[x])
-            | (v ^ c[x])
-            | (v ^ d[x])
-            | (v ^ e[x])
-            | (v ^ g[x])
-            | (v ^ h[x])
-            | (v ^ k[x]);
-    }
 }
 
 /// For the points of one row (from point `r` of layer `here`, the layer above `above`, empty

@@ -14,7 +14,9 @@
 //! median of 3 runs after one warm-up, except the CPU references (one run).
 //! `ISOVIEW_BENCH_SIZES=64,128` picks other grid sizes; `ISOVIEW_BENCH_GPU=0` leaves out the GPU
 //! rows (no Vulkan device is opened: the CPU rows alone, on a host where lavapipe would take
-//! the same cores); `ISOVIEW_BENCH_SHARP=0` leaves out the sharp-feature table.
+//! the same cores); `ISOVIEW_BENCH_SHARP=0` leaves out the sharp-feature table;
+//! `ISOVIEW_BENCH_SCENE=path.toml` adds a table for that scene's sampled field (e.g. the peer
+//! script's `target/peers/gyroid-256.toml`, the grid VTK's flying edges is timed on there).
 
 use std::time::Instant;
 
@@ -79,7 +81,7 @@ fn noise_grid(n: usize) -> Grid {
 }
 
 /// `/proc/loadavg`'s first three fields (other work on the host skews every time here,
-/// lavapipe's most, as it runs on the same cores); `ISOVIEW_BENCH_SHARP=0` leaves out the sharp-feature table.
+/// lavapipe's most, as it runs on the same cores).
 fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")
         .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
@@ -300,8 +302,37 @@ fn main() {
             }
         }
     }
+    if let Ok(path) = std::env::var("ISOVIEW_BENCH_SCENE") {
+        scene_rows(std::path::Path::new(&path));
+    }
     if std::env::var("ISOVIEW_BENCH_SHARP").map_or(true, |v| v != "0") {
         sharp(&sizes);
+    }
+}
+
+/// The threaded CPU extraction of a scene's sampled field (its surface, marching cubes and
+/// surface nets), already in memory, as the peer script times VTK's: median of 3 after a
+/// warm-up.
+fn scene_rows(path: &std::path::Path) {
+    let scene = isoview::scene::load(path, &[]).expect("bench scene");
+    let grid = scene.field.sample(0.0).expect("bench scene's field");
+    let s = &scene.surface;
+    println!();
+    println!("{}: {:?} points, isovalue {}", path.display(), grid.dims, s.isovalue);
+    println!();
+    println!("| algorithm | CPU parallel ms | vertices | triangles |");
+    println!("|---|---:|---:|---:|");
+    for algo in [MeshAlgorithm::MarchingCubes, MeshAlgorithm::SurfaceNets] {
+        let opts = ExtractOptions::default();
+        let (t, m) =
+            time(|| extract_parallel(&grid, s.isovalue, s.inside, algo, opts).expect("extract"));
+        println!(
+            "| {} | {:.1} | {} | {} |",
+            algo.name(),
+            t * 1e3,
+            m.vertex_count(),
+            m.triangle_count()
+        );
     }
 }
 

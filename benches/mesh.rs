@@ -15,6 +15,7 @@
 //! `ISOVIEW_BENCH_SIZES=64,128` picks other grid sizes; `ISOVIEW_BENCH_GPU=0` leaves out the GPU
 //! rows (no Vulkan device is opened: the CPU rows alone, on a host where lavapipe would take
 //! the same cores); `ISOVIEW_BENCH_SHARP=0` leaves out the sharp-feature table;
+//! `ISOVIEW_BENCH_ALGOS=surface-nets,marching-cubes` times only those methods;
 //! `ISOVIEW_BENCH_SCENE=path.toml` adds a table for that scene's sampled field (e.g. the peer
 //! script's `target/peers/gyroid-256.toml`, the grid VTK's flying edges is timed on there).
 
@@ -78,6 +79,11 @@ fn noise_grid(n: usize) -> Grid {
         }
     }
     g
+}
+
+/// Whether `ISOVIEW_BENCH_ALGOS` (comma-separated method names; unset: all) names `algo`.
+fn picked(algo: &str) -> bool {
+    std::env::var("ISOVIEW_BENCH_ALGOS").map_or(true, |v| v.split(',').any(|a| a.trim() == algo))
 }
 
 /// `/proc/loadavg`'s first three fields (other work on the host skews every time here,
@@ -167,9 +173,9 @@ fn main() {
             let image = ctx.as_ref().map(|c| {
                 Image3d::upload(c, "grid", grid.dims.map(|d| d as u32), &grid.values).unwrap()
             });
-            for algo in
-                [MeshAlgorithm::MarchingCubes, MeshAlgorithm::SurfaceNets, MeshAlgorithm::Mc33]
-            {
+            let algos =
+                [MeshAlgorithm::MarchingCubes, MeshAlgorithm::SurfaceNets, MeshAlgorithm::Mc33];
+            for algo in algos.into_iter().filter(|a| picked(a.name())) {
                 let started = Instant::now();
                 let cpu: Mesh =
                     extract(grid, 0.0, Inside::Below, algo, ExtractOptions::default()).unwrap();

@@ -171,11 +171,29 @@ impl<'a> Field<'a> {
     /// `inside = above`. `fallback` (an index-space direction, inside → outside) is used where
     /// that gradient vanishes.
     pub fn normal(&self, u: DVec3, fallback: DVec3) -> [f32; 3] {
+        self.normal_from(self.gradient(u), fallback)
+    }
+
+    /// [`Field::normal`] at `u`, which lies strictly inside cell `cell` along every axis:
+    /// the same bits, without the search for the cells around `u` (one cell here, the one
+    /// [`Field::gradient`] would pick, with the same local coordinates and the same sum).
+    pub fn normal_in_cell(&self, cell: [usize; 3], u: DVec3, fallback: DVec3) -> [f32; 3] {
+        let lo = DVec3::new(cell[0] as f64, cell[1] as f64, cell[2] as f64);
+        debug_assert!(u.cmpgt(lo).all() && u.cmplt(lo + 1.0).all(), "{u} not inside {cell:?}");
+        let v = self.corners(cell[0], cell[1], cell[2]);
+        let l = u - lo;
+        // `gradient`'s mean over one cell: the sum from zero, divided by 1.
+        let g = (DVec3::ZERO + trilinear_gradient(&v, l.x, l.y, l.z)) / 1.0;
+        self.normal_from(g, fallback)
+    }
+
+    /// The unit normal from the index-space gradient `g` at a point (see [`Field::normal`]).
+    fn normal_from(&self, g: DVec3, fallback: DVec3) -> [f32; 3] {
         let sign = match self.inside {
             Inside::Below => 1.0,
             Inside::Above => -1.0,
         };
-        let g = sign * self.gradient(u) / self.spacing;
+        let g = sign * g / self.spacing;
         let n = if g.length_squared() > 0.0 && g.is_finite() {
             g.normalize()
         } else {

@@ -51,6 +51,26 @@ const EDGES: [(u8, usize); 12] = {
     t
 };
 
+/// For each corner mask, bit `e` set iff edge `EDGES[e]` is crossed (its ends' bits differ):
+/// a cell visits its crossed edges in order by their set bits, without a branch per edge.
+const CROSSED: [u16; 256] = {
+    let mut t = [0u16; 256];
+    let mut mask = 0;
+    while mask < 256 {
+        let mut e = 0;
+        while e < 12 {
+            let (start, axis) = EDGES[e];
+            let end = start | 1 << axis;
+            if (mask >> start & 1) != (mask >> end & 1) {
+                t[mask] |= 1 << e;
+            }
+            e += 1;
+        }
+        mask += 1;
+    }
+    t
+};
+
 /// [`super::dual::extract_slab`] for `surface-nets`: the vertices of cell layers `cells` and
 /// the quads of the crossed edges starting in point layers `cells.start + 1 ..= cells.end`
 /// (see there), numbered locally.
@@ -102,12 +122,12 @@ pub(crate) fn extract_slab(
                     let mut sum = DVec3::ZERO;
                     let mut dir = DVec3::ZERO;
                     let mut count = 0u32;
-                    for &(start, axis) in &EDGES {
+                    let mut crossed = CROSSED[usize::from(mask)];
+                    while crossed != 0 {
+                        let (start, axis) = EDGES[crossed.trailing_zeros() as usize];
+                        crossed &= crossed - 1;
                         let end = start | 1 << axis;
                         let inside_start = mask >> start & 1;
-                        if inside_start == mask >> end & 1 {
-                            continue;
-                        }
                         let s = f.crossing(value(start), value(end));
                         let bit = |a: usize| f64::from((start >> a) & 1);
                         let mut u = DVec3::new(c[0] + bit(0), c[1] + bit(1), c[2] + bit(2));
@@ -117,8 +137,14 @@ pub(crate) fn extract_slab(
                         count += 1;
                     }
                     let u = sum / f64::from(count);
-                    slot[cx + ncx * cy] =
-                        if own { verts.push(f, u, dir)? } else { verts.push_borrowed(f, u)? };
+                    slot[cx + ncx * cy] = if !own {
+                        verts.push_borrowed(f, u)?
+                    } else if (0..3).all(|a| u[a] > c[a] && u[a] < c[a] + 1.0) {
+                        // The common case: the normal of this one cell.
+                        verts.push_with(f, u, f.normal_in_cell([cx, cy, qz], u, dir))?
+                    } else {
+                        verts.push(f, u, dir)? // on a face, edge or corner: the cells around it
+                    };
                 }
             }
         }

@@ -12,7 +12,12 @@
 //! counts after each slab's scan and the output allocation, like the timings of Usher's
 //! WebGPU/Vulkan marching cubes; the GPU-timestamp sum is printed beside them. Every time is the
 //! median of 3 runs after one warm-up, except the CPU references (one run).
-//! `ISOVIEW_BENCH_SIZES=64,128` picks other grid sizes.
+//! `ISOVIEW_BENCH_SIZES=64,128` picks other grid sizes; `ISOVIEW_BENCH_GPU=0` leaves out the GPU
+//! rows (no Vulkan device is opened: the CPU rows alone, on a host where lavapipe would take
+//! the same cores); `ISOVIEW_BENCH_SHARP=0` leaves out the sharp-feature table;
+//! `ISOVIEW_BENCH_ALGOS=surface-nets,marching-cubes` times only those methods;
+//! `ISOVIEW_BENCH_SCENE=path.toml` adds a table for that scene's sampled field (e.g. the peer
+//! script's `target/peers/gyroid-256.toml`, the grid VTK's flying edges is timed on there).
 
 use std::time::Instant;
 
@@ -76,6 +81,11 @@ fn noise_grid(n: usize) -> Grid {
     g
 }
 
+/// Whether `ISOVIEW_BENCH_ALGOS` (comma-separated method names; unset: all) names `algo`.
+fn picked(algo: &str) -> bool {
+    std::env::var("ISOVIEW_BENCH_ALGOS").map_or(true, |v| v.split(',').any(|a| a.trim() == algo))
+}
+
 /// `/proc/loadavg`'s first three fields (other work on the host skews every time here,
 /// lavapipe's most, as it runs on the same cores).
 fn load_average() -> String {
@@ -127,7 +137,8 @@ struct Row {
 }
 
 fn main() {
-    let ctx = match Context::new(&ContextOptions::default()) {
+    let with_gpu = std::env::var("ISOVIEW_BENCH_GPU").map_or(true, |v| v != "0");
+    let ctx = match with_gpu.then(|| Context::new(&ContextOptions::default())).transpose() {
         Ok(c) => c,
         Err(e) => {
             eprintln!("bench: {e}");
@@ -138,10 +149,16 @@ fn main() {
         .ok()
         .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
         .unwrap_or_else(|| vec![128, 256]);
-    let mut extractor = Extractor::new(&ctx).expect("extractor");
+    let mut extractor = ctx.as_ref().map(|c| Extractor::new(c).expect("extractor"));
     let opts = GpuExtractOptions::default();
     let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-    println!("device: {} ({}); host: {threads} CPU threads", ctx.info.name, ctx.info.driver_info);
+    match &ctx {
+        Some(c) => println!(
+            "device: {} ({}); host: {threads} CPU threads",
+            c.info.name, c.info.driver_info
+        ),
+        None => println!("device: none (ISOVIEW_BENCH_GPU=0); host: {threads} CPU threads"),
+    }
     println!("load average at start: {}", load_average());
     println!();
 
@@ -153,11 +170,12 @@ fn main() {
             ("noise", noise_grid(n)),
         ];
         for (field, grid) in &fields {
-            let image =
-                Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values).unwrap();
-            for algo in
-                [MeshAlgorithm::MarchingCubes, MeshAlgorithm::SurfaceNets, MeshAlgorithm::Mc33]
-            {
+            let image = ctx.as_ref().map(|c| {
+                Image3d::upload(c, "grid", grid.dims.map(|d| d as u32), &grid.values).unwrap()
+            });
+            let algos =
+                [MeshAlgorithm::MarchingCubes, MeshAlgorithm::SurfaceNets, MeshAlgorithm::Mc33];
+            for algo in algos.into_iter().filter(|a| picked(a.name())) {
                 let started = Instant::now();
                 let cpu: Mesh =
                     extract(grid, 0.0, Inside::Below, algo, ExtractOptions::default()).unwrap();
@@ -193,14 +211,16 @@ fn main() {
                     par.vertex_count(),
                     par.triangle_count(),
                 );
-                let (s, (v, t, ms)) = time(|| {
-                    let m = extractor
-                        .extract(grid, &image, 0.0, Inside::Below, algo, &opts)
-                        .expect("GPU extraction");
-                    (m.vertex_count as usize, m.triangle_count as usize, extractor.last.gpu_ms)
-                });
-                assert_eq!((v, t), (cpu.vertex_count(), cpu.triangle_count()), "GPU vs CPU");
-                row(format!("isoview GPU {}", algo.name()), s, ms, v, t);
+                if let (Some(x), Some(image)) = (extractor.as_mut(), &image) {
+                    let (s, (v, t, ms)) = time(|| {
+                        let m = x
+                            .extract(grid, image, 0.0, Inside::Below, algo, &opts)
+                            .expect("GPU extraction");
+                        (m.vertex_count as usize, m.triangle_count as usize, x.last.gpu_ms)
+                    });
+                    assert_eq!((v, t), (cpu.vertex_count(), cpu.triangle_count()), "GPU vs CPU");
+                    row(format!("isoview GPU {}", algo.name()), s, ms, v, t);
+                }
                 match algo {
                     MeshAlgorithm::MarchingCubes => {
                         let (s, (v, t)) = time(|| {
@@ -288,7 +308,38 @@ fn main() {
             }
         }
     }
-    sharp(&sizes);
+    if let Ok(path) = std::env::var("ISOVIEW_BENCH_SCENE") {
+        scene_rows(std::path::Path::new(&path));
+    }
+    if std::env::var("ISOVIEW_BENCH_SHARP").map_or(true, |v| v != "0") {
+        sharp(&sizes);
+    }
+}
+
+/// The threaded CPU extraction of a scene's sampled field (its surface, marching cubes and
+/// surface nets), already in memory, as the peer script times VTK's: median of 3 after a
+/// warm-up.
+fn scene_rows(path: &std::path::Path) {
+    let scene = isoview::scene::load(path, &[]).expect("bench scene");
+    let grid = scene.field.sample(0.0).expect("bench scene's field");
+    let s = &scene.surface;
+    println!();
+    println!("{}: {:?} points, isovalue {}", path.display(), grid.dims, s.isovalue);
+    println!();
+    println!("| algorithm | CPU parallel ms | vertices | triangles |");
+    println!("|---|---:|---:|---:|");
+    for algo in [MeshAlgorithm::MarchingCubes, MeshAlgorithm::SurfaceNets] {
+        let opts = ExtractOptions::default();
+        let (t, m) =
+            time(|| extract_parallel(&grid, s.isovalue, s.inside, algo, opts).expect("extract"));
+        println!(
+            "| {} | {:.1} | {} | {} |",
+            algo.name(),
+            t * 1e3,
+            m.vertex_count(),
+            m.triangle_count()
+        );
+    }
 }
 
 /// The sharp-feature and adaptive meshes (CPU only) against uniform dual contouring on a

@@ -160,7 +160,14 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     {
         return extract_mapped(args, format, &scene, &mapped, opts, started);
     }
+    // `--device auto` asks Vulkan whether its device is a CPU (loading the drivers: 50–150 ms
+    // on lavapipe) on its own thread while the field is read or sampled.
+    let mut probe = (backend == Backend::Auto && !opts.keep_quads).then(|| {
+        let wanted = vulkan_device.clone();
+        std::thread::spawn(move || probe_cpu_device(wanted.as_deref()))
+    });
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
+    let cpu_device = probe.take().and_then(|p| p.join().ok().flatten());
     // Several isovalues: one mesh per surface, merged, each vertex labelled with its surface.
     let mut meshes = Vec::with_capacity(scene.surface.count);
     let (mut ran_on, mut why) = (Backend::Cpu, String::new());
@@ -174,7 +181,10 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
                     extract_gpu(cli, vulkan_device.clone(), &one, &grid, time, opts)?;
                 (mesh, ran_on, String::new())
             }
-            Backend::Auto => extract_auto(cli, vulkan_device.clone(), &one, &grid, time, opts)?,
+            Backend::Auto => {
+                let device = (vulkan_device.clone(), cpu_device.as_deref());
+                extract_auto(cli, device, &one, &grid, time, opts)?
+            }
         };
         let mut mesh = mesh;
         mesh.place(&scene.field.placement);
@@ -184,7 +194,7 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
         meshes.push(mesh);
         (ran_on, why) = (on, reason);
     }
-    let what = Summary { scene: &scene, ran_on, why, started, range: Some(grid.range()) };
+    let what = Summary { scene: &scene, ran_on, why, started, samples: Some(&grid) };
     write_meshes(args, format, meshes, what)
 }
 
@@ -195,8 +205,9 @@ struct Summary<'a> {
     /// Appended to where it ran ("; auto: ...").
     why: String,
     started: Instant,
-    /// The samples' range, for the note on an empty mesh (None: not known).
-    range: Option<(f32, f32)>,
+    /// The samples, whose range the note on an empty mesh gives (None: not at hand). Taken
+    /// only then: a pass over every sample (256³: tens of ms) for a line rarely printed.
+    samples: Option<&'a Grid>,
 }
 
 /// Merges the meshes of the surfaces (labelling each vertex with its surface when there are
@@ -207,7 +218,7 @@ fn write_meshes(
     mut meshes: Vec<Mesh>,
     what: Summary,
 ) -> Result<i32, Failure> {
-    let Summary { scene, ran_on, why, started, range } = what;
+    let Summary { scene, ran_on, why, started, samples } = what;
     let (mesh, labels) = match meshes.len() {
         1 => (meshes.pop().expect("one mesh"), None),
         _ => {
@@ -233,7 +244,7 @@ fn write_meshes(
         ran_on.name(),
         args.output.display()
     );
-    if let (0, Some((lo, hi))) = (mesh.triangle_count(), range) {
+    if let (0, Some((lo, hi))) = (mesh.triangle_count(), samples.map(Grid::range)) {
         eprintln!(
             "isoview: note: the mesh is empty: no grid edge crosses isovalue {} (samples span \
              [{lo}, {hi}])",
@@ -268,7 +279,7 @@ fn extract_mapped(
         "; field.residency: streamed from the {}x{}x{} memory-mapped file",
         grid.dims[0], grid.dims[1], grid.dims[2]
     );
-    let what = Summary { scene, ran_on: Backend::Cpu, why, started, range: None };
+    let what = Summary { scene, ran_on: Backend::Cpu, why, started, samples: None };
     write_meshes(args, format, meshes, what)
 }
 
@@ -327,7 +338,7 @@ fn extract_ranks(w: &Ranks, grid: crate::cluster::Points, how: Split) -> Result<
         ms(own_share),
         ms(gathered)
     );
-    let what = Summary { scene, ran_on: Backend::Cpu, why, started, range: None };
+    let what = Summary { scene, ran_on: Backend::Cpu, why, started, samples: None };
     write_meshes(args, format, meshes, what)
 }
 
@@ -365,11 +376,13 @@ pub fn extract_cpu(
 
 /// `--device auto`: the CPU extraction when the Vulkan device is a CPU (lavapipe) or there is
 /// none, else the GPU's; returns the mesh, where it ran and the reason, worded for the summary
-/// line. Knowing the device type costs opening the device (instance, device and allocator:
-/// tens of milliseconds on lavapipe), which the GPU path needs anyway.
+/// line. `device` is the Vulkan device wanted and what [`probe_cpu_device`] said of it (the
+/// CPU device's name; None: not a CPU, or not known). When the probe did not settle it, knowing
+/// the device type costs opening the device (instance, device and allocator: tens of
+/// milliseconds on lavapipe), which the GPU path needs anyway.
 fn extract_auto(
     cli: &Cli,
-    vulkan_device: Option<String>,
+    device: (Option<String>, Option<&str>),
     scene: &Scene,
     grid: &Grid,
     time: f64,
@@ -379,8 +392,9 @@ fn extract_auto(
         let why = "; auto: --quads needs the CPU extraction".to_string();
         return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
     }
+    let (vulkan_device, probed_cpu) = device;
     // The cheap probe first: a CPU device needs no device opened.
-    if let Some(name) = probe_cpu_device(vulkan_device.as_deref()) {
+    if let Some(name) = probed_cpu {
         let why = format!("; auto: the Vulkan device {name} is a CPU");
         return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
     }

@@ -287,7 +287,7 @@ pub(crate) fn extract_slab(
 }
 
 /// Appends the two triangles of `quad` per `rule`.
-fn split(positions: &[[f32; 3]], q: [u32; 4], rule: QuadSplit, out: &mut Vec<u32>) {
+pub(crate) fn split(positions: &[[f32; 3]], q: [u32; 4], rule: QuadSplit, out: &mut Vec<u32>) {
     let p = |i: usize| {
         let v = positions[q[i] as usize];
         DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2]))

@@ -45,6 +45,14 @@ impl Vertices {
         Ok(id)
     }
 
+    /// Appends a vertex at index-space `u` with the unit normal `normal`, returning its id.
+    pub fn push_with(&mut self, f: &Field, u: DVec3, normal: [f32; 3]) -> Result<u32, MeshError> {
+        let id = to_u32(self.positions.len(), "vertices")?;
+        self.positions.push(f.world(u));
+        self.normals.push(normal);
+        Ok(id)
+    }
+
     /// Appends the position of a vertex that belongs to the next slab, without a normal,
     /// returning its id: the dual methods' quad split reads it. [`Vertices::drop_borrowed`]
     /// removes these before the slab's vertices are joined.
@@ -73,12 +81,28 @@ pub(crate) struct EdgeLayers<'f, 'g> {
     /// Vertex id of each edge starting in point layers `k` (slot `k % 2`), `u32::MAX` if the
     /// edge is not crossed.
     ids: [Vec<u32>; 2],
+    /// The inside rule at each point of point layer `k` (slot `k % 2`), 1 or 0: the crossing
+    /// tests and the cells' corner masks read these instead of testing samples again.
+    inside: [Vec<u8>; 2],
+    /// The inside rule at each point of the layer above the last one built (its families
+    /// that climb in z end there).
+    above: Vec<u8>,
+    /// Scratch of [`EdgeLayers::layer`]: nonzero at the points of a layer with a crossed edge.
+    any: Vec<u8>,
 }
 
 impl<'f, 'g> EdgeLayers<'f, 'g> {
     pub fn new(f: &'f Field<'g>, families: &'static [u8]) -> Self {
-        let n = f.dims[0] * f.dims[1] * families.len();
-        EdgeLayers { f, families, ids: [vec![u32::MAX; n], vec![u32::MAX; n]] }
+        let layer = f.dims[0] * f.dims[1];
+        let n = layer * families.len();
+        EdgeLayers {
+            f,
+            families,
+            ids: [vec![u32::MAX; n], vec![u32::MAX; n]],
+            inside: [vec![0; layer], vec![0; layer]],
+            above: vec![0; layer],
+            any: Vec::new(),
+        }
     }
 
     /// Creates the vertices of the crossed edges that start in point layer `k`, in edge-id
@@ -128,32 +152,82 @@ impl<'f, 'g> EdgeLayers<'f, 'g> {
         let f = self.f;
         let [nx, ny, nz] = f.dims;
         let nf = self.families.len();
-        let ids = &mut self.ids[k % 2];
-        for j in 0..ny {
-            for i in 0..nx {
-                let va = f.value(i, j, k);
-                let ina = f.inside.contains(va, f.iso);
-                for (fam, &bits) in self.families.iter().enumerate() {
-                    let slot = nf * (i + nx * j) + fam;
-                    ids[slot] = u32::MAX;
-                    let d = offset(bits);
-                    let (ib, jb, kb) = (i + d[0], j + d[1], k + d[2]);
-                    if ib >= nx || jb >= ny || kb >= nz {
-                        continue;
-                    }
-                    let vb = f.value(ib, jb, kb);
-                    if f.inside.contains(vb, f.iso) == ina {
-                        continue;
-                    }
-                    let s = f.crossing(va, vb);
-                    let dv = DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64);
-                    let u = DVec3::new(i as f64, j as f64, k as f64) + s * dv;
-                    let out_dir = if ina { dv } else { -dv };
-                    ids[slot] = vertex(u, out_dir)?;
+        let here = f.layer(k);
+        f.inside_flags(here, &mut self.inside[k % 2]);
+        let there = if k + 1 < nz { f.layer(k + 1) } else { &[] };
+        f.inside_flags(there, &mut self.above);
+        let (ins, above) = (&self.inside[k % 2], &self.above);
+        // Points with a crossed edge of any family, found with whole-row passes that the
+        // compiler vectorises: most points have none, and the loop below skips them.
+        let any = &mut self.any;
+        any.clear();
+        any.resize(nx * ny, 0);
+        for &bits in self.families {
+            let d = offset(bits);
+            if k + d[2] >= nz || d[0] >= nx || d[1] >= ny {
+                continue;
+            }
+            let flags = if d[2] == 0 { ins } else { above };
+            let shift = d[0] + nx * d[1];
+            for j in 0..ny - d[1] {
+                let row = nx * j..nx * j + nx - d[0];
+                let (a, b) = (&ins[row.clone()], &flags[row.start + shift..row.end + shift]);
+                for ((x, &a), &b) in any[row].iter_mut().zip(a).zip(b) {
+                    *x |= a ^ b;
                 }
             }
         }
+        let ids = &mut self.ids[k % 2];
+        ids.fill(u32::MAX);
+        for (p, _) in any.iter().enumerate().filter(|(_, &x)| x != 0) {
+            let (i, j) = (p % nx, p / nx);
+            let ina = ins[p];
+            for (fam, &bits) in self.families.iter().enumerate() {
+                let d = offset(bits);
+                let (ib, jb) = (i + d[0], j + d[1]);
+                if ib >= nx || jb >= ny || k + d[2] >= nz {
+                    continue;
+                }
+                let (flags, values) = if d[2] == 0 { (ins, here) } else { (above, there) };
+                let q = ib + nx * jb;
+                if flags[q] == ina {
+                    continue;
+                }
+                let s = f.crossing(f64::from(here[p]), f64::from(values[q]));
+                let dv = DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64);
+                let u = DVec3::new(i as f64, j as f64, k as f64) + s * dv;
+                let out_dir = if ina == 1 { dv } else { -dv };
+                ids[nf * p + fam] = vertex(u, out_dir)?;
+            }
+        }
         Ok(())
+    }
+
+    /// Nonzero for each cell of row `j` of cell layer `k` (into `out`, `nx - 1` long) that
+    /// has corners on both sides, from the flags of point layers `k` and `k + 1` (see
+    /// [`EdgeLayers::corner_mask`]).
+    pub fn active_cells(&self, j: usize, k: usize, out: &mut [u8]) {
+        let nx = self.f.dims[0];
+        cell_row_differs(&self.inside[k % 2], &self.inside[(k + 1) % 2], nx * j, nx, out);
+    }
+
+    /// Bitmask of the inside corners of cell `(i, j, k)` (bit `n` for corner `n`, as
+    /// [`Field::corner_mask`]), from the flags of point layers `k` and `k + 1`, both of which
+    /// must have been built or numbered last.
+    #[inline]
+    pub fn corner_mask(&self, i: usize, j: usize, k: usize) -> u8 {
+        let nx = self.f.dims[0];
+        let (lo, hi) = (&self.inside[k % 2], &self.inside[(k + 1) % 2]);
+        let p = i + nx * j;
+        let (a, b) = (p + nx, p + 1);
+        lo[p]
+            | lo[b] << 1
+            | lo[a] << 2
+            | lo[a + 1] << 3
+            | hi[p] << 4
+            | hi[b] << 5
+            | hi[a] << 6
+            | hi[a + 1] << 7
     }
 
     /// Vertex id of the edge of family `fam` starting at point `(i, j, k)`, which must lie in
@@ -174,5 +248,25 @@ impl<'f, 'g> EdgeLayers<'f, 'g> {
         let fam = self.families.iter().position(|&x| x == bits).expect("edge family in use");
         let o = offset(lo);
         self.id(cell[0] + o[0], cell[1] + o[1], cell[2] + o[2], fam)
+    }
+}
+
+/// For the cells of one row (corner 0 at point `r + cx` of the lower point layer `lo`, the
+/// upper `hi`, rows `nx` points long): nonzero iff the cell's corners are not all on one side.
+pub(crate) fn cell_row_differs(lo: &[u8], hi: &[u8], r: usize, nx: usize, out: &mut [u8]) {
+    let n = out.len();
+    let (a, b, c, d) =
+        (&lo[r..r + n], &lo[r + 1..r + 1 + n], &lo[r + nx..][..n], &lo[r + nx + 1..][..n]);
+    let (e, g, h, k) =
+        (&hi[r..r + n], &hi[r + 1..r + 1 + n], &hi[r + nx..][..n], &hi[r + nx + 1..][..n]);
+    for x in 0..n {
+        let v = a[x];
+        out[x] = (v ^ b[x])
+            | (v ^ c[x])
+            | (v ^ d[x])
+            | (v ^ e[x])
+            | (v ^ g[x])
+            | (v ^ h[x])
+            | (v ^ k[x]);
     }
 }

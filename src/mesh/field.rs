@@ -106,6 +106,18 @@ impl<'a> Field<'a> {
         f64::from(self.grid.values[self.held(i, j, k)])
     }
 
+    /// The held samples of point layer `k` of the whole grid, x fastest.
+    pub fn layer(&self, k: usize) -> &'a [f32] {
+        let n = self.dims[0] * self.dims[1];
+        &self.grid.values[(k - self.first) * n..][..n]
+    }
+
+    /// The inside rule at each of `values` as 1 or 0, into `out` (resized to match).
+    pub fn inside_flags(&self, values: &[f32], out: &mut Vec<u8>) {
+        out.clear();
+        out.extend(values.iter().map(|&v| u8::from(self.inside.contains(f64::from(v), self.iso))));
+    }
+
     /// The inside rule at point `(i, j, k)`.
     pub fn is_inside(&self, i: usize, j: usize, k: usize) -> bool {
         self.inside.contains(self.value(i, j, k), self.iso)
@@ -113,7 +125,13 @@ impl<'a> Field<'a> {
 
     /// Corner values of cell `(i, j, k)` in f64.
     pub fn corners(&self, i: usize, j: usize, k: usize) -> [f64; 8] {
-        self.grid.corners(i, j, k - self.first).map(f64::from)
+        // The 8 loads addressed from one base (the extractors call this for every vertex's
+        // normal); the values are `Grid::corners`'s.
+        let [nx, ny, _] = self.dims;
+        let p = self.held(i, j, k);
+        let (y, z) = (nx, nx * ny);
+        let v = &self.grid.values[p..=p + z + y + 1];
+        [v[0], v[1], v[y], v[y + 1], v[z], v[z + 1], v[z + y], v[z + y + 1]].map(f64::from)
     }
 
     /// Bitmask of the inside corners of cell `(i, j, k)`: bit `n` for corner `n`.
@@ -153,11 +171,29 @@ impl<'a> Field<'a> {
     /// `inside = above`. `fallback` (an index-space direction, inside → outside) is used where
     /// that gradient vanishes.
     pub fn normal(&self, u: DVec3, fallback: DVec3) -> [f32; 3] {
+        self.normal_from(self.gradient(u), fallback)
+    }
+
+    /// [`Field::normal`] at `u`, which lies strictly inside cell `cell` along every axis:
+    /// the same bits, without the search for the cells around `u` (one cell here, the one
+    /// [`Field::gradient`] would pick, with the same local coordinates and the same sum).
+    pub fn normal_in_cell(&self, cell: [usize; 3], u: DVec3, fallback: DVec3) -> [f32; 3] {
+        let lo = DVec3::new(cell[0] as f64, cell[1] as f64, cell[2] as f64);
+        debug_assert!(u.cmpgt(lo).all() && u.cmplt(lo + 1.0).all(), "{u} not inside {cell:?}");
+        let v = self.corners(cell[0], cell[1], cell[2]);
+        let l = u - lo;
+        // `gradient`'s mean over one cell: the sum from zero, divided by 1.
+        let g = (DVec3::ZERO + trilinear_gradient(&v, l.x, l.y, l.z)) / 1.0;
+        self.normal_from(g, fallback)
+    }
+
+    /// The unit normal from the index-space gradient `g` at a point (see [`Field::normal`]).
+    fn normal_from(&self, g: DVec3, fallback: DVec3) -> [f32; 3] {
         let sign = match self.inside {
             Inside::Below => 1.0,
             Inside::Above => -1.0,
         };
-        let g = sign * self.gradient(u) / self.spacing;
+        let g = sign * g / self.spacing;
         let n = if g.length_squared() > 0.0 && g.is_finite() {
             g.normalize()
         } else {

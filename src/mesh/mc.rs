@@ -39,6 +39,23 @@ pub(crate) fn case_index(corner_mask: u8) -> usize {
     case
 }
 
+/// [`case_index`] of every corner mask, looked up once per cell.
+const CASE_OF_MASK: [usize; 256] = {
+    let mut t = [0; 256];
+    let mut m = 0;
+    while m < 256 {
+        let mut b = 0;
+        while b < 8 {
+            if m & (1 << MC_VERTEX_CORNER[b]) != 0 {
+                t[m] |= 1 << b;
+            }
+            b += 1;
+        }
+        m += 1;
+    }
+    t
+};
+
 /// The reference: the whole grid as one slab.
 pub(crate) fn extract(f: &Field) -> Result<Mesh, MeshError> {
     let layers = f.dims[2] - 1;
@@ -53,13 +70,16 @@ pub(crate) fn extract_slab(f: &Field, cells: Range<usize>) -> Result<Part, MeshE
     let mut verts = Vertices::default();
     let mut indices = Vec::new();
     let mut edges = EdgeLayers::new(f, FAMILIES);
+    let mut active = vec![0u8; nx - 1];
     edges.build(cells.start, &mut verts)?;
     for k in cells.clone() {
         edges.enter_cell_layer(k, &cells, &mut verts)?;
         for j in 0..ny - 1 {
-            for i in 0..nx - 1 {
-                let case = case_index(f.corner_mask(i, j, k));
-                let row = &MC_TRIANGLES[case];
+            // Cells with corners on one side have no triangles (Bourke's rows 0 and 255).
+            edges.active_cells(j, k, &mut active);
+            for i in (0..nx - 1).filter(|&i| active[i] != 0) {
+                let mask = edges.corner_mask(i, j, k);
+                let row = &MC_TRIANGLES[CASE_OF_MASK[usize::from(mask)]];
                 for tri in row.chunks_exact(3).take_while(|t| t[0] >= 0) {
                     let v = |e: i8| {
                         let (corner, axis) = MC_EDGES[e as usize];

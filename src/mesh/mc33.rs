@@ -523,7 +523,7 @@ pub(crate) fn extract_slab(f: &Field, cells: Range<usize>) -> Result<Part, MeshE
         edges.enter_cell_layer(k, &cells, &mut verts)?;
         for j in 0..ny - 1 {
             for i in 0..nx - 1 {
-                let mask = f.corner_mask(i, j, k);
+                let mask = edges.corner_mask(i, j, k);
                 if mask == 0 || mask == 0xff {
                     continue;
                 }

@@ -47,7 +47,7 @@
 //! | --- | --- | --- | --- |
 //! | `marching-cubes` | one per crossed x/y/z lattice edge | Bourke's 256-case table | `mc` |
 //! | `marching-tetrahedra` | one per crossed edge of the 7 edge families | 6 tetrahedra per cell | `mt` |
-//! | `surface-nets` | one per active cell, mean of its crossings | one quad per crossed interior edge | `dual` |
+//! | `surface-nets` | one per active cell, mean of its crossings | one quad per crossed interior edge | `dual` (threaded: `nets`, the same mesh) |
 //! | `dual-contouring` | as surface nets, on a grid closed at its boundary (GEL) | one quad per crossed edge | `dual` |
 //! | `mc33` | as marching cubes | the trilinear interpolant's topology per cell (Chernyaev's MC33 cases) | `mc33` |
 //! | `dual-contouring-qef` | as dual contouring, at the minimiser of the cell's QEF (Hermite data) | as dual contouring | `dcqef`, `qef`, `hermite` |
@@ -72,6 +72,7 @@ pub mod mapped;
 mod mc;
 mod mc33;
 mod mt;
+mod nets;
 mod octree;
 mod qef;
 mod slabs;

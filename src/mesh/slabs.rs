@@ -82,11 +82,79 @@ pub(crate) fn run_part(
         1 => vec![slab(ranges[0].clone())?],
         _ => ranges.into_par_iter().map(&slab).collect::<Result<Vec<_>, _>>()?,
     };
-    let mut join = Join::default();
-    for p in parts {
-        join.push(p)?;
+    join_all(parts)
+}
+
+/// The parts of consecutive slabs joined at once: what pushing them in order into a [`Join`]
+/// gives, but with every vector allocated once at its final length and the parts copied into
+/// their places (and renumbered on the way) in parallel. Pushed one by one, the joined vectors
+/// grow by doubling, each growth a copy and fresh pages, and the copies run on one thread.
+fn join_all(mut parts: Vec<Part>) -> Result<Part, MeshError> {
+    for p in &mut parts {
+        p.verts.drop_borrowed();
     }
-    Ok(join.part)
+    if parts.len() == 1 {
+        return Ok(parts.pop().expect("one part")); // its own ids: nothing to renumber
+    }
+    let total = |f: fn(&Part) -> usize| parts.iter().map(f).sum::<usize>();
+    let (nv, na) = (total(|p| p.verts.normals.len()), total(|p| p.added.normals.len()));
+    to_u32(total(|p| p.indices.len()), "indices")?;
+    to_u32(nv + na, "vertices")?;
+    // Zeroed allocations this large are fresh pages, touched first by the copies below.
+    let mut out = Part::default();
+    out.verts.positions = vec![[0.0; 3]; nv];
+    out.verts.normals = vec![[0.0; 3]; nv];
+    out.indices = vec![0; total(|p| p.indices.len())];
+    out.quads = vec![0; total(|p| p.quads.len())];
+    let positions = split(&mut out.verts.positions, parts.iter().map(|p| p.verts.normals.len()));
+    let normals = split(&mut out.verts.normals, parts.iter().map(|p| p.verts.normals.len()));
+    let indices = split(&mut out.indices, parts.iter().map(|p| p.indices.len()));
+    let quads = split(&mut out.quads, parts.iter().map(|p| p.quads.len()));
+    let (mut edge_off, mut added_off) = (0usize, 0usize);
+    let mut jobs = Vec::with_capacity(parts.len());
+    for (p, (((pos, nor), idx), qua)) in
+        parts.iter().zip(positions.into_iter().zip(normals).zip(indices).zip(quads))
+    {
+        jobs.push((p, pos, nor, idx, qua, edge_off as u32, added_off as u32));
+        edge_off += p.verts.normals.len();
+        added_off += p.added.normals.len();
+    }
+    jobs.into_par_iter().for_each(|(p, pos, nor, idx, qua, edge_off, added_off)| {
+        pos.copy_from_slice(&p.verts.positions);
+        nor.copy_from_slice(&p.verts.normals);
+        // As `Join::push` renumbers (wrapping: see there).
+        let first_added = u32::MAX - p.added.normals.len() as u32;
+        let has_added = !p.added.normals.is_empty();
+        let renumber = |x: u32| {
+            if has_added && x > first_added {
+                x - added_off
+            } else {
+                x.wrapping_add(edge_off)
+            }
+        };
+        for (o, &x) in idx.iter_mut().zip(&p.indices) {
+            *o = renumber(x);
+        }
+        for (o, &x) in qua.iter_mut().zip(&p.quads) {
+            *o = renumber(x);
+        }
+    });
+    for p in &parts {
+        out.added.positions.extend_from_slice(&p.added.positions);
+        out.added.normals.extend_from_slice(&p.added.normals);
+    }
+    Ok(out)
+}
+
+/// `v` cut into consecutive pieces of `lens` (which sum to its length).
+fn split<T>(mut v: &mut [T], lens: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
+    let mut pieces = Vec::new();
+    for n in lens {
+        let (piece, rest) = std::mem::take(&mut v).split_at_mut(n);
+        pieces.push(piece);
+        v = rest;
+    }
+    pieces
 }
 
 /// [`run_part`] over all `layers` cell layers, finished into the mesh; `keep_quads` returns

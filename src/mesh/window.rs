@@ -37,7 +37,7 @@ use glam::DVec3;
 
 use super::field::Field;
 use super::slabs::{self, Join, Part};
-use super::{dc_qef, dual, mc, mc33, mt, ExtractOptions, Mesh, MeshError};
+use super::{dc_qef, dual, mc, mc33, mt, nets, ExtractOptions, Mesh, MeshError};
 use crate::field::{Grid, PointField};
 use crate::vocab::{Inside, MeshAlgorithm, SharpSettings};
 
@@ -265,9 +265,7 @@ pub(crate) fn extract_part(
         MeshAlgorithm::MarchingCubes => run(&|c| mc::extract_slab(f, c)),
         MeshAlgorithm::MarchingTetrahedra => run(&|c| mt::extract_slab(f, c)),
         MeshAlgorithm::Mc33 => run(&|c| mc33::extract_slab(f, c)),
-        MeshAlgorithm::SurfaceNets => {
-            run(&|c| dual::extract_slab(f, dual::Boundary::Open, opts, None, c))
-        }
+        MeshAlgorithm::SurfaceNets => run(&|c| nets::extract_slab(f, opts, c)),
         MeshAlgorithm::DualContouring => {
             run(&|c| dual::extract_slab(f, dual::Boundary::Closed, opts, None, c))
         }

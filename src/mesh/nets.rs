@@ -71,6 +71,11 @@ const CROSSED: [u16; 256] = {
     t
 };
 
+/// For edge `e` of [`EDGES`]: low nibble, the slot (0..4) of the previous cell's `carry` that
+/// holds its crossing (the y and z edges at x = 0: 4, 5, 8, 10), else 4; high nibble, the slot
+/// it is kept in for the next cell (those at x = 1: 6, 7, 9, 11), else 4.
+const REUSE: [u8; 12] = [0x44, 0x44, 0x44, 0x44, 0x40, 0x41, 0x04, 0x14, 0x42, 0x24, 0x43, 0x34];
+
 /// [`super::dual::extract_slab`] for `surface-nets`: the vertices of cell layers `cells` and
 /// the quads of the crossed edges starting in point layers `cells.start + 1 ..= cells.end`
 /// (see there), numbered locally.
@@ -107,6 +112,8 @@ pub(crate) fn extract_slab(
             for cy in 0..ncy {
                 let r = nx * cy;
                 super::edges::cell_row_differs(lo, hi, r, nx, &mut differs[..ncx]);
+                // The crossings of this row's last cell's y and z edges at x + 1 (slot 4: none).
+                let mut carry = [0.0f64; 5];
                 for cx in (0..ncx).filter(|&cx| differs[cx] != 0) {
                     let p = r + cx;
                     let corner = |n: usize| {
@@ -123,12 +130,22 @@ pub(crate) fn extract_slab(
                     let mut dir = DVec3::ZERO;
                     let mut count = 0u32;
                     let mut crossed = CROSSED[usize::from(mask)];
+                    let mut next = [0.0f64; 5];
                     while crossed != 0 {
-                        let (start, axis) = EDGES[crossed.trailing_zeros() as usize];
+                        let e = crossed.trailing_zeros() as usize;
+                        let (start, axis) = EDGES[e];
                         crossed &= crossed - 1;
                         let end = start | 1 << axis;
                         let inside_start = mask >> start & 1;
-                        let s = f.crossing(value(start), value(end));
+                        // A y or z edge at x is the previous cell's at x + 1, and being crossed
+                        // that cell was active and just visited: the same division, done once.
+                        let from = usize::from(REUSE[e] & 15);
+                        let s = if cx > 0 && from < 4 {
+                            carry[from]
+                        } else {
+                            f.crossing(value(start), value(end))
+                        };
+                        next[usize::from(REUSE[e] >> 4)] = s;
                         let bit = |a: usize| f64::from((start >> a) & 1);
                         let mut u = DVec3::new(c[0] + bit(0), c[1] + bit(1), c[2] + bit(2));
                         u[axis] += s;
@@ -136,6 +153,7 @@ pub(crate) fn extract_slab(
                         dir[axis] += if inside_start == 1 { 1.0 } else { -1.0 };
                         count += 1;
                     }
+                    carry = next;
                     let u = sum / f64::from(count);
                     slot[cx + ncx * cy] = if !own {
                         verts.push_borrowed(f, u)?

@@ -90,24 +90,17 @@ pub struct RayPass<'a> {
 
 impl<'a> RayPass<'a> {
     pub fn new(pipeline: &'a ComputePipeline, inputs: RayInputs<'a>) -> Result<Self, GpuError> {
+        // The grid's binding: the image, or its points in a storage buffer (same layout).
+        let whole = match inputs.grid {
+            GridInput::Image(image) => Some(Resource::Sampled(image)),
+            GridInput::Points(points) => Some(Resource::Storage(points)),
+            GridInput::Pool { .. } => None,
+        };
         let resources = match inputs.grid {
-            GridInput::Image(image) => {
-                let mut r = vec![
-                    Resource::Uniform(inputs.params),
-                    Resource::Sampled(image),
-                    Resource::Storage(inputs.pixels),
-                    Resource::Storage(inputs.colormap),
-                ];
-                r.extend(inputs.bricks.map(Resource::Storage));
-                r
-            }
-            GridInput::Points(points) => {
-                let mut r = vec![
-                    Resource::Uniform(inputs.params),
-                    Resource::Storage(points),
-                    Resource::Storage(inputs.pixels),
-                    Resource::Storage(inputs.colormap),
-                ];
+            GridInput::Image(_) | GridInput::Points(_) => {
+                let mut r = vec![Resource::Uniform(inputs.params)];
+                r.extend(whole);
+                r.extend([Resource::Storage(inputs.pixels), Resource::Storage(inputs.colormap)]);
                 r.extend(inputs.bricks.map(Resource::Storage));
                 r
             }

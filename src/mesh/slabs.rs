@@ -122,21 +122,12 @@ fn join_all(mut parts: Vec<Part>) -> Result<Part, MeshError> {
     jobs.into_par_iter().for_each(|(p, pos, nor, idx, qua, edge_off, added_off)| {
         pos.copy_from_slice(&p.verts.positions);
         nor.copy_from_slice(&p.verts.normals);
-        // As `Join::push` renumbers (wrapping: see there).
-        let first_added = u32::MAX - p.added.normals.len() as u32;
-        let has_added = !p.added.normals.is_empty();
-        let renumber = |x: u32| {
-            if has_added && x > first_added {
-                x - added_off
-            } else {
-                x.wrapping_add(edge_off)
-            }
-        };
+        let renumber = Renumber::new(p, edge_off, added_off);
         for (o, &x) in idx.iter_mut().zip(&p.indices) {
-            *o = renumber(x);
+            *o = renumber.id(x);
         }
         for (o, &x) in qua.iter_mut().zip(&p.quads) {
-            *o = renumber(x);
+            *o = renumber.id(x);
         }
     });
     for p in &parts {
@@ -144,6 +135,38 @@ fn join_all(mut parts: Vec<Part>) -> Result<Part, MeshError> {
         out.added.normals.extend_from_slice(&p.added.normals);
     }
     Ok(out)
+}
+
+/// How a part's vertex ids become ids of the joined part that holds `edge_off` edge vertices
+/// and `added_off` added vertices of the parts before it: edge ids move up by `edge_off`; added
+/// vertices' placeholders (counting down from 2^32 - 1) move down by `added_off`. The one rule
+/// of [`Join::push`] and [`join_all`].
+struct Renumber {
+    first_added: u32,
+    has_added: bool,
+    edge_off: u32,
+    added_off: u32,
+}
+
+impl Renumber {
+    fn new(p: &Part, edge_off: u32, added_off: u32) -> Self {
+        Renumber {
+            first_added: u32::MAX - p.added.normals.len() as u32,
+            has_added: !p.added.normals.is_empty(),
+            edge_off,
+            added_off,
+        }
+    }
+
+    /// An id of the next slab may pass 2^32 - 1 when the whole mesh would; `finish` rejects
+    /// that mesh, so wrapping here changes no result.
+    fn id(&self, x: u32) -> u32 {
+        if self.has_added && x > self.first_added {
+            x - self.added_off
+        } else {
+            x.wrapping_add(self.edge_off)
+        }
+    }
 }
 
 /// `v` cut into consecutive pieces of `lens` (which sum to its length).
@@ -187,18 +210,8 @@ impl Join {
         let vertices = edge_off + p.verts.normals.len() + added_off + p.added.normals.len();
         to_u32(vertices, "vertices")?;
         to_u32(all.indices.len() + p.indices.len(), "indices")?;
-        let (edge_off, added_off) = (edge_off as u32, added_off as u32);
-        let first_added = u32::MAX - p.added.normals.len() as u32;
-        let has_added = !p.added.normals.is_empty();
-        // An id of the next slab may pass 2^32 - 1 when the whole mesh would; `finish` rejects
-        // that mesh, so wrapping here changes no result.
-        let renumber = |x: &mut u32| {
-            *x = if has_added && *x > first_added {
-                *x - added_off
-            } else {
-                x.wrapping_add(edge_off)
-            };
-        };
+        let renumber = Renumber::new(&p, edge_off as u32, added_off as u32);
+        let renumber = |x: &mut u32| *x = renumber.id(*x);
         p.indices.par_iter_mut().with_min_len(1 << 16).for_each(renumber);
         p.quads.par_iter_mut().with_min_len(1 << 16).for_each(renumber);
         if edge_off == 0 && added_off == 0 && all.indices.is_empty() && all.quads.is_empty() {

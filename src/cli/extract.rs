@@ -134,7 +134,7 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     #[cfg(feature = "mpi")]
     if let Some(w) = ranks {
         if let Some(why) = w.refuses_extract(&scene, backend == Backend::Gpu) {
-            return Ok(w.refuse(&why, super::EXIT_INPUT));
+            return Ok(super::refuse_on_ranks(w, why));
         }
     }
 

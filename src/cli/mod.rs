@@ -37,6 +37,12 @@ impl Failure {
     pub fn gpu(message: impl std::fmt::Display) -> Self {
         Failure { code: EXIT_GPU, message: message.to_string() }
     }
+
+    /// Prints the one line on stderr; returns the exit status.
+    fn report(&self) -> i32 {
+        eprintln!("isoview: {}", self.message);
+        self.code
+    }
 }
 
 impl From<GpuError> for Failure {
@@ -125,11 +131,20 @@ pub fn main() -> i32 {
     };
     match result {
         Ok(code) => code,
-        Err(f) => {
-            eprintln!("isoview: {}", f.message);
-            f.code
-        }
+        Err(f) => f.report(),
     }
+}
+
+/// Under MPI, a run that every rank refuses alike (a scene's setting: the same on every rank):
+/// rank 0 reports the failure once, then every rank waits for it before returning the exit
+/// code. Without the wait a rank exiting first makes mpirun end the job, which can cut rank 0
+/// before its line is out.
+#[cfg(feature = "mpi")]
+fn refuse_on_ranks(w: &crate::cluster::World, why: String) -> i32 {
+    let f = Failure::input(why);
+    let code = if w.rank() == 0 { f.report() } else { f.code };
+    w.barrier();
+    code
 }
 
 /// Loads a scene for a verb; an isovalue picked from the data (`isovalue_sigma`,

@@ -111,8 +111,7 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
     if let Some(w) = &world {
         let tev = args.tev.as_ref().map(|_| "--tev is not available under MPI".to_string());
         if let Some(why) = w.refuses(&scene).or(tev) {
-            // Every rank finds the same; rank 0 says it.
-            return Ok(w.refuse(&why, super::EXIT_INPUT));
+            return Ok(super::refuse_on_ranks(w, why));
         }
     }
     #[cfg(feature = "mpi")]

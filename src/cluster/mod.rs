@@ -95,16 +95,9 @@ impl World {
         self.comm.abort(code)
     }
 
-    /// Ends a run that every rank refuses alike (a scene's setting, the same on every rank):
-    /// rank 0 prints `why` once, as the command line prints a failure, then every rank waits
-    /// for it and returns `code` to exit with. Without the wait a rank exiting early makes
-    /// mpirun end the job, which can cut rank 0 before its line is out.
-    pub fn refuse(&self, why: &str, code: i32) -> i32 {
-        if self.rank() == 0 {
-            eprintln!("isoview: {why}");
-        }
+    /// Waits until every rank is here.
+    pub fn barrier(&self) {
         self.comm.barrier();
-        code
     }
 
     /// What cannot be split across ranks in `scene` (None: the render can).

@@ -119,6 +119,17 @@ float segment_end(vec3 tmax, float t_in, float t_hi) {
     return max(min(min(tmax.x, min(tmax.y, tmax.z)), t_hi), t_in);
 }
 
+// Local coordinate `a` of the ray's point at t in `cell`: the one expression for the exit point
+// of a cell (6.2) and the entry point of the next (entry_point), so both have the same bits.
+float local_at(int a, float t, ivec3 cell, vec3 o, vec3 d) {
+    return clamp(o[a] + t * d[a] - float(cell[a]), 0.0, 1.0);
+}
+
+// Local coordinate `a` of the face a ray crossing planes of axis `a` enters a cell through.
+float entry_face(int a, vec3 d) {
+    return d[a] > 0.0 ? 0.0 : 1.0;
+}
+
 // 6.2 The exit point of the segment [t_in, t_out] of `cell` in local coordinates: exactly on
 // the face for a crossed axis.
 vec3 exit_point(bvec3 crossed, ivec3 cell, vec3 q_in, float t_in, float t_out, vec3 o, vec3 d) {
@@ -129,7 +140,7 @@ vec3 exit_point(bvec3 crossed, ivec3 cell, vec3 q_in, float t_in, float t_out, v
         } else if (t_out == t_in) {
             q_out[a] = q_in[a];
         } else {
-            q_out[a] = clamp(o[a] + t_out * d[a] - float(cell[a]), 0.0, 1.0);
+            q_out[a] = local_at(a, t_out, cell, o, d);
         }
     }
     return q_out;
@@ -140,8 +151,7 @@ vec3 exit_point(bvec3 crossed, ivec3 cell, vec3 q_in, float t_in, float t_out, v
 vec3 entry_point(bvec3 entered, ivec3 cell, float t_in, vec3 o, vec3 d) {
     vec3 q;
     for (int a = 0; a < 3; a++) {
-        q[a] = entered[a] ? (d[a] > 0.0 ? 0.0 : 1.0)
-                          : clamp(o[a] + t_in * d[a] - float(cell[a]), 0.0, 1.0);
+        q[a] = entered[a] ? entry_face(a, d) : local_at(a, t_in, cell, o, d);
     }
     return q;
 }
@@ -150,7 +160,7 @@ vec3 entry_point(bvec3 entered, ivec3 cell, float t_in, vec3 o, vec3 d) {
 // but on the crossed axes, where it is on the face it came through (6.6 carries 1 - exit).
 vec3 carried(bvec3 crossed, vec3 q, vec3 d) {
     for (int a = 0; a < 3; a++) {
-        if (crossed[a]) q[a] = d[a] > 0.0 ? 0.0 : 1.0;
+        if (crossed[a]) q[a] = entry_face(a, d);
     }
     return q;
 }

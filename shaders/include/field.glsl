@@ -61,8 +61,12 @@ float cell_value(ivec3 c, ivec3 p) {
 #elif defined(GRID_BUFFER)
 // The whole grid in a storage buffer (`grid[]`, x fastest; render/mod.rs): llvmpipe reads a
 // buffer element with a fraction of the instructions of a texelFetch.
+int grid_index(ivec3 p) {
+    return (p.z * P.dims.y + p.y) * P.dims.x + p.x;
+}
+
 float cell_value(ivec3 c, ivec3 p) {
-    return grid[(p.z * P.dims.y + p.y) * P.dims.x + p.x];
+    return grid[grid_index(p)];
 }
 #else
 // The value at grid point p (global indices; u_grid may hold only a block of the grid, from
@@ -117,7 +121,7 @@ Corners cell_corners(ivec3 c) {
     Corners k;
     int sy = P.dims.x;
     int sz = P.dims.x * P.dims.y;
-    int i = c.z * sz + c.y * sy + c.x;
+    int i = grid_index(c);
     k.lo = vec4(grid[i], grid[i + 1], grid[i + sy], grid[i + sy + 1]);
     k.hi = vec4(grid[i + sz], grid[i + sz + 1], grid[i + sz + sy], grid[i + sz + sy + 1]);
     return k;

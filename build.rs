@@ -53,6 +53,7 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
         Glsl::Int,
         "Cells per side of a brick of the min/max grid (empty-space skipping).",
     ),
+    ("SUPER", 4, Glsl::Int, "Bricks per side of a superbrick, the min/max grid's coarser level."),
     // `RenderParams.method.x`.
     ("METHOD_FIXED_STEP", 0, Glsl::Uint, "RenderParams.method.x of fixed-step ray marching."),
     ("METHOD_ANALYTIC", 1, Glsl::Uint, "RenderParams.method.x of the exact ray tracer."),

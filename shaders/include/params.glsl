@@ -21,7 +21,8 @@ struct RenderParams {
     vec4 debug;        // x: step count that maps to the top of the colormap
     vec4 eye_grid;     // xyz: the eye in index space, (eye - box_min) / spacing, computed in f64
     uvec4 analytic;    // x: which crossing is the hit (>= 1), y: 1 = empty-space skipping,
-                       // z: brick size in cells (the min/max grid of the skipping)
+                       // z: brick size in cells (the min/max grid of the skipping),
+                       // w: 1 = count every crossing
     uvec4 view;        // x: 1 = orthographic camera, y: normals (NORMALS_TRILINEAR or
                        // NORMALS_SMOOTH), z: clip planes in use, w: surfaces (>= 1)
     ivec4 block_lo;    // xyz: first cell this process traces (an MPI rank's block; 0: all)

@@ -152,7 +152,7 @@ impl World {
         self.comm.all_reduce_into(&mins[..], &mut min_all[..], SystemOperation::min());
         self.comm.all_reduce_into(&maxs[..], &mut max_all[..], SystemOperation::max());
         let bricks: Vec<[f32; 2]> = min_all.into_iter().zip(max_all).map(|(a, b)| [a, b]).collect();
-        GpuGrid::upload_block(ctx, block, &values, &bricks)
+        GpuGrid::upload_block(ctx, dims, block, &values, &bricks)
     }
 }
 

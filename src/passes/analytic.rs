@@ -6,7 +6,9 @@
 //! brick min/max grid of empty-space skipping ([`super::bricks`]). Push constants: the band.
 //! Three builds of the shader: the grid as a storage buffer ([`buffer_pipeline`], a whole grid:
 //! the default), as the grid image ([`pipeline`], an MPI rank's block or a grid over the
-//! device's storage buffer range), as a brick pool ([`pool_pipeline`]).
+//! device's storage buffer range), as a brick pool ([`pool_pipeline`]). Each is built for the
+//! levels of the min/max grid its walk jumps with (1: bricks, 2: and superbricks), the
+//! shader's specialization constant `BRICK_LEVELS`: the renderer picks them per render.
 
 use std::sync::Arc;
 
@@ -24,25 +26,37 @@ pub const BINDINGS: [vk::DescriptorType; 5] = [
     vk::DescriptorType::STORAGE_BUFFER,
 ];
 
-pub fn pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
-    ComputePipeline::new(
+pub fn pipeline(ctx: &Arc<Context>, levels: u32) -> Result<ComputePipeline, GpuError> {
+    build(ctx, "analytic (image)", shaders::ANALYTIC, &BINDINGS, levels)
+}
+
+/// One build of the shader, with `levels` (1 or 2) as its `BRICK_LEVELS`.
+fn build(
+    ctx: &Arc<Context>,
+    name: &str,
+    spirv: &[u8],
+    bindings: &[vk::DescriptorType],
+    levels: u32,
+) -> Result<ComputePipeline, GpuError> {
+    ComputePipeline::with_constants(
         ctx,
-        "analytic (image)",
-        shaders::ANALYTIC,
-        &BINDINGS,
+        name,
+        spirv,
+        bindings,
         std::mem::size_of::<super::Band>() as u32,
+        &[levels],
     )
 }
 
 /// The `GRID_POOL` variant (`field.residency = "active"`; bindings
 /// [`POOL_BINDINGS`](super::raymarch::POOL_BINDINGS)).
-pub fn pool_pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
-    ComputePipeline::new(
+pub fn pool_pipeline(ctx: &Arc<Context>, levels: u32) -> Result<ComputePipeline, GpuError> {
+    build(
         ctx,
         "analytic (brick pool)",
         shaders::ANALYTIC_POOL,
         &super::raymarch::POOL_BINDINGS,
-        std::mem::size_of::<super::Band>() as u32,
+        levels,
     )
 }
 
@@ -58,12 +72,6 @@ pub const BUFFER_BINDINGS: [vk::DescriptorType; 5] = [
 /// The `GRID_BUFFER` variant, the default for a whole grid: the grid's points in a storage
 /// buffer (a device copy of its image), which llvmpipe reads with far fewer instructions than
 /// a texelFetch (README "Benchmarks").
-pub fn buffer_pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
-    ComputePipeline::new(
-        ctx,
-        "analytic",
-        shaders::ANALYTIC_BUFFER,
-        &BUFFER_BINDINGS,
-        std::mem::size_of::<super::Band>() as u32,
-    )
+pub fn buffer_pipeline(ctx: &Arc<Context>, levels: u32) -> Result<ComputePipeline, GpuError> {
+    build(ctx, "analytic", shaders::ANALYTIC_BUFFER, &BUFFER_BINDINGS, levels)
 }

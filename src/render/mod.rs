@@ -91,6 +91,8 @@ pub struct GpuGrid {
     /// The brick min/max grid ([`bricks`]), built by the first analytic render (given, for a
     /// pool or a block).
     bricks: std::cell::OnceCell<Buffer>,
+    /// A host copy of its superbricks' ranges, set with `bricks` (the choice of levels).
+    supers: std::cell::OnceCell<Vec<[f32; 2]>>,
     /// The image's points in a storage buffer, copied on the device by the first analytic
     /// render of a whole grid (its `GRID_BUFFER` variant): a second copy of the grid on the
     /// device, read by llvmpipe far faster than the image (README "Exact ray tracing").
@@ -114,16 +116,19 @@ impl GpuGrid {
             storage: Storage::Image(Image3d::upload(ctx, "grid", extent, &grid.values)?),
             dims: grid.dims,
             bricks: std::cell::OnceCell::new(),
+            supers: std::cell::OnceCell::new(),
             points: std::cell::OnceCell::new(),
             block: None,
         })
     }
 
-    /// Uploads one process's `block` of a larger grid (`values`: its points, x fastest) with
-    /// the whole grid's brick min/max grid (`bricks`, combined over every block), for the
-    /// analytic method, which then traces only the block's cells.
+    /// Uploads one process's `block` of a larger grid of `dims` points (`values`: the block's
+    /// points, x fastest) with the whole grid's brick min/max grid (`bricks`, combined over
+    /// every block; its superbricks are added here), for the analytic method, which then traces
+    /// only the block's cells.
     pub fn upload_block(
         ctx: &Arc<Context>,
+        dims: [usize; 3],
         block: block::Block,
         values: &[f32],
         bricks: &[[f32; 2]],
@@ -133,17 +138,18 @@ impl GpuGrid {
             storage: Storage::Image(Image3d::upload(ctx, "grid block", extent, values)?),
             dims: block.extent,
             bricks: std::cell::OnceCell::new(),
+            supers: std::cell::OnceCell::new(),
             points: std::cell::OnceCell::new(),
             block: Some(block),
         };
-        let buffer = Buffer::upload(ctx, "bricks", bricks, vk::BufferUsageFlags::STORAGE_BUFFER)?;
-        let _ = grid.bricks.set(buffer);
+        grid.set_bricks(ctx, bricks::levels(dims, bricks))?;
         Ok(grid)
     }
 
     /// Uploads the bricks of a memory-mapped grid that `residency` names into a brick pool
     /// ([`pool`]), with the grid's brick min/max grid (`ranges`, from
-    /// [`MappedGrid::brick_ranges`](crate::field::mapped::MappedGrid::brick_ranges)).
+    /// [`MappedGrid::brick_ranges`](crate::field::mapped::MappedGrid::brick_ranges); its
+    /// superbricks are added here).
     pub fn upload_pool(
         ctx: &Arc<Context>,
         grid: &crate::field::mapped::MappedGrid,
@@ -155,12 +161,21 @@ impl GpuGrid {
             storage: Storage::Pool(Box::new(pool)),
             dims: grid.dims,
             bricks: std::cell::OnceCell::new(),
+            supers: std::cell::OnceCell::new(),
             points: std::cell::OnceCell::new(),
             block: None,
         };
-        let buffer = Buffer::upload(ctx, "bricks", ranges, vk::BufferUsageFlags::STORAGE_BUFFER)?;
-        let _ = gpu.bricks.set(buffer);
+        gpu.set_bricks(ctx, bricks::levels(grid.dims, ranges))?;
         Ok(gpu)
+    }
+
+    /// Uploads the min/max grid computed on the CPU (`levels`: [`bricks::levels`]' layout).
+    fn set_bricks(&self, ctx: &Arc<Context>, levels: Vec<[f32; 2]>) -> Result<(), GpuError> {
+        let buffer = Buffer::upload(ctx, "bricks", &levels, vk::BufferUsageFlags::STORAGE_BUFFER)?;
+        let n_bricks = bricks::brick_counts(self.dims).iter().product::<usize>();
+        let _ = self.supers.set(levels[n_bricks..].to_vec());
+        let _ = self.bricks.set(buffer);
+        Ok(())
     }
 
     /// The 3D image of every point; an error for a brick pool, which only the ray methods read.
@@ -179,7 +194,8 @@ impl GpuGrid {
         }
     }
 
-    /// The brick min/max grid, once an analytic render has built it (layout: [`bricks`]).
+    /// The brick min/max grid with its superbricks, once an analytic render has built it
+    /// (layout: [`bricks`]).
     pub fn bricks(&self) -> Option<&Buffer> {
         self.bricks.get()
     }
@@ -203,14 +219,15 @@ pub fn scene_channels(scene: &Scene) -> Vec<Channel> {
 
 /// The ray passes' shaders: method and how the grid is on the device.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+/// The analytic builds carry the levels of the min/max grid their walk jumps with (1 or 2).
 enum RayShader {
     FixedStep,
     FixedStepPool,
     /// The grid image (an MPI rank's block, or a grid over the device's storage buffer range).
-    Analytic,
+    Analytic(u32),
     /// The whole grid in a storage buffer: the default.
-    AnalyticBuffer,
-    AnalyticPool,
+    AnalyticBuffer(u32),
+    AnalyticPool(u32),
 }
 
 impl RayShader {
@@ -218,9 +235,9 @@ impl RayShader {
         match self {
             RayShader::FixedStep => raymarch::pipeline(ctx),
             RayShader::FixedStepPool => raymarch::pool_pipeline(ctx),
-            RayShader::Analytic => analytic::pipeline(ctx),
-            RayShader::AnalyticBuffer => analytic::buffer_pipeline(ctx),
-            RayShader::AnalyticPool => analytic::pool_pipeline(ctx),
+            RayShader::Analytic(levels) => analytic::pipeline(ctx, levels),
+            RayShader::AnalyticBuffer(levels) => analytic::buffer_pipeline(ctx, levels),
+            RayShader::AnalyticPool(levels) => analytic::pool_pipeline(ctx, levels),
         }
     }
 }
@@ -231,7 +248,7 @@ pub struct Renderer {
     /// The ray passes' pipelines, each built on its first use (a render runs one of them;
     /// llvmpipe takes a good part of a second to compile one when Mesa's shader cache is cold).
     ray_pipelines: std::collections::HashMap<RayShader, ComputePipeline>,
-    bricks: ComputePipeline,
+    bricks: bricks::Pipelines,
     colormap: Buffer,
     /// The mesh render's pipelines, built on the first mesh render (they need 64-bit atomics).
     mesh: Option<MeshPipelines>,
@@ -242,6 +259,13 @@ pub struct Renderer {
     /// GPU time of building the brick min/max grid during the last frame, in milliseconds
     /// (None when the frame did not build it: not analytic, already built, or no timestamps).
     pub last_bricks_ms: Option<f64>,
+    /// The levels of the min/max grid the analytic walk jumps with when `render.skip` is on:
+    /// 1 (bricks) or 2 (and superbricks); None (the default): chosen per render from the
+    /// grid's empty superbricks ([`bricks::levels_for`]). Images are the same bit for bit
+    /// either way, `steps` included; tests and benchmarks set it to compare the two.
+    pub brick_levels: Option<u32>,
+    /// The levels the last analytic frame's walk used.
+    pub last_brick_levels: Option<u32>,
 }
 
 /// 256 linear RGBA entries of a colorous gradient (its sRGB colours decoded), for shaders.
@@ -262,7 +286,7 @@ pub fn colormap() -> Vec<[f32; 4]> {
 
 impl Renderer {
     pub fn new(ctx: &Arc<Context>) -> Result<Self, RenderError> {
-        let bricks = bricks::pipeline(ctx)?;
+        let bricks = bricks::pipelines(ctx)?;
         let colormap =
             Buffer::upload(ctx, "colormap", &colormap(), vk::BufferUsageFlags::STORAGE_BUFFER)?;
         Ok(Renderer {
@@ -274,6 +298,8 @@ impl Renderer {
             extractor: None,
             last_gpu_ms: None,
             last_bricks_ms: None,
+            brick_levels: None,
+            last_brick_levels: None,
         })
     }
 
@@ -367,20 +393,41 @@ impl Renderer {
         band_rows: u32,
         sink: &mut dyn FrameSink,
     ) -> Result<(), RenderError> {
+        let mut params = RenderParams::new(scene, grid);
+        self.last_bricks_ms = None;
+        self.last_brick_levels = None;
+        if scene.render.method == Method::Analytic && gpu_grid.bricks.get().is_none() {
+            let image = gpu_grid.image("the brick min/max grid of a brick pool")?;
+            let built = bricks::build(&self.ctx, &self.bricks, image, gpu_grid.dims)?;
+            let _ = gpu_grid.supers.set(built.supers);
+            let _ = gpu_grid.bricks.set(built.buffer);
+            self.last_bricks_ms = built.ms;
+        }
+        let mut levels = || {
+            let count = params.view[3] as usize;
+            let thresholds: Vec<f32> =
+                (0..count).map(|k| params.thresholds[k / 4][k % 4]).collect();
+            let supers = gpu_grid.supers.get().map_or(&[][..], |s| &s[..]);
+            let chosen =
+                self.brick_levels.unwrap_or_else(|| bricks::levels_for(supers, &thresholds));
+            let levels = if scene.render.skip { chosen.clamp(1, 2) } else { 1 };
+            self.last_brick_levels = Some(levels);
+            levels
+        };
         let shader = match (scene.render.method, &gpu_grid.storage) {
             (Method::Mesh, _) => return Err(RenderError::Unsupported("mesh (as a ray pass)")),
             (Method::FixedStep, Storage::Pool(_)) => RayShader::FixedStepPool,
             (Method::FixedStep, Storage::Image(_)) => RayShader::FixedStep,
-            (Method::Analytic, Storage::Pool(_)) => RayShader::AnalyticPool,
+            (Method::Analytic, Storage::Pool(_)) => RayShader::AnalyticPool(levels()),
             (Method::Analytic, Storage::Image(image)) => {
                 let bytes = image.extent.iter().map(|&e| e as u64).product::<u64>() * 4;
                 if gpu_grid.block.is_none() && bytes <= self.ctx.info.max_storage_buffer_range {
                     if gpu_grid.points.get().is_none() {
                         let _ = gpu_grid.points.set(image.copy_to_buffer("grid points")?);
                     }
-                    RayShader::AnalyticBuffer
+                    RayShader::AnalyticBuffer(levels())
                 } else {
-                    RayShader::Analytic
+                    RayShader::Analytic(levels())
                 }
             }
         };
@@ -389,16 +436,8 @@ impl Renderer {
         }
         let pipeline = &self.ray_pipelines[&shader];
         let ctx = &self.ctx;
-        self.last_bricks_ms = None;
-        if scene.render.method == Method::Analytic && gpu_grid.bricks.get().is_none() {
-            let image = gpu_grid.image("the brick min/max grid of a brick pool")?;
-            let (built, ms) = bricks::build(ctx, &self.bricks, image, gpu_grid.dims)?;
-            let _ = gpu_grid.bricks.set(built);
-            self.last_bricks_ms = ms;
-        }
         let (width, height) =
             Progressive::picture_size(stride, scene.image.width, scene.image.height);
-        let mut params = RenderParams::new(scene, grid);
         params.image[2] = stride;
         params.image[3] = width;
         if let Some(b) = &gpu_grid.block {
@@ -421,7 +460,7 @@ impl Renderer {
             _ => None,
         };
         let grid_input = match (&gpu_grid.storage, shader) {
-            (Storage::Image(_), RayShader::AnalyticBuffer) => GridInput::Points(
+            (Storage::Image(_), RayShader::AnalyticBuffer(_)) => GridInput::Points(
                 gpu_grid
                     .points
                     .get()

@@ -684,6 +684,120 @@ fn skipping_leaves_images_bit_identical() {
     assert!(total_hits > 10_000, "{total_hits}");
 }
 
+/// The second level of the min/max grid (superbricks of `bricks::SUPER`³ bricks) changes no
+/// bit of any channel, `steps` included (a superbrick jump counts the brick jumps it replaces):
+/// sparse grids where most superbricks are empty, random and tie-making views (diagonals
+/// through brick corners of a unit-spaced grid), every crossing counted, the k-th crossing,
+/// several surfaces, an MPI-style block upload.
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn superbricks_leave_images_bit_identical() {
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let mut rng = Rng::new(73);
+    let n = 2 * bricks::SUPER * bricks::BRICK + 9; // 2 superbricks and a partial one per axis
+    let sphere = grid_from([n, n - 7, n + 5], DVec3::splat(-1.0), DVec3::splat(1.0), |p| {
+        (p - DVec3::new(0.3, -0.2, 0.25)).length() - 0.3
+    });
+    let torus = grid_from([n; 3], DVec3::splat(-1.0), DVec3::splat(1.0), |p| {
+        DVec3::new((p.x * p.x + p.z * p.z).sqrt() - 0.6, p.y, 0.0).length() - 0.15
+    });
+    // Unit spacing: index space is world space, so views along diagonals put rays exactly
+    // through brick and superbrick edges and corners (planes of several axes at one t).
+    let dyadic = {
+        let mut g = dyadic_grid_with_zeros(&mut rng, n);
+        for (i, v) in g.values.iter_mut().enumerate() {
+            *v += if i % n < 2 * bricks::SUPER * bricks::BRICK + 3 { 3.0 } else { 0.0 };
+        }
+        g
+    };
+    let c = (n - 1) as f64;
+    let mut scenes: Vec<(String, Grid, Scene)> = Vec::new();
+    for (case, (name, grid)) in
+        [("sphere", &sphere), ("torus", &torus), ("sphere", &sphere), ("torus", &torus)]
+            .into_iter()
+            .enumerate()
+    {
+        let eye = random_eye(&mut rng, grid, false);
+        let mut s = scene_for(grid, eye, 56, Method::Analytic);
+        s.render.crossing = 1 + (case % 2) as u32;
+        s.render.count_crossings = case == 1;
+        s.surface.inside = if case == 2 { Inside::Above } else { Inside::Below };
+        scenes.push((format!("{name} {case}"), grid.clone(), s));
+    }
+    let mut several = scene_for(&torus, DVec3::new(2.2, 1.6, 2.4), 56, Method::Analytic);
+    several.surface.isovalue = -0.05;
+    several.surface.more[..2].copy_from_slice(&[0.0, 0.04]);
+    several.surface.count = 3;
+    scenes.push(("torus, three surfaces".into(), torus.clone(), several));
+    for (eye, target, up) in [
+        (DVec3::new(-8.0, -8.0, -8.0), DVec3::splat(c), DVec3::Y),
+        (DVec3::new(-16.0, -16.0, c / 2.0), DVec3::new(c, c, c / 2.0), DVec3::Z),
+        (DVec3::new(c + 8.0, -8.0, c + 8.0), DVec3::new(0.0, c, 0.0), DVec3::Y),
+        (DVec3::new(c / 2.0, c / 2.0, 3.0 * c), DVec3::new(c / 2.0, c / 2.0, 0.0), DVec3::Y),
+    ] {
+        let mut s = scene_for(&dyadic, eye, 64, Method::Analytic);
+        s.camera.target = target;
+        s.camera.up = up;
+        scenes.push(("dyadic".into(), dyadic.clone(), s));
+    }
+    let mut jumped = 0;
+    for (name, grid, scene) in &scenes {
+        let gpu_grid = GpuGrid::upload(&ctx, grid).unwrap();
+        let as_block = GpuGrid::upload_block(
+            &ctx,
+            grid.dims,
+            isoview::render::block::Block::whole(grid.dims),
+            &grid.values,
+            &bricks::reference(grid),
+        )
+        .unwrap();
+        let mut frames = Vec::new();
+        for (levels, uploaded) in [(1, &gpu_grid), (2, &gpu_grid), (2, &as_block)] {
+            renderer.brick_levels = Some(levels);
+            frames.push(renderer.render_uploaded(scene, grid, uploaded, 0.0).unwrap());
+            assert_eq!(renderer.last_brick_levels, Some(levels));
+        }
+        renderer.brick_levels = None;
+        renderer.render_uploaded(scene, grid, &gpu_grid, 0.0).unwrap();
+        let chosen = renderer.last_brick_levels.unwrap();
+        for (i, other) in frames[1..].iter().enumerate() {
+            let differ = frames[0]
+                .pixels
+                .iter()
+                .zip(&other.pixels)
+                .filter(|(x, y)| bytemuck::bytes_of(*x) != bytemuck::bytes_of(*y))
+                .count();
+            assert_eq!(differ, 0, "{name} ({i}): {differ} pixels differ with superbricks");
+        }
+        let hits = frames[0].pixels.iter().filter(|p| p.is_hit()).count();
+        let steps: f64 = frames[0].pixels.iter().map(|p| p.steps as f64).sum();
+        eprintln!("superbricks, {name}: {hits} hits, {steps} steps, levels chosen {chosen}");
+        assert!(hits > 0, "{name}");
+        jumped += usize::from(chosen == 2);
+    }
+    // The sparse grids are the case superbricks are for: the renderer picks them there.
+    assert!(jumped >= scenes.len() - 1, "superbricks chosen for {jumped} scenes");
+}
+
+/// The choice of levels: superbricks when enough of them are empty for the thresholds.
+#[test]
+fn superbricks_are_chosen_where_enough_are_empty() {
+    let empty = [5.0f32, 6.0];
+    let crossed = [-1.0f32, 1.0];
+    let mut supers = vec![crossed; 16];
+    assert_eq!(bricks::levels_for(&supers, &[0.0]), 1);
+    supers[3] = empty;
+    assert_eq!(bricks::levels_for(&supers, &[0.0]), 1, "1 in 16");
+    supers[7] = empty;
+    assert_eq!(bricks::levels_for(&supers, &[0.0]), 2, "2 in 16");
+    // Empty for one surface is not empty: every threshold must be clear of the range.
+    assert_eq!(bricks::levels_for(&supers, &[0.0, 5.5]), 1);
+    // Within the margin of a threshold is not clear of it (5 - 4.999 < (6 + 4.999) / 1024).
+    assert_eq!(bricks::levels_for(&supers, &[0.0, 4.999]), 1);
+    assert_eq!(bricks::levels_for(&[], &[0.0]), 1);
+}
+
 /// The analytic shader's builds read the grid from a storage buffer (a whole grid, the default)
 /// or from the grid image (an MPI rank's block; here a "block" that is the whole grid): same
 /// bits in every channel, skipping on and off, smooth normals, several surfaces.
@@ -708,6 +822,7 @@ fn grid_buffer_and_grid_image_builds_agree_bit_for_bit() {
         let whole = GpuGrid::upload(&ctx, &grid).unwrap();
         let as_block = GpuGrid::upload_block(
             &ctx,
+            grid.dims,
             isoview::render::block::Block::whole(grid.dims),
             &grid.values,
             &bricks::reference(&grid),
@@ -733,7 +848,7 @@ fn brick_grid_holds_each_bricks_min_and_max() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(37);
-    for dims in [[2, 2, 2], [9, 9, 9], [19, 10, 26], [17, 33, 8]] {
+    for dims in [[2, 2, 2], [9, 9, 9], [19, 10, 26], [17, 33, 8], [70, 41, 100]] {
         let grid = random_grid(&mut rng, dims);
         let gpu_grid = GpuGrid::upload(&ctx, &grid).unwrap();
         assert!(gpu_grid.bricks().is_none());
@@ -753,7 +868,8 @@ fn brick_grid_holds_each_bricks_min_and_max() {
             Ok(())
         })
         .unwrap();
-        let expected = bricks::reference(&grid);
+        let expected = bricks::levels(grid.dims, &bricks::reference(&grid));
+        assert_eq!(built.size, 8 * expected.len() as u64);
         let seen: Vec<[f32; 2]> = readback.read(expected.len()).unwrap();
         assert_eq!(seen, expected, "dims {dims:?}");
     }

@@ -45,7 +45,28 @@ impl ComputePipeline {
         bindings: &[vk::DescriptorType],
         push_bytes: u32,
     ) -> Result<Self, GpuError> {
+        Self::with_constants(ctx, name, spirv, bindings, push_bytes, &[])
+    }
+
+    /// [`new`](Self::new) with specialization constants: `constants[i]` is the 32-bit value
+    /// of `layout(constant_id = i)`. The driver compiles the shader with them folded in, so
+    /// code they switch off costs nothing (unlike a branch on a uniform, which llvmpipe's
+    /// register allocation still pays for).
+    pub fn with_constants(
+        ctx: &Arc<Context>,
+        name: &str,
+        spirv: &[u8],
+        bindings: &[vk::DescriptorType],
+        push_bytes: u32,
+        constants: &[u32],
+    ) -> Result<Self, GpuError> {
         let device = &ctx.device;
+        let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
+            .map(|i| vk::SpecializationMapEntry { constant_id: i, offset: 4 * i, size: 4 })
+            .collect();
+        let spec = vk::SpecializationInfo::default()
+            .map_entries(&entries)
+            .data(bytemuck::cast_slice(constants));
         let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv))
             .map_err(|e| GpuError::Bug(format!("shader `{name}` is not SPIR-V: {e}")))?;
         let layout_bindings: Vec<_> = bindings
@@ -86,10 +107,13 @@ impl ComputePipeline {
             let layout =
                 device.create_pipeline_layout(&layout_info, None).vk("vkCreatePipelineLayout")?;
             let layout_guard = Cleanup::new(|| device.destroy_pipeline_layout(layout, None));
-            let stage = vk::PipelineShaderStageCreateInfo::default()
+            let mut stage = vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module)
                 .name(c"main");
+            if !constants.is_empty() {
+                stage = stage.specialization_info(&spec);
+            }
             let raw = device
                 .create_compute_pipelines(
                     vk::PipelineCache::null(),

@@ -6,9 +6,9 @@
 //! brick min/max grid of empty-space skipping ([`super::bricks`]). Push constants: the band.
 //! Three builds of the shader: the grid as a storage buffer ([`buffer_pipeline`], a whole grid:
 //! the default), as the grid image ([`pipeline`], an MPI rank's block or a grid over the
-//! device's storage buffer range), as a brick pool ([`pool_pipeline`]). Each is built for the
-//! levels of the min/max grid its walk jumps with (1: bricks, 2: and superbricks), the
-//! shader's specialization constant `BRICK_LEVELS`: the renderer picks them per render.
+//! device's storage buffer range), as a brick pool ([`pool_pipeline`]). Each is specialized for
+//! one [`Walk`] (the shader's specialization constants): the renderer builds the ones its
+//! renders need.
 
 use std::sync::Arc;
 
@@ -26,17 +26,29 @@ pub const BINDINGS: [vk::DescriptorType; 5] = [
     vk::DescriptorType::STORAGE_BUFFER,
 ];
 
-pub fn pipeline(ctx: &Arc<Context>, levels: u32) -> Result<ComputePipeline, GpuError> {
-    build(ctx, "analytic (image)", shaders::ANALYTIC, &BINDINGS, levels)
+pub fn pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, GpuError> {
+    build(ctx, "analytic (image)", shaders::ANALYTIC, &BINDINGS, walk)
 }
 
-/// One build of the shader, with `levels` (1 or 2) as its `BRICK_LEVELS`.
+/// What the analytic shader is specialized for: its specialization constants, folded in by the
+/// driver, so that the walk's loop carries no code for what a render does not use (llvmpipe pays
+/// for code in a loop body whether it runs or not: README "How the walk is laid out for speed").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Walk {
+    /// `BRICK_LEVELS`: the levels of the min/max grid the walk jumps with, 1 (bricks) or 2 (and
+    /// superbricks).
+    pub levels: u32,
+    /// `SURFACE_COUNT`: the surfaces (isovalues), 1 to `SURFACES`; `RenderParams.view.w`.
+    pub surfaces: u32,
+}
+
+/// One build of the shader, specialized for `walk`.
 fn build(
     ctx: &Arc<Context>,
     name: &str,
     spirv: &[u8],
     bindings: &[vk::DescriptorType],
-    levels: u32,
+    walk: Walk,
 ) -> Result<ComputePipeline, GpuError> {
     ComputePipeline::with_constants(
         ctx,
@@ -44,19 +56,19 @@ fn build(
         spirv,
         bindings,
         std::mem::size_of::<super::Band>() as u32,
-        &[levels],
+        &[walk.levels, walk.surfaces],
     )
 }
 
 /// The `GRID_POOL` variant (`field.residency = "active"`; bindings
 /// [`POOL_BINDINGS`](super::raymarch::POOL_BINDINGS)).
-pub fn pool_pipeline(ctx: &Arc<Context>, levels: u32) -> Result<ComputePipeline, GpuError> {
+pub fn pool_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, GpuError> {
     build(
         ctx,
         "analytic (brick pool)",
         shaders::ANALYTIC_POOL,
         &super::raymarch::POOL_BINDINGS,
-        levels,
+        walk,
     )
 }
 
@@ -72,6 +84,6 @@ pub const BUFFER_BINDINGS: [vk::DescriptorType; 5] = [
 /// The `GRID_BUFFER` variant, the default for a whole grid: the grid's points in a storage
 /// buffer (a device copy of its image), which llvmpipe reads with far fewer instructions than
 /// a texelFetch (README "Benchmarks").
-pub fn buffer_pipeline(ctx: &Arc<Context>, levels: u32) -> Result<ComputePipeline, GpuError> {
-    build(ctx, "analytic", shaders::ANALYTIC_BUFFER, &BUFFER_BINDINGS, levels)
+pub fn buffer_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, GpuError> {
+    build(ctx, "analytic", shaders::ANALYTIC_BUFFER, &BUFFER_BINDINGS, walk)
 }

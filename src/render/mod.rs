@@ -219,15 +219,15 @@ pub fn scene_channels(scene: &Scene) -> Vec<Channel> {
 
 /// The ray passes' shaders: method and how the grid is on the device.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-/// The analytic builds carry the levels of the min/max grid their walk jumps with (1 or 2).
+/// The analytic builds carry what they are specialized for.
 enum RayShader {
     FixedStep,
     FixedStepPool,
     /// The grid image (an MPI rank's block, or a grid over the device's storage buffer range).
-    Analytic(u32),
+    Analytic(analytic::Walk),
     /// The whole grid in a storage buffer: the default.
-    AnalyticBuffer(u32),
-    AnalyticPool(u32),
+    AnalyticBuffer(analytic::Walk),
+    AnalyticPool(analytic::Walk),
 }
 
 impl RayShader {
@@ -235,9 +235,9 @@ impl RayShader {
         match self {
             RayShader::FixedStep => raymarch::pipeline(ctx),
             RayShader::FixedStepPool => raymarch::pool_pipeline(ctx),
-            RayShader::Analytic(levels) => analytic::pipeline(ctx, levels),
-            RayShader::AnalyticBuffer(levels) => analytic::buffer_pipeline(ctx, levels),
-            RayShader::AnalyticPool(levels) => analytic::pool_pipeline(ctx, levels),
+            RayShader::Analytic(walk) => analytic::pipeline(ctx, walk),
+            RayShader::AnalyticBuffer(walk) => analytic::buffer_pipeline(ctx, walk),
+            RayShader::AnalyticPool(walk) => analytic::pool_pipeline(ctx, walk),
         }
     }
 }
@@ -403,31 +403,31 @@ impl Renderer {
             let _ = gpu_grid.bricks.set(built.buffer);
             self.last_bricks_ms = built.ms;
         }
-        let mut levels = || {
-            let count = params.view[3] as usize;
+        let mut walk = || {
+            let surfaces = params.view[3];
             let thresholds: Vec<f32> =
-                (0..count).map(|k| params.thresholds[k / 4][k % 4]).collect();
+                (0..surfaces as usize).map(|k| params.thresholds[k / 4][k % 4]).collect();
             let supers = gpu_grid.supers.get().map_or(&[][..], |s| &s[..]);
             let chosen =
                 self.brick_levels.unwrap_or_else(|| bricks::levels_for(supers, &thresholds));
             let levels = if scene.render.skip { chosen.clamp(1, 2) } else { 1 };
             self.last_brick_levels = Some(levels);
-            levels
+            analytic::Walk { levels, surfaces }
         };
         let shader = match (scene.render.method, &gpu_grid.storage) {
             (Method::Mesh, _) => return Err(RenderError::Unsupported("mesh (as a ray pass)")),
             (Method::FixedStep, Storage::Pool(_)) => RayShader::FixedStepPool,
             (Method::FixedStep, Storage::Image(_)) => RayShader::FixedStep,
-            (Method::Analytic, Storage::Pool(_)) => RayShader::AnalyticPool(levels()),
+            (Method::Analytic, Storage::Pool(_)) => RayShader::AnalyticPool(walk()),
             (Method::Analytic, Storage::Image(image)) => {
                 let bytes = image.extent.iter().map(|&e| e as u64).product::<u64>() * 4;
                 if gpu_grid.block.is_none() && bytes <= self.ctx.info.max_storage_buffer_range {
                     if gpu_grid.points.get().is_none() {
                         let _ = gpu_grid.points.set(image.copy_to_buffer("grid points")?);
                     }
-                    RayShader::AnalyticBuffer(levels())
+                    RayShader::AnalyticBuffer(walk())
                 } else {
-                    RayShader::Analytic(levels())
+                    RayShader::Analytic(walk())
                 }
             }
         };

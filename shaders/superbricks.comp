@@ -7,7 +7,7 @@
 layout(local_size_x = BRICKS_GROUP, local_size_y = BRICKS_GROUP, local_size_z = BRICKS_GROUP) in;  // build.rs
 
 layout(std430, binding = 0) buffer Bricks { vec2 bricks[]; };
-layout(push_constant) uniform Shape {
+layout(push_constant) uniform SuperShape {
     ivec4 supers;  // xyz: superbricks per axis, w: SUPER
     ivec4 bricks;  // xyz: bricks per axis
 } shape;

@@ -42,6 +42,16 @@ pub struct Shape {
     pub bricks: [i32; 4],
 }
 
+/// Push constants of `superbricks.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct SuperShape {
+    /// xyz: superbricks per axis, w: [`SUPER`].
+    pub supers: [i32; 4],
+    /// xyz: bricks per axis.
+    pub bricks: [i32; 4],
+}
+
 /// Bricks per axis of a grid with `dims` points.
 pub fn brick_counts(dims: [usize; 3]) -> [usize; 3] {
     dims.map(|n| n.saturating_sub(1).max(1).div_ceil(BRICK))
@@ -126,7 +136,7 @@ pub fn pipelines(ctx: &Arc<Context>) -> Result<Pipelines, GpuError> {
             "superbricks",
             shaders::SUPERBRICKS,
             &[vk::DescriptorType::STORAGE_BUFFER],
-            std::mem::size_of::<Shape>() as u32,
+            std::mem::size_of::<SuperShape>() as u32,
         )?,
     })
 }
@@ -172,8 +182,7 @@ pub fn build(
     let super_set = pipelines.supers.bind(&[Resource::Storage(&bricks)])?;
     let i = |v: [usize; 3], w: usize| [v[0] as i32, v[1] as i32, v[2] as i32, w as i32];
     let shape = Shape { points: i(dims, 0), bricks: i(counts, BRICK) };
-    // superbricks.comp: `points` are the superbricks per axis, `bricks` the bricks per axis.
-    let super_shape = Shape { points: i(supers, SUPER), bricks: i(counts, 0) };
+    let super_shape = SuperShape { supers: i(supers, SUPER), bricks: i(counts, 0) };
     let timer = Timer::new(ctx)?;
     ctx.record(&pipeline.name, &mut Tracker::default(), |rec| {
         if let Some(t) = &timer {

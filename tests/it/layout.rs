@@ -301,7 +301,7 @@ fn differences(rust: &Mirror, glsl: &(Vec<Member>, u32), shader: &str) -> Vec<St
 #[test]
 fn every_shared_struct_matches_its_glsl_in_every_shader() {
     use isoview::frame::Pixel;
-    use isoview::passes::bricks::Shape;
+    use isoview::passes::bricks::{Shape, SuperShape};
     use isoview::passes::extract::{ExtractParams, ExtractTables, ScanPush, SlabPush};
     use isoview::passes::mesh_render::RasterPush;
     use isoview::passes::slice::{SliceParams, SlicePixel};
@@ -365,6 +365,7 @@ fn every_shared_struct_matches_its_glsl_in_every_shader() {
             1,
         ),
         (rust_struct!(Shape { points, bricks }), "Shape", &any, 1),
+        (rust_struct!(SuperShape { supers, bricks }), "SuperShape", &any, 1),
         (
             rust_struct!(ExtractParams { dims, box_min, spacing, iso, iso_bits }),
             "Params",
@@ -462,7 +463,7 @@ fn workgroup_sizes_are_the_dispatch_constants() {
             }
             "mesh_raster.comp" => [passes::mesh_render::RASTER_GROUP, 1, 1],
             "slice.comp" => [passes::slice::GROUP, passes::slice::GROUP, 1],
-            "bricks.comp" => [consts::BRICKS_GROUP; 3],
+            "bricks.comp" | "superbricks.comp" => [consts::BRICKS_GROUP; 3],
             "test/layout_probe.comp" => [1, 1, 1],
             p if p.starts_with("extract/") => [passes::extract::GROUP, 1, 1],
             p => panic!("{p}: no expected workgroup size; add it here"),

@@ -174,7 +174,8 @@ pub fn build(
         ctx,
         "bricks",
         (entries * 8) as u64,
-        vk::BufferUsageFlags::STORAGE_BUFFER,
+        // TRANSFER_SRC: the superbricks' ranges are copied back to the host.
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
         MemoryLocation::GpuOnly,
     )?;
     let pipeline = &pipelines.bricks;

@@ -238,12 +238,18 @@ pub fn levels_for(supers: &[[f32; 2]], thresholds: &[f32]) -> u32 {
 /// One superbrick in this many empty makes the second level worth its cost (README).
 pub const SPARSE: usize = 8;
 
-/// The shader's `range_is_empty`: whether every value in `mm` is clearly on one side of every
-/// threshold (by `SKIP_MARGIN` of the magnitudes involved).
+/// The analytic walk's skipping margin (`SKIP_MARGIN` in `shaders/analytic.comp`, which says
+/// why 2^-10): a range is clear of an isovalue by this, relative to the magnitudes involved.
+pub const SKIP_MARGIN: f32 = 1.0 / 1024.0;
+
+/// Whether every value in `mm` is clearly on one side of threshold `iso`: by `margin` times
+/// the magnitudes involved, in the shader's f32 arithmetic.
+pub fn clear_by(mm: [f32; 2], iso: f32, margin: f32) -> bool {
+    let tol = margin * (mm[0].abs().max(mm[1].abs()) + iso.abs());
+    mm[0] - iso > tol || iso - mm[1] > tol
+}
+
+/// The shader's `range_is_empty`: whether `mm` is clear of every threshold.
 fn range_is_empty(mm: [f32; 2], thresholds: &[f32]) -> bool {
-    const SKIP_MARGIN: f32 = 1.0 / 1024.0;
-    thresholds.iter().all(|&iso| {
-        let tol = SKIP_MARGIN * (mm[0].abs().max(mm[1].abs()) + iso.abs());
-        mm[0] - iso > tol || iso - mm[1] > tol
-    })
+    thresholds.iter().all(|&iso| clear_by(mm, iso, SKIP_MARGIN))
 }

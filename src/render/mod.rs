@@ -217,9 +217,9 @@ pub fn scene_channels(scene: &Scene) -> Vec<Channel> {
         .collect()
 }
 
-/// The ray passes' shaders: method and how the grid is on the device.
+/// The ray passes' shaders: method and how the grid is on the device; the analytic builds
+/// carry what they are specialized for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-/// The analytic builds carry what they are specialized for.
 enum RayShader {
     FixedStep,
     FixedStepPool,
@@ -405,8 +405,7 @@ impl Renderer {
         }
         let mut walk = || {
             let surfaces = params.view[3];
-            let thresholds: Vec<f32> =
-                (0..surfaces as usize).map(|k| params.thresholds[k / 4][k % 4]).collect();
+            let thresholds = params.surface_thresholds();
             let supers = gpu_grid.supers.get().map_or(&[][..], |s| &s[..]);
             let chosen =
                 self.brick_levels.unwrap_or_else(|| bricks::levels_for(supers, &thresholds));

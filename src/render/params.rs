@@ -128,6 +128,12 @@ pub fn steps_scale(scene: &Scene, grid: &Grid) -> f64 {
 }
 
 impl RenderParams {
+    /// Every surface's inside threshold exactly as the shaders get it (`thresholds`, surface 0
+    /// first, `view.w` of them): for the CPU decisions that must agree with the shaders' tests.
+    pub fn surface_thresholds(&self) -> Vec<f32> {
+        (0..self.view[3] as usize).map(|k| self.thresholds[k / 4][k % 4]).collect()
+    }
+
     pub fn new(scene: &Scene, grid: &Grid) -> Self {
         let cam = Camera::for_scene(scene);
         let clip = scene.clip.in_grid_frame(&scene.field.placement);

@@ -38,7 +38,7 @@ use rayon::prelude::*;
 use crate::field::mapped::MappedGrid;
 use crate::field::{FieldError, GridLimits};
 use crate::gpu::{Buffer, Context, GpuError, MemoryLocation};
-use crate::passes::bricks::{brick_counts, BRICK};
+use crate::passes::bricks::{brick_counts, clear_by, BRICK, SKIP_MARGIN};
 use crate::shaders;
 
 /// Points a slot holds around its brick's points, per side.
@@ -51,15 +51,14 @@ pub const SLOT: usize = BRICK + 1 + 2 * APRON;
 pub const NO_PAGE: u32 = shaders::consts::NO_PAGE;
 
 /// A brick is left out when its range is clear of every isovalue by this, relative to the
-/// magnitudes involved: twice the analytic walk's `SKIP_MARGIN` (2^-10), so every brick left
+/// magnitudes involved: twice the analytic walk's [`SKIP_MARGIN`] (2^-10), so every brick left
 /// out is one the walk's rounding cannot cross (the margin there has a factor of 30 to spare).
-pub const CLEAR_MARGIN: f32 = 2.0 / 1024.0;
+pub const CLEAR_MARGIN: f32 = 2.0 * SKIP_MARGIN;
 
 /// Whether a brick of value range `mm` is clear of isovalue `iso` (its threshold as the shaders
 /// get it).
 pub fn clear(mm: [f32; 2], iso: f32) -> bool {
-    let tol = CLEAR_MARGIN * (mm[0].abs().max(mm[1].abs()) + iso.abs());
-    mm[0] - iso > tol || iso - mm[1] > tol
+    clear_by(mm, iso, CLEAR_MARGIN)
 }
 
 /// Device bytes per brick of the brick tables: the min/max grid (8) and the page table (4).
@@ -286,10 +285,7 @@ pub fn upload_for(
     check_tables(grid.dims, limits, &grid.label())?;
     let ranges = grid.brick_ranges(BRICK)?;
     let scanned = started.elapsed();
-    // The thresholds exactly as the shaders get them.
-    let params = super::params::RenderParams::new(scene, &shape);
-    let count = params.view[3] as usize;
-    let thresholds: Vec<f32> = (0..count).map(|k| params.thresholds[k / 4][k % 4]).collect();
+    let thresholds = super::params::RenderParams::new(scene, &shape).surface_thresholds();
     let neighbours = scene.render.method == crate::scene::Method::FixedStep;
     let residency = Residency::select(grid.dims, &ranges, &thresholds, neighbours);
     residency.check(limits, &grid.label())?;

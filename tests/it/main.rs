@@ -11,6 +11,7 @@ mod color;
 mod common;
 mod compare;
 mod compare_stream;
+mod docs;
 mod extract_cli;
 mod extract_gpu;
 mod formats;

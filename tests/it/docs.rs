@@ -184,7 +184,7 @@ fn page_anchors(text: &str) -> BTreeSet<String> {
         if !(1..=6).contains(&hashes) || !plain[hashes..].starts_with(' ') {
             continue;
         }
-        let base = slug(&orig[hashes..].trim().trim_end_matches('#').trim());
+        let base = slug(orig[hashes..].trim().trim_end_matches('#').trim());
         let mut anchor = base.clone();
         let mut n = 0;
         while seen.contains(&anchor) {

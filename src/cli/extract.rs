@@ -24,13 +24,14 @@
 //! GPU extraction and the methods that are not cut into slabs are refused there in one line.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Instant;
 
 use super::{Cli, Failure};
 use crate::field::mapped::MappedGrid;
 use crate::field::Grid;
 use crate::mesh::export::{self, Format};
-use crate::mesh::{self, ExtractOptions, Mesh};
+use crate::mesh::{self, ExtractOptions, Mesh, MeshBudget, MeshLimits};
 use crate::output::atomic;
 use crate::scene::Scene;
 
@@ -141,12 +142,14 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     let started = Instant::now();
     let opts = ExtractOptions { keep_quads: args.quads, ..Default::default() };
     let limits = crate::field::GridLimits::from_env().map_err(Failure::input)?;
+    // One count for every surface's mesh: they are all held until the file is written.
+    let budget = Arc::new(MeshBudget::new(MeshLimits::from_env().map_err(Failure::input)?));
     // Under MPI a raw or npy file is mapped and each rank reads only its layers; other
     // sources are sampled whole by every rank.
     #[cfg(feature = "mpi")]
     if let Some(w) = ranks {
         let time = args.time;
-        let how = Split { args, format, scene: &scene, opts, started };
+        let how = Split { args, format, scene: &scene, opts, started, budget: &budget };
         return match MappedGrid::open(&scene.field).map_err(Failure::input)? {
             Some(m) => extract_ranks(w, crate::cluster::Points::Mapped(&m), how),
             None => {
@@ -158,7 +161,7 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     if let Some(mapped) =
         MappedGrid::for_residency(&scene.field, &limits).map_err(Failure::input)?
     {
-        return extract_mapped(args, format, &scene, &mapped, opts, started);
+        return extract_mapped(args, format, &scene, &mapped, opts, started, &budget);
     }
     // `--device auto` asks Vulkan whether its device is a CPU (loading the drivers: 50–150 ms
     // on lavapipe) on its own thread while the field is read or sampled.
@@ -174,16 +177,16 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     let time = args.time;
     for k in 0..scene.surface.count {
         let one = scene.single_surface(k);
+        let job = Job { scene: &one, grid: &grid, time, opts, budget: &budget };
         let (mesh, on, reason) = match backend {
-            Backend::Cpu => (extract_cpu(&one, &grid, time, opts)?, Backend::Cpu, String::new()),
+            Backend::Cpu => (extract_cpu(&job)?, Backend::Cpu, String::new()),
             Backend::Gpu => {
-                let (mesh, ran_on) =
-                    extract_gpu(cli, vulkan_device.clone(), &one, &grid, time, opts)?;
+                let (mesh, ran_on) = extract_gpu(cli, vulkan_device.clone(), &job)?;
                 (mesh, ran_on, String::new())
             }
             Backend::Auto => {
                 let device = (vulkan_device.clone(), cpu_device.as_deref());
-                extract_auto(cli, device, &one, &grid, time, opts)?
+                extract_auto(cli, device, &job)?
             }
         };
         let mut mesh = mesh;
@@ -263,11 +266,13 @@ fn extract_mapped(
     grid: &MappedGrid,
     opts: ExtractOptions,
     started: Instant,
+    budget: &Arc<MeshBudget>,
 ) -> Result<i32, Failure> {
     let mut meshes = Vec::with_capacity(scene.surface.count);
     for k in 0..scene.surface.count {
         let x = extraction(scene, k, opts, None);
-        let mut mesh = mesh::mapped::extract_mapped(grid, &x, mesh::mapped::WINDOW_BYTES)
+        let window = mesh::mapped::WINDOW_BYTES;
+        let mut mesh = mesh::mapped::extract_mapped_within(grid, &x, window, budget)
             .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
         mesh.place(&scene.field.placement);
         if scene.clip.count > 0 {
@@ -291,13 +296,14 @@ struct Split<'a> {
     scene: &'a Scene,
     opts: ExtractOptions,
     started: Instant,
+    budget: &'a Arc<MeshBudget>,
 }
 
 /// Under MPI: every rank meshes its share of every surface from the point layers it reads
 /// (`cluster::mesh`), rank 0 joins the shares and writes the file.
 #[cfg(feature = "mpi")]
 fn extract_ranks(w: &Ranks, grid: crate::cluster::Points, how: Split) -> Result<i32, Failure> {
-    let Split { args, format, scene, opts, started } = how;
+    let Split { args, format, scene, opts, started, budget } = how;
     let read = started.elapsed();
     let source = crate::field::PointField::from_spec(&scene.field, args.time);
     let mut meshes = Vec::with_capacity(scene.surface.count);
@@ -305,7 +311,7 @@ fn extract_ranks(w: &Ranks, grid: crate::cluster::Points, how: Split) -> Result<
     for k in 0..scene.surface.count {
         let x = extraction(scene, k, opts, source.as_ref());
         let done = w
-            .extract(grid, &x)
+            .extract(grid, &x, budget)
             .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
         match done {
             crate::cluster::Extracted::Whole(mesh, own, joined) => {
@@ -360,17 +366,32 @@ fn extraction<'a>(
     }
 }
 
-/// The CPU extraction on all cores: the f64 reference's mesh, bit for bit.
-pub fn extract_cpu(
-    scene: &Scene,
-    grid: &Grid,
-    time: f64,
-    opts: ExtractOptions,
-) -> Result<Mesh, Failure> {
+/// One surface's extraction: the scene (with that surface only), its samples at `time`, and
+/// the count of the mesh held so far, which refuses a mesh past the cap.
+pub struct Job<'a> {
+    pub scene: &'a Scene,
+    pub grid: &'a Grid,
+    pub time: f64,
+    pub opts: ExtractOptions,
+    pub budget: &'a MeshBudget,
+}
+
+/// The CPU extraction on all cores: the f64 reference's mesh, bit for bit, each slab counted
+/// into the budget as it is done.
+pub fn extract_cpu(job: &Job) -> Result<Mesh, Failure> {
+    let Job { scene, grid, time, opts, budget } = *job;
     let s = &scene.surface;
     let source = crate::field::PointField::from_spec(&scene.field, time);
     let (algo, sharp) = (scene.render.mesh, &scene.render.sharp);
-    mesh::extract_parallel_with(grid, s.isovalue, s.inside, algo, opts, sharp, source.as_ref())
+    let x = mesh::window::Extraction {
+        iso: s.isovalue,
+        inside: s.inside,
+        algo,
+        opts,
+        sharp,
+        source: source.as_ref(),
+    };
+    mesh::extract_budgeted(grid, &x, budget)
         .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))
 }
 
@@ -383,36 +404,33 @@ pub fn extract_cpu(
 fn extract_auto(
     cli: &Cli,
     device: (Option<String>, Option<&str>),
-    scene: &Scene,
-    grid: &Grid,
-    time: f64,
-    opts: ExtractOptions,
+    job: &Job,
 ) -> Result<(Mesh, Backend, String), Failure> {
-    if opts.keep_quads {
+    if job.opts.keep_quads {
         let why = "; auto: --quads needs the CPU extraction".to_string();
-        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
+        return Ok((extract_cpu(job)?, Backend::Cpu, why));
     }
     let (vulkan_device, probed_cpu) = device;
     // The cheap probe first: a CPU device needs no device opened.
     if let Some(name) = probed_cpu {
         let why = format!("; auto: the Vulkan device {name} is a CPU");
-        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
+        return Ok((extract_cpu(job)?, Backend::Cpu, why));
     }
     let ctx = match open_context(cli, vulkan_device) {
         Ok(ctx) => ctx,
         Err(e) => {
             let why = format!("; auto: no usable Vulkan device ({e})");
-            return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
+            return Ok((extract_cpu(job)?, Backend::Cpu, why));
         }
     };
     // `DeviceInfo::device_type` is the gpu crate's wording of `vk::PhysicalDeviceType::CPU`.
     if ctx.info.device_type.starts_with("CPU") {
         let why = format!("; auto: the Vulkan device {} is a CPU", ctx.info.name);
         drop(ctx);
-        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
+        return Ok((extract_cpu(job)?, Backend::Cpu, why));
     }
     let why = format!("; auto: the Vulkan device {} is a {}", ctx.info.name, ctx.info.device_type);
-    let (mesh, ran_on) = extract_on(ctx, scene, grid, time, opts)?;
+    let (mesh, ran_on) = extract_on(ctx, job)?;
     Ok((mesh, ran_on, why))
 }
 
@@ -480,26 +498,19 @@ fn open_context(
 fn extract_gpu(
     cli: &Cli,
     vulkan_device: Option<String>,
-    scene: &Scene,
-    grid: &Grid,
-    time: f64,
-    opts: ExtractOptions,
+    job: &Job,
 ) -> Result<(Mesh, Backend), Failure> {
-    if opts.keep_quads {
+    if job.opts.keep_quads {
         eprintln!("isoview: note: --quads extracts on the CPU (the GPU extraction has no quads)");
-        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
+        return Ok((extract_cpu(job)?, Backend::Cpu));
     }
-    extract_on(open_context(cli, vulkan_device)?, scene, grid, time, opts)
+    extract_on(open_context(cli, vulkan_device)?, job)
 }
 
-/// The GPU extraction on `ctx` (see [`extract_gpu`]); `opts.keep_quads` must be false.
-fn extract_on(
-    ctx: std::sync::Arc<crate::gpu::Context>,
-    scene: &Scene,
-    grid: &Grid,
-    time: f64,
-    opts: ExtractOptions,
-) -> Result<(Mesh, Backend), Failure> {
+/// The GPU extraction on `ctx` (see [`extract_gpu`]); `opts.keep_quads` must be false. The
+/// mesh's counts go into the budget before it is read back.
+fn extract_on(ctx: Arc<crate::gpu::Context>, job: &Job) -> Result<(Mesh, Backend), Failure> {
+    let Job { scene, grid, opts, budget, .. } = *job;
     if !scene.render.mesh.on_gpu(&scene.render.sharp) {
         eprintln!(
             "isoview: note: {} is extracted on the CPU (no GPU extraction passes for it{})",
@@ -510,7 +521,7 @@ fn extract_on(
                 ""
             }
         );
-        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
+        return Ok((extract_cpu(job)?, Backend::Cpu));
     }
     if scene.render.mesh == crate::scene::MeshAlgorithm::Mc33 && !ctx.info.float64 {
         eprintln!(
@@ -518,7 +529,7 @@ fn extract_on(
              GPU mc33 passes need)",
             ctx.info.name
         );
-        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
+        return Ok((extract_cpu(job)?, Backend::Cpu));
     }
     let image =
         crate::gpu::Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values)?;
@@ -542,6 +553,10 @@ fn extract_on(
             crate::passes::extract::GpuMeshError::Gpu(g) => Failure::gpu(g),
             other => Failure::input(format!("{}: {other}", scene_name(scene))),
         })?;
+    let counts = (gpu_mesh.vertex_count as usize, gpu_mesh.triangle_count as usize);
+    budget
+        .add(counts.0, counts.1, 0)
+        .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
     Ok((gpu_mesh.read()?, Backend::Gpu))
 }
 

@@ -68,6 +68,7 @@ mod emc;
 pub mod export;
 mod field;
 mod hermite;
+pub mod limits;
 pub mod mapped;
 mod mc;
 mod mc33;
@@ -81,6 +82,8 @@ pub mod tables;
 #[cfg(test)]
 mod tests;
 pub mod window;
+
+pub use limits::{MeshBudget, MeshLimits, MESH_CAP_ENV};
 
 use crate::field::{Grid, PointField};
 use crate::vocab::{HermiteNormals, Inside, MeshAlgorithm, SharpSettings};
@@ -198,6 +201,18 @@ pub enum MeshError {
     NotInSlabs(&'static str),
     #[error("bad window: {0}")]
     BadWindow(String),
+    /// The mesh being extracted passed the memory cap ([`MeshLimits`]); the counts are the
+    /// totals when it did.
+    #[error(
+        "the mesh passed {triangles} triangles and {vertices} vertices ({} MiB of vertices and \
+         indices) while it was extracted, over the cap of {} MiB; raise the cap with \
+         {MESH_CAP_ENV}=<MiB> (or MeshLimits::max_bytes) or use a coarser grid",
+        limits::mib(*bytes), limits::mib(*cap)
+    )]
+    OverCap { vertices: u64, triangles: u64, bytes: u64, cap: u64 },
+    /// `ISOVIEW_MAX_MESH_MIB` is set to something that is not a positive whole number.
+    #[error("{MESH_CAP_ENV}={value:?}: expected a positive whole number of MiB")]
+    BadLimit { value: String },
     #[error(
         "hermite = \"source\" needs a source that can be evaluated off the grid (sdf, expr, \
          corners, mesh); use hermite = \"trilinear\""
@@ -343,16 +358,41 @@ pub fn extract_in_slabs_with(
     sharp: &SharpSettings,
     source: Option<&PointField>,
 ) -> Result<Mesh, MeshError> {
+    let x = window::Extraction { iso, inside, algo, opts, sharp, source };
+    in_slabs(grid, &x, depth, &MeshBudget::unlimited())
+}
+
+/// [`extract_parallel_with`] of `x`, counting the mesh into `budget` as it grows: every slab
+/// as it is done, so an extraction past the cap stops with [`MeshError::OverCap`] before the
+/// whole mesh is held. The methods that are not cut into slabs (`extended-mc`,
+/// `dual-contouring-qef` with `mesh_error`) are counted once they are done.
+pub fn extract_budgeted(
+    grid: &Grid,
+    x: &window::Extraction,
+    budget: &MeshBudget,
+) -> Result<Mesh, MeshError> {
+    in_slabs(grid, x, None, budget)
+}
+
+/// [`extract_in_slabs_with`] of `x` under `budget` (see [`extract_budgeted`]).
+fn in_slabs(
+    grid: &Grid,
+    x: &window::Extraction,
+    depth: Option<usize>,
+    budget: &MeshBudget,
+) -> Result<Mesh, MeshError> {
+    let window::Extraction { iso, inside, algo, opts, sharp, source } = *x;
     check(grid, iso)?;
     let f = field::Field::new(grid, iso, inside);
     if window::not_in_slabs(algo, sharp).is_some() {
         // Not cut into slabs (see `emc`, `octree`): the reference itself.
-        return extract_with(grid, iso, inside, algo, opts, sharp, source);
+        let mesh = extract_with(grid, iso, inside, algo, opts, sharp, source)?;
+        budget.add_mesh(&mesh)?;
+        return Ok(mesh);
     }
     let layers = window::cell_layers(algo, grid.dims);
     let depth = depth.unwrap_or_else(|| slabs::default_depth(layers));
-    let x = window::Extraction { iso, inside, algo, opts, sharp, source };
-    slabs::finish(window::extract_part(&f, &x, 0..layers, depth)?, x.keeps_quads())
+    slabs::finish(window::extract_part(&f, x, 0..layers, depth, budget)?, x.keeps_quads())
 }
 
 /// Rejects a non-finite isovalue and a grid whose samples do not match its dimensions.

@@ -171,6 +171,9 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     });
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let cpu_device = probe.take().and_then(|p| p.join().ok().flatten());
+    if let Some(why) = streamed_on_cpu(args, format, &scene, backend, opts, cpu_device.as_deref()) {
+        return extract_streamed(args, &scene, &grid, opts, why, started);
+    }
     // Several isovalues: one mesh per surface, merged, each vertex labelled with its surface.
     let mut meshes = Vec::with_capacity(scene.surface.count);
     let (mut ran_on, mut why) = (Backend::Cpu, String::new());
@@ -239,21 +242,108 @@ fn write_meshes(
     if args.stats {
         println!("{}", mesh::stats::compute(&mesh));
     }
+    let what = Summary { scene, ran_on, why, started, samples };
+    report(args, what, (mesh.vertex_count(), mesh.triangle_count()), elapsed);
+    Ok(0)
+}
+
+/// The summary line on stderr (and the note on an empty mesh) for a mesh of `size` vertices
+/// and triangles extracted in `elapsed` ms.
+fn report(args: &ExtractArgs, what: Summary, size: (usize, usize), elapsed: f64) {
+    let Summary { scene, ran_on, why, samples, .. } = what;
     eprintln!(
         "isoview: {} vertices, {} triangles ({} on {}{why}) in {elapsed:.0} ms -> {}",
-        mesh.vertex_count(),
-        mesh.triangle_count(),
+        size.0,
+        size.1,
         scene.render.mesh.name(),
         ran_on.name(),
         args.output.display()
     );
-    if let (0, Some((lo, hi))) = (mesh.triangle_count(), samples.map(Grid::range)) {
+    if let (0, Some((lo, hi))) = (size.1, samples.map(Grid::range)) {
         eprintln!(
             "isoview: note: the mesh is empty: no grid edge crosses isovalue {} (samples span \
              [{lo}, {hi}])",
             scene.surface.isovalue
         );
     }
+}
+
+/// Where the CPU extraction writes its file piece by piece ([`extract_streamed`]): a PLY of one
+/// surface, unclipped, without `--stats` (which needs the whole mesh), by a method cut into
+/// slabs other than mc33 (`mesh::not_streamed`), extracted on the CPU as settled before any
+/// Vulkan device is opened. Some(the summary line's reason) when it does.
+fn streamed_on_cpu(
+    args: &ExtractArgs,
+    format: Format,
+    scene: &Scene,
+    backend: Backend,
+    opts: ExtractOptions,
+    probed_cpu: Option<&str>,
+) -> Option<String> {
+    let x = extraction(scene, 0, opts, None);
+    let one_piece_at_a_time = format == Format::Ply
+        && !args.stats
+        && scene.surface.count == 1
+        && scene.clip.count == 0
+        && mesh::not_streamed(&x).is_none();
+    match backend {
+        _ if !one_piece_at_a_time => None,
+        Backend::Cpu => Some(String::new()),
+        Backend::Auto => settled_on_cpu(opts, probed_cpu),
+        Backend::Gpu => None,
+    }
+}
+
+/// How [`extract_streamed`] failed.
+enum Streamed {
+    Mesh(mesh::MeshError),
+    Write(std::io::Error),
+}
+
+impl From<mesh::MeshError> for Streamed {
+    fn from(e: mesh::MeshError) -> Self {
+        Streamed::Mesh(e)
+    }
+}
+
+/// One surface into a PLY on the CPU, piece by piece (`mesh::extract_streamed`: a slab of cell
+/// layers per thread at a time): each piece placed and its records written to two scratch
+/// files beside the output (`atomic::scratch`), then the file written whole from them, with
+/// the exact counts in its header (`export::PlyPieces`). The bytes of the joined mesh's file;
+/// memory for a few slabs' meshes, not the mesh's, and no cap.
+fn extract_streamed(
+    args: &ExtractArgs,
+    scene: &Scene,
+    grid: &Grid,
+    opts: ExtractOptions,
+    why: String,
+    started: Instant,
+) -> Result<i32, Failure> {
+    let source = crate::field::PointField::from_spec(&scene.field, args.time);
+    let x = extraction(scene, 0, opts, source.as_ref());
+    let (vertices, vertices_read) = atomic::scratch(&args.output).map_err(Failure::input)?;
+    let (faces, faces_read) = atomic::scratch(&args.output).map_err(Failure::input)?;
+    let mut pieces = export::PlyPieces::new(vertices, faces);
+    let placement = &scene.field.placement;
+    let written = mesh::extract_streamed(grid, &x, |mut piece: Mesh| {
+        piece.place(placement);
+        pieces.push(&piece).map_err(Streamed::Write)
+    });
+    match written {
+        Ok(()) => {}
+        Err(Streamed::Mesh(e)) => {
+            return Err(Failure::input(format!("{}: {e}", scene_name(scene))));
+        }
+        Err(Streamed::Write(e)) => {
+            return Err(Failure::input(crate::output::OutputError::io(&args.output, "write", e)));
+        }
+    }
+    let (nv, _, nt) = pieces.counts();
+    let elapsed = started.elapsed().as_secs_f64() * 1e3;
+    atomic::write_with(&args.output, |w| pieces.finish(w, vertices_read, faces_read))
+        .map_err(Failure::input)?;
+    let what = Summary { scene, ran_on: Backend::Cpu, why, started, samples: Some(grid) };
+    report(args, what, (nv, nt), elapsed);
     Ok(0)
 }
 
@@ -406,14 +496,9 @@ fn extract_auto(
     device: (Option<String>, Option<&str>),
     job: &Job,
 ) -> Result<(Mesh, Backend, String), Failure> {
-    if job.opts.keep_quads {
-        let why = "; auto: --quads needs the CPU extraction".to_string();
-        return Ok((extract_cpu(job)?, Backend::Cpu, why));
-    }
     let (vulkan_device, probed_cpu) = device;
     // The cheap probe first: a CPU device needs no device opened.
-    if let Some(name) = probed_cpu {
-        let why = format!("; auto: the Vulkan device {name} is a CPU");
+    if let Some(why) = settled_on_cpu(job.opts, probed_cpu) {
         return Ok((extract_cpu(job)?, Backend::Cpu, why));
     }
     let ctx = match open_context(cli, vulkan_device) {
@@ -432,6 +517,16 @@ fn extract_auto(
     let why = format!("; auto: the Vulkan device {} is a {}", ctx.info.name, ctx.info.device_type);
     let (mesh, ran_on) = extract_on(ctx, job)?;
     Ok((mesh, ran_on, why))
+}
+
+/// `--device auto`: the reason to extract on the CPU when it is settled without opening a
+/// Vulkan device (`--quads`, or the probe found the device to be a CPU), worded for the
+/// summary line; None when the device must be opened to know.
+fn settled_on_cpu(opts: ExtractOptions, probed_cpu: Option<&str>) -> Option<String> {
+    if opts.keep_quads {
+        return Some("; auto: --quads needs the CPU extraction".to_string());
+    }
+    probed_cpu.map(|name| format!("; auto: the Vulkan device {name} is a CPU"))
 }
 
 /// The name of the Vulkan device that `gpu::Context::new` would pick for `wanted` (the first

@@ -117,7 +117,12 @@ impl MeshBudget {
         let triangles = self.triangles.fetch_add(t, Ordering::Relaxed).saturating_add(t);
         let bytes = self.bytes.fetch_add(b, Ordering::Relaxed).saturating_add(b);
         if bytes > self.limits.max_bytes {
-            return Err(MeshError::OverCap { vertices, triangles, bytes, cap: self.limits.max_bytes });
+            return Err(MeshError::OverCap {
+                vertices,
+                triangles,
+                bytes,
+                cap: self.limits.max_bytes,
+            });
         }
         Ok(())
     }
@@ -129,9 +134,15 @@ impl MeshBudget {
     }
 }
 
-/// A byte count for [`MeshError::OverCap`]'s message, in whole MiB rounded up.
-pub(crate) fn mib(bytes: u64) -> u64 {
-    bytes.div_ceil(1 << 20)
+/// A byte count for [`MeshError::OverCap`]'s message: `1024 MiB`, `1.05 MiB` (rounded to a
+/// whole number of MiB it could read as the cap itself).
+pub(crate) fn mib(bytes: u64) -> String {
+    const MIB: u64 = 1 << 20;
+    if bytes % MIB == 0 {
+        format!("{} MiB", bytes / MIB)
+    } else {
+        format!("{:.2} MiB", bytes as f64 / MIB as f64)
+    }
 }
 
 #[cfg(test)]
@@ -160,7 +171,8 @@ mod tests {
             other => panic!("{other}"),
         }
         let text = e.to_string();
-        assert!(text.contains("30000 triangles") && text.contains("over the cap of 1 MiB"), "{text}");
+        assert!(text.contains("30000 triangles") && text.contains("(1.03 MiB of"), "{text}");
+        assert!(text.contains("over the cap of 1 MiB;"), "{text}");
         assert!(text.contains("ISOVIEW_MAX_MESH_MIB"), "{text}");
         assert!(MeshBudget::unlimited().add(usize::MAX, usize::MAX, usize::MAX).is_ok());
     }

@@ -204,8 +204,8 @@ pub enum MeshError {
     /// The mesh being extracted passed the memory cap ([`MeshLimits`]); the counts are the
     /// totals when it did.
     #[error(
-        "the mesh passed {triangles} triangles and {vertices} vertices ({} MiB of vertices and \
-         indices) while it was extracted, over the cap of {} MiB; raise the cap with \
+        "the mesh passed {triangles} triangles and {vertices} vertices ({} of vertices and \
+         indices) while it was extracted, over the cap of {}; raise the cap with \
          {MESH_CAP_ENV}=<MiB> (or MeshLimits::max_bytes) or use a coarser grid",
         limits::mib(*bytes), limits::mib(*cap)
     )]
@@ -372,6 +372,50 @@ pub fn extract_budgeted(
     budget: &MeshBudget,
 ) -> Result<Mesh, MeshError> {
     in_slabs(grid, x, None, budget)
+}
+
+/// Slab depth of [`extract_streamed`]: the least of [`slabs::default_depth`], so that a batch
+/// of one slab per thread holds few layers.
+const STREAM_DEPTH: usize = 4;
+
+/// Why `x` cannot be extracted piece by piece ([`extract_streamed`]); None when it can.
+pub fn not_streamed(x: &window::Extraction) -> Option<&'static str> {
+    match x.algo {
+        MeshAlgorithm::Mc33 => Some("mc33 (its added vertices follow every edge vertex)"),
+        _ => window::not_in_slabs(x.algo, x.sharp),
+    }
+}
+
+/// [`extract_parallel_with`] of `x`, handed to `sink` piece by piece instead of joined: a
+/// piece is the mesh of a slab of cell layers, slabs in order, one slab per thread at a time,
+/// so memory holds a few slabs' meshes, never the whole. Each piece's `positions` and
+/// `normals` are the next vertices of the whole mesh, its `indices` (and `quads` when kept)
+/// the next faces, numbered in the whole mesh: the pieces concatenated are
+/// [`extract_parallel_with`]'s mesh, bit for bit. [`MeshError::NotInSlabs`] for what
+/// [`not_streamed`] names.
+pub fn extract_streamed<E: From<MeshError>>(
+    grid: &Grid,
+    x: &window::Extraction,
+    mut sink: impl FnMut(Mesh) -> Result<(), E>,
+) -> Result<(), E> {
+    if let Some(why) = not_streamed(x) {
+        return Err(MeshError::NotInSlabs(why).into());
+    }
+    check(grid, x.iso)?;
+    let f = field::Field::new(grid, x.iso, x.inside);
+    let layers = window::cell_layers(x.algo, grid.dims);
+    let batch = rayon::current_num_threads().max(1);
+    let keep_quads = x.keeps_quads();
+    window::with_slab(&f, x, |slab| {
+        slabs::stream_parts(0..layers, STREAM_DEPTH, batch, slab, |p: slabs::Part| {
+            sink(Mesh {
+                positions: p.verts.positions,
+                normals: p.verts.normals,
+                indices: p.indices,
+                quads: keep_quads.then_some(p.quads),
+            })
+        })
+    })
 }
 
 /// [`extract_in_slabs_with`] of `x` under `budget` (see [`extract_budgeted`]).

@@ -199,6 +199,41 @@ fn split<T>(mut v: &mut [T], lens: impl Iterator<Item = usize>) -> Vec<&mut [T]>
     pieces
 }
 
+/// Extracts the cell layers `cells` in slabs of `depth` layers, `batch` slabs at a time on the
+/// current rayon pool, and hands each slab's part to `sink` in slab order with its ids made
+/// the whole mesh's: what [`join_all`] does to each part, without the joined copy. Memory
+/// holds one batch of parts, not the mesh. Added vertices (MC33) stay placeholders, which
+/// only the whole mesh's edge vertex count resolves ([`finish`]): their parts are refused
+/// here by the caller.
+pub(crate) fn stream_parts<E: From<MeshError>>(
+    cells: Range<usize>,
+    depth: usize,
+    batch: usize,
+    slab: &(dyn Fn(Range<usize>) -> Result<Part, MeshError> + Sync),
+    mut sink: impl FnMut(Part) -> Result<(), E>,
+) -> Result<(), E> {
+    let depth = depth.max(1);
+    let ranges: Vec<Range<usize>> =
+        cells.clone().step_by(depth).map(|a| a..(a + depth).min(cells.end)).collect();
+    let (mut edge_off, mut added_off, mut indices) = (0usize, 0usize, 0usize);
+    for group in ranges.chunks(batch.max(1)) {
+        let parts = group.par_iter().cloned().map(slab).collect::<Result<Vec<_>, _>>()?;
+        for mut p in parts {
+            p.verts.drop_borrowed();
+            let (nv, na) = (p.verts.normals.len(), p.added.normals.len());
+            indices += p.indices.len();
+            to_u32(indices, "indices")?;
+            to_u32(edge_off + nv + added_off + na, "vertices")?;
+            let renumber = Renumber::new(&p, edge_off as u32, added_off as u32);
+            p.indices.iter_mut().chain(&mut p.quads).for_each(|x| *x = renumber.id(*x));
+            edge_off += nv;
+            added_off += na;
+            sink(p)?;
+        }
+    }
+    Ok(())
+}
+
 /// [`run_part`] over all `layers` cell layers, finished into the mesh; `keep_quads` returns
 /// the quads too.
 pub(crate) fn run(

@@ -259,10 +259,20 @@ pub(crate) fn extract_part(
     depth: usize,
     budget: &MeshBudget,
 ) -> Result<Part, MeshError> {
+    with_slab(f, x, |slab| slabs::run_part(cells.clone(), depth, budget, slab))
+}
+
+/// A slab of cell layers as `x`'s method extracts it.
+pub(crate) type Slab<'s> = &'s (dyn Fn(Range<usize>) -> Result<Part, MeshError> + Sync);
+
+/// `run` given the function that extracts a slab of `f` with `x`'s method (the one choice of
+/// per-slab code, for the joined extraction and the streamed one).
+pub(crate) fn with_slab<T, E: From<MeshError>>(
+    f: &Field,
+    x: &Extraction,
+    run: impl FnOnce(Slab) -> Result<T, E>,
+) -> Result<T, E> {
     let opts = x.opts;
-    let run = |slab: &(dyn Fn(Range<usize>) -> Result<Part, MeshError> + Sync)| {
-        slabs::run_part(cells.clone(), depth, budget, slab)
-    };
     match x.algo {
         MeshAlgorithm::MarchingCubes => run(&|c| mc::extract_slab(f, c)),
         MeshAlgorithm::MarchingTetrahedra => run(&|c| mt::extract_slab(f, c)),
@@ -275,7 +285,10 @@ pub(crate) fn extract_part(
             let q = dc_qef(f, x.sharp, x.source)?;
             run(&|c| dual::extract_slab(f, dual::Boundary::Closed, opts, Some(&q), c))
         }
-        _ => Err(MeshError::NotInSlabs(not_in_slabs(x.algo, x.sharp).unwrap_or("this method"))),
+        _ => {
+            let why = not_in_slabs(x.algo, x.sharp).unwrap_or("this method");
+            Err(MeshError::NotInSlabs(why).into())
+        }
     }
 }
 

@@ -13,6 +13,7 @@ mod compare;
 mod compare_stream;
 mod extract_cli;
 mod extract_gpu;
+mod extract_memory;
 mod formats;
 mod fuzz;
 mod golden;

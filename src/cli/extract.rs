@@ -18,6 +18,12 @@
 //!   CPU path), or when there is no usable Vulkan device; else on the GPU. The summary line on
 //!   stderr says which and why.
 //!
+//! Memory: a PLY of one surface, unclipped, without `--stats`, by a method cut into slabs other
+//! than mc33, extracted on the CPU, is written piece by piece as the slabs are done
+//! ([`extract_streamed`]): the peak is a few slabs' meshes. Every other mesh is held whole
+//! until it is written, under the cap of `ISOVIEW_MAX_MESH_MIB` ([`MeshLimits`], 1024 MiB by
+//! default), counted as the mesh grows and refused past it in one line (exit 2).
+//!
 //! Under an MPI launcher with more than one rank (`--features mpi`, `cluster::mesh`), the
 //! CPU extraction is split: each rank meshes a range of cell layers and rank 0 joins them
 //! and writes the file, which is byte for byte the one process's `--device cpu` file. The

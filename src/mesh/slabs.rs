@@ -202,9 +202,9 @@ fn split<T>(mut v: &mut [T], lens: impl Iterator<Item = usize>) -> Vec<&mut [T]>
 /// Extracts the cell layers `cells` in slabs of `depth` layers, `batch` slabs at a time on the
 /// current rayon pool, and hands each slab's part to `sink` in slab order with its ids made
 /// the whole mesh's: what [`join_all`] does to each part, without the joined copy. Memory
-/// holds one batch of parts, not the mesh. Added vertices (MC33) stay placeholders, which
-/// only the whole mesh's edge vertex count resolves ([`finish`]): their parts are refused
-/// here by the caller.
+/// holds one batch of parts, not the mesh. Added vertices (MC33) would stay placeholders,
+/// which only the whole mesh's edge vertex count resolves ([`finish`]): the caller streams
+/// no method that makes them (`mesh::not_streamed`).
 pub(crate) fn stream_parts<E: From<MeshError>>(
     cells: Range<usize>,
     depth: usize,

@@ -247,7 +247,7 @@ pub fn extract_window(
     }
     let f = Field::window(window, first, lattice, x.iso, x.inside);
     let depth = slabs::default_depth(cells.len());
-    // Counted against the cap where the ranges are joined (`Joiner::with_limits`).
+    // Counted against the cap where the ranges are joined (`Joiner::with_budget`).
     extract_part(&f, x, cells, depth, &MeshBudget::unlimited()).map(SlabMesh)
 }
 

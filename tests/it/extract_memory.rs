@@ -190,6 +190,22 @@ fn render_mesh_past_the_cap_is_refused() {
     }
 }
 
+/// The GPU extraction is counted on the device's counts, before the mesh is read back.
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn gpu_extraction_past_the_cap_is_refused() {
+    let dir = scratch("extract-memory-gpu");
+    let scene_path = write(&dir, "crate.toml", &egg_crate(64, ISO, ""));
+    let out = dir.join("crate.ply").display().to_string();
+    let args = ["extract", &scene_path, "-o", &out, "--device", "gpu"];
+    let o = isoview(&args, &[]);
+    assert!(o.status.success() && stderr(&o).contains("on gpu"), "{}", stderr(&o));
+    std::fs::remove_file(&out).unwrap();
+    let o = isoview(&args, &[("ISOVIEW_MAX_MESH_MIB", "1")]);
+    assert_fails(&o, 2, &["crate.toml: the mesh passed 530084 triangles and 253668 vertices"]);
+    assert!(!Path::new(&out).exists());
+}
+
 /// A PLY of one surface is streamed: not held whole, so not capped, and the same bytes.
 #[test]
 fn a_ply_of_one_surface_streams_past_the_cap() {

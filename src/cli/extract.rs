@@ -18,9 +18,9 @@
 //!   CPU path), or when there is no usable Vulkan device; else on the GPU. The summary line on
 //!   stderr says which and why.
 //!
-//! Memory: a PLY of one surface, unclipped, without `--stats`, by a method cut into slabs other
-//! than mc33, extracted on the CPU, is written piece by piece as the slabs are done
-//! ([`extract_streamed`]): the peak is a few slabs' meshes. Every other mesh is held whole
+//! Memory: a PLY of one surface, unclipped, by a method cut into slabs other than mc33,
+//! extracted on the CPU, is written piece by piece as the slabs are done
+//! ([`extract_streamed`]): the peak is a few slabs' meshes (and the positions with `--stats`). Every other mesh is held whole
 //! until it is written, under the cap of `ISOVIEW_MAX_MESH_MIB` ([`MeshLimits`], 1024 MiB by
 //! default), counted as the mesh grows and refused past it in one line (exit 2).
 //!
@@ -37,6 +37,7 @@ use super::{Cli, Failure};
 use crate::field::mapped::MappedGrid;
 use crate::field::Grid;
 use crate::mesh::export::{self, Format};
+use crate::mesh::stats;
 use crate::mesh::{self, ExtractOptions, Mesh, MeshBudget, MeshLimits};
 use crate::output::atomic;
 use crate::scene::Scene;
@@ -177,8 +178,8 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     });
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let cpu_device = probe.take().and_then(|p| p.join().ok().flatten());
-    if let Some(why) = streamed_on_cpu(args, format, &scene, backend, opts, cpu_device.as_deref()) {
-        return extract_streamed(args, &scene, &grid, opts, why, started);
+    if let Some(why) = streamed_on_cpu(format, &scene, backend, opts, cpu_device.as_deref()) {
+        return extract_streamed(args, &scene, &grid, opts, &budget, (why, started));
     }
     // Several isovalues: one mesh per surface, merged, each vertex labelled with its surface.
     let mut meshes = Vec::with_capacity(scene.surface.count);
@@ -246,7 +247,7 @@ fn write_meshes(
     .map_err(Failure::input)?;
 
     if args.stats {
-        println!("{}", mesh::stats::compute(&mesh));
+        println!("{}", stats::compute(&mesh));
     }
     let what = Summary { scene, ran_on, why, started, samples };
     report(args, what, (mesh.vertex_count(), mesh.triangle_count()), elapsed);
@@ -275,11 +276,10 @@ fn report(args: &ExtractArgs, what: Summary, size: (usize, usize), elapsed: f64)
 }
 
 /// Where the CPU extraction writes its file piece by piece ([`extract_streamed`]): a PLY of one
-/// surface, unclipped, without `--stats` (which needs the whole mesh), by a method cut into
-/// slabs other than mc33 (`mesh::not_streamed`), extracted on the CPU as settled before any
-/// Vulkan device is opened. Some(the summary line's reason) when it does.
+/// surface, unclipped, by a method cut into slabs other than mc33 (`mesh::not_streamed`),
+/// extracted on the CPU as settled before any Vulkan device is opened. Some(the summary line's
+/// reason) when it does.
 fn streamed_on_cpu(
-    args: &ExtractArgs,
     format: Format,
     scene: &Scene,
     backend: Backend,
@@ -288,7 +288,6 @@ fn streamed_on_cpu(
 ) -> Option<String> {
     let x = extraction(scene, 0, opts, None);
     let one_piece_at_a_time = format == Format::Ply
-        && !args.stats
         && scene.surface.count == 1
         && scene.clip.count == 0
         && mesh::not_streamed(&x).is_none();
@@ -316,24 +315,39 @@ impl From<mesh::MeshError> for Streamed {
 /// layers per thread at a time): each piece placed and its records written to two scratch
 /// files beside the output (`atomic::scratch`), then the file written whole from them, with
 /// the exact counts in its header (`export::PlyPieces`). The bytes of the joined mesh's file;
-/// memory for a few slabs' meshes, not the mesh's, and no cap.
+/// memory for a few slabs' meshes, not the mesh's. `--stats` keeps the positions (counted into
+/// `budget`) and the triangles in a third scratch file, read again for each pass of the edge
+/// count (`stats::compute_from`): the same statistics, without the mesh held.
 fn extract_streamed(
     args: &ExtractArgs,
     scene: &Scene,
     grid: &Grid,
     opts: ExtractOptions,
-    why: String,
-    started: Instant,
+    budget: &MeshBudget,
+    (why, started): (String, Instant),
 ) -> Result<i32, Failure> {
     let source = crate::field::PointField::from_spec(&scene.field, args.time);
     let x = extraction(scene, 0, opts, source.as_ref());
     let (vertices, vertices_read) = atomic::scratch(&args.output).map_err(Failure::input)?;
     let (faces, faces_read) = atomic::scratch(&args.output).map_err(Failure::input)?;
     let mut pieces = export::PlyPieces::new(vertices, faces);
+    let mut kept = match args.stats {
+        true => {
+            let (write, read) = atomic::scratch(&args.output).map_err(Failure::input)?;
+            Some((Vec::new(), std::io::BufWriter::new(write), read))
+        }
+        false => None,
+    };
     let placement = &scene.field.placement;
     let written = mesh::extract_streamed(grid, &x, |mut piece: Mesh| {
         piece.place(placement);
-        pieces.push(&piece).map_err(Streamed::Write)
+        pieces.push(&piece).map_err(Streamed::Write)?;
+        if let Some((positions, triangles, _)) = kept.as_mut() {
+            budget.add_positions(piece.vertex_count(), piece.triangle_count())?;
+            positions.extend_from_slice(&piece.positions);
+            stats::write_triangles(triangles, &piece.indices).map_err(Streamed::Write)?;
+        }
+        Ok(())
     });
     match written {
         Ok(()) => {}
@@ -348,6 +362,15 @@ fn extract_streamed(
     let elapsed = started.elapsed().as_secs_f64() * 1e3;
     atomic::write_with(&args.output, |w| pieces.finish(w, vertices_read, faces_read))
         .map_err(Failure::input)?;
+    if let Some((positions, triangles, read)) = kept {
+        let read_error =
+            |e| Failure::input(crate::output::OutputError::io(&args.output, "read", e));
+        triangles.into_inner().map_err(|e| read_error(e.into_error()))?;
+        let mut triangles = stats::TriangleFile(read);
+        let pass = stats::pass_size(3 * nt);
+        let s = stats::compute_from(&positions, &mut triangles, pass).map_err(read_error)?;
+        println!("{s}");
+    }
     let what = Summary { scene, ran_on: Backend::Cpu, why, started, samples: Some(grid) };
     report(args, what, (nv, nt), elapsed);
     Ok(0)

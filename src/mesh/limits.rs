@@ -20,6 +20,8 @@ pub const MESH_CAP_ENV: &str = "ISOVIEW_MAX_MESH_MIB";
 pub const VERTEX_BYTES: u64 = 24;
 /// Bytes a mesh holds per index (of a triangle or a quad).
 pub const INDEX_BYTES: u64 = 4;
+/// Bytes of a vertex's position alone (what `--stats` of a streamed mesh holds).
+pub const POSITION_BYTES: u64 = 12;
 
 /// The most a mesh being extracted may hold in memory.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -113,6 +115,18 @@ impl MeshBudget {
     ) -> Result<(), MeshError> {
         let (v, t) = (vertices as u64, triangles as u64);
         let b = MeshLimits::bytes(v, t.saturating_mul(3).saturating_add(quad_indices as u64));
+        self.count(v, t, b)
+    }
+
+    /// Counts the positions of `vertices` more vertices (and `triangles` more triangles, for
+    /// the message): what is held of a mesh written piece by piece whose statistics are wanted.
+    pub fn add_positions(&self, vertices: usize, triangles: usize) -> Result<(), MeshError> {
+        let v = vertices as u64;
+        self.count(v, triangles as u64, v.saturating_mul(POSITION_BYTES))
+    }
+
+    /// Adds `v` vertices, `t` triangles and `b` bytes; past the cap, the totals as the error.
+    fn count(&self, v: u64, t: u64, b: u64) -> Result<(), MeshError> {
         let vertices = self.vertices.fetch_add(v, Ordering::Relaxed).saturating_add(v);
         let triangles = self.triangles.fetch_add(t, Ordering::Relaxed).saturating_add(t);
         let bytes = self.bytes.fetch_add(b, Ordering::Relaxed).saturating_add(b);

@@ -5,9 +5,8 @@
 //! triangles, 1.3 GB), so the cap cannot be checked up front as the grid cap is: the
 //! extraction adds every slab's vertices and indices to a [`MeshBudget`] as the slab is done
 //! and stops with [`MeshError::OverCap`] once the total passes the cap, before the slabs are
-//! joined (the join briefly holds the mesh twice). The bytes counted are what the finished
-//! [`super::Mesh`] holds: 24 per vertex (f32 position and normal) and 4 per triangle or quad
-//! index.
+//! joined. The bytes counted are what the finished [`super::Mesh`] holds: 24 per vertex (f32
+//! position and normal) and 4 per triangle or quad index.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 

@@ -18,19 +18,27 @@
 //!   CPU path), or when there is no usable Vulkan device; else on the GPU. The summary line on
 //!   stderr says which and why.
 //!
+//! Memory: a PLY of one surface, unclipped, by a method cut into slabs other than mc33,
+//! extracted on the CPU, is written piece by piece as the slabs are done
+//! ([`extract_streamed`]): the peak is a few slabs' meshes (and the positions with `--stats`). Every other mesh is held whole
+//! until it is written, under the cap of `ISOVIEW_MAX_MESH_MIB` ([`MeshLimits`], 1024 MiB by
+//! default), counted as the mesh grows and refused past it in one line (exit 2).
+//!
 //! Under an MPI launcher with more than one rank (`--features mpi`, `cluster::mesh`), the
 //! CPU extraction is split: each rank meshes a range of cell layers and rank 0 joins them
 //! and writes the file, which is byte for byte the one process's `--device cpu` file. The
 //! GPU extraction and the methods that are not cut into slabs are refused there in one line.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Instant;
 
 use super::{Cli, Failure};
 use crate::field::mapped::MappedGrid;
 use crate::field::Grid;
 use crate::mesh::export::{self, Format};
-use crate::mesh::{self, ExtractOptions, Mesh};
+use crate::mesh::stats;
+use crate::mesh::{self, ExtractOptions, Mesh, MeshBudget, MeshLimits};
 use crate::output::atomic;
 use crate::scene::Scene;
 
@@ -141,12 +149,14 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     let started = Instant::now();
     let opts = ExtractOptions { keep_quads: args.quads, ..Default::default() };
     let limits = crate::field::GridLimits::from_env().map_err(Failure::input)?;
+    // One count for every surface's mesh: they are all held until the file is written.
+    let budget = Arc::new(MeshBudget::new(MeshLimits::from_env().map_err(Failure::input)?));
     // Under MPI a raw or npy file is mapped and each rank reads only its layers; other
     // sources are sampled whole by every rank.
     #[cfg(feature = "mpi")]
     if let Some(w) = ranks {
         let time = args.time;
-        let how = Split { args, format, scene: &scene, opts, started };
+        let how = Split { args, format, scene: &scene, opts, started, budget: &budget };
         return match MappedGrid::open(&scene.field).map_err(Failure::input)? {
             Some(m) => extract_ranks(w, crate::cluster::Points::Mapped(&m), how),
             None => {
@@ -158,7 +168,7 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     if let Some(mapped) =
         MappedGrid::for_residency(&scene.field, &limits).map_err(Failure::input)?
     {
-        return extract_mapped(args, format, &scene, &mapped, opts, started);
+        return extract_mapped(args, format, &scene, &mapped, opts, started, &budget);
     }
     // `--device auto` asks Vulkan whether its device is a CPU (loading the drivers: 50–150 ms
     // on lavapipe) on its own thread while the field is read or sampled.
@@ -168,22 +178,25 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     });
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let cpu_device = probe.take().and_then(|p| p.join().ok().flatten());
+    if let Some(why) = streamed_on_cpu(format, &scene, backend, opts, cpu_device.as_deref()) {
+        return extract_streamed(args, &scene, &grid, opts, &budget, (why, started));
+    }
     // Several isovalues: one mesh per surface, merged, each vertex labelled with its surface.
     let mut meshes = Vec::with_capacity(scene.surface.count);
     let (mut ran_on, mut why) = (Backend::Cpu, String::new());
     let time = args.time;
     for k in 0..scene.surface.count {
         let one = scene.single_surface(k);
+        let job = Job { scene: &one, grid: &grid, time, opts, budget: &budget };
         let (mesh, on, reason) = match backend {
-            Backend::Cpu => (extract_cpu(&one, &grid, time, opts)?, Backend::Cpu, String::new()),
+            Backend::Cpu => (extract_cpu(&job)?, Backend::Cpu, String::new()),
             Backend::Gpu => {
-                let (mesh, ran_on) =
-                    extract_gpu(cli, vulkan_device.clone(), &one, &grid, time, opts)?;
+                let (mesh, ran_on) = extract_gpu(cli, vulkan_device.clone(), &job)?;
                 (mesh, ran_on, String::new())
             }
             Backend::Auto => {
                 let device = (vulkan_device.clone(), cpu_device.as_deref());
-                extract_auto(cli, device, &one, &grid, time, opts)?
+                extract_auto(cli, device, &job)?
             }
         };
         let mut mesh = mesh;
@@ -234,23 +247,132 @@ fn write_meshes(
     .map_err(Failure::input)?;
 
     if args.stats {
-        println!("{}", mesh::stats::compute(&mesh));
+        println!("{}", stats::compute(&mesh));
     }
+    let what = Summary { scene, ran_on, why, started, samples };
+    report(args, what, (mesh.vertex_count(), mesh.triangle_count()), elapsed);
+    Ok(0)
+}
+
+/// The summary line on stderr (and the note on an empty mesh) for a mesh of `size` vertices
+/// and triangles extracted in `elapsed` ms.
+fn report(args: &ExtractArgs, what: Summary, size: (usize, usize), elapsed: f64) {
+    let Summary { scene, ran_on, why, samples, .. } = what;
     eprintln!(
         "isoview: {} vertices, {} triangles ({} on {}{why}) in {elapsed:.0} ms -> {}",
-        mesh.vertex_count(),
-        mesh.triangle_count(),
+        size.0,
+        size.1,
         scene.render.mesh.name(),
         ran_on.name(),
         args.output.display()
     );
-    if let (0, Some((lo, hi))) = (mesh.triangle_count(), samples.map(Grid::range)) {
+    if let (0, Some((lo, hi))) = (size.1, samples.map(Grid::range)) {
         eprintln!(
             "isoview: note: the mesh is empty: no grid edge crosses isovalue {} (samples span \
              [{lo}, {hi}])",
             scene.surface.isovalue
         );
     }
+}
+
+/// Where the CPU extraction writes its file piece by piece ([`extract_streamed`]): a PLY of one
+/// surface, unclipped, by a method cut into slabs other than mc33 (`mesh::not_streamed`),
+/// extracted on the CPU as settled before any Vulkan device is opened. Some(the summary line's
+/// reason) when it does.
+fn streamed_on_cpu(
+    format: Format,
+    scene: &Scene,
+    backend: Backend,
+    opts: ExtractOptions,
+    probed_cpu: Option<&str>,
+) -> Option<String> {
+    let x = extraction(scene, 0, opts, None);
+    let one_piece_at_a_time = format == Format::Ply
+        && scene.surface.count == 1
+        && scene.clip.count == 0
+        && mesh::not_streamed(&x).is_none();
+    match backend {
+        _ if !one_piece_at_a_time => None,
+        Backend::Cpu => Some(String::new()),
+        Backend::Auto => settled_on_cpu(opts, probed_cpu),
+        Backend::Gpu => None,
+    }
+}
+
+/// How [`extract_streamed`] failed.
+enum Streamed {
+    Mesh(mesh::MeshError),
+    Write(std::io::Error),
+}
+
+impl From<mesh::MeshError> for Streamed {
+    fn from(e: mesh::MeshError) -> Self {
+        Streamed::Mesh(e)
+    }
+}
+
+/// One surface into a PLY on the CPU, piece by piece (`mesh::extract_streamed`: a slab of cell
+/// layers per thread at a time): each piece placed and its records written to two scratch
+/// files beside the output (`atomic::scratch`), then the file written whole from them, with
+/// the exact counts in its header (`export::PlyPieces`). The bytes of the joined mesh's file;
+/// memory for a few slabs' meshes, not the mesh's. `--stats` keeps the positions (counted into
+/// `budget`) and the triangles in a third scratch file, read again for each pass of the edge
+/// count (`stats::compute_from`): the same statistics, without the mesh held.
+fn extract_streamed(
+    args: &ExtractArgs,
+    scene: &Scene,
+    grid: &Grid,
+    opts: ExtractOptions,
+    budget: &MeshBudget,
+    (why, started): (String, Instant),
+) -> Result<i32, Failure> {
+    let source = crate::field::PointField::from_spec(&scene.field, args.time);
+    let x = extraction(scene, 0, opts, source.as_ref());
+    let (vertices, vertices_read) = atomic::scratch(&args.output).map_err(Failure::input)?;
+    let (faces, faces_read) = atomic::scratch(&args.output).map_err(Failure::input)?;
+    let mut pieces = export::PlyPieces::new(vertices, faces);
+    let mut kept = match args.stats {
+        true => {
+            let (write, read) = atomic::scratch(&args.output).map_err(Failure::input)?;
+            Some((Vec::new(), std::io::BufWriter::new(write), read))
+        }
+        false => None,
+    };
+    let placement = &scene.field.placement;
+    let written = mesh::extract_streamed(grid, &x, |mut piece: Mesh| {
+        piece.place(placement);
+        pieces.push(&piece).map_err(Streamed::Write)?;
+        if let Some((positions, triangles, _)) = kept.as_mut() {
+            budget.add_positions(piece.vertex_count(), piece.triangle_count())?;
+            positions.extend_from_slice(&piece.positions);
+            stats::write_triangles(triangles, &piece.indices).map_err(Streamed::Write)?;
+        }
+        Ok(())
+    });
+    match written {
+        Ok(()) => {}
+        Err(Streamed::Mesh(e)) => {
+            return Err(Failure::input(format!("{}: {e}", scene_name(scene))));
+        }
+        Err(Streamed::Write(e)) => {
+            return Err(Failure::input(crate::output::OutputError::io(&args.output, "write", e)));
+        }
+    }
+    let (nv, _, nt) = pieces.counts();
+    let elapsed = started.elapsed().as_secs_f64() * 1e3;
+    atomic::write_with(&args.output, |w| pieces.finish(w, vertices_read, faces_read))
+        .map_err(Failure::input)?;
+    if let Some((positions, triangles, read)) = kept {
+        let read_error =
+            |e| Failure::input(crate::output::OutputError::io(&args.output, "read", e));
+        triangles.into_inner().map_err(|e| read_error(e.into_error()))?;
+        let mut triangles = stats::TriangleFile(read);
+        let pass = stats::pass_size(3 * nt);
+        let s = stats::compute_from(&positions, &mut triangles, pass).map_err(read_error)?;
+        println!("{s}");
+    }
+    let what = Summary { scene, ran_on: Backend::Cpu, why, started, samples: Some(grid) };
+    report(args, what, (nv, nt), elapsed);
     Ok(0)
 }
 
@@ -263,11 +385,13 @@ fn extract_mapped(
     grid: &MappedGrid,
     opts: ExtractOptions,
     started: Instant,
+    budget: &Arc<MeshBudget>,
 ) -> Result<i32, Failure> {
     let mut meshes = Vec::with_capacity(scene.surface.count);
     for k in 0..scene.surface.count {
         let x = extraction(scene, k, opts, None);
-        let mut mesh = mesh::mapped::extract_mapped(grid, &x, mesh::mapped::WINDOW_BYTES)
+        let window = mesh::mapped::WINDOW_BYTES;
+        let mut mesh = mesh::mapped::extract_mapped_within(grid, &x, window, budget)
             .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
         mesh.place(&scene.field.placement);
         if scene.clip.count > 0 {
@@ -291,13 +415,14 @@ struct Split<'a> {
     scene: &'a Scene,
     opts: ExtractOptions,
     started: Instant,
+    budget: &'a Arc<MeshBudget>,
 }
 
 /// Under MPI: every rank meshes its share of every surface from the point layers it reads
 /// (`cluster::mesh`), rank 0 joins the shares and writes the file.
 #[cfg(feature = "mpi")]
 fn extract_ranks(w: &Ranks, grid: crate::cluster::Points, how: Split) -> Result<i32, Failure> {
-    let Split { args, format, scene, opts, started } = how;
+    let Split { args, format, scene, opts, started, budget } = how;
     let read = started.elapsed();
     let source = crate::field::PointField::from_spec(&scene.field, args.time);
     let mut meshes = Vec::with_capacity(scene.surface.count);
@@ -305,7 +430,7 @@ fn extract_ranks(w: &Ranks, grid: crate::cluster::Points, how: Split) -> Result<
     for k in 0..scene.surface.count {
         let x = extraction(scene, k, opts, source.as_ref());
         let done = w
-            .extract(grid, &x)
+            .extract(grid, &x, budget)
             .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
         match done {
             crate::cluster::Extracted::Whole(mesh, own, joined) => {
@@ -360,17 +485,32 @@ fn extraction<'a>(
     }
 }
 
-/// The CPU extraction on all cores: the f64 reference's mesh, bit for bit.
-pub fn extract_cpu(
-    scene: &Scene,
-    grid: &Grid,
-    time: f64,
-    opts: ExtractOptions,
-) -> Result<Mesh, Failure> {
+/// One surface's extraction: the scene (with that surface only), its samples at `time`, and
+/// the count of the mesh held so far, which refuses a mesh past the cap.
+pub struct Job<'a> {
+    pub scene: &'a Scene,
+    pub grid: &'a Grid,
+    pub time: f64,
+    pub opts: ExtractOptions,
+    pub budget: &'a MeshBudget,
+}
+
+/// The CPU extraction on all cores: the f64 reference's mesh, bit for bit, each slab counted
+/// into the budget as it is done.
+pub fn extract_cpu(job: &Job) -> Result<Mesh, Failure> {
+    let Job { scene, grid, time, opts, budget } = *job;
     let s = &scene.surface;
     let source = crate::field::PointField::from_spec(&scene.field, time);
     let (algo, sharp) = (scene.render.mesh, &scene.render.sharp);
-    mesh::extract_parallel_with(grid, s.isovalue, s.inside, algo, opts, sharp, source.as_ref())
+    let x = mesh::window::Extraction {
+        iso: s.isovalue,
+        inside: s.inside,
+        algo,
+        opts,
+        sharp,
+        source: source.as_ref(),
+    };
+    mesh::extract_budgeted(grid, &x, budget)
         .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))
 }
 
@@ -383,37 +523,39 @@ pub fn extract_cpu(
 fn extract_auto(
     cli: &Cli,
     device: (Option<String>, Option<&str>),
-    scene: &Scene,
-    grid: &Grid,
-    time: f64,
-    opts: ExtractOptions,
+    job: &Job,
 ) -> Result<(Mesh, Backend, String), Failure> {
-    if opts.keep_quads {
-        let why = "; auto: --quads needs the CPU extraction".to_string();
-        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
-    }
     let (vulkan_device, probed_cpu) = device;
     // The cheap probe first: a CPU device needs no device opened.
-    if let Some(name) = probed_cpu {
-        let why = format!("; auto: the Vulkan device {name} is a CPU");
-        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
+    if let Some(why) = settled_on_cpu(job.opts, probed_cpu) {
+        return Ok((extract_cpu(job)?, Backend::Cpu, why));
     }
     let ctx = match open_context(cli, vulkan_device) {
         Ok(ctx) => ctx,
         Err(e) => {
             let why = format!("; auto: no usable Vulkan device ({e})");
-            return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
+            return Ok((extract_cpu(job)?, Backend::Cpu, why));
         }
     };
     // `DeviceInfo::device_type` is the gpu crate's wording of `vk::PhysicalDeviceType::CPU`.
     if ctx.info.device_type.starts_with("CPU") {
         let why = format!("; auto: the Vulkan device {} is a CPU", ctx.info.name);
         drop(ctx);
-        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu, why));
+        return Ok((extract_cpu(job)?, Backend::Cpu, why));
     }
     let why = format!("; auto: the Vulkan device {} is a {}", ctx.info.name, ctx.info.device_type);
-    let (mesh, ran_on) = extract_on(ctx, scene, grid, time, opts)?;
+    let (mesh, ran_on) = extract_on(ctx, job)?;
     Ok((mesh, ran_on, why))
+}
+
+/// `--device auto`: the reason to extract on the CPU when it is settled without opening a
+/// Vulkan device (`--quads`, or the probe found the device to be a CPU), worded for the
+/// summary line; None when the device must be opened to know.
+fn settled_on_cpu(opts: ExtractOptions, probed_cpu: Option<&str>) -> Option<String> {
+    if opts.keep_quads {
+        return Some("; auto: --quads needs the CPU extraction".to_string());
+    }
+    probed_cpu.map(|name| format!("; auto: the Vulkan device {name} is a CPU"))
 }
 
 /// The name of the Vulkan device that `gpu::Context::new` would pick for `wanted` (the first
@@ -480,26 +622,19 @@ fn open_context(
 fn extract_gpu(
     cli: &Cli,
     vulkan_device: Option<String>,
-    scene: &Scene,
-    grid: &Grid,
-    time: f64,
-    opts: ExtractOptions,
+    job: &Job,
 ) -> Result<(Mesh, Backend), Failure> {
-    if opts.keep_quads {
+    if job.opts.keep_quads {
         eprintln!("isoview: note: --quads extracts on the CPU (the GPU extraction has no quads)");
-        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
+        return Ok((extract_cpu(job)?, Backend::Cpu));
     }
-    extract_on(open_context(cli, vulkan_device)?, scene, grid, time, opts)
+    extract_on(open_context(cli, vulkan_device)?, job)
 }
 
-/// The GPU extraction on `ctx` (see [`extract_gpu`]); `opts.keep_quads` must be false.
-fn extract_on(
-    ctx: std::sync::Arc<crate::gpu::Context>,
-    scene: &Scene,
-    grid: &Grid,
-    time: f64,
-    opts: ExtractOptions,
-) -> Result<(Mesh, Backend), Failure> {
+/// The GPU extraction on `ctx` (see [`extract_gpu`]); `opts.keep_quads` must be false. The
+/// mesh's counts go into the budget before it is read back.
+fn extract_on(ctx: Arc<crate::gpu::Context>, job: &Job) -> Result<(Mesh, Backend), Failure> {
+    let Job { scene, grid, opts, budget, .. } = *job;
     if !scene.render.mesh.on_gpu(&scene.render.sharp) {
         eprintln!(
             "isoview: note: {} is extracted on the CPU (no GPU extraction passes for it{})",
@@ -510,7 +645,7 @@ fn extract_on(
                 ""
             }
         );
-        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
+        return Ok((extract_cpu(job)?, Backend::Cpu));
     }
     if scene.render.mesh == crate::scene::MeshAlgorithm::Mc33 && !ctx.info.float64 {
         eprintln!(
@@ -518,7 +653,7 @@ fn extract_on(
              GPU mc33 passes need)",
             ctx.info.name
         );
-        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
+        return Ok((extract_cpu(job)?, Backend::Cpu));
     }
     let image =
         crate::gpu::Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values)?;
@@ -542,6 +677,10 @@ fn extract_on(
             crate::passes::extract::GpuMeshError::Gpu(g) => Failure::gpu(g),
             other => Failure::input(format!("{}: {other}", scene_name(scene))),
         })?;
+    let counts = (gpu_mesh.vertex_count as usize, gpu_mesh.triangle_count as usize);
+    budget
+        .add(counts.0, counts.1, 0)
+        .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
     Ok((gpu_mesh.read()?, Backend::Gpu))
 }
 

@@ -16,6 +16,7 @@
 //! then tells every rank whether the whole succeeded (a broadcast), so that all ranks stop
 //! together and only rank 0 reports the first failure, in one line.
 
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use mpi::collective::Root;
@@ -26,7 +27,7 @@ use super::World;
 use crate::field::mapped::MappedGrid;
 use crate::field::Grid;
 use crate::mesh::window::{self, Extraction, Joiner, Lattice, SlabMesh};
-use crate::mesh::Mesh;
+use crate::mesh::{Mesh, MeshBudget};
 use crate::scene::Scene;
 
 /// Words per message: MPI counts are `int`, and a bounded message keeps buffers modest.
@@ -44,9 +45,16 @@ pub enum Extracted {
 }
 
 impl World {
-    /// Extracts this rank's share of `grid`'s cell layers and joins the shares on rank 0.
+    /// Extracts this rank's share of `grid`'s cell layers and joins the shares on rank 0,
+    /// which adds the ranges to `budget` as it joins them and refuses a mesh past its cap
+    /// ([`crate::mesh::MeshError::OverCap`]).
     /// Err: the one-line message that this rank (rank 0) reports.
-    pub fn extract(&self, grid: Points, x: &Extraction) -> Result<Extracted, String> {
+    pub fn extract(
+        &self,
+        grid: Points,
+        x: &Extraction,
+        budget: &Arc<MeshBudget>,
+    ) -> Result<Extracted, String> {
         let (n, rank) = (self.size(), self.rank());
         let layers = window::cell_layers(x.algo, grid.lattice().dims);
         let cells = window::share(layers, n, rank);
@@ -70,7 +78,7 @@ impl World {
         }
         let started = Instant::now();
         let mut first_error = None;
-        let mut join = Joiner::new();
+        let mut join = Joiner::with_budget(budget.clone());
         let mut take = |r: usize, part: Result<SlabMesh, String>| match part {
             Ok(p) if first_error.is_none() => {
                 if let Err(e) = join.push(p) {

@@ -72,20 +72,31 @@ pub fn write_ply<W: Write>(mesh: &Mesh, w: W) -> io::Result<()> {
 pub fn write_ply_labelled<W: Write>(mesh: &Mesh, labels: Option<&[u32]>, w: W) -> io::Result<()> {
     let mut w = BufWriter::new(w);
     let (faces, n) = faces(mesh);
-    let label_property = if labels.is_some() { "property uchar surface\n" } else { "" };
+    ply_header(&mut w, mesh.positions.len(), faces.len() / n, labels.is_some())?;
+    ply_vertices(&mut w, mesh, labels)?;
+    ply_faces(&mut w, faces, n)?;
+    w.flush()
+}
+
+/// The header of [`write_ply_labelled`]'s file of `vertices` vertices and `faces` faces.
+fn ply_header(w: &mut impl Write, vertices: usize, faces: usize, labelled: bool) -> io::Result<()> {
+    let label_property = if labelled { "property uchar surface\n" } else { "" };
     write!(
         w,
         "ply\nformat binary_little_endian 1.0\ncomment isoview {}\n\
-         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+         element vertex {vertices}\nproperty float x\nproperty float y\nproperty float z\n\
          property float nx\nproperty float ny\nproperty float nz\n{label_property}\
-         element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+         element face {faces}\nproperty list uchar uint vertex_indices\nend_header\n",
         crate::VERSION,
-        mesh.positions.len(),
-        faces.len() / n
-    )?;
-    // Records are encoded into a block of BLOCK of them and the block written whole: a
-    // write_all per number (4 bytes each) into the BufWriter cost more than the encoding.
-    const BLOCK: usize = 1 << 14;
+    )
+}
+
+/// Records are encoded into a block of BLOCK of them and the block written whole: a write_all
+/// per number (4 bytes each) into the BufWriter cost more than the encoding.
+const BLOCK: usize = 1 << 14;
+
+/// The vertex records of `mesh`: position and normal as f32, then the label as a `uchar`.
+fn ply_vertices(w: &mut impl Write, mesh: &Mesh, labels: Option<&[u32]>) -> io::Result<()> {
     let mut block = Vec::new();
     let nv = mesh.positions.len();
     for start in (0..nv).step_by(BLOCK) {
@@ -100,6 +111,13 @@ pub fn write_ply_labelled<W: Write>(mesh: &Mesh, labels: Option<&[u32]>, w: W) -
         }
         w.write_all(&block)?;
     }
+    Ok(())
+}
+
+/// The face records of `faces`, `n` vertex indices each: the count as a `uchar`, the indices
+/// as `uint`.
+fn ply_faces(w: &mut impl Write, faces: &[u32], n: usize) -> io::Result<()> {
+    let mut block = Vec::new();
     for chunk in faces.chunks(BLOCK * n) {
         block.clear();
         for f in chunk.chunks_exact(n) {
@@ -110,7 +128,63 @@ pub fn write_ply_labelled<W: Write>(mesh: &Mesh, labels: Option<&[u32]>, w: W) -
         }
         w.write_all(&block)?;
     }
-    w.flush()
+    Ok(())
+}
+
+/// A binary PLY written piece by piece (the pieces of `mesh::extract_streamed`, in order): the
+/// vertex records and the face records go to two scratch files as the pieces come, and
+/// [`PlyPieces::finish`] writes the header with the exact counts, then the vertex records,
+/// then the face records: [`write_ply`]'s file of the pieces joined, byte for byte, with
+/// only a piece in memory at a time.
+pub struct PlyPieces<V: Write, F: Write> {
+    vertices: BufWriter<V>,
+    faces: BufWriter<F>,
+    /// Vertices, faces and triangles so far.
+    counts: (usize, usize, usize),
+}
+
+impl<V: Write, F: Write> PlyPieces<V, F> {
+    /// Records go to `vertices` and `faces` (scratch files, read back by [`PlyPieces::finish`]).
+    pub fn new(vertices: V, faces: F) -> Self {
+        PlyPieces {
+            vertices: BufWriter::new(vertices),
+            faces: BufWriter::new(faces),
+            counts: (0, 0, 0),
+        }
+    }
+
+    /// Appends the next piece: vertices numbered after those of the pieces before it, faces
+    /// numbered in the whole mesh (its quads when it has them, as [`write_ply`] writes).
+    pub fn push(&mut self, piece: &Mesh) -> io::Result<()> {
+        let (faces, n) = faces(piece);
+        ply_vertices(&mut self.vertices, piece, None)?;
+        ply_faces(&mut self.faces, faces, n)?;
+        let (v, f, t) = self.counts;
+        self.counts = (v + piece.vertex_count(), f + faces.len() / n, t + piece.triangle_count());
+        Ok(())
+    }
+
+    /// Vertices, faces and triangles pushed so far.
+    pub fn counts(&self) -> (usize, usize, usize) {
+        self.counts
+    }
+
+    /// Writes the file to `out`: the header, then the records read back from `vertices` and
+    /// `faces`, readers of the scratch files from their starts (the writers are flushed and
+    /// closed first).
+    pub fn finish(
+        self,
+        out: &mut impl Write,
+        mut vertices: impl io::Read,
+        mut faces: impl io::Read,
+    ) -> io::Result<()> {
+        self.vertices.into_inner().map_err(io::IntoInnerError::into_error)?;
+        self.faces.into_inner().map_err(io::IntoInnerError::into_error)?;
+        ply_header(out, self.counts.0, self.counts.1, false)?;
+        io::copy(&mut vertices, out)?;
+        io::copy(&mut faces, out)?;
+        Ok(())
+    }
 }
 
 /// Wavefront OBJ: `v x y z`, `vn nx ny nz` (vertex `i` uses normal `i`), `f a//a b//b c//c`

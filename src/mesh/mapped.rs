@@ -8,8 +8,10 @@
 //! range joins as an empty mesh without being extracted: on a sparse file, reading it is all
 //! the work. The joined mesh is the whole grid's bit for bit (`tests/it/residency.rs`).
 
+use std::sync::Arc;
+
 use super::window::{self, Extraction, Joiner, Lattice, SlabMesh};
-use super::{Mesh, MeshError};
+use super::{Mesh, MeshBudget, MeshError};
 use crate::field::mapped::MappedGrid;
 
 /// Bytes of samples one window holds at most (at least its range's point layers).
@@ -22,13 +24,24 @@ pub fn extract_mapped(
     x: &Extraction,
     window_bytes: usize,
 ) -> Result<Mesh, MeshError> {
+    extract_mapped_within(grid, x, window_bytes, &Arc::new(MeshBudget::unlimited()))
+}
+
+/// [`extract_mapped`], adding every window's mesh to `budget` as it is joined: past its cap,
+/// [`MeshError::OverCap`] (checked per window: a window's own slabs are held until then).
+pub fn extract_mapped_within(
+    grid: &MappedGrid,
+    x: &Extraction,
+    window_bytes: usize,
+    budget: &Arc<MeshBudget>,
+) -> Result<Mesh, MeshError> {
     let lattice = Lattice { dims: grid.dims, min: grid.min, max: grid.max };
     let [nx, ny, _] = grid.dims;
     let layers = window::cell_layers(x.algo, grid.dims);
     // Cell layers per range: the window holds them plus up to 4 ghost layers.
     let plane = nx * ny * 4;
     let depth = (window_bytes / plane).saturating_sub(4).max(1);
-    let mut joiner = Joiner::new();
+    let mut joiner = Joiner::with_budget(budget.clone());
     let mut start = 0;
     while start < layers {
         let cells = start..(start + depth).min(layers);

@@ -68,6 +68,7 @@ mod emc;
 pub mod export;
 mod field;
 mod hermite;
+pub mod limits;
 pub mod mapped;
 mod mc;
 mod mc33;
@@ -81,6 +82,8 @@ pub mod tables;
 #[cfg(test)]
 mod tests;
 pub mod window;
+
+pub use limits::{MeshBudget, MeshLimits, MESH_CAP_ENV};
 
 use crate::field::{Grid, PointField};
 use crate::vocab::{HermiteNormals, Inside, MeshAlgorithm, SharpSettings};
@@ -198,6 +201,18 @@ pub enum MeshError {
     NotInSlabs(&'static str),
     #[error("bad window: {0}")]
     BadWindow(String),
+    /// The mesh being extracted passed the memory cap ([`MeshLimits`]); the counts are the
+    /// totals when it did.
+    #[error(
+        "the mesh passed {triangles} triangles and {vertices} vertices ({} of vertices and \
+         indices) while it was extracted, over the cap of {}; raise the cap with \
+         {MESH_CAP_ENV}=<MiB> (or MeshLimits::max_bytes) or use a coarser grid",
+        limits::mib(*bytes), limits::mib(*cap)
+    )]
+    OverCap { vertices: u64, triangles: u64, bytes: u64, cap: u64 },
+    /// `ISOVIEW_MAX_MESH_MIB` is set to something that is not a positive whole number.
+    #[error("{MESH_CAP_ENV}={value:?}: expected a positive whole number of MiB")]
+    BadLimit { value: String },
     #[error(
         "hermite = \"source\" needs a source that can be evaluated off the grid (sdf, expr, \
          corners, mesh); use hermite = \"trilinear\""
@@ -343,16 +358,85 @@ pub fn extract_in_slabs_with(
     sharp: &SharpSettings,
     source: Option<&PointField>,
 ) -> Result<Mesh, MeshError> {
+    let x = window::Extraction { iso, inside, algo, opts, sharp, source };
+    in_slabs(grid, &x, depth, &MeshBudget::unlimited())
+}
+
+/// [`extract_parallel_with`] of `x`, counting the mesh into `budget` as it grows: every slab
+/// as it is done, so an extraction past the cap stops with [`MeshError::OverCap`] before the
+/// whole mesh is held. The methods that are not cut into slabs (`extended-mc`,
+/// `dual-contouring-qef` with `mesh_error`) are counted once they are done.
+pub fn extract_budgeted(
+    grid: &Grid,
+    x: &window::Extraction,
+    budget: &MeshBudget,
+) -> Result<Mesh, MeshError> {
+    in_slabs(grid, x, None, budget)
+}
+
+/// Slab depth of [`extract_streamed`]: the least of [`slabs::default_depth`], so that a batch
+/// of one slab per thread holds few layers.
+const STREAM_DEPTH: usize = 4;
+
+/// Why `x` cannot be extracted piece by piece ([`extract_streamed`]); None when it can.
+pub fn not_streamed(x: &window::Extraction) -> Option<&'static str> {
+    match x.algo {
+        MeshAlgorithm::Mc33 => Some("mc33 (its added vertices follow every edge vertex)"),
+        _ => window::not_in_slabs(x.algo, x.sharp),
+    }
+}
+
+/// [`extract_parallel_with`] of `x`, handed to `sink` piece by piece instead of joined: a
+/// piece is the mesh of a slab of cell layers, slabs in order, one slab per thread at a time,
+/// so memory holds a few slabs' meshes, never the whole. Each piece's `positions` and
+/// `normals` are the next vertices of the whole mesh, its `indices` (and `quads` when kept)
+/// the next faces, numbered in the whole mesh: the pieces concatenated are
+/// [`extract_parallel_with`]'s mesh, bit for bit. [`MeshError::NotInSlabs`] for what
+/// [`not_streamed`] names.
+pub fn extract_streamed<E: From<MeshError>>(
+    grid: &Grid,
+    x: &window::Extraction,
+    mut sink: impl FnMut(Mesh) -> Result<(), E>,
+) -> Result<(), E> {
+    if let Some(why) = not_streamed(x) {
+        return Err(MeshError::NotInSlabs(why).into());
+    }
+    check(grid, x.iso)?;
+    let f = field::Field::new(grid, x.iso, x.inside);
+    let layers = window::cell_layers(x.algo, grid.dims);
+    let batch = rayon::current_num_threads().max(1);
+    let keep_quads = x.keeps_quads();
+    window::with_slab(&f, x, |slab| {
+        slabs::stream_parts(0..layers, STREAM_DEPTH, batch, slab, |p: slabs::Part| {
+            sink(Mesh {
+                positions: p.verts.positions,
+                normals: p.verts.normals,
+                indices: p.indices,
+                quads: keep_quads.then_some(p.quads),
+            })
+        })
+    })
+}
+
+/// [`extract_in_slabs_with`] of `x` under `budget` (see [`extract_budgeted`]).
+fn in_slabs(
+    grid: &Grid,
+    x: &window::Extraction,
+    depth: Option<usize>,
+    budget: &MeshBudget,
+) -> Result<Mesh, MeshError> {
+    let window::Extraction { iso, inside, algo, opts, sharp, source } = *x;
     check(grid, iso)?;
     let f = field::Field::new(grid, iso, inside);
     if window::not_in_slabs(algo, sharp).is_some() {
         // Not cut into slabs (see `emc`, `octree`): the reference itself.
-        return extract_with(grid, iso, inside, algo, opts, sharp, source);
+        let mesh = extract_with(grid, iso, inside, algo, opts, sharp, source)?;
+        budget.add_mesh(&mesh)?;
+        return Ok(mesh);
     }
     let layers = window::cell_layers(algo, grid.dims);
     let depth = depth.unwrap_or_else(|| slabs::default_depth(layers));
-    let x = window::Extraction { iso, inside, algo, opts, sharp, source };
-    slabs::finish(window::extract_part(&f, &x, 0..layers, depth)?, x.keeps_quads())
+    slabs::finish(window::extract_part(&f, x, 0..layers, depth, budget)?, x.keeps_quads())
 }
 
 /// Rejects a non-finite isovalue and a grid whose samples do not match its dimensions.

@@ -40,7 +40,7 @@ use std::ops::Range;
 use rayon::prelude::*;
 
 use super::edges::Vertices;
-use super::{to_u32, Mesh, MeshError};
+use super::{to_u32, Mesh, MeshBudget, MeshError};
 
 /// What one slab extracted, numbered locally (its first own vertex is 0).
 #[derive(Default)]
@@ -68,21 +68,36 @@ pub(crate) fn default_depth(layers: usize) -> usize {
 
 /// Extracts the cell layers `cells` in slabs of `depth` layers (the last one shorter) on the
 /// current rayon pool with `slab`, and joins the parts into one part (numbered from the
-/// first vertex of `cells`). No layers: an empty part.
+/// first vertex of `cells`). No layers: an empty part. Every slab's part is added to `budget`
+/// as it is done, so an extraction over the cap stops there (a failed slab makes rayon start
+/// no more) rather than after the whole mesh is held.
 pub(crate) fn run_part(
     cells: Range<usize>,
     depth: usize,
+    budget: &MeshBudget,
     slab: impl Fn(Range<usize>) -> Result<Part, MeshError> + Sync,
 ) -> Result<Part, MeshError> {
     let depth = depth.max(1);
     let ranges: Vec<Range<usize>> =
         cells.clone().step_by(depth).map(|a| a..(a + depth).min(cells.end)).collect();
+    let counted = |cells: Range<usize>| {
+        let p = slab(cells)?;
+        budget.add(p.own_vertices(), p.indices.len() / 3, p.quads.len())?;
+        Ok(p)
+    };
     let parts = match ranges.len() {
         0 => return Ok(Part::default()),
-        1 => vec![slab(ranges[0].clone())?],
-        _ => ranges.into_par_iter().map(&slab).collect::<Result<Vec<_>, _>>()?,
+        1 => vec![counted(ranges[0].clone())?],
+        _ => ranges.into_par_iter().map(counted).collect::<Result<Vec<_>, _>>()?,
     };
     join_all(parts)
+}
+
+impl Part {
+    /// The vertices the part owns: edge or cell vertices and added ones (not the borrowed).
+    pub fn own_vertices(&self) -> usize {
+        self.verts.normals.len() + self.added.normals.len()
+    }
 }
 
 /// The parts of consecutive slabs joined at once: what pushing them in order into a [`Join`]
@@ -110,30 +125,34 @@ fn join_all(mut parts: Vec<Part>) -> Result<Part, MeshError> {
     let normals = split(&mut out.verts.normals, parts.iter().map(|p| p.verts.normals.len()));
     let indices = split(&mut out.indices, parts.iter().map(|p| p.indices.len()));
     let quads = split(&mut out.quads, parts.iter().map(|p| p.quads.len()));
+    for p in &parts {
+        out.added.positions.extend_from_slice(&p.added.positions);
+        out.added.normals.extend_from_slice(&p.added.normals);
+    }
     let (mut edge_off, mut added_off) = (0usize, 0usize);
     let mut jobs = Vec::with_capacity(parts.len());
     for (p, (((pos, nor), idx), qua)) in
-        parts.iter().zip(positions.into_iter().zip(normals).zip(indices).zip(quads))
+        parts.into_iter().zip(positions.into_iter().zip(normals).zip(indices).zip(quads))
     {
-        jobs.push((p, pos, nor, idx, qua, edge_off as u32, added_off as u32));
+        let offsets = (edge_off as u32, added_off as u32);
         edge_off += p.verts.normals.len();
         added_off += p.added.normals.len();
+        jobs.push((p, pos, nor, idx, qua, offsets));
     }
-    jobs.into_par_iter().for_each(|(p, pos, nor, idx, qua, edge_off, added_off)| {
+    // Each job owns its part and frees it once copied: the joined mesh's pages are touched as
+    // the parts' are returned, so the join holds the mesh about once, not twice.
+    jobs.into_par_iter().for_each(|(p, pos, nor, idx, qua, (edge_off, added_off))| {
         pos.copy_from_slice(&p.verts.positions);
         nor.copy_from_slice(&p.verts.normals);
-        let renumber = Renumber::new(p, edge_off, added_off);
+        let renumber = Renumber::new(&p, edge_off, added_off);
         for (o, &x) in idx.iter_mut().zip(&p.indices) {
             *o = renumber.id(x);
         }
         for (o, &x) in qua.iter_mut().zip(&p.quads) {
             *o = renumber.id(x);
         }
+        drop(p);
     });
-    for p in &parts {
-        out.added.positions.extend_from_slice(&p.added.positions);
-        out.added.normals.extend_from_slice(&p.added.normals);
-    }
     Ok(out)
 }
 
@@ -180,6 +199,41 @@ fn split<T>(mut v: &mut [T], lens: impl Iterator<Item = usize>) -> Vec<&mut [T]>
     pieces
 }
 
+/// Extracts the cell layers `cells` in slabs of `depth` layers, `batch` slabs at a time on the
+/// current rayon pool, and hands each slab's part to `sink` in slab order with its ids made
+/// the whole mesh's: what [`join_all`] does to each part, without the joined copy. Memory
+/// holds one batch of parts, not the mesh. Added vertices (MC33) would stay placeholders,
+/// which only the whole mesh's edge vertex count resolves ([`finish`]): the caller streams
+/// no method that makes them (`mesh::not_streamed`).
+pub(crate) fn stream_parts<E: From<MeshError>>(
+    cells: Range<usize>,
+    depth: usize,
+    batch: usize,
+    slab: &(dyn Fn(Range<usize>) -> Result<Part, MeshError> + Sync),
+    mut sink: impl FnMut(Part) -> Result<(), E>,
+) -> Result<(), E> {
+    let depth = depth.max(1);
+    let ranges: Vec<Range<usize>> =
+        cells.clone().step_by(depth).map(|a| a..(a + depth).min(cells.end)).collect();
+    let (mut edge_off, mut added_off, mut indices) = (0usize, 0usize, 0usize);
+    for group in ranges.chunks(batch.max(1)) {
+        let parts = group.par_iter().cloned().map(slab).collect::<Result<Vec<_>, _>>()?;
+        for mut p in parts {
+            p.verts.drop_borrowed();
+            let (nv, na) = (p.verts.normals.len(), p.added.normals.len());
+            indices += p.indices.len();
+            to_u32(indices, "indices")?;
+            to_u32(edge_off + nv + added_off + na, "vertices")?;
+            let renumber = Renumber::new(&p, edge_off as u32, added_off as u32);
+            p.indices.iter_mut().chain(&mut p.quads).for_each(|x| *x = renumber.id(*x));
+            edge_off += nv;
+            added_off += na;
+            sink(p)?;
+        }
+    }
+    Ok(())
+}
+
 /// [`run_part`] over all `layers` cell layers, finished into the mesh; `keep_quads` returns
 /// the quads too.
 pub(crate) fn run(
@@ -188,14 +242,17 @@ pub(crate) fn run(
     keep_quads: bool,
     slab: impl Fn(Range<usize>) -> Result<Part, MeshError> + Sync,
 ) -> Result<Mesh, MeshError> {
-    let part = run_part(0..layers, depth, slab)?;
+    let part = run_part(0..layers, depth, &MeshBudget::unlimited(), slab)?;
     finish(part, keep_quads)
 }
 
-/// Joins parts pushed in slab order; the joined part numbers its vertices from 0.
+/// Joins parts pushed in slab order; the joined part numbers its vertices from 0. Every part
+/// pushed is added to `budget` first (unlimited by default; shared with the other surfaces of
+/// a scene, whose meshes are held with this one).
 #[derive(Default)]
 pub(crate) struct Join {
     pub part: Part,
+    pub budget: std::sync::Arc<MeshBudget>,
 }
 
 impl Join {
@@ -203,6 +260,7 @@ impl Join {
     /// ids of its next slab's vertices with them), its placeholders past the added vertices
     /// joined so far.
     pub fn push(&mut self, mut p: Part) -> Result<(), MeshError> {
+        self.budget.add(p.own_vertices(), p.indices.len() / 3, p.quads.len())?;
         p.verts.drop_borrowed();
         let all = &mut self.part;
         let edge_off = all.verts.normals.len();

@@ -37,7 +37,7 @@ use glam::DVec3;
 
 use super::field::Field;
 use super::slabs::{self, Join, Part};
-use super::{dc_qef, dual, mc, mc33, mt, nets, ExtractOptions, Mesh, MeshError};
+use super::{dc_qef, dual, mc, mc33, mt, nets, ExtractOptions, Mesh, MeshBudget, MeshError};
 use crate::field::{Grid, PointField};
 use crate::vocab::{Inside, MeshAlgorithm, SharpSettings};
 
@@ -247,20 +247,32 @@ pub fn extract_window(
     }
     let f = Field::window(window, first, lattice, x.iso, x.inside);
     let depth = slabs::default_depth(cells.len());
-    extract_part(&f, x, cells, depth).map(SlabMesh)
+    // Counted against the cap where the ranges are joined (`Joiner::with_budget`).
+    extract_part(&f, x, cells, depth, &MeshBudget::unlimited()).map(SlabMesh)
 }
 
-/// The part of cell layers `cells` of `f`, in slabs of `depth` layers.
+/// The part of cell layers `cells` of `f`, in slabs of `depth` layers, each added to `budget`.
 pub(crate) fn extract_part(
     f: &Field,
     x: &Extraction,
     cells: Range<usize>,
     depth: usize,
+    budget: &MeshBudget,
 ) -> Result<Part, MeshError> {
+    with_slab(f, x, |slab| slabs::run_part(cells.clone(), depth, budget, slab))
+}
+
+/// A slab of cell layers as `x`'s method extracts it.
+pub(crate) type Slab<'s> = &'s (dyn Fn(Range<usize>) -> Result<Part, MeshError> + Sync);
+
+/// `run` given the function that extracts a slab of `f` with `x`'s method (the one choice of
+/// per-slab code, for the joined extraction and the streamed one).
+pub(crate) fn with_slab<T, E: From<MeshError>>(
+    f: &Field,
+    x: &Extraction,
+    run: impl FnOnce(Slab) -> Result<T, E>,
+) -> Result<T, E> {
     let opts = x.opts;
-    let run = |slab: &(dyn Fn(Range<usize>) -> Result<Part, MeshError> + Sync)| {
-        slabs::run_part(cells.clone(), depth, slab)
-    };
     match x.algo {
         MeshAlgorithm::MarchingCubes => run(&|c| mc::extract_slab(f, c)),
         MeshAlgorithm::MarchingTetrahedra => run(&|c| mt::extract_slab(f, c)),
@@ -273,7 +285,10 @@ pub(crate) fn extract_part(
             let q = dc_qef(f, x.sharp, x.source)?;
             run(&|c| dual::extract_slab(f, dual::Boundary::Closed, opts, Some(&q), c))
         }
-        _ => Err(MeshError::NotInSlabs(not_in_slabs(x.algo, x.sharp).unwrap_or("this method"))),
+        _ => {
+            let why = not_in_slabs(x.algo, x.sharp).unwrap_or("this method");
+            Err(MeshError::NotInSlabs(why).into())
+        }
     }
 }
 
@@ -285,6 +300,12 @@ pub struct Joiner(Join);
 impl Joiner {
     pub fn new() -> Self {
         Joiner::default()
+    }
+
+    /// A joiner that adds every range pushed to `budget` and refuses
+    /// ([`MeshError::OverCap`]) once it passes its cap.
+    pub fn with_budget(budget: std::sync::Arc<MeshBudget>) -> Self {
+        Joiner(Join { budget, ..Join::default() })
     }
 
     /// Appends the next range's mesh (the range just above the last one pushed).

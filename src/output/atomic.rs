@@ -89,6 +89,18 @@ impl TempFile {
     }
 }
 
+/// A scratch file next to `path` (a temporary file's name, on the destination's filesystem,
+/// not in a memory-backed temp folder), as a writer and a reader from its start, already
+/// unlinked: it takes no name and vanishes when both are closed, whatever ends the process.
+/// For writers that gather pieces before the destination's header can be written.
+pub fn scratch(path: &Path) -> Result<(File, File), OutputError> {
+    let (write, temp) = create_temp(path)?;
+    let read = File::open(&temp);
+    // Unix: the open handles keep the data until they close.
+    let _ = std::fs::remove_file(&temp);
+    Ok((write, read.map_err(|e| OutputError::io(path, "create", e))?))
+}
+
 /// Writes `bytes` to `path` atomically (see [`write_with`]).
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     write_with(path, |w| w.write_all(bytes))

@@ -9,7 +9,7 @@ use super::{placed_band, Collect, FrameSink, GpuGrid, RenderError, Renderer};
 use crate::field::Grid;
 use crate::frame::{Frame, Pixel};
 use crate::gpu::Buffer;
-use crate::mesh::{self, ExtractOptions, Mesh};
+use crate::mesh::{self, ExtractOptions, Mesh, MeshBudget, MeshLimits};
 use crate::passes::extract::{Extractor, GpuExtractOptions, GpuMesh};
 use crate::passes::mesh_render::{self, MeshInputs, MeshPass, MeshPipelines};
 use crate::passes::Bands;
@@ -22,18 +22,20 @@ pub fn scene_mesh(scene: &Scene, grid: &Grid) -> Result<Mesh, RenderError> {
 }
 
 /// [`scene_mesh`] of the grid sampled at `time` (`render.hermite = "source"` evaluates the
-/// source at that time).
+/// source at that time). The mesh is held under the cap of `ISOVIEW_MAX_MESH_MIB`
+/// ([`MeshLimits::from_env`]): extracted in slabs on all threads (the reference's mesh, bit
+/// for bit), each counted as it is done, so a mesh past the cap stops there.
 pub fn scene_mesh_at(scene: &Scene, grid: &Grid, time: f64) -> Result<Mesh, RenderError> {
     let source = crate::field::PointField::from_spec(&scene.field, time);
-    Ok(mesh::extract_with(
-        grid,
-        scene.surface.isovalue,
-        scene.surface.inside,
-        scene.render.mesh,
-        ExtractOptions::default(),
-        &scene.render.sharp,
-        source.as_ref(),
-    )?)
+    let x = mesh::window::Extraction {
+        iso: scene.surface.isovalue,
+        inside: scene.surface.inside,
+        algo: scene.render.mesh,
+        opts: ExtractOptions::default(),
+        sharp: &scene.render.sharp,
+        source: source.as_ref(),
+    };
+    Ok(mesh::extract_budgeted(grid, &x, &MeshBudget::new(MeshLimits::from_env()?))?)
 }
 
 impl Renderer {
@@ -75,18 +77,24 @@ impl Renderer {
         let mesh = if cpu {
             mesh_render::upload(&self.ctx, &scene_mesh_at(scene, grid, time)?)?
         } else {
+            // The device's mesh lies in device memory (an allocation over it fails as a GPU
+            // error); the same cap as the CPU's mesh is checked on its counts before drawing.
+            let limits = MeshLimits::from_env()?;
             if self.extractor.is_none() {
                 self.extractor = Some(Extractor::new(&self.ctx)?);
             }
             let extractor = self.extractor.as_mut().expect("created above");
-            extractor.extract(
+            let mesh = extractor.extract(
                 grid,
                 gpu_grid.image("render.method = \"mesh\" with field.residency = \"active\"")?,
                 scene.surface.isovalue,
                 scene.surface.inside,
                 scene.render.mesh,
                 &GpuExtractOptions { sharp: Some(scene.render.sharp), ..Default::default() },
-            )?
+            )?;
+            let (vertices, triangles) = (mesh.vertex_count as usize, mesh.triangle_count as usize);
+            MeshBudget::new(limits).add(vertices, triangles, 0)?;
+            mesh
         };
         self.render_mesh_to(scene, grid, gpu_grid, &mesh, time, sink)
     }

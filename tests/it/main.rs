@@ -14,6 +14,7 @@ mod compare_stream;
 mod docs;
 mod extract_cli;
 mod extract_gpu;
+mod extract_memory;
 mod formats;
 mod fuzz;
 mod golden;

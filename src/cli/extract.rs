@@ -26,6 +26,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use super::console::{note, say};
 use super::{Cli, Failure};
 use crate::field::mapped::MappedGrid;
 use crate::field::Grid;
@@ -131,6 +132,7 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     let (backend, vulkan_device) =
         resolve_device(cli.device.as_deref(), cli.device_from_command_line, env.as_deref());
     let scene = super::load_scene(&args.scene, &args.sets)?;
+    super::check_output("-o", &args.output, &scene)?;
     #[cfg(feature = "mpi")]
     if let Some(w) = ranks {
         if let Some(why) = w.refuses_extract(&scene, backend == Backend::Gpu) {
@@ -234,10 +236,10 @@ fn write_meshes(
     .map_err(Failure::input)?;
 
     if args.stats {
-        println!("{}", mesh::stats::compute(&mesh));
+        say!("{}", mesh::stats::compute(&mesh))?;
     }
-    eprintln!(
-        "isoview: {} vertices, {} triangles ({} on {}{why}) in {elapsed:.0} ms -> {}",
+    note!(
+        "{} vertices, {} triangles ({} on {}{why}) in {elapsed:.0} ms -> {}",
         mesh.vertex_count(),
         mesh.triangle_count(),
         scene.render.mesh.name(),
@@ -245,8 +247,8 @@ fn write_meshes(
         args.output.display()
     );
     if let (0, Some((lo, hi))) = (mesh.triangle_count(), samples.map(Grid::range)) {
-        eprintln!(
-            "isoview: note: the mesh is empty: no grid edge crosses isovalue {} (samples span \
+        note!(
+            "note: the mesh is empty: no grid edge crosses isovalue {} (samples span \
              [{lo}, {hi}])",
             scene.surface.isovalue
         );
@@ -486,7 +488,7 @@ fn extract_gpu(
     opts: ExtractOptions,
 ) -> Result<(Mesh, Backend), Failure> {
     if opts.keep_quads {
-        eprintln!("isoview: note: --quads extracts on the CPU (the GPU extraction has no quads)");
+        note!("note: --quads extracts on the CPU (the GPU extraction has no quads)");
         return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
     }
     extract_on(open_context(cli, vulkan_device)?, scene, grid, time, opts)
@@ -501,8 +503,8 @@ fn extract_on(
     opts: ExtractOptions,
 ) -> Result<(Mesh, Backend), Failure> {
     if !scene.render.mesh.on_gpu(&scene.render.sharp) {
-        eprintln!(
-            "isoview: note: {} is extracted on the CPU (no GPU extraction passes for it{})",
+        note!(
+            "note: {} is extracted on the CPU (no GPU extraction passes for it{})",
             scene.render.mesh.name(),
             if scene.render.mesh == crate::scene::MeshAlgorithm::DualContouringQef {
                 " with hermite = \"source\" or mesh_error"
@@ -513,8 +515,8 @@ fn extract_on(
         return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
     }
     if scene.render.mesh == crate::scene::MeshAlgorithm::Mc33 && !ctx.info.float64 {
-        eprintln!(
-            "isoview: note: mc33 is extracted on the CPU ({} has no 64-bit floats, which the \
+        note!(
+            "note: mc33 is extracted on the CPU ({} has no 64-bit floats, which the \
              GPU mc33 passes need)",
             ctx.info.name
         );

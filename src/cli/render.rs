@@ -243,6 +243,10 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         drawn.map_err(render_failure)?;
         let (width, height) = outputs.size;
         outputs.finish()?;
+        // Memory stays flat over any number of frames (see `release_pipelines`).
+        if n != *frames.numbers().end() {
+            renderer.release_pipelines();
+        }
         match &progress {
             _ if !rank0 => {}
             Some(bar) => bar.inc(1),

@@ -176,7 +176,8 @@ impl<'a> Source<'a> {
         key: &str,
         message: impl AsRef<str>,
     ) -> SceneError {
-        let key = (!key.is_empty()).then(|| key.to_string());
+        // A key path may come from a --set: echoed like any value the user wrote.
+        let key = (!key.is_empty()).then(|| echo(key));
         SceneError::new(kind, self.location(at), key, message)
     }
 

@@ -307,6 +307,34 @@ fn a_huge_frame_range_is_never_materialised() {
     assert_fails(&o, 2, &["f0000.exr: is a directory"]);
 }
 
+/// The peak resident memory of `isoview args` in KiB (its own, from `wait4`); it must succeed.
+fn peak_rss_kib(args: &[&str]) -> i64 {
+    let child = isoview().args(args).stdout(Stdio::null()).stderr(Stdio::null()).spawn().unwrap();
+    let pid = child.id() as libc::pid_t;
+    let mut status = 0;
+    // SAFETY: rusage is plain data, valid zeroed.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: `pid` is this process's child, not yet waited for; both pointers are valid.
+    let waited = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
+    assert_eq!(waited, pid);
+    assert!(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0, "{args:?}: {status}");
+    usage.ru_maxrss
+}
+
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn memory_stays_flat_over_the_frames() {
+    let dir = scratch("rio-frames-memory");
+    let scene = write(&dir, "s.toml", &SPHERE.replace("\"fixed-step\"", "\"analytic\""));
+    let pattern = dir.join("f####.exr").display().to_string();
+    let run = |frames: &str| peak_rss_kib(&["render", &scene, "-o", &pattern, "--frames", frames]);
+    let (few, many) = (run("0..4"), run("0..64"));
+    // Before: about 1 MiB more for every frame (60 MiB here); now the 60 extra frames cost
+    // what a few allocations' jitter does.
+    assert!(many - few < 16 * 1024, "5 frames: {few} KiB, 65 frames: {many} KiB");
+    assert!(dir.join("f0064.exr").exists());
+}
+
 // ---- messages -------------------------------------------------------------------------------
 
 #[test]
@@ -331,8 +359,11 @@ fn echoed_values_are_cut_and_escaped() {
     assert!(stderr(&o).len() < 1000, "{} bytes: {}", stderr(&o).len(), &stderr(&o)[..300]);
     let o = isoview_output(&["stats", &scene, "--set", "render.method=a\nb\u{1b}[2J"]);
     assert_fails(&o, 2, &["--set render.method=a\\nb\\u{1b}[2J", "unknown value \"a\\nb"]);
-    let o = isoview_output(&["stats", &scene, "--set", &format!("{}\n=1", "k".repeat(5000))]);
+    let o = isoview_output(&["stats", &scene, "--set", &format!("{} k\n=1", "k".repeat(5000))]);
     assert_fails(&o, 2, &["is not a key path", "…"]);
+    assert!(stderr(&o).len() < 1000);
+    let o = isoview_output(&["stats", &scene, "--set", &format!("{}=1", "k".repeat(5000))]);
+    assert_fails(&o, 2, &["unknown table or key", "…"]);
     assert!(stderr(&o).len() < 1000);
     // A 10 MB value in the scene file.
     let big = SPHERE.replace("\"fixed-step\"", &format!("\"{}\"", "y".repeat(10_000_000)));

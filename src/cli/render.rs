@@ -243,13 +243,18 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         drawn.map_err(render_failure)?;
         let (width, height) = outputs.size;
         outputs.finish()?;
-        // Memory stays flat over any number of frames (see `release_pipelines`).
-        if n != *frames.numbers().end() {
+        // Memory stays bounded over any number of frames (see `release_pipelines`): every
+        // RELEASE_EVERY frames, so that rebuilding the pipelines (tens of ms on lavapipe) costs
+        // little per frame.
+        let done = n.abs_diff(*frames.numbers().start()) + 1;
+        if done % RELEASE_EVERY == 0 && n != *frames.numbers().end() {
             renderer.release_pipelines();
         }
         match &progress {
             _ if !rank0 => {}
             Some(bar) => bar.inc(1),
+            // The failure's line ends the run instead (one line for a failed run).
+            None if tev_failed.is_some() => {}
             None => note!(
                 "{}x{} {} on {} in {:.0} ms{}{split} -> {}",
                 width,
@@ -268,10 +273,14 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
     match tev_failed {
         // README: nobody listening is one line naming the address, exit 2, after the files
         // are written (the files are what the render is for; tev only shows them).
-        Some(e) => Err(Failure::input(e)),
+        Some(e) => Err(Failure::input(format!("{e}; the render's files were written"))),
         None => Ok(0),
     }
 }
+
+/// How many frames a [`Renderer`] draws before its pipelines are rebuilt (at most about 1 MiB
+/// a frame is held until then on lavapipe; see `Renderer::release_pipelines`).
+const RELEASE_EVERY: u64 = 16;
 
 /// The frames of a run (`--frames A..B`, or the one frame at `--time`), made one at a time
 /// as the loop reaches them: never collected, so a range of four billion frames costs

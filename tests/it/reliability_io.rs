@@ -37,7 +37,12 @@ fn isoview() -> Command {
 /// The writing end of a pipe whose reader has already gone: what `| head -1` leaves once
 /// `head` has exited (every write gets EPIPE).
 fn reader_gone() -> Stdio {
-    let (reader, writer) = std::io::pipe().unwrap();
+    use std::os::fd::{FromRawFd, OwnedFd};
+    let mut fds = [0; 2];
+    // SAFETY: `fds` has room for the two descriptors pipe() writes.
+    assert_eq!(unsafe { libc::pipe(fds.as_mut_ptr()) }, 0);
+    // SAFETY: pipe() just opened both descriptors and nothing else owns them.
+    let (reader, writer) = unsafe { (OwnedFd::from_raw_fd(fds[0]), OwnedFd::from_raw_fd(fds[1])) };
     drop(reader);
     Stdio::from(writer)
 }
@@ -84,6 +89,10 @@ fn stdout_closed_early_stops_quietly_with_exit_0() {
     }
     // The mesh was written before its statistics were printed.
     assert!(std::fs::metadata(&mesh).unwrap().len() > 0);
+    // Any other failure to write stdout is one line and exit 2, not a panic.
+    let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+    let o = run(&["stats", &scene], Stdio::from(full), Stdio::piped());
+    assert_fails(&o, 2, &["cannot write to stdout: No space left on device"]);
 }
 
 #[test]
@@ -308,6 +317,7 @@ fn a_huge_frame_range_is_never_materialised() {
 }
 
 /// The peak resident memory of `isoview args` in KiB (its own, from `wait4`); it must succeed.
+#[allow(clippy::zombie_processes)] // reaped by wait4, which also gives its rusage
 fn peak_rss_kib(args: &[&str]) -> i64 {
     let child = isoview().args(args).stdout(Stdio::null()).stderr(Stdio::null()).spawn().unwrap();
     let pid = child.id() as libc::pid_t;

@@ -233,6 +233,19 @@ fn fifos_and_devices_are_refused_as_outputs() {
 }
 
 #[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn each_frame_is_checked_before_it_is_drawn() {
+    let dir = scratch("rio-frame-check");
+    let scene = write(&dir, "s.toml", SPHERE);
+    std::fs::create_dir(dir.join("f0004.exr")).unwrap();
+    let pattern = dir.join("f####.exr").display().to_string();
+    let o = isoview_output(&["render", &scene, "-o", &pattern, "--frames", "3..5"]);
+    assert_fails(&o, 2, &["f0004.exr: is a directory"]);
+    assert!(isoview::output::exr::read(&dir.join("f0003.exr")).is_ok());
+    assert!(dir.join("f0004.exr").is_dir() && !dir.join("f0005.exr").exists());
+}
+
+#[test]
 fn the_longest_legal_output_names_can_be_written() {
     let dir = scratch("rio-long");
     let scene = write(&dir, "s.toml", SPHERE);

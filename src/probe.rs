@@ -28,13 +28,16 @@ pub struct PixelProbe {
 
 /// Parses `X,Y` (a pixel of a `width` × `height` image); the error is the CLI's message.
 pub fn parse_pixel(s: &str, width: u32, height: u32) -> Result<(u32, u32), String> {
-    let (x, y) = s.split_once(',').ok_or_else(|| format!("--pixel {s}: expected X,Y"))?;
+    let shown = crate::vocab::echo(s);
+    let (x, y) = s.split_once(',').ok_or_else(|| format!("--pixel {shown}: expected X,Y"))?;
     let parse = |v: &str| {
-        v.trim().parse::<u32>().map_err(|_| format!("--pixel {s}: `{v}` is not a pixel index"))
+        v.trim().parse::<u32>().map_err(|_| {
+            format!("--pixel {shown}: `{}` is not a pixel index", crate::vocab::echo(v))
+        })
     };
     let (x, y) = (parse(x)?, parse(y)?);
     if x >= width || y >= height {
-        return Err(format!("--pixel {s}: outside the {width}x{height} image"));
+        return Err(format!("--pixel {shown}: outside the {width}x{height} image"));
     }
     Ok((x, y))
 }

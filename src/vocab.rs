@@ -354,3 +354,71 @@ impl Clip {
         out
     }
 }
+
+/// How a message quotes a value the user wrote (a `--set`, an argument, a scene value):
+/// control characters escaped (`\n`, `\u{1b}`: a message stays one line and cannot drive
+/// the terminal) and, past [`ECHO_CHARS`] characters, cut with `…` (a 10 MB value does not
+/// become a 10 MB message). Every message that repeats a user's value passes it through here.
+pub fn echo(value: &str) -> String {
+    let mut out = String::new();
+    for (n, c) in value.chars().enumerate() {
+        if n == ECHO_CHARS {
+            out.push('…');
+            break;
+        }
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// How many characters of a user's value [`echo`] keeps.
+pub const ECHO_CHARS: usize = 60;
+
+/// What a file that is not a regular file is, for messages ("a FIFO (named pipe)", "a
+/// directory"); None for a regular file. Outputs ([`crate::output::guard`]) and scene files
+/// must be regular files.
+pub fn special_file(meta: &std::fs::Metadata) -> Option<&'static str> {
+    let t = meta.file_type();
+    if t.is_file() {
+        return None;
+    }
+    if t.is_dir() {
+        return Some("a directory");
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_fifo() {
+            return Some("a FIFO (named pipe)");
+        }
+        if t.is_char_device() {
+            return Some("a character device");
+        }
+        if t.is_block_device() {
+            return Some("a block device");
+        }
+        if t.is_socket() {
+            return Some("a socket");
+        }
+    }
+    Some("a special file")
+}
+
+#[cfg(test)]
+mod echo_tests {
+    use super::*;
+
+    #[test]
+    fn echo_escapes_and_cuts() {
+        assert_eq!(echo("render.steps=64"), "render.steps=64");
+        assert_eq!(echo("a\nb\r\tc\u{1b}[2J"), "a\\nb\\r\\tc\\u{1b}[2J");
+        let long = "x".repeat(10_000_000);
+        let e = echo(&long);
+        assert_eq!(e, format!("{}…", "x".repeat(ECHO_CHARS)));
+        assert_eq!(echo(&"é".repeat(ECHO_CHARS)), "é".repeat(ECHO_CHARS));
+    }
+}

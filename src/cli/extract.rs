@@ -33,6 +33,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
+use super::console::{note, say};
 use super::{Cli, Failure};
 use crate::field::mapped::MappedGrid;
 use crate::field::Grid;
@@ -139,6 +140,7 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     let (backend, vulkan_device) =
         resolve_device(cli.device.as_deref(), cli.device_from_command_line, env.as_deref());
     let scene = super::load_scene(&args.scene, &args.sets)?;
+    super::check_output("-o", &args.output, &scene)?;
     #[cfg(feature = "mpi")]
     if let Some(w) = ranks {
         if let Some(why) = w.refuses_extract(&scene, backend == Backend::Gpu) {
@@ -247,7 +249,7 @@ fn write_meshes(
     .map_err(Failure::input)?;
 
     if args.stats {
-        println!("{}", stats::compute(&mesh));
+        say!("{}", stats::compute(&mesh))?;
     }
     let what = Summary { scene, ran_on, why, started, samples };
     report(args, what, (mesh.vertex_count(), mesh.triangle_count()), elapsed);
@@ -258,8 +260,8 @@ fn write_meshes(
 /// and triangles extracted in `elapsed` ms.
 fn report(args: &ExtractArgs, what: Summary, size: (usize, usize), elapsed: f64) {
     let Summary { scene, ran_on, why, samples, .. } = what;
-    eprintln!(
-        "isoview: {} vertices, {} triangles ({} on {}{why}) in {elapsed:.0} ms -> {}",
+    note!(
+        "{} vertices, {} triangles ({} on {}{why}) in {elapsed:.0} ms -> {}",
         size.0,
         size.1,
         scene.render.mesh.name(),
@@ -267,8 +269,8 @@ fn report(args: &ExtractArgs, what: Summary, size: (usize, usize), elapsed: f64)
         args.output.display()
     );
     if let (0, Some((lo, hi))) = (size.1, samples.map(Grid::range)) {
-        eprintln!(
-            "isoview: note: the mesh is empty: no grid edge crosses isovalue {} (samples span \
+        note!(
+            "note: the mesh is empty: no grid edge crosses isovalue {} (samples span \
              [{lo}, {hi}])",
             scene.surface.isovalue
         );
@@ -369,7 +371,7 @@ fn extract_streamed(
         let mut triangles = stats::TriangleFile(read);
         let pass = stats::pass_size(3 * nt);
         let s = stats::compute_from(&positions, &mut triangles, pass).map_err(read_error)?;
-        println!("{s}");
+        say!("{s}")?;
     }
     let what = Summary { scene, ran_on: Backend::Cpu, why, started, samples: Some(grid) };
     report(args, what, (nv, nt), elapsed);
@@ -625,7 +627,7 @@ fn extract_gpu(
     job: &Job,
 ) -> Result<(Mesh, Backend), Failure> {
     if job.opts.keep_quads {
-        eprintln!("isoview: note: --quads extracts on the CPU (the GPU extraction has no quads)");
+        note!("note: --quads extracts on the CPU (the GPU extraction has no quads)");
         return Ok((extract_cpu(job)?, Backend::Cpu));
     }
     extract_on(open_context(cli, vulkan_device)?, job)
@@ -636,8 +638,8 @@ fn extract_gpu(
 fn extract_on(ctx: Arc<crate::gpu::Context>, job: &Job) -> Result<(Mesh, Backend), Failure> {
     let Job { scene, grid, opts, budget, .. } = *job;
     if !scene.render.mesh.on_gpu(&scene.render.sharp) {
-        eprintln!(
-            "isoview: note: {} is extracted on the CPU (no GPU extraction passes for it{})",
+        note!(
+            "note: {} is extracted on the CPU (no GPU extraction passes for it{})",
             scene.render.mesh.name(),
             if scene.render.mesh == crate::scene::MeshAlgorithm::DualContouringQef {
                 " with hermite = \"source\" or mesh_error"
@@ -648,8 +650,8 @@ fn extract_on(ctx: Arc<crate::gpu::Context>, job: &Job) -> Result<(Mesh, Backend
         return Ok((extract_cpu(job)?, Backend::Cpu));
     }
     if scene.render.mesh == crate::scene::MeshAlgorithm::Mc33 && !ctx.info.float64 {
-        eprintln!(
-            "isoview: note: mc33 is extracted on the CPU ({} has no 64-bit floats, which the \
+        note!(
+            "note: mc33 is extracted on the CPU ({} has no 64-bit floats, which the \
              GPU mc33 passes need)",
             ctx.info.name
         );

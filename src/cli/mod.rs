@@ -4,6 +4,7 @@
 //! failure. Errors are one line on stderr, never a panic.
 
 pub mod compare;
+pub mod console;
 pub mod extract;
 pub mod probe;
 pub mod render;
@@ -17,6 +18,7 @@ use clap::parser::ValueSource;
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 use crate::gpu::{Context, ContextOptions, GpuError};
+use console::{note, say};
 
 /// Exit status for bad input (arguments, scene, data file).
 pub const EXIT_INPUT: i32 = 2;
@@ -37,10 +39,18 @@ impl Failure {
     pub fn gpu(message: impl std::fmt::Display) -> Self {
         Failure { code: EXIT_GPU, message: message.to_string() }
     }
+    /// Not a failure: stdout's reader has gone, so the verb stops quietly with exit status 0
+    /// (see [`console`]). It travels as a `Failure` so that `?` ends the verb where it prints.
+    pub fn stopped() -> Self {
+        Failure { code: 0, message: String::new() }
+    }
 
-    /// Prints the one line on stderr; returns the exit status.
+    /// Prints the one line on stderr (nothing for [`Failure::stopped`]); returns the exit
+    /// status.
     fn report(&self) -> i32 {
-        eprintln!("isoview: {}", self.message);
+        if !self.message.is_empty() {
+            note!("{}", self.message);
+        }
         self.code
     }
 }
@@ -152,51 +162,78 @@ fn refuse_on_ranks(w: &crate::cluster::World, why: String) -> i32 {
 pub fn load_scene(path: &std::path::Path, sets: &[String]) -> Result<crate::scene::Scene, Failure> {
     let scene = crate::scene::load(path, sets).map_err(Failure::input)?;
     if let Some(how) = scene.surface.rule.describe(scene.surface.isovalue) {
-        eprintln!("isoview: {how}");
+        note!("{how}");
     }
     Ok(scene)
+}
+
+/// The files a run over `scene` reads, with what each is: the scene file and its data files.
+/// No output may be one of them ([`check_output`]).
+pub fn scene_inputs(scene: &crate::scene::Scene) -> Vec<(&'static str, &std::path::Path)> {
+    let mut inputs = Vec::new();
+    if let Some(p) = &scene.path {
+        inputs.push(("the scene file", p.as_path()));
+    }
+    if let Some(p) = scene.field.source.data_path() {
+        inputs.push(("the scene's field.path", p));
+    }
+    if let Some(p) = scene.field2.as_ref().and_then(|f| f.source.data_path()) {
+        inputs.push(("the scene's field2.path", p));
+    }
+    inputs
+}
+
+/// Refuses to write `path` (given as `flag`) when it is one of `scene`'s inputs or not a
+/// regular file (the rule: [`crate::output::guard`]).
+pub fn check_output(
+    flag: &str,
+    path: &std::path::Path,
+    scene: &crate::scene::Scene,
+) -> Result<(), Failure> {
+    crate::output::guard::check(flag, path, &scene_inputs(scene)).map_err(Failure::input)
 }
 
 fn info(cli: &Cli) -> Result<i32, Failure> {
     let ctx = cli.gpu()?;
     let i = &ctx.info;
     let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
-    println!("isoview {}", crate::VERSION);
-    println!("device                 {} ({})", i.name, i.device_type);
-    println!("driver                 {} {}", i.driver_name, i.driver_info);
-    println!("Vulkan                 {}", i.api_version);
-    println!("device-local memory    {:.0} MiB", mib(i.device_local_heap));
-    println!("max allocation         {:.0} MiB", mib(i.max_memory_allocation_size));
-    println!(
+    say!("isoview {}", crate::VERSION)?;
+    say!("device                 {} ({})", i.name, i.device_type)?;
+    say!("driver                 {} {}", i.driver_name, i.driver_info)?;
+    say!("Vulkan                 {}", i.api_version)?;
+    say!("device-local memory    {:.0} MiB", mib(i.device_local_heap))?;
+    say!("max allocation         {:.0} MiB", mib(i.max_memory_allocation_size))?;
+    say!(
         "max storage buffer     {:.0} MiB (pixel buffers are split into bands below this)",
         mib(i.max_storage_buffer_range)
-    );
-    println!("max 3D image           {} per axis (largest grid)", i.max_image_dimension_3d);
-    println!(
+    )?;
+    say!("max 3D image           {} per axis (largest grid)", i.max_image_dimension_3d)?;
+    say!(
         "max workgroups         {:?}, {} invocations per group",
-        i.max_compute_work_group_count, i.max_compute_work_group_invocations
-    );
-    println!("push constants         {} bytes", i.max_push_constants_size);
-    println!(
+        i.max_compute_work_group_count,
+        i.max_compute_work_group_invocations
+    )?;
+    say!("push constants         {} bytes", i.max_push_constants_size)?;
+    say!(
         "timestamps             {}",
         if i.timestamps {
             format!("yes, {} ns per tick", i.timestamp_period_ns)
         } else {
             "no".into()
         }
-    );
-    println!(
+    )?;
+    say!(
         "64-bit buffer atomics  {}",
         if i.int64_atomics {
             "yes (render.method = \"mesh\" works)"
         } else {
             "no (no mesh render)"
         }
-    );
-    println!(
+    )?;
+    say!(
         "64-bit floats          {}",
         if i.float64 { "yes (mc33 extracts on the GPU)" } else { "no (mc33 extracts on the CPU)" }
-    );
-    println!("validation             {}", if cli.validation { "on" } else { "off" });
+    )?;
+    say!("validation             {}", if cli.validation { "on" } else { "off" })?;
     Ok(0)
 }

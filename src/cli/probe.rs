@@ -6,6 +6,7 @@
 
 use std::path::PathBuf;
 
+use super::console::say;
 use super::{Cli, Failure};
 use crate::probe::PixelProbe;
 use crate::scene::{self, Scene};
@@ -50,9 +51,9 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
         let probe = PixelProbe::new(&scene, &grid, px, py);
         if args.json {
             let report = probe.json(&scene, &name);
-            println!("{}", serde_json::to_string_pretty(&report).map_err(Failure::input)?);
+            say!("{}", serde_json::to_string_pretty(&report).map_err(Failure::input)?)?;
         } else {
-            print_probe(&scene, &probe, px, py);
+            print_probe(&scene, &probe, px, py)?;
         }
         return Ok(0);
     }
@@ -81,57 +82,57 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
             "shown_surface": shown.map(|(k, _)| k),
             "surfaces": surfaces,
         });
-        println!("{}", serde_json::to_string_pretty(&report).map_err(Failure::input)?);
+        say!("{}", serde_json::to_string_pretty(&report).map_err(Failure::input)?)?;
         return Ok(0);
     }
     for (k, (one, p)) in probes.iter().enumerate() {
-        println!(
-            "=== surface {k} of {} (isovalue {}) ===",
-            scene.surface.count, one.surface.isovalue
-        );
-        print_probe(one, p, px, py);
-        println!();
+        say!("=== surface {k} of {} (isovalue {}) ===", scene.surface.count, one.surface.isovalue)?;
+        print_probe(one, p, px, py)?;
+        say!()?;
     }
     match shown {
-        Some((k, t)) => println!("shown: surface {k} (the nearest exact hit, t = {t:.9})"),
-        None => println!("shown: nothing (no surface is hit)"),
+        Some((k, t)) => say!("shown: surface {k} (the nearest exact hit, t = {t:.9})")?,
+        None => say!("shown: nothing (no surface is hit)")?,
     }
     Ok(0)
 }
 
 /// The text report of one surface's probe.
-fn print_probe(scene: &Scene, probe: &PixelProbe, px: u32, py: u32) {
+fn print_probe(scene: &Scene, probe: &PixelProbe, px: u32, py: u32) -> Result<(), Failure> {
     let PixelProbe { origin, dir, options: opts, exact, visits, fixed, .. } = probe;
     let distance = probe.hit_distance();
     let (iso, inside) = (scene.surface.isovalue, scene.surface.inside);
 
-    println!(
+    say!(
         "pixel ({px}, {py}) of {}x{}, isovalue {iso}, inside {inside:?}",
-        scene.image.width, scene.image.height
-    );
-    println!("ray    origin {:.6}  direction {:.6}", origin, dir);
+        scene.image.width,
+        scene.image.height
+    )?;
+    say!("ray    origin {:.6}  direction {:.6}", origin, dir)?;
     match exact.span {
-        Some((a, b)) => println!("box    t in [{a:.6}, {b:.6}]"),
-        None => println!("box    the ray misses the grid box"),
+        Some((a, b)) => say!("box    t in [{a:.6}, {b:.6}]")?,
+        None => say!("box    the ray misses the grid box")?,
     }
-    println!();
-    println!(
+    say!()?;
+    say!(
         "analytic (newton_steps = {}): {} crossing(s), {} cell(s) visited",
-        opts.newton_steps, exact.crossings, exact.cells_visited
-    );
+        opts.newton_steps,
+        exact.crossings,
+        exact.cells_visited
+    )?;
     for v in visits {
         let c = &v.corners;
-        println!(
+        say!(
             "  cell {:?}  t [{:.6}, {:.6}]  corners v000 {:.5} v100 {:.5} v010 {:.5} v110 {:.5} v001 {:.5} v101 {:.5} v011 {:.5} v111 {:.5}",
             v.cell, v.t_in, v.t_out, c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]
-        );
+        )?;
         let k = v.coefficients;
-        println!("    g(u) = f - iso = {:.6e} + {:.6e} u + {:.6e} u^2 + {:.6e} u^3, u in [0,1] over the segment", k[0], k[1], k[2], k[3]);
+        say!("    g(u) = f - iso = {:.6e} + {:.6e} u + {:.6e} u^2 + {:.6e} u^3, u in [0,1] over the segment", k[0], k[1], k[2], k[3])?;
         if !v.derivative_roots.is_empty() {
-            println!("    g'(u) = 0 at u = {:?}", v.derivative_roots);
+            say!("    g'(u) = 0 at u = {:?}", v.derivative_roots)?;
         }
         for r in &v.roots {
-            println!(
+            say!(
                 "    crossing #{}: u = {:.9} t = {:.9} ({}){}  bracket [{:.6}, {:.6}]  Newton iterates {:?}",
                 r.crossing,
                 r.u,
@@ -141,40 +142,42 @@ fn print_probe(scene: &Scene, probe: &PixelProbe, px: u32, py: u32) {
                 r.bracket.0,
                 r.bracket.1,
                 r.iterates
-            );
+            )?;
         }
     }
     match &exact.hit {
-        Some(h) => println!(
+        Some(h) => say!(
             "  hit: t = {:.9}  position {:.6}  normal {:.6}  cell {:?}",
-            h.t, h.position, h.normal, h.cell
-        ),
-        None => println!("  no hit"),
+            h.t,
+            h.position,
+            h.normal,
+            h.cell
+        )?,
+        None => say!("  no hit")?,
     }
-    println!();
-    println!("fixed-step (steps = {}): {} sample(s) taken", scene.render.steps, fixed.steps);
+    say!()?;
+    say!("fixed-step (steps = {}): {} sample(s) taken", scene.render.steps, fixed.steps)?;
     match &fixed.hit {
-        Some(h) => println!(
-            "  first crossing: t = {:.9}  position {:.6}  cell {:?}",
-            h.t, h.position, h.cell
-        ),
-        None => println!(
-            "  no crossing found (closest sample is {:.3e} from the isovalue)",
-            fixed.margin
-        ),
+        Some(h) => {
+            say!("  first crossing: t = {:.9}  position {:.6}  cell {:?}", h.t, h.position, h.cell)?
+        }
+        None => {
+            say!("  no crossing found (closest sample is {:.3e} from the isovalue)", fixed.margin)?
+        }
     }
-    println!();
+    say!()?;
     match (&exact.hit, &fixed.hit, distance) {
-        (Some(a), Some(f), Some(d)) => println!(
+        (Some(a), Some(f), Some(d)) => say!(
             "difference: |t_fixed - t_analytic| = {:.3e}, positions {d:.3e} apart",
             (f.t - a.t).abs()
-        ),
+        )?,
         (Some(_), None, _) => {
-            println!("difference: fixed-step MISSES a surface that the exact trace hits")
+            say!("difference: fixed-step MISSES a surface that the exact trace hits")?
         }
         (None, Some(_), _) => {
-            println!("difference: fixed-step reports a crossing the exact trace does not")
+            say!("difference: fixed-step reports a crossing the exact trace does not")?
         }
-        _ => println!("difference: both miss"),
+        _ => say!("difference: both miss")?,
     }
+    Ok(())
 }

@@ -4,12 +4,14 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use super::console::note;
 use super::{Cli, Failure};
 use crate::frame::{Channel, FrameInfo, Pixel};
 use crate::output;
 use crate::passes::Band;
 use crate::render::{FrameSink, GpuGrid, RenderError, Renderer};
 use crate::scene::Scene;
+use crate::vocab::echo;
 
 #[derive(clap::Args, Debug)]
 pub struct RenderArgs {
@@ -42,14 +44,17 @@ pub struct RenderArgs {
 
 /// Parses `A..B` (or `A..=B`), inclusive, A <= B.
 pub fn parse_frames(s: &str) -> Result<(i64, i64), String> {
+    let bad = |why: String| format!("--frames {}: {why}", echo(s));
     let (a, b) = s
         .split_once("..=")
         .or_else(|| s.split_once(".."))
-        .ok_or_else(|| format!("--frames {s}: expected A..B, e.g. 1..48"))?;
-    let a: i64 = a.trim().parse().map_err(|_| format!("--frames {s}: `{a}` is not an integer"))?;
-    let b: i64 = b.trim().parse().map_err(|_| format!("--frames {s}: `{b}` is not an integer"))?;
+        .ok_or_else(|| bad("expected A..B, e.g. 1..48".into()))?;
+    let int = |v: &str| {
+        v.trim().parse::<i64>().map_err(|_| bad(format!("`{}` is not an integer", echo(v))))
+    };
+    let (a, b) = (int(a)?, int(b)?);
     if a > b {
-        return Err(format!("--frames {s}: the first frame is after the last"));
+        return Err(bad("the first frame is after the last".into()));
     }
     Ok((a, b))
 }
@@ -86,23 +91,9 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
     if !args.time.is_finite() {
         return Err(Failure::input(format!("--time {}: must be a finite number", args.time)));
     }
+    let range = args.frames.as_deref().map(parse_frames).transpose().map_err(Failure::input)?;
     let scene = super::load_scene(&args.scene, &args.sets)?;
-    let frames = match &args.frames {
-        Some(f) => {
-            let (a, b) = parse_frames(f).map_err(Failure::input)?;
-            let mut jobs = Vec::new();
-            for n in a..=b {
-                let exr = frame_path(&args.output, n).map_err(Failure::input)?;
-                let png = match &args.png {
-                    Some(p) => Some(frame_path(p, n).map_err(Failure::input)?),
-                    None => None,
-                };
-                jobs.push((n as f64 / args.fps, exr, png));
-            }
-            jobs
-        }
-        None => vec![(args.time, args.output.clone(), args.png.clone())],
-    };
+    let frames = Frames { args, range };
 
     // Under mpirun with more than one rank: the grid is split (`cluster`), rank 0 writes.
     #[cfg(feature = "mpi")]
@@ -114,6 +105,20 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
             return Ok(super::refuse_on_ranks(w, why));
         }
     }
+    // An output that may not be written (an input, a special file): under MPI every rank
+    // meets it alike and rank 0 says it.
+    let refused = |f: Failure| -> Result<i32, Failure> {
+        #[cfg(feature = "mpi")]
+        if let Some(w) = &world {
+            return Ok(super::refuse_on_ranks(w, f.message));
+        }
+        Err(f)
+    };
+    // The first frame's names are checked before the device opens, so that a bad pattern or
+    // a refused output fails at once.
+    if let Err(f) = frames.job(*frames.numbers().start()).and_then(|job| job.check(&scene)) {
+        return refused(f);
+    }
     #[cfg(feature = "mpi")]
     let rank0 = world.as_ref().map_or(true, |w| w.rank() == 0);
     #[cfg(not(feature = "mpi"))]
@@ -121,8 +126,8 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
 
     let ctx = cli.gpu()?;
     let mut renderer = Renderer::new(&ctx).map_err(Failure::gpu)?;
-    let progress = (frames.len() > 1 && rank0).then(|| {
-        let bar = indicatif::ProgressBar::new(frames.len() as u64);
+    let progress = (frames.count() > 1 && rank0).then(|| {
+        let bar = indicatif::ProgressBar::new(frames.count());
         bar.set_style(
             indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} frames, {eta} left")
                 .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
@@ -144,11 +149,18 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         let pooled = crate::render::pool::upload_for(&ctx, &scene, &mapped, &limits)
             .map_err(pool_failure)?;
         if rank0 {
-            eprintln!("isoview: {}", pooled.summary);
+            note!("{}", pooled.summary);
         }
         cached = Some((pooled.shape, pooled.gpu));
     }
-    for (time, exr, png) in &frames {
+    // The first failure to reach tev; the frames are still drawn and written.
+    let mut tev_failed: Option<output::tev::TevError> = None;
+    for n in frames.numbers() {
+        let job = frames.job(n)?;
+        if let Err(f) = job.check(&scene) {
+            return refused(f);
+        }
+        let Job { time, exr, png } = job;
         let started = Instant::now();
         // Under MPI a raw or npy file is mapped and each rank reads only its block.
         #[cfg(feature = "mpi")]
@@ -160,7 +172,7 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
                 let values = match m.read_finite(block.origin, block.extent) {
                     Ok(values) => values,
                     Err(e) => {
-                        eprintln!("isoview: rank {}: {e}", w.rank());
+                        note!("rank {}: {e}", w.rank());
                         w.abort(super::EXIT_INPUT);
                     }
                 };
@@ -168,7 +180,7 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
             }
         }
         if cached.is_none() || scene.field.is_time_varying() {
-            let grid = scene.field.sample(*time).map_err(Failure::input)?;
+            let grid = scene.field.sample(time).map_err(Failure::input)?;
             #[cfg(feature = "mpi")]
             let uploaded = match &world {
                 Some(w) => w.upload(&ctx, &grid)?,
@@ -179,15 +191,22 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
             cached = Some((grid, uploaded));
         }
         let (grid, gpu_grid) = cached.as_ref().expect("sampled above");
-        // With --tev, tev shows each band as it finishes (CreateImage first).
-        let tev = match &args.tev {
-            Some(address) => Some(open_tev(address, exr, &scene)?),
-            None => None,
+        // With --tev, tev shows each band as it finishes (CreateImage first). Once tev has
+        // failed it is not tried again; the failure is reported after the last frame.
+        let tev = match (&args.tev, &tev_failed) {
+            (Some(address), None) => match open_tev(address, &exr, &scene) {
+                Ok(image) => Some(image),
+                Err(e) => {
+                    tev_failed = Some(e);
+                    None
+                }
+            },
+            _ => None,
         };
         // Each band goes to the EXR, the PNG and tev as it is drawn; none is kept.
         let mut outputs = Outputs {
             channels: crate::render::scene_channels(&scene),
-            exr_path: exr,
+            exr_path: &exr,
             png_path: png.as_deref(),
             rule: scene.surface.rule.describe(scene.surface.isovalue),
             exr: None,
@@ -203,32 +222,41 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         let drawn = match &world {
             Some(w) => {
                 let mut sink = crate::cluster::Composite::new(w, rank0.then_some(&mut outputs));
-                let drawn = renderer.render_to(&scene, grid, gpu_grid, *time, &mut sink);
+                let drawn = renderer.render_to(&scene, grid, gpu_grid, time, &mut sink);
                 if let Err(e) = drawn {
                     // The other ranks wait in a collective: end them all.
                     let f = render_failure(e);
-                    eprintln!("isoview: rank {}: {}", w.rank(), f.message);
+                    note!("rank {}: {}", w.rank(), f.message);
                     w.abort(f.code);
                 }
                 let ms = sink.compositing.as_secs_f64() * 1e3;
                 split = format!(", {} MPI ranks, compositing {ms:.0} ms", w.size());
                 Ok(())
             }
-            None => renderer.render_to(&scene, grid, gpu_grid, *time, &mut outputs),
+            None => renderer.render_to(&scene, grid, gpu_grid, time, &mut outputs),
         };
         #[cfg(not(feature = "mpi"))]
-        let drawn = renderer.render_to(&scene, grid, gpu_grid, *time, &mut outputs);
+        let drawn = renderer.render_to(&scene, grid, gpu_grid, time, &mut outputs);
         if let Some(e) = outputs.tev_error.take() {
-            return Err(Failure::input(e));
+            tev_failed.get_or_insert(e);
         }
         drawn.map_err(render_failure)?;
         let (width, height) = outputs.size;
         outputs.finish()?;
+        // Memory stays bounded over any number of frames (see `release_pipelines`): every
+        // RELEASE_EVERY frames, so that rebuilding the pipelines (tens of ms on lavapipe) costs
+        // little per frame.
+        let done = n.abs_diff(*frames.numbers().start()) + 1;
+        if done % RELEASE_EVERY == 0 && n != *frames.numbers().end() {
+            renderer.release_pipelines();
+        }
         match &progress {
             _ if !rank0 => {}
             Some(bar) => bar.inc(1),
-            None => eprintln!(
-                "isoview: {}x{} {} on {} in {:.0} ms{}{split} -> {}",
+            // The failure's line ends the run instead (one line for a failed run).
+            None if tev_failed.is_some() => {}
+            None => note!(
+                "{}x{} {} on {} in {:.0} ms{}{split} -> {}",
                 width,
                 height,
                 scene.render.method.name(),
@@ -242,7 +270,70 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
     if let Some(bar) = progress {
         bar.finish();
     }
-    Ok(0)
+    match tev_failed {
+        // README: nobody listening is one line naming the address, exit 2, after the files
+        // are written (the files are what the render is for; tev only shows them).
+        Some(e) => Err(Failure::input(format!("{e}; the render's files were written"))),
+        None => Ok(0),
+    }
+}
+
+/// How many frames a [`Renderer`] draws before its pipelines are rebuilt (at most about 1 MiB
+/// a frame is held until then on lavapipe; see `Renderer::release_pipelines`).
+const RELEASE_EVERY: u64 = 16;
+
+/// The frames of a run (`--frames A..B`, or the one frame at `--time`), made one at a time
+/// as the loop reaches them: never collected, so a range of four billion frames costs
+/// nothing before its frames are drawn, and memory does not grow with the range.
+struct Frames<'a> {
+    args: &'a RenderArgs,
+    /// `--frames`, inclusive.
+    range: Option<(i64, i64)>,
+}
+
+/// One frame to draw: its time and output names.
+struct Job {
+    time: f64,
+    exr: PathBuf,
+    png: Option<PathBuf>,
+}
+
+impl Frames<'_> {
+    fn count(&self) -> u64 {
+        self.range.map_or(1, |(a, b)| {
+            u64::try_from(i128::from(b) - i128::from(a) + 1).unwrap_or(u64::MAX)
+        })
+    }
+
+    /// The frame numbers, in order (the single frame: 0, unused).
+    fn numbers(&self) -> std::ops::RangeInclusive<i64> {
+        self.range.map_or(0..=0, |(a, b)| a..=b)
+    }
+
+    /// Frame `n`'s time and output names.
+    fn job(&self, n: i64) -> Result<Job, Failure> {
+        let args = self.args;
+        if self.range.is_none() {
+            return Ok(Job { time: args.time, exr: args.output.clone(), png: args.png.clone() });
+        }
+        let exr = frame_path(&args.output, n).map_err(Failure::input)?;
+        let png = match &args.png {
+            Some(p) => Some(frame_path(p, n).map_err(Failure::input)?),
+            None => None,
+        };
+        Ok(Job { time: n as f64 / args.fps, exr, png })
+    }
+}
+
+impl Job {
+    /// Refuses outputs that are the scene's inputs or special files.
+    fn check(&self, scene: &Scene) -> Result<(), Failure> {
+        super::check_output("-o", &self.exr, scene)?;
+        match &self.png {
+            Some(png) => super::check_output("--png", png, scene),
+            None => Ok(()),
+        }
+    }
 }
 
 fn pool_failure(e: crate::render::pool::PoolError) -> Failure {
@@ -318,9 +409,10 @@ impl FrameSink for Outputs<'_> {
         }
         if let Some(image) = &mut self.tev {
             if let Err(e) = image.send_rows(band.row_offset, pixels) {
-                // Stops the render; `run` reports it (exit 2) and writes no file.
+                // tev is only a view: the render goes on and its files are written; `run`
+                // reports the failure after the last frame (exit 2).
                 self.tev_error = Some(e);
-                return Err(RenderError::Cancelled);
+                self.tev = None;
             }
         }
         Ok(())
@@ -329,11 +421,14 @@ impl FrameSink for Outputs<'_> {
 
 /// Opens the tev image of the render to `exr`: named as the file, with the channels the EXR
 /// will have.
-fn open_tev(address: &str, exr: &Path, scene: &Scene) -> Result<output::tev::TevImage, Failure> {
+fn open_tev(
+    address: &str,
+    exr: &Path,
+    scene: &Scene,
+) -> Result<output::tev::TevImage, output::tev::TevError> {
     let channels = crate::render::scene_channels(scene);
     let name = exr.display().to_string();
     output::tev::TevImage::open(address, &name, scene.image.width, scene.image.height, channels)
-        .map_err(Failure::input)
 }
 
 #[cfg(test)]

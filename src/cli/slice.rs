@@ -7,10 +7,12 @@ use std::time::Instant;
 use glam::DVec2;
 use serde_json::{json, Value};
 
+use super::console::{note, say};
 use super::{Cli, Failure};
 use crate::render::GpuGrid;
 use crate::scene;
 use crate::slice::{self, export, Axis, PlaneGrid, SliceRenderer};
+use crate::vocab::echo;
 
 #[derive(clap::Args, Debug)]
 pub struct SliceArgs {
@@ -71,6 +73,12 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
         return Err(Failure::input(format!("--time {}: must be a finite number", args.time)));
     }
     let scene = super::load_scene(&args.scene, &args.sets)?;
+    super::check_output("-o", &args.output, &scene)?;
+    for (p, flag) in [(&args.png, "--png"), (&args.json, "--json"), (&args.svg, "--svg")] {
+        if let Some(p) = p {
+            super::check_output(flag, p, &scene)?;
+        }
+    }
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let slice::Planned { plane, mut set, style } =
         slice::plan(&scene, &grid, args.axis, args.at, args.time).map_err(Failure::input)?;
@@ -120,8 +128,8 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
             .map_err(Failure::input)?;
     }
     let (closed, open) = set.counts();
-    eprintln!(
-        "isoview: slice {} = {} ({}x{} px): {closed} closed and {open} open contour(s), {} \
+    note!(
+        "slice {} = {} ({}x{} px): {closed} closed and {open} open contour(s), {} \
          ambiguous cell(s) by \"{}\" ({} joined){} on {} in {:.0} ms -> {}",
         plane.axis.name(),
         plane.at,
@@ -144,7 +152,7 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
 
 /// Parses `--slice z=C`.
 fn parse_slice(s: &str) -> Result<(Axis, f64), String> {
-    let bad = || format!("--slice {s}: expected AXIS=C, e.g. z=0.25");
+    let bad = || format!("--slice {}: expected AXIS=C, e.g. z=0.25", echo(s));
     let (a, c) = s.split_once('=').ok_or_else(bad)?;
     let axis = Axis::parse(a).ok_or_else(bad)?;
     let c: f64 = c.trim().parse().map_err(|_| bad())?;
@@ -160,9 +168,9 @@ fn parse_segment(s: &str) -> Result<(DVec2, DVec2), String> {
         .split(',')
         .map(|x| x.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .map_err(|_| format!("--segment {s}: expected four numbers u0,v0,u1,v1"))?;
+        .map_err(|_| format!("--segment {}: expected four numbers u0,v0,u1,v1", echo(s)))?;
     if v.len() != 4 || v.iter().any(|x| !x.is_finite()) {
-        return Err(format!("--segment {s}: expected four finite numbers u0,v0,u1,v1"));
+        return Err(format!("--segment {}: expected four finite numbers u0,v0,u1,v1", echo(s)));
     }
     Ok((DVec2::new(v[0], v[1]), DVec2::new(v[2], v[3])))
 }
@@ -223,11 +231,11 @@ pub fn probe(
             "span": probe.span.map(|(t0, t1)| json!([t0, t1])),
             "cells": cells,
         });
-        println!("{}", serde_json::to_string_pretty(&report).map_err(Failure::input)?);
+        say!("{}", serde_json::to_string_pretty(&report).map_err(Failure::input)?)?;
         return Ok(0);
     }
 
-    println!(
+    say!(
         "slice {} = {at}: {u} right, {v} up; between grid layers {} and {} at {:.6}; isovalue \
          {iso}, inside {}",
         axis.name(),
@@ -235,32 +243,48 @@ pub fn probe(
         plane.layer + 1,
         plane.weight,
         inside.name()
-    );
-    println!("segment ({u}, {v}) from ({}, {}) to ({}, {}), t in [0, 1]", a.x, a.y, b.x, b.y);
+    )?;
+    say!("segment ({u}, {v}) from ({}, {}) to ({}, {}), t in [0, 1]", a.x, a.y, b.x, b.y)?;
     let Some((t0, t1)) = probe.span else {
-        println!(
+        say!(
             "the segment misses the plane's box ({u} {} .. {}, {v} {} .. {})",
-            plane.min.x, plane.max.x, plane.min.y, plane.max.y
-        );
+            plane.min.x,
+            plane.max.x,
+            plane.min.y,
+            plane.max.y
+        )?;
         return Ok(0);
     };
-    println!("inside the box for t in [{t0:.6}, {t1:.6}], {} cell(s)", probe.cells.len());
+    say!("inside the box for t in [{t0:.6}, {t1:.6}], {} cell(s)", probe.cells.len())?;
     let mut count = 0;
     for c in &probe.cells {
         let k = c.corners;
-        println!(
+        say!(
             "  cell [{}, {}]  t [{:.6}, {:.6}]  corners v00 {:.6} v10 {:.6} v01 {:.6} v11 {:.6}",
-            c.cell[0], c.cell[1], c.t.0, c.t.1, k[0], k[1], k[2], k[3]
-        );
+            c.cell[0],
+            c.cell[1],
+            c.t.0,
+            c.t.1,
+            k[0],
+            k[1],
+            k[2],
+            k[3]
+        )?;
         let q = c.quadratic;
-        println!(
+        say!(
             "    f - iso = {:.6e} + {:.6e} s + {:.6e} s^2, s in [0, 1] from local ({:.4}, {:.4}) \
              to ({:.4}, {:.4})",
-            q[0], q[1], q[2], c.local_in.x, c.local_in.y, c.local_out.x, c.local_out.y
-        );
+            q[0],
+            q[1],
+            q[2],
+            c.local_in.x,
+            c.local_in.y,
+            c.local_out.x,
+            c.local_out.y
+        )?;
         for r in &c.roots {
             count += 1;
-            println!(
+            say!(
                 "    root: s = {:.9}  t = {:.9}  at [{:.6}, {:.6}, {:.6}]  ({})",
                 r.s,
                 r.t,
@@ -268,10 +292,10 @@ pub fn probe(
                 placement.point_to_world(r.point).y,
                 placement.point_to_world(r.point).z,
                 r.kind.name()
-            );
+            )?;
         }
     }
-    println!("{count} root(s)");
+    say!("{count} root(s)")?;
     Ok(0)
 }
 

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use super::console::say;
 use super::{load_scene, Failure};
 use crate::field::stats::Stats;
 
@@ -40,16 +41,16 @@ pub fn run(args: &StatsArgs) -> Result<i32, Failure> {
     let f = &scene.field;
     let [nx, ny, nz] = grid.dims;
     let spacing = grid.spacing();
-    println!("field       {}", f.describe());
-    println!("dims        {nx} x {ny} x {nz} ({} points)", s.count);
-    println!("dtype       {}", f.source.dtype());
-    println!("spacing     {} {} {}", spacing.x, spacing.y, spacing.z);
+    say!("field       {}", f.describe())?;
+    say!("dims        {nx} x {ny} x {nz} ({} points)", s.count)?;
+    say!("dtype       {}", f.source.dtype())?;
+    say!("spacing     {} {} {}", spacing.x, spacing.y, spacing.z)?;
     let (lo, hi) = (grid.min, grid.max);
     if f.placement.is_identity() {
-        println!("box         [{}, {}, {}] .. [{}, {}, {}]", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z);
+        say!("box         [{}, {}, {}] .. [{}, {}, {}]", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z)?;
     } else {
         let a = f.placement.axes;
-        println!(
+        say!(
             "box         [{}, {}, {}] .. [{}, {}, {}] in the grid's frame, axes x {:.6} y {:.6} z \
              {:.6} about [{}, {}, {}]",
             lo.x,
@@ -64,21 +65,19 @@ pub fn run(args: &StatsArgs) -> Result<i32, Failure> {
             f.placement.pivot.x,
             f.placement.pivot.y,
             f.placement.pivot.z
-        );
+        )?;
     }
-    println!("range       {} .. {}", s.min, s.max);
-    println!("mean        {}", s.mean);
-    println!("sigma       {}", s.sigma);
+    say!("range       {} .. {}", s.min, s.max)?;
+    say!("mean        {}", s.mean)?;
+    say!("sigma       {}", s.sigma)?;
     let p: Vec<String> = PERCENTILES.iter().map(|&p| format!("p{p}={}", s.percentile(p))).collect();
-    println!("percentiles {}", p.join(" "));
+    say!("percentiles {}", p.join(" "))?;
     let iso = scene.surface.isovalue;
     match scene.surface.rule.describe(iso) {
-        Some(how) => println!("isovalue    {how}"),
-        None => {
-            println!("isovalue    {iso} (sigma {:+.3} from the mean)", (iso - s.mean) / s.sigma)
-        }
+        Some(how) => say!("isovalue    {how}")?,
+        None => say!("isovalue    {iso} (sigma {:+.3} from the mean)", (iso - s.mean) / s.sigma)?,
     }
-    println!("histogram   ({} bins over the range)", args.bins);
+    say!("histogram   ({} bins over the range)", args.bins)?;
     let counts = s.histogram(args.bins);
     let most = counts.iter().copied().max().unwrap_or(1).max(1);
     let width = (s.max - s.min) / args.bins as f64;
@@ -86,7 +85,7 @@ pub fn run(args: &StatsArgs) -> Result<i32, Failure> {
         let from = s.min + width * b as f64;
         let bar = "#".repeat((c * 50).div_ceil(most).min(50));
         let mark = if (from..from + width).contains(&iso) { " <- isovalue" } else { "" };
-        println!("  {from:>14.6e} {c:>10} {bar}{mark}");
+        say!("  {from:>14.6e} {c:>10} {bar}{mark}")?;
     }
     Ok(0)
 }

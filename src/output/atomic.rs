@@ -1,7 +1,7 @@
 //! Whole-or-nothing file writes.
 //!
 //! ```text
-//!   dir/.out.exr.<pid>.<n>.tmp   <- create_new, write, flush, fsync
+//!   dir/.out.exr.<pid>.<n>.tmp   <- create_new, write, flush, fsync (a hash for a long NAME)
 //!            |  rename (atomic on one filesystem)
 //!            v
 //!   dir/out.exr                  <- readers see the old file or the new one, never a mix
@@ -121,16 +121,34 @@ fn create_temp(path: &Path) -> Result<(File, PathBuf), OutputError> {
     let pid = std::process::id();
     loop {
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let mut temp_name = std::ffi::OsString::from(".");
-        temp_name.push(name);
-        temp_name.push(format!(".{pid}.{n}.tmp"));
-        let temp = dir.join(temp_name);
+        let temp = dir.join(temp_name(name, pid, n));
         match OpenOptions::new().write(true).create_new(true).open(&temp) {
             Ok(file) => return Ok((file, temp)),
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
             Err(e) => return Err(OutputError::io(path, "create", e)),
         }
     }
+}
+
+/// The longest file name most filesystems take (NAME_MAX on Linux, macOS and Windows).
+const MAX_NAME_BYTES: usize = 255;
+
+/// The temporary file's name for destination file name `name`: `.NAME.<pid>.<n>.tmp`, or,
+/// when that would be longer than [`MAX_NAME_BYTES`] (a legal name of 244 bytes or more),
+/// `.isoview.<hash of NAME>.<pid>.<n>.tmp`, so that every legal output name can be written.
+fn temp_name(name: &std::ffi::OsStr, pid: u32, n: u64) -> std::ffi::OsString {
+    let tail = format!(".{pid}.{n}.tmp");
+    let mut temp = std::ffi::OsString::from(".");
+    if 1 + name.len() + tail.len() <= MAX_NAME_BYTES {
+        temp.push(name);
+    } else {
+        use std::hash::{Hash, Hasher};
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        name.hash(&mut h);
+        temp.push(format!("isoview.{:016x}", h.finish()));
+    }
+    temp.push(tail);
+    temp
 }
 
 /// Removes the temporary file unless it was renamed into place.
@@ -219,6 +237,22 @@ mod tests {
         let p = dir.join("no/such/folder/a.txt");
         let msg = write_bytes(&p, b"x").unwrap_err().to_string();
         assert!(msg.contains("a.txt"), "{msg}");
+    }
+
+    #[test]
+    fn longest_legal_names_can_be_written() {
+        let dir = scratch("long");
+        for len in [240, 244, 250, 255] {
+            let name = format!("{}.exr", "n".repeat(len - 4));
+            let p = dir.join(&name);
+            write_bytes(&p, b"x").unwrap_or_else(|e| panic!("{len} bytes: {e}"));
+            assert_eq!(std::fs::read(&p).unwrap(), b"x");
+            write_bytes(&p, b"y").unwrap();
+            assert_eq!(std::fs::read(&p).unwrap(), b"y");
+        }
+        assert_eq!(entries(&dir).len(), 4, "no temporary file left");
+        let t = temp_name(std::ffi::OsStr::new(&"n".repeat(255)), u32::MAX, u64::MAX);
+        assert!(t.len() <= MAX_NAME_BYTES, "{t:?}");
     }
 
     #[test]

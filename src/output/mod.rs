@@ -10,6 +10,8 @@
 //! - [`exr_planes`]: named float channels written row by row (`compare --diff`), byte for
 //!   byte what [`exr::write_channels`] writes.
 //! - [`png`]: an 8-bit sRGB preview of the beauty (RGBA).
+//! - [`guard`]: the one rule for which paths a verb may write (never one of its inputs, never
+//!   a device, FIFO or socket), checked before writing.
 //! - [`tev`]: a frame sent to the tev HDR viewer over TCP (its remote-control protocol).
 
 pub mod atomic;
@@ -17,6 +19,7 @@ pub mod exr;
 mod exr_blocks;
 pub mod exr_planes;
 pub mod exr_stream;
+pub mod guard;
 pub mod legend;
 pub mod png;
 pub mod tev;
@@ -73,6 +76,10 @@ pub enum OutputError {
     /// The data to write, or the file read, is not what it should be (the reason says how).
     #[error("{}: {reason}", path.display())]
     Invalid { path: PathBuf, reason: String },
+    /// The output given as `flag` may not be written ([`guard::check`]: an input, or not a
+    /// regular file).
+    #[error("{flag} {}: {reason}", path.display())]
+    Refused { flag: String, path: PathBuf, reason: String },
 }
 
 impl OutputError {

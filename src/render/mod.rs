@@ -285,6 +285,16 @@ pub fn colormap() -> Vec<[f32; 4]> {
 }
 
 impl Renderer {
+    /// Drops the ray and mesh-render pipelines; the next frame builds the ones it uses again.
+    /// Called between the frames of a long run: lavapipe (Mesa 22) compiles a variant of a
+    /// pipeline for each dispatch whose uniforms it can inline (the band's push constants,
+    /// the loop bounds in `Params`) and frees the variants only with the pipeline, so a
+    /// pipeline kept for the whole of `render --frames` grew memory by about 1 MiB a frame.
+    pub fn release_pipelines(&mut self) {
+        self.ray_pipelines.clear();
+        self.mesh = None;
+    }
+
     pub fn new(ctx: &Arc<Context>) -> Result<Self, RenderError> {
         let bricks = bricks::pipelines(ctx)?;
         let colormap =

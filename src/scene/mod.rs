@@ -30,6 +30,7 @@ mod validate;
 use std::path::Path;
 
 pub use error::{SceneError, SceneErrorKind};
+pub use tree::MAX_SCENE_BYTES;
 pub use types::*;
 pub use validate::{MAX_IMAGE_SIDE, MAX_NEWTON_STEPS, MAX_SLICE_DEPTH, MAX_STEPS};
 
@@ -49,31 +50,7 @@ pub fn load_with(
     limits: &GridLimits,
 ) -> Result<Scene, SceneError> {
     let name = path.display().to_string();
-    let text = std::fs::read(path).map_err(|e| {
-        let what = match e.kind() {
-            std::io::ErrorKind::NotFound => "file not found".to_string(),
-            std::io::ErrorKind::PermissionDenied => "permission denied".to_string(),
-            std::io::ErrorKind::IsADirectory => "is a directory, not a scene file".to_string(),
-            _ => e.to_string(),
-        };
-        SceneError::new(
-            SceneErrorKind::Io,
-            name.clone(),
-            None,
-            format!("cannot read scene: {what}"),
-        )
-    })?;
-    let text = String::from_utf8(text).map_err(|e| {
-        // Point at the line of the first invalid byte.
-        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
-        let line = valid.iter().filter(|&&b| b == b'\n').count() + 1;
-        SceneError::new(
-            SceneErrorKind::Syntax,
-            format!("{name}:{line}"),
-            None,
-            "invalid TOML: the file is not UTF-8",
-        )
-    })?;
+    let text = tree::read_scene(path, &name)?;
     let base_dir = path.parent().unwrap_or(Path::new(""));
     let mut scene = from_str_with(&text, &name, base_dir, overrides, limits)?;
     scene.path = Some(path.to_path_buf());

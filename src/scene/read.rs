@@ -318,7 +318,7 @@ pub(crate) fn choice<T: Copy>(
                 SceneErrorKind::Value,
                 node.at,
                 key,
-                format!("unknown value {s:?} (expected {}){hint}", names()),
+                format!("unknown value \"{}\" (expected {}){hint}", crate::vocab::echo(s), names()),
             ))
         }
     }

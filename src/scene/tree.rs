@@ -3,11 +3,68 @@
 //! every error can point at the key or value it is about.
 
 use std::collections::BTreeMap;
+use std::io::Read;
+use std::path::Path;
 
 use toml::de::{DeTable, DeValue};
 use toml::Spanned;
 
 use super::error::{SceneError, SceneErrorKind};
+use crate::vocab::echo;
+
+/// The largest scene file read: 16 MiB. A scene is a page of keys (data lives in the files
+/// `field.path` names); anything larger is a mistake, such as a data file given as the
+/// scene, and is refused before it is read.
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+
+/// Reads the scene file at `path` (`name` in errors) as text. Only a regular file of at most
+/// [`MAX_SCENE_BYTES`] is read: `/dev/zero` would never end and a FIFO would block until
+/// someone writes to it, so both are refused, from the file's type, before it is opened.
+pub(crate) fn read_scene(path: &Path, name: &str) -> Result<String, SceneError> {
+    let fail = |what: String| {
+        SceneError::new(SceneErrorKind::Io, name, None, format!("cannot read scene: {what}"))
+    };
+    let io = |e: std::io::Error| {
+        fail(match e.kind() {
+            std::io::ErrorKind::NotFound => "file not found".to_string(),
+            std::io::ErrorKind::PermissionDenied => "permission denied".to_string(),
+            _ => e.to_string(),
+        })
+    };
+    let too_large = |bytes: String| {
+        fail(format!(
+            "{bytes} bytes is over the {} MiB a scene file may have (data goes in the file that \
+             field.path names)",
+            MAX_SCENE_BYTES >> 20
+        ))
+    };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if let Some(kind) = crate::vocab::special_file(&meta) {
+        return Err(fail(format!("is {kind}, not a scene file")));
+    }
+    if meta.len() > MAX_SCENE_BYTES {
+        return Err(too_large(meta.len().to_string()));
+    }
+    // The file may have grown since: read one byte past the cap at most.
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_SCENE_BYTES + 1).read_to_end(&mut bytes))
+        .map_err(io)?;
+    if bytes.len() as u64 > MAX_SCENE_BYTES {
+        return Err(too_large(format!("more than {MAX_SCENE_BYTES}")));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        // Point at the line of the first invalid byte.
+        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let line = valid.iter().filter(|&&b| b == b'\n').count() + 1;
+        SceneError::new(
+            SceneErrorKind::Syntax,
+            format!("{name}:{line}"),
+            None,
+            "invalid TOML: the file is not UTF-8",
+        )
+    })
+}
 
 /// Where a key or value was written.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -106,7 +163,7 @@ impl<'a> Source<'a> {
         match at {
             Origin::File { line, col } => format!("{}:{line}:{col}", self.name),
             Origin::Override(i) => {
-                format!("--set {}", self.overrides.get(i).map_or("?", String::as_str))
+                format!("--set {}", echo(self.overrides.get(i).map_or("?", String::as_str)))
             }
         }
     }
@@ -119,7 +176,8 @@ impl<'a> Source<'a> {
         key: &str,
         message: impl AsRef<str>,
     ) -> SceneError {
-        let key = (!key.is_empty()).then(|| key.to_string());
+        // A key path may come from a --set: echoed like any value the user wrote.
+        let key = (!key.is_empty()).then(|| echo(key));
         SceneError::new(kind, self.location(at), key, message)
     }
 
@@ -213,7 +271,8 @@ impl<'a> Source<'a> {
         };
         if !segments.iter().all(|s| bare(s)) {
             return Err(syntax(&format!(
-                "\"{key}\" is not a key path like render.steps or field.bounds.min"
+                "\"{}\" is not a key path like render.steps or field.bounds.min",
+                echo(key)
             )));
         }
         let value = value.trim();
@@ -270,7 +329,8 @@ pub(crate) fn article(word: &str) -> &'static str {
     }
 }
 
-/// A short rendering of a value for messages: `"abc"`, `[1, 48, 48]`, `{min = [0, 0, 0]}`.
+/// A short rendering of a value for messages: `"abc"`, `[1, 48, 48]`, `{min = [0, 0, 0]}`
+/// (cut by [`echo`] when long).
 pub(crate) fn show(node: &Node) -> String {
     let s = match &node.value {
         Value::String(s) => format!("{s:?}"),
@@ -290,11 +350,7 @@ pub(crate) fn show(node: &Node) -> String {
                 .join(", ")
         ),
     };
-    if s.chars().count() > 80 {
-        format!("{}...", s.chars().take(77).collect::<String>())
-    } else {
-        s
-    }
+    echo(&s)
 }
 
 /// A float as TOML would write it (`1.0`, `0.25`, `inf`, `nan`).

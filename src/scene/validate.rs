@@ -188,6 +188,20 @@ fn camera(t: &View, field: &FieldSpec, image: &ImageSettings) -> Result<CameraSe
         projection: t.or("projection", d.projection, |s, k, n| choice(s, k, n, &projections))?,
         ortho_height: 0.0, // resolved below, once the view is known
     };
+    let limit = crate::camera::MAX_COORDINATE;
+    for (key, v) in [("eye", c.eye), ("target", c.target), ("up", c.up)] {
+        if v.abs().max_element() > limit {
+            return Err(t.err(
+                SceneErrorKind::Value,
+                key,
+                format!(
+                    "{} is too large: every coordinate must be within ±{limit:e} (rays are \
+                     traced in 32-bit floats)",
+                    show_vec(v)
+                ),
+            ));
+        }
+    }
     // Blame the last-written of the keys involved (a --set counts as written after the file).
     let blame = |keys: &[&'static str]| {
         keys.iter().filter_map(|k| t.get(k).map(|n| (n.at, *k))).max().map_or(keys[0], |(_, k)| k)

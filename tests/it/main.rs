@@ -31,6 +31,7 @@ mod output;
 mod physical;
 mod placement;
 mod projection;
+mod reliability_io;
 mod render;
 mod residency;
 mod scene;

@@ -78,7 +78,10 @@ unsafe extern "system" fn debug_callback(
     let message = unsafe { (*data).message_as_c_str() }
         .map(|m| m.to_string_lossy().into_owned())
         .unwrap_or_default();
-    eprintln!("vulkan validation [{severity:?}]: {message}");
+    // Not eprintln!: it panics on a closed stderr, and a panic cannot unwind out of this
+    // extern "C" callback (it would abort the process).
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "vulkan validation [{severity:?}]: {message}");
     vk::FALSE
 }
 

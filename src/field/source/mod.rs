@@ -233,6 +233,20 @@ impl FieldSource {
         }
     }
 
+    /// The file this source reads (`field.path`), None for sources that read none.
+    pub fn data_path(&self) -> Option<&std::path::Path> {
+        match self {
+            FieldSource::Npy(n) => Some(&n.path),
+            FieldSource::Raw(r) => Some(&r.path),
+            FieldSource::Mesh(m) => Some(&m.path),
+            FieldSource::File(f) => Some(&f.path),
+            FieldSource::Sdf { .. }
+            | FieldSource::Corners(_)
+            | FieldSource::Expr(_)
+            | FieldSource::Grid(_) => None,
+        }
+    }
+
     /// What this source supports.
     pub fn supports(&self) -> Supports {
         self.kind().map_or(grid::SUPPORTS, SourceKind::supports)

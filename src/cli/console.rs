@@ -1,0 +1,62 @@
+//! Where the command line's words go, and what happens when nobody reads them.
+//!
+//! `println!` and `eprintln!` panic when a write fails, and a write fails whenever stdout or
+//! stderr is a pipe whose reader has gone: Rust ignores SIGPIPE, so the write returns EPIPE
+//! (`isoview probe S --pixel 32,32 | head -1`, or `2>&1 | true`). Every verb prints through
+//! here instead:
+//!
+//! - [`say!`] (stdout): a verb's report, what a script reads. When the reader has gone
+//!   (EPIPE) the verb stops there, quietly, with exit status 0: the reader took what it wanted
+//!   (`head -1` ending a pipeline is a normal end, not a failure; a 141 would fail every
+//!   `set -o pipefail` script that pipes isoview into `head`), as ripgrep does. Any other
+//!   write error (a full disk behind `>`) is a failure: one line on stderr, exit 2.
+//! - [`note!`] (stderr): the one-line `isoview: ...` notes and failures. Write errors are
+//!   ignored: what a verb does and its exit status never depend on whether anyone reads its
+//!   diagnostics, so a closed stderr never turns a success into a failure.
+
+use std::fmt;
+use std::io::Write;
+
+use super::Failure;
+
+/// Writes one line (`args` and a newline) to stdout; see the module docs for a failed write.
+pub fn say_line(args: fmt::Arguments) -> Result<(), Failure> {
+    let mut stdout = std::io::stdout().lock();
+    let written = stdout
+        .write_fmt(args)
+        .and_then(|()| stdout.write_all(b"\n"))
+        // Surface the error on this line rather than at a later one (or never, at exit).
+        .and_then(|()| stdout.flush());
+    match written {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(Failure::stopped()),
+        Err(e) => Err(Failure::input(format!("cannot write to stdout: {e}"))),
+    }
+}
+
+/// Writes `isoview: ` and `args` as one line to stderr, ignoring write errors (see the module
+/// docs).
+pub fn note_line(args: fmt::Arguments) {
+    let mut stderr = std::io::stderr().lock();
+    let _ = writeln!(stderr, "isoview: {args}");
+}
+
+/// `say!("...", args)`: one line on stdout, `Result<(), Failure>` (`?` it: a reader that has
+/// gone stops the verb with exit 0). `say!()` writes an empty line.
+macro_rules! say {
+    () => {
+        $crate::cli::console::say_line(format_args!(""))
+    };
+    ($($arg:tt)*) => {
+        $crate::cli::console::say_line(format_args!($($arg)*))
+    };
+}
+
+/// `note!("...", args)`: the line `isoview: ...` on stderr; never fails.
+macro_rules! note {
+    ($($arg:tt)*) => {
+        $crate::cli::console::note_line(format_args!($($arg)*))
+    };
+}
+
+pub(crate) use {note, say};

@@ -1,0 +1,419 @@
+//! Issue 29, the binary's edges: pipes closed early (stdout and stderr), outputs that would
+//! replace an input or a special file, output names as long as the filesystem allows, scene
+//! paths that are not scene files, `--frames` over huge ranges, and the messages that echo
+//! what the user wrote. Each test runs the real binary, as a shell would.
+
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+
+use crate::common::{assert_fails, scratch, stderr, write};
+
+const SPHERE: &str = r#"
+[image]
+width = 16
+height = 16
+
+[camera]
+eye = [0.0, 0.5, 3.0]
+
+[field]
+source = "sdf"
+shape = "sphere"
+radius = 0.6
+resolution = [10, 10, 10]
+bounds = { min = [-1.0, -1.0, -1.0], max = [1.0, 1.0, 1.0] }
+
+[render]
+method = "fixed-step"
+steps = 32
+"#;
+
+fn isoview() -> Command {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_isoview"));
+    cmd.env_remove("ISOVIEW_DEVICE");
+    cmd
+}
+
+/// The writing end of a pipe whose reader has already gone: what `| head -1` leaves once
+/// `head` has exited (every write gets EPIPE).
+fn reader_gone() -> Stdio {
+    use std::os::fd::{FromRawFd, OwnedFd};
+    let mut fds = [0; 2];
+    // SAFETY: `fds` has room for the two descriptors pipe() writes.
+    assert_eq!(unsafe { libc::pipe(fds.as_mut_ptr()) }, 0);
+    // SAFETY: pipe() just opened both descriptors and nothing else owns them.
+    let (reader, writer) = unsafe { (OwnedFd::from_raw_fd(fds[0]), OwnedFd::from_raw_fd(fds[1])) };
+    drop(reader);
+    Stdio::from(writer)
+}
+
+/// Runs `isoview args` with stdout and stderr as given (`Stdio::piped()` to capture one).
+fn run(args: &[&str], stdout: Stdio, stderr: Stdio) -> Output {
+    isoview().args(args).stdin(Stdio::null()).stdout(stdout).stderr(stderr).output_of()
+}
+
+trait OutputOf {
+    fn output_of(&mut self) -> Output;
+}
+
+impl OutputOf for Command {
+    /// Like `output()`, but keeps the stdout and stderr set on the command.
+    fn output_of(&mut self) -> Output {
+        self.spawn().expect("run isoview").wait_with_output().expect("wait for isoview")
+    }
+}
+
+fn no_panic(o: &Output) {
+    let err = stderr(o);
+    assert!(!err.contains("panicked") && o.status.code() != Some(101), "{:?}: {err}", o.status);
+}
+
+// ---- pipes ----------------------------------------------------------------------------------
+
+#[test]
+fn stdout_closed_early_stops_quietly_with_exit_0() {
+    let dir = scratch("rio-stdout");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let mesh = dir.join("m.ply").display().to_string();
+    for args in [
+        vec!["probe", &scene, "--pixel", "8,8"],
+        vec!["probe", &scene, "--pixel", "8,8", "--json"],
+        vec!["probe", &scene, "--slice", "z=0", "--segment", "-1,0,1,0"],
+        vec!["stats", &scene],
+        vec!["extract", &scene, "-o", &mesh, "--stats", "--device", "cpu"],
+    ] {
+        let o = run(&args, reader_gone(), Stdio::piped());
+        no_panic(&o);
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).is_empty() || args[0] == "extract", "{args:?}: {}", stderr(&o));
+    }
+    // The mesh was written before its statistics were printed.
+    assert!(std::fs::metadata(&mesh).unwrap().len() > 0);
+    // Any other failure to write stdout is one line and exit 2, not a panic.
+    let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+    let o = run(&["stats", &scene], Stdio::from(full), Stdio::piped());
+    assert_fails(&o, 2, &["cannot write to stdout: No space left on device"]);
+}
+
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn info_with_stdout_closed_early_stops_quietly() {
+    let o = run(&["info"], reader_gone(), Stdio::piped());
+    no_panic(&o);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+#[test]
+fn a_closed_stderr_changes_no_exit_status() {
+    let dir = scratch("rio-stderr");
+    // isovalue_sigma makes every verb say on stderr how the isovalue was picked.
+    let scene = write(&dir, "s.toml", &format!("{SPHERE}\n[surface]\nisovalue_sigma = 0.5\n"));
+    let o = run(&["stats", &scene], Stdio::piped(), reader_gone());
+    no_panic(&o);
+    assert_eq!(o.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("histogram"));
+    let mesh = dir.join("m.ply").display().to_string();
+    let o = run(&["extract", &scene, "-o", &mesh, "--device", "cpu"], Stdio::null(), reader_gone());
+    assert_eq!(o.status.code(), Some(0));
+    assert!(std::fs::metadata(&mesh).unwrap().len() > 0);
+    // A failure keeps its status when its line cannot be written.
+    let o = run(&["stats", "no-such-scene.toml"], Stdio::null(), reader_gone());
+    assert_eq!(o.status.code(), Some(2));
+    // Both closed at once.
+    let o = run(&["probe", &scene, "--pixel", "3,3"], reader_gone(), reader_gone());
+    assert_eq!(o.status.code(), Some(0));
+}
+
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn render_with_stderr_closed_succeeds_and_writes_its_file() {
+    let dir = scratch("rio-stderr-render");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let out = dir.join("out.exr").display().to_string();
+    let o = run(&["render", &scene, "-o", &out], Stdio::null(), reader_gone());
+    assert_eq!(o.status.code(), Some(0));
+    assert!(isoview::output::exr::read(Path::new(&out)).is_ok());
+}
+
+// ---- outputs --------------------------------------------------------------------------------
+
+fn isoview_output(args: &[&str]) -> Output {
+    isoview().args(args).output().expect("run isoview")
+}
+
+#[test]
+fn compare_never_writes_over_its_inputs() {
+    let dir = scratch("rio-compare");
+    let (a, b) = (dir.join("a.exr"), dir.join("b.exr"));
+    isoview::output::exr::write_frame(&a, &crate::output::test_frame(9, 7)).unwrap();
+    isoview::output::exr::write_frame(&b, &crate::output::test_frame(9, 7)).unwrap();
+    let before = (std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    let (sa, sb) = (a.display().to_string(), b.display().to_string());
+    let o = isoview_output(&["compare", &sa, &sb, "--diff", &sa]);
+    assert_fails(&o, 2, &["--diff", "a.exr: is A (", "which this run reads"]);
+    let o = isoview_output(&["compare", &sa, &sb, "--png", &sb]);
+    assert_fails(&o, 2, &["--png", "b.exr: is B ("]);
+    // Through a symbolic link to the input.
+    let link = dir.join("link.exr");
+    std::os::unix::fs::symlink(&a, &link).unwrap();
+    let o = isoview_output(&["compare", &sa, &sb, "--diff", &link.display().to_string()]);
+    assert_fails(&o, 2, &["is A ("]);
+    assert_eq!((std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap()), before);
+    assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+}
+
+#[test]
+fn extract_never_writes_over_the_scenes_mesh_source() {
+    let dir = scratch("rio-extract-input");
+    let sphere = write(&dir, "s.toml", SPHERE);
+    let ply = dir.join("in.ply").display().to_string();
+    let o = isoview_output(&["extract", &sphere, "-o", &ply, "--device", "cpu"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let before = std::fs::read(&ply).unwrap();
+    let scene = write(
+        &dir,
+        "mesh.toml",
+        "[field]\nsource = \"mesh\"\npath = \"in.ply\"\nresolution = 12\n",
+    );
+    let o = isoview_output(&["extract", &scene, "-o", &ply, "--device", "cpu"]);
+    assert_fails(&o, 2, &["-o", "in.ply: is the scene's field.path ("]);
+    assert_eq!(std::fs::read(&ply).unwrap(), before);
+    // A hard link to it is the same file.
+    let hard = dir.join("hard.ply");
+    std::fs::hard_link(&ply, &hard).unwrap();
+    let o = isoview_output(&["extract", &scene, "-o", &hard.display().to_string()]);
+    assert_fails(&o, 2, &["is the scene's field.path"]);
+    assert_eq!(std::fs::read(&ply).unwrap(), before);
+}
+
+#[test]
+fn render_and_slice_never_write_over_the_scene_or_its_data() {
+    let dir = scratch("rio-render-input");
+    // A raw data file that happens to be named like an EXR, and a scene named like an SVG.
+    std::fs::write(dir.join("vol.exr"), vec![7u8; 27]).unwrap();
+    let text = SPHERE.replace(
+        "source = \"sdf\"\nshape = \"sphere\"\nradius = 0.6\nresolution = [10, 10, 10]\n",
+        "source = \"raw\"\npath = \"vol.exr\"\ndims = [3, 3, 3]\ndtype = \"u8\"\n",
+    );
+    let scene = write(&dir, "scene.svg", &text);
+    let data = dir.join("vol.exr").display().to_string();
+    let o = isoview_output(&["render", &scene, "-o", &data]);
+    assert_fails(&o, 2, &["-o", "vol.exr: is the scene's field.path ("]);
+    let o = isoview_output(&["slice", &scene, "-o", &data, "--axis", "z", "--at", "0"]);
+    assert_fails(&o, 2, &["-o", "vol.exr: is the scene's field.path"]);
+    let other = dir.join("o.exr").display().to_string();
+    let args = ["slice", &scene, "-o", &other, "--axis", "z", "--at", "0", "--svg", &scene];
+    let o = isoview_output(&args);
+    assert_fails(&o, 2, &["--svg", "scene.svg: is the scene file ("]);
+    assert_eq!(std::fs::read(dir.join("vol.exr")).unwrap(), vec![7u8; 27]);
+    assert_eq!(std::fs::read_to_string(&scene).unwrap(), text);
+    assert!(!Path::new(&other).exists());
+}
+
+#[test]
+fn fifos_and_devices_are_refused_as_outputs() {
+    let dir = scratch("rio-special");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let fifo = dir.join("out.ply");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let o = isoview_output(&["extract", &scene, "-o", &fifo.display().to_string()]);
+    assert_fails(&o, 2, &["out.ply: is a FIFO (named pipe), not a regular file"]);
+    assert!(std::os::unix::fs::FileTypeExt::is_fifo(
+        &std::fs::metadata(&fifo).unwrap().file_type()
+    ));
+    let null = dir.join("null.exr");
+    std::os::unix::fs::symlink("/dev/null", &null).unwrap();
+    let o = isoview_output(&["render", &scene, "-o", &null.display().to_string()]);
+    assert_fails(&o, 2, &["null.exr: is a character device"]);
+    // A frame pattern whose first frame is a folder fails before the device opens.
+    std::fs::create_dir(dir.join("f0003.exr")).unwrap();
+    let pattern = dir.join("f####.exr").display().to_string();
+    let o = isoview_output(&["render", &scene, "-o", &pattern, "--frames", "3..5"]);
+    assert_fails(&o, 2, &["f0003.exr: is a directory"]);
+}
+
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn each_frame_is_checked_before_it_is_drawn() {
+    let dir = scratch("rio-frame-check");
+    let scene = write(&dir, "s.toml", SPHERE);
+    std::fs::create_dir(dir.join("f0004.exr")).unwrap();
+    let pattern = dir.join("f####.exr").display().to_string();
+    let o = isoview_output(&["render", &scene, "-o", &pattern, "--frames", "3..5"]);
+    assert_fails(&o, 2, &["f0004.exr: is a directory"]);
+    assert!(isoview::output::exr::read(&dir.join("f0003.exr")).is_ok());
+    assert!(dir.join("f0004.exr").is_dir() && !dir.join("f0005.exr").exists());
+}
+
+#[test]
+fn the_longest_legal_output_names_can_be_written() {
+    let dir = scratch("rio-long");
+    let scene = write(&dir, "s.toml", SPHERE);
+    for len in [244, 255] {
+        let name = format!("{}.ply", "m".repeat(len - 4));
+        let out = dir.join(&name).display().to_string();
+        let o = isoview_output(&["extract", &scene, "-o", &out, "--device", "cpu"]);
+        assert!(o.status.success(), "{len} bytes: {}", stderr(&o));
+        assert!(std::fs::metadata(&out).unwrap().len() > 0);
+    }
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+    assert_eq!(left.len(), 3, "no temporary file left behind");
+}
+
+// ---- the scene path -------------------------------------------------------------------------
+
+/// Waits for `child`, killing it (and failing) if it has not ended after a generous while:
+/// a scene path that blocks must not hang the test suite.
+fn wait_or_kill(mut child: std::process::Child) -> Output {
+    for _ in 0..1200 {
+        if child.try_wait().unwrap().is_some() {
+            return child.wait_with_output().unwrap();
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let _ = child.kill();
+    panic!("isoview did not end (blocked reading the scene)");
+}
+
+#[test]
+fn a_scene_path_that_is_no_scene_file_is_refused_before_reading() {
+    let dir = scratch("rio-scene-path");
+    let fifo = dir.join("scene.toml");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    for (path, needle) in [
+        (fifo.display().to_string(), "is a FIFO (named pipe), not a scene file"),
+        ("/dev/zero".to_string(), "/dev/zero: cannot read scene: is a character device"),
+        (dir.display().to_string(), "is a directory, not a scene file"),
+    ] {
+        let child = isoview()
+            .args(["stats", &path])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let o = wait_or_kill(child);
+        assert_fails(&o, 2, &[needle]);
+    }
+    // Over the cap: refused from its size (comments only, so it would parse).
+    let big = dir.join("big.toml");
+    let line = format!("# {}\n", "x".repeat(1022));
+    let text = line.repeat((isoview::scene::MAX_SCENE_BYTES / 1024) as usize + 1);
+    std::fs::write(&big, text).unwrap();
+    let o = isoview_output(&["stats", &big.display().to_string()]);
+    assert_fails(&o, 2, &["big.toml: cannot read scene: ", "over the 16 MiB"]);
+}
+
+// ---- --frames -------------------------------------------------------------------------------
+
+#[test]
+fn a_huge_frame_range_is_never_materialised() {
+    let dir = scratch("rio-frames");
+    let scene = write(&dir, "s.toml", SPHERE);
+    std::fs::create_dir(dir.join("f0000.exr")).unwrap();
+    let pattern = dir.join("f####.exr").display().to_string();
+    let mut cmd = isoview();
+    cmd.args(["render", &scene, "-o", &pattern, "--frames", "0..4294967296"]);
+    // 2 GiB of address space: far more than the run needs, far less than the 4 billion
+    // frames' names would take if the range were collected before frame 0.
+    // SAFETY: setrlimit is async-signal-safe; the closure touches nothing else.
+    unsafe {
+        std::os::unix::process::CommandExt::pre_exec(&mut cmd, || {
+            let limit = libc::rlimit { rlim_cur: 2 << 30, rlim_max: 2 << 30 };
+            if libc::setrlimit(libc::RLIMIT_AS, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let o = cmd.output().unwrap();
+    assert_fails(&o, 2, &["f0000.exr: is a directory"]);
+}
+
+/// The peak resident memory of `isoview args` in KiB (its own, from `wait4`); it must succeed.
+#[allow(clippy::zombie_processes)] // reaped by wait4, which also gives its rusage
+fn peak_rss_kib(args: &[&str]) -> i64 {
+    let child = isoview().args(args).stdout(Stdio::null()).stderr(Stdio::null()).spawn().unwrap();
+    let pid = child.id() as libc::pid_t;
+    let mut status = 0;
+    // SAFETY: rusage is plain data, valid zeroed.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: `pid` is this process's child, not yet waited for; both pointers are valid.
+    let waited = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
+    assert_eq!(waited, pid);
+    assert!(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0, "{args:?}: {status}");
+    usage.ru_maxrss
+}
+
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn memory_stays_flat_over_the_frames() {
+    let dir = scratch("rio-frames-memory");
+    let scene = write(&dir, "s.toml", &SPHERE.replace("\"fixed-step\"", "\"analytic\""));
+    let pattern = dir.join("f####.exr").display().to_string();
+    let run = |frames: &str| peak_rss_kib(&["render", &scene, "-o", &pattern, "--frames", frames]);
+    let (few, many) = (run("0..15"), run("0..95"));
+    // Before: about 1 MiB more for every frame (80 MiB here); now the 80 extra frames cost
+    // what a few allocations' jitter does.
+    assert!(many - few < 16 * 1024, "16 frames: {few} KiB, 96 frames: {many} KiB");
+    assert!(dir.join("f0095.exr").exists());
+}
+
+// ---- messages -------------------------------------------------------------------------------
+
+#[test]
+fn a_huge_eye_is_too_large_not_the_same_point() {
+    let dir = scratch("rio-eye");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let o = isoview_output(&["stats", &scene, "--set", "camera.eye=[1e308, 1e308, 1e308]"]);
+    assert_fails(&o, 2, &["camera.eye: [1e308, 1e308, 1e308] is too large", "1e30"]);
+    assert!(!stderr(&o).contains("same point"));
+    let o = isoview_output(&["stats", &scene, "--set", "camera.up=[0, 1e300, 0]"]);
+    assert_fails(&o, 2, &["camera.up: ", "too large"]);
+}
+
+#[test]
+fn echoed_values_are_cut_and_escaped() {
+    let dir = scratch("rio-echo");
+    let scene = write(&dir, "s.toml", SPHERE);
+    // A 100 kB --set (near the kernel's limit for one argument) and one with newlines.
+    let huge = format!("render.method={}", "x".repeat(100_000));
+    let o = isoview_output(&["stats", &scene, "--set", &huge]);
+    assert_fails(&o, 2, &["render.method: unknown value", "…"]);
+    assert!(stderr(&o).len() < 1000, "{} bytes: {}", stderr(&o).len(), &stderr(&o)[..300]);
+    let o = isoview_output(&["stats", &scene, "--set", "render.method=a\nb\u{1b}[2J"]);
+    assert_fails(&o, 2, &["--set render.method=a\\nb\\u{1b}[2J", "unknown value \"a\\nb"]);
+    let o = isoview_output(&["stats", &scene, "--set", &format!("{} k\n=1", "k".repeat(5000))]);
+    assert_fails(&o, 2, &["is not a key path", "…"]);
+    assert!(stderr(&o).len() < 1000);
+    let o = isoview_output(&["stats", &scene, "--set", &format!("{}=1", "k".repeat(5000))]);
+    assert_fails(&o, 2, &["unknown table or key", "…"]);
+    assert!(stderr(&o).len() < 1000);
+    // A 10 MB value in the scene file.
+    let big = SPHERE.replace("\"fixed-step\"", &format!("\"{}\"", "y".repeat(10_000_000)));
+    let path = write(&dir, "big.toml", &big);
+    let o = isoview_output(&["stats", &path]);
+    assert_fails(&o, 2, &["render.method: unknown value", "…"]);
+    assert!(stderr(&o).len() < 1000);
+    // Command-line values.
+    let o = isoview_output(&["probe", &scene, "--pixel", &format!("1,{}", "9".repeat(500))]);
+    assert_fails(&o, 2, &["--pixel 1,999", "…"]);
+    assert!(stderr(&o).len() < 500);
+}
+
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn tev_with_nobody_listening_still_writes_the_files_then_exits_2() {
+    let dir = scratch("rio-tev");
+    let scene = write(&dir, "s.toml", SPHERE);
+    // A port nobody listens on: bound, then let go.
+    let address = {
+        let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        l.local_addr().unwrap().to_string()
+    };
+    let out = dir.join("out.exr").display().to_string();
+    let png = dir.join("out.png").display().to_string();
+    let o = isoview_output(&["render", &scene, "-o", &out, "--png", &png, "--tev", &address]);
+    assert_fails(&o, 2, &["isoview: tev at ", &address, "the render's files were written"]);
+    assert!(isoview::output::exr::read(Path::new(&out)).is_ok(), "the EXR is written");
+    assert!(Path::new(&png).exists(), "the PNG is written");
+}

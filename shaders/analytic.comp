@@ -541,13 +541,14 @@ void main() {
             passes++;
             if (!empty && owned(cell)) {
                 corners = cell_corners(cell);
-                if (!skip || !cell_all_clear(corners)) {
+                // A missing cell (field.glsl) holds no crossing: stepped over like a clear one.
+                if (!cell_missing(corners) && (!skip || !cell_all_clear(corners))) {
                     candidate = true;
                     break;
                 }
             }
             // A cell with no crossing (a cell of an empty brick that cannot be jumped, a clear
-            // cell or another block's): step over it, as 6.6 does.
+            // or missing cell or another block's): step over it, as 6.6 does.
             float t_b = segment_end(tmax, t_in, t_hi);
             if (t_b >= t_hi) break;
             entered = lessThanEqual(tmax, vec3(t_b));

@@ -7,6 +7,11 @@
 //      REFINE_BISECTIONS bisections keeping the predicate change bracketed, then one secant
 //      step on the final bracket;
 //   4. normal: analytic gradient of the trilinear interpolant at the hit.
+// Missing data (field.nan = "empty"): a sample whose cell is missing (field.glsl's
+// cell_missing) has no inside state, and a step with such a sample at either end has no
+// crossing; a bisection midpoint in a missing cell moves the far end of the bracket (keeping
+// its value), and a surface whose refined point lies in a missing cell is not hit there: the
+// ray misses when no other surface is.
 
 #extension GL_GOOGLE_include_directive : require
 
@@ -68,6 +73,7 @@ void main() {
         float ta = t0;
         float fa = field_cached(cache, to_grid(o + d * t0));
         uint ina = inside_mask(fa);
+        bool gap = cache.missing;  // the sample at ta is missing
         uint count = 1u;
         // The march only finds the first interval [ta, tb] where the predicate of any surface
         // changes; the refinement and the hit's attributes come after the loop on purpose:
@@ -80,16 +86,19 @@ void main() {
             tb = t0 + (t1 - t0) * (float(i) / float(n - 1u));
             fb = field_cached(cache, to_grid(o + d * tb));
             count++;
-            flipped = inside_mask(fb) ^ ina;
+            uint inb = inside_mask(fb);
+            flipped = gap || cache.missing ? 0u : inb ^ ina;
             if (flipped != 0u) break;
             ta = tb;
             fa = fb;
+            ina = inb;
+            gap = cache.missing;
         }
+        float th = uintBitsToFloat(0x7f800000u);
+        uint hit_surface = 0u;
         if (flipped != 0u) {
             // Each surface that changes in [ta, tb] refined alone (as if it were the only
             // one); the nearest kept, ties to the lower surface.
-            float th = uintBitsToFloat(0x7f800000u);
-            uint hit_surface = 0u;
             for (uint k = 0u; k < surfaces; k++) {
                 if ((flipped & (1u << k)) == 0u) continue;
                 float thr = P.thresholds[k / 4u][k % 4u];
@@ -99,15 +108,26 @@ void main() {
                 for (int j = 0; j < REFINE_BISECTIONS; j++) {
                     float tm = 0.5 * (a + b);
                     float fm = field_cached(cache, to_grid(o + d * tm));
-                    if (inside_of(fm, thr) == in_k) { a = tm; va = fm; } else { b = tm; vb = fm; }
+                    if (cache.missing) {
+                        b = tm;
+                    } else if (inside_of(fm, thr) == in_k) {
+                        a = tm;
+                        va = fm;
+                    } else {
+                        b = tm;
+                        vb = fm;
+                    }
                 }
                 float s = vb != va ? clamp((thr - va) / (vb - va), 0.0, 1.0) : 0.5;
                 float t = a + (b - a) * s;
-                if (t < th) {
+                field_cached(cache, to_grid(o + d * t));
+                if (t < th && !cache.missing) {
                     th = t;
                     hit_surface = k;
                 }
             }
+        }
+        if (!isinf(th)) {
             vec3 hit = o + d * th;
             vec3 u = to_grid(hit);
             r.depth = th;

@@ -66,6 +66,11 @@ pub fn run(args: &StatsArgs) -> Result<i32, Failure> {
             f.placement.pivot.z
         );
     }
+    // Missing data (field.nan = "empty") is left out of every figure below.
+    println!(
+        "non-finite  {} sample(s) (NaN or inf: missing data, left out of the figures below)",
+        s.missing
+    );
     println!("range       {} .. {}", s.min, s.max);
     println!("mean        {}", s.mean);
     println!("sigma       {}", s.sigma);

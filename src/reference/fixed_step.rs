@@ -8,12 +8,20 @@
 //! 4. normal: the analytic gradient of the trilinear interpolant at the hit, inside → outside
 //!    (`-dir` where the gradient vanishes).
 //!
+//! Missing data (`field.nan = "empty"`, [`crate::field::trilinear::cell_missing`]): a sample
+//! whose cell is missing has no inside state, and a step with such a sample at either end has
+//! no crossing; a bisection midpoint in a missing cell moves the far end of the bracket (its
+//! value kept), and a crossing whose refined point lies in a missing cell is no hit: the ray is
+//! a miss.
+//!
 //! A ray that enters the box reports `steps` samples visited up to and including the sample
 //! after the crossing, or all of them on a miss; a ray that misses the box reports 0.
 
 use glam::DVec3;
 
 use super::field::{cell_of, clip_box, gradient_at, to_grid, value_at};
+use super::trilinear::cell_corners;
+use crate::field::trilinear::cell_missing;
 use super::shade::{nearest_surface, render_with, RayHit};
 use crate::field::Grid;
 use crate::frame::Pixel;
@@ -79,21 +87,29 @@ pub fn march_clipped(
     if t0 > t1 {
         return none;
     }
-    let sample = |t: f64| value_at(grid, to_grid(grid, origin + dir * t));
-    let (mut ta, mut fa) = (t0, sample(t0));
-    let ina = inside.contains(fa, isovalue);
+    // The value at t and whether its cell is missing.
+    let sample = |t: f64| {
+        let u = to_grid(grid, origin + dir * t);
+        (value_at(grid, u), cell_missing(&cell_corners(grid, cell_of(grid, u))))
+    };
+    let (mut ta, (mut fa, mut gap)) = (t0, sample(t0));
+    let mut ina = inside.contains(fa, isovalue);
+    // f64::min ignores the NaN of a missing sample.
     let mut margin = (fa - isovalue).abs();
     let mut count = 1;
     for i in 1..steps {
         let mut tb = t0 + (t1 - t0) * (i as f64 / (steps - 1) as f64);
-        let mut fb = sample(tb);
+        let (mut fb, missing) = sample(tb);
         count += 1;
         margin = margin.min((fb - isovalue).abs());
-        if inside.contains(fb, isovalue) != ina {
+        let inb = inside.contains(fb, isovalue);
+        if inb != ina && !gap && !missing {
             for _ in 0..REFINE_BISECTIONS {
                 let tm = 0.5 * (ta + tb);
-                let fm = sample(tm);
-                if inside.contains(fm, isovalue) == ina {
+                let (fm, m) = sample(tm);
+                if m {
+                    tb = tm;
+                } else if inside.contains(fm, isovalue) == ina {
                     (ta, fa) = (tm, fm);
                 } else {
                     (tb, fb) = (tm, fm);
@@ -101,6 +117,9 @@ pub fn march_clipped(
             }
             let s = if fb != fa { ((isovalue - fa) / (fb - fa)).clamp(0.0, 1.0) } else { 0.5 };
             let t = ta + (tb - ta) * s;
+            if sample(t).1 {
+                return March { hit: None, steps: count, margin };
+            }
             let position = origin + dir * t;
             let u = to_grid(grid, position);
             let hit = RayHit {
@@ -113,7 +132,7 @@ pub fn march_clipped(
             };
             return March { hit: Some(hit), steps: count, margin };
         }
-        (ta, fa) = (tb, fb);
+        (ta, fa, ina, gap) = (tb, fb, inb, missing);
     }
     March { hit: None, steps: count, margin }
 }

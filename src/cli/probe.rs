@@ -122,12 +122,7 @@ fn print_probe(scene: &Scene, probe: &PixelProbe, px: u32, py: u32) {
     for v in visits {
         let c = &v.corners;
         if v.missing {
-            println!(
-                "  {}  t [{:.6}, {:.6}]",
-                crate::probe::missing_note(v),
-                v.t_in,
-                v.t_out
-            );
+            println!("  {}  t [{:.6}, {:.6}]", crate::probe::missing_note(v), v.t_in, v.t_out);
             continue;
         }
         println!(

@@ -20,9 +20,9 @@
 use glam::DVec3;
 
 use super::field::{cell_of, clip_box, gradient_at, to_grid, value_at};
+use super::shade::{nearest_surface, render_with, RayHit};
 use super::trilinear::cell_corners;
 use crate::field::trilinear::cell_missing;
-use super::shade::{nearest_surface, render_with, RayHit};
 use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::scene::{Inside, Scene};

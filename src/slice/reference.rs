@@ -4,8 +4,8 @@
 //! picture shows [`NO_DATA`] there.
 
 use super::plane::PlaneGrid;
-use crate::field::Grid;
 use crate::field::trilinear::cell_missing;
+use crate::field::Grid;
 use crate::reference::field::{cell_of, value_at};
 use crate::reference::trilinear::cell_corners;
 

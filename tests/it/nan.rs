@@ -230,7 +230,10 @@ fn meshes_lose_the_missing_cells_faces_and_keep_the_rest_in_order() {
                 dropped += 1;
                 t += 1;
             }
-            assert!(t < a.triangle_count(), "{what}: triangle {tb} {want:?} is not the plain mesh's");
+            assert!(
+                t < a.triangle_count(),
+                "{what}: triangle {tb} {want:?} is not the plain mesh's"
+            );
             assert!(!in_missing(centroid(&holed, &b, tb), true), "{what}: triangle in the block");
             kept += 1;
             t += 1;
@@ -289,8 +292,7 @@ fn slices_show_no_data_and_draw_no_contour_in_missing_cells() {
     let (ca, cb) =
         (contour::extract(&pa, None, &opts).unwrap(), contour::extract(&pb, None, &opts).unwrap());
     let (lo, hi) = missing_box();
-    let inside_block =
-        |q: DVec2| q.x > lo.x && q.x < hi.x && q.y > lo.y && q.y < hi.y;
+    let inside_block = |q: DVec2| q.x > lo.x && q.x < hi.x && q.y > lo.y && q.y < hi.y;
     let count = |set: &contour::ContourSet| -> (usize, usize) {
         let pts = set.contours.iter().flat_map(|c| c.points.iter());
         pts.fold((0, 0), |(i, o), &q| if inside_block(q) { (i + 1, o) } else { (i, o + 1) })
@@ -340,7 +342,8 @@ fn check_pixels(grid: &Grid, gpu: &[Pixel], reference: &[Pixel], what: &str) -> 
             let c = g.cell.map(|c| c as usize);
             assert!(!missing(grid, c), "{what}: pixel {n}: GPU hit in missing cell {c:?}");
         }
-        if g.is_hit() != r.is_hit() || (g.is_hit() && (g.depth - r.depth).abs() as f64 > 1e-3 * diag)
+        if g.is_hit() != r.is_hit()
+            || (g.is_hit() && (g.depth - r.depth).abs() as f64 > 1e-3 * diag)
         {
             differ += 1;
         }
@@ -445,8 +448,8 @@ fn gpu_extraction_equals_cpu_with_missing_samples() {
             let what = format!("{} round {round} dims {:?}", algo.name(), grid.dims);
             let cpu_opts = ExtractOptions { split: QuadSplit::Fixed, keep_quads: false };
             let reference = extract(&grid, iso, inside, algo, cpu_opts).unwrap();
-            let image = Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values)
-                .unwrap();
+            let image =
+                Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values).unwrap();
             let mesh =
                 extractor.extract(&grid, &image, iso, inside, algo, &opts).unwrap().read().unwrap();
             assert_eq!(mesh.vertex_count(), reference.vertex_count(), "{what}: vertices");

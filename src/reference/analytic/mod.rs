@@ -166,10 +166,10 @@ mod tests;
 
 use glam::DVec3;
 
+use crate::field::trilinear::cell_missing;
 use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::reference::shade::{nearest_surface, render_with, RayHit};
-use crate::field::trilinear::cell_missing;
 use crate::reference::trilinear::{cell_corners, gradient, lerp3, trilerp};
 use crate::scene::{Inside, Scene};
 use crate::vocab::Clip;
@@ -587,8 +587,11 @@ fn walk(
                         Inside::Above => -grad,
                     };
                     let len = oriented.length();
-                    let normal =
-                        if len > 0.0 && len.is_finite() { oriented / len } else { -dir.normalize() };
+                    let normal = if len > 0.0 && len.is_finite() {
+                        oriented / len
+                    } else {
+                        -dir.normalize()
+                    };
                     result.hit = Some(Hit {
                         t,
                         position: origin + dir * t,

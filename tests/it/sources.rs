@@ -308,7 +308,7 @@ fn npy_non_finite_samples_are_reported_at_their_grid_point() {
         npy("'<f8'", true, &[2, 2, 2], &payload("f8", false, true, [2, 2, 2], g)),
     )
     .unwrap();
-    let s = load(&d, "source = \"npy\"\npath = \"big.npy\"\n").unwrap();
+    let s = load(&d, "source = \"npy\"\npath = \"big.npy\"\nnan = \"error\"\n").unwrap();
     assert!(sample(&s)
         .unwrap_err()
         .to_string()

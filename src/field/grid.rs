@@ -60,7 +60,7 @@ impl Grid {
     pub fn range(&self) -> (f32, f32) {
         let mut mm = [f32::INFINITY, f32::NEG_INFINITY];
         for &v in &self.values {
-            crate::passes::bricks::widen(&mut mm, v);
+            crate::field::trilinear::widen(&mut mm, v);
         }
         (mm[0], mm[1])
     }

@@ -195,9 +195,10 @@ impl MappedGrid {
     /// fastest, `ceil(cells / brick)` per axis, as `passes::bricks` lays them out; with
     /// `field.nan = "error"` fails on a non-finite sample (the first the scan meets: by brick
     /// layer along the file's slowest axis), with `"empty"` leaves it out of the range
-    /// ([`crate::passes::bricks::widen`]). One pass over the file, in its order: each layer of bricks along the slowest axis
-    /// is read row by row along the fastest (every row once per brick row holding it), in
-    /// parallel over the brick rows, and its pages released before the next.
+    /// ([`super::trilinear::widen`]). One pass over the file, in its order: each layer of
+    /// bricks along the slowest axis is read row by row along the fastest (every row once per
+    /// brick row holding it), in parallel over the brick rows, and its pages released before
+    /// the next.
     pub fn brick_ranges(&self, brick: usize) -> Result<Vec<[f32; 2]>, FieldError> {
         let counts = self.dims.map(|n| (n - 1).div_ceil(brick));
         // File axes: fastest f, middle y, slowest s (x, y, z for XFastest; z, y, x for C order).
@@ -268,7 +269,7 @@ impl MappedGrid {
                 }
                 for (bf, m) in mm.iter_mut().enumerate() {
                     for &v in &row[span(f, bf)] {
-                        crate::passes::bricks::widen(m, v);
+                        crate::field::trilinear::widen(m, v);
                     }
                 }
             }

@@ -14,7 +14,7 @@ use glam::DVec3;
 
 /// THE missing-data rule (`field.nan = "empty"`, the default; GPU: `shaders/include/missing.glsl`):
 /// a sample that is NaN or infinite is missing data. Every method asks [`cell_missing`]; the
-/// brick ranges leave such samples out ([`crate::passes::bricks::widen`]).
+/// brick ranges leave such samples out ([`widen`]).
 #[inline]
 pub fn is_missing(v: f64) -> bool {
     !v.is_finite()
@@ -29,6 +29,19 @@ pub fn is_missing(v: f64) -> bool {
 #[inline]
 pub fn cell_missing(corners: &[f64; 8]) -> bool {
     corners.iter().any(|&v| is_missing(v))
+}
+
+/// Widens the range `mm` by the sample `v`, unless `v` is missing data (NaN or ±inf,
+/// [`is_missing`]): a brick's range (`passes::bricks`) holds its finite samples only, so its
+/// test against the isovalues is about the cells that can hold a surface (GLSL's `min`/`max`
+/// are undefined with NaN; `bricks.comp` skips the same samples). A brick with no finite
+/// sample keeps `[inf, -inf]`, which no range test calls clear. With every sample finite,
+/// the plain min/max.
+#[inline]
+pub fn widen(mm: &mut [f32; 2], v: f32) {
+    if !is_missing(f64::from(v)) {
+        *mm = [mm[0].min(v), mm[1].max(v)];
+    }
 }
 
 /// `(1 - w) a + w b`: exact at `w = 0` (gives `a`) and `w = 1` (gives `b`).

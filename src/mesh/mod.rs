@@ -198,6 +198,9 @@ pub enum MeshError {
     NotInSlabs(&'static str),
     #[error("bad window: {0}")]
     BadWindow(String),
+    /// The samples could not be used (`field.nan = "error"` and a non-finite one).
+    #[error(transparent)]
+    Field(#[from] crate::field::FieldError),
     #[error(
         "hermite = \"source\" needs a source that can be evaluated off the grid (sdf, expr, \
          corners, mesh); use hermite = \"trilinear\""

@@ -17,6 +17,7 @@ use std::sync::Arc;
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
+use crate::field::trilinear::widen;
 use crate::gpu::{
     grid_groups, Buffer, Compute, ComputePipeline, Context, GpuError, Image3d, MemoryLocation,
     Resource, Timer, Tracker,
@@ -87,19 +88,6 @@ pub fn levels(dims: [usize; 3], bricks: &[[f32; 2]]) -> Vec<[f32; 2]> {
         }
     }
     out
-}
-
-/// Widens the range `mm` by the sample `v`, unless `v` is missing data (NaN or ±inf,
-/// [`crate::field::trilinear::is_missing`]): a range holds the finite samples only, so a brick's
-/// test against the isovalues is about the cells that can hold a surface (GLSL's `min`/`max`
-/// are undefined with NaN; `bricks.comp` skips the same samples). A brick with no finite sample
-/// keeps `[inf, -inf]`, which no range test calls clear. With every sample finite, the
-/// plain min/max.
-#[inline]
-pub fn widen(mm: &mut [f32; 2], v: f32) {
-    if !crate::field::trilinear::is_missing(f64::from(v)) {
-        *mm = [mm[0].min(v), mm[1].max(v)];
-    }
 }
 
 /// The bricks' min/max grid computed on the CPU, in the buffer's layout (without the

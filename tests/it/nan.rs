@@ -473,14 +473,15 @@ fn gpu_extraction_equals_cpu_with_missing_samples() {
     }
 }
 
-/// A raw f32 file of the holed sphere and a scene over it (extra `[field]` lines in `field`).
-fn raw_scene(dir: &std::path::Path, field: &str) -> String {
+/// A raw f32 file of the holed sphere and a scene `name` over it (extra `[field]` lines in
+/// `field`).
+fn raw_scene(dir: &std::path::Path, name: &str, field: &str) -> String {
     let grid = holed();
     let bytes: Vec<u8> = grid.values.iter().flat_map(|v| v.to_le_bytes()).collect();
     std::fs::write(dir.join("holed.raw"), bytes).unwrap();
     write(
         dir,
-        "s.toml",
+        name,
         &format!(
             "[field]\nsource = \"raw\"\npath = \"holed.raw\"\ndims = [{N}, {N}, {N}]\n\
              dtype = \"f32\"\n{field}\n[surface]\nisovalue = 0.3\n\
@@ -492,7 +493,7 @@ fn raw_scene(dir: &std::path::Path, field: &str) -> String {
 #[test]
 fn files_with_missing_samples_load_by_default_and_error_keeps_the_refusal() {
     let dir = scratch("nan-cli");
-    let scene = raw_scene(&dir, "");
+    let scene = raw_scene(&dir, "s.toml", "");
     let out = isoview(&["stats", &scene], &[]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     let text = String::from_utf8_lossy(&out.stdout);
@@ -502,19 +503,28 @@ fn files_with_missing_samples_load_by_default_and_error_keeps_the_refusal() {
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     assert!(ply.exists());
 
-    let refused = raw_scene(&dir, "nan = \"error\"");
+    let refused = raw_scene(&dir, "e.toml", "nan = \"error\"");
     let out = isoview(&["stats", &refused], &[]);
     assert_fails(&out, 2, &["holed.raw", "at grid point [15, 9, 9]", "is not finite"]);
     let out = isoview(&["stats", &scene, "--set", "field.nan=error"], &[]);
     assert_fails(&out, 2, &["is not finite"]);
     let out = isoview(&["stats", &scene, "--set", "field.nan=maybe"], &[]);
     assert_fails(&out, 2, &["field.nan", "\"error\"", "\"empty\""]);
+    // A memory-mapped extraction reads the file a window at a time: the same two answers.
+    let active = raw_scene(&dir, "a.toml", "residency = \"active\"");
+    let out = isoview(&["extract", &active, "-o", ply.to_str().unwrap()], &[]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let x = dir.join("x.ply");
+    let sets = ["--set", "field.nan=error", "-o", x.to_str().unwrap()];
+    let out = isoview(&[&["extract", active.as_str()][..], &sets[..]].concat(), &[]);
+    assert_fails(&out, 2, &["holed.raw", "at grid point [15, 9, 9]", "is not finite"]);
+    assert!(!x.exists());
 }
 
 #[test]
 fn probe_says_why_a_cell_has_no_surface() {
     let dir = scratch("nan-probe");
-    let scene = raw_scene(&dir, "");
+    let scene = raw_scene(&dir, "s.toml", "");
     // The centre pixel looks along -x through the block's rows.
     let out = isoview(&["probe", &scene, "--pixel", "16,16"], &[]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));

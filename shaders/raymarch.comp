@@ -10,8 +10,8 @@
 // Missing data (field.nan = "empty"): a sample whose cell is missing (field.glsl's
 // cell_missing) has no inside state, and a step with such a sample at either end has no
 // crossing; a bisection midpoint in a missing cell moves the far end of the bracket (keeping
-// its value), and a surface whose refined point lies in a missing cell is not hit there: the
-// ray misses when no other surface is.
+// its value), and a surface whose refined point lies in a missing cell is not hit there: when
+// no other surface is, the march goes on from the step's far sample.
 
 #extension GL_GOOGLE_include_directive : require
 
@@ -75,28 +75,32 @@ void main() {
         uint ina = inside_mask(fa);
         bool gap = cache.missing;  // the sample at ta is missing
         uint count = 1u;
-        // The march only finds the first interval [ta, tb] where the predicate of any surface
-        // changes; the refinement and the hit's attributes come after the loop on purpose:
+        // The sample loop only finds the first interval [ta, tb] where the predicate of any
+        // surface changes; the refinement and the hit's attributes come after it on purpose:
         // llvmpipe runs a branch's code for every lane under a mask, so code in the loop's
         // body costs on every sample of every ray.
-        uint flipped = 0u;  // bit k: surface k's predicate changes in [ta, tb]
-        float tb = t0;
-        float fb = fa;
-        for (uint i = 1u; i < n; i++) {
-            tb = t0 + (t1 - t0) * (float(i) / float(n - 1u));
-            fb = field_cached(cache, to_grid(o + d * tb));
-            count++;
-            uint inb = inside_mask(fb);
-            flipped = gap || cache.missing ? 0u : inb ^ ina;
-            if (flipped != 0u) break;
-            ta = tb;
-            fa = fb;
-            ina = inb;
-            gap = cache.missing;
-        }
         float th = uintBitsToFloat(0x7f800000u);
         uint hit_surface = 0u;
-        if (flipped != 0u) {
+        uint i = 1u;
+        // Once per crossing step: more than once only where every crossing found fell in a
+        // missing cell.
+        for (;;) {
+            uint flipped = 0u;  // bit k: surface k's predicate changes in [ta, tb]
+            float tb = t0;
+            float fb = fa;
+            for (; i < n; i++) {
+                tb = t0 + (t1 - t0) * (float(i) / float(n - 1u));
+                fb = field_cached(cache, to_grid(o + d * tb));
+                count++;
+                uint inb = inside_mask(fb);
+                flipped = gap || cache.missing ? 0u : inb ^ ina;
+                if (flipped != 0u) break;
+                ta = tb;
+                fa = fb;
+                ina = inb;
+                gap = cache.missing;
+            }
+            if (flipped == 0u) break;
             // Each surface that changes in [ta, tb] refined alone (as if it were the only
             // one); the nearest kept, ties to the lower surface.
             for (uint k = 0u; k < surfaces; k++) {
@@ -126,6 +130,14 @@ void main() {
                     hit_surface = k;
                 }
             }
+            if (!isinf(th)) break;
+            // Every crossing in [ta, tb] fell in a missing cell: march on from tb (whose cell is
+            // not missing: the step had a crossing).
+            ta = tb;
+            fa = fb;
+            ina = inside_mask(fb);
+            gap = false;
+            i++;
         }
         if (!isinf(th)) {
             vec3 hit = o + d * th;

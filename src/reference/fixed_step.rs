@@ -11,8 +11,8 @@
 //! Missing data (`field.nan = "empty"`, [`crate::field::trilinear::cell_missing`]): a sample
 //! whose cell is missing has no inside state, and a step with such a sample at either end has
 //! no crossing; a bisection midpoint in a missing cell moves the far end of the bracket (its
-//! value kept), and a crossing whose refined point lies in a missing cell is no hit: the ray is
-//! a miss.
+//! value kept), and a crossing whose refined point lies in a missing cell is no hit: the march
+//! goes on from the step's far sample.
 //!
 //! A ray that enters the box reports `steps` samples visited up to and including the sample
 //! after the crossing, or all of them on a miss; a ray that misses the box reports 0.
@@ -98,27 +98,30 @@ pub fn march_clipped(
     let mut margin = (fa - isovalue).abs();
     let mut count = 1;
     for i in 1..steps {
-        let mut tb = t0 + (t1 - t0) * (i as f64 / (steps - 1) as f64);
-        let (mut fb, missing) = sample(tb);
+        let tb = t0 + (t1 - t0) * (i as f64 / (steps - 1) as f64);
+        let (fb, missing) = sample(tb);
         count += 1;
         margin = margin.min((fb - isovalue).abs());
         let inb = inside.contains(fb, isovalue);
         if inb != ina && !gap && !missing {
+            let (mut a, mut va, mut b, mut vb) = (ta, fa, tb, fb);
             for _ in 0..REFINE_BISECTIONS {
-                let tm = 0.5 * (ta + tb);
+                let tm = 0.5 * (a + b);
                 let (fm, m) = sample(tm);
                 if m {
-                    tb = tm;
+                    b = tm;
                 } else if inside.contains(fm, isovalue) == ina {
-                    (ta, fa) = (tm, fm);
+                    (a, va) = (tm, fm);
                 } else {
-                    (tb, fb) = (tm, fm);
+                    (b, vb) = (tm, fm);
                 }
             }
-            let s = if fb != fa { ((isovalue - fa) / (fb - fa)).clamp(0.0, 1.0) } else { 0.5 };
-            let t = ta + (tb - ta) * s;
+            let s = if vb != va { ((isovalue - va) / (vb - va)).clamp(0.0, 1.0) } else { 0.5 };
+            let t = a + (b - a) * s;
             if sample(t).1 {
-                return March { hit: None, steps: count, margin };
+                // The crossing fell in a missing cell: no hit here; march on.
+                (ta, fa, ina, gap) = (tb, fb, inb, missing);
+                continue;
             }
             let position = origin + dir * t;
             let u = to_grid(grid, position);

@@ -540,3 +540,65 @@ fn probe_says_why_a_cell_has_no_surface() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("holds a non-finite sample: no surface"), "{text}");
 }
+
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn gpu_slice_shows_no_data_where_the_reference_does() {
+    use isoview::render::GpuGrid;
+    use isoview::scene::Ambiguity;
+    use isoview::slice::contour::{self, ContourOptions};
+    use isoview::slice::image::{colormap_half_range, SliceRenderer, SliceStyle};
+    use isoview::slice::plane::{Axis, PlaneGrid};
+    let ctx = gpu();
+    let renderer = SliceRenderer::new(&ctx).unwrap();
+    let mut rng = Rng::new(2906);
+    for trial in 0..6 {
+        let dims = [0; 3].map(|_| 3 + (rng.next_u64() % 15) as usize);
+        let grid = if trial == 0 { holed() } else { sprinkled(&mut rng, dims) };
+        let axis = [Axis::X, Axis::Y, Axis::Z][trial % 3];
+        let a = axis.index();
+        let f = if trial == 0 { 16.5 / (N - 1) as f64 } else { rng.range(0.0, 1.0) };
+        let at = grid.min[a] + f * (grid.max[a] - grid.min[a]);
+        let plane = PlaneGrid::new(&grid, axis, at).unwrap();
+        let inside = Inside::ALL[trial % 2];
+        let opts =
+            ContourOptions { isovalue: 0.1, inside, ambiguity: Ambiguity::Average, max_depth: 0 };
+        let set = contour::extract(&plane, None, &opts).unwrap();
+        let (w, h) = (37, 29);
+        let style = SliceStyle {
+            width: w,
+            height: h,
+            isovalue: 0.1,
+            inside,
+            half_range: colormap_half_range(&plane, 0.1),
+            line_width: 1.5,
+            line_color: [0.0, 0.0, 0.0, 1.0],
+        };
+        let gpu_grid = GpuGrid::upload(&ctx, &grid).unwrap();
+        let image = renderer.render(&gpu_grid, &plane, &set.contours, &style).unwrap();
+        let reference = isoview::slice::reference::values(&grid, &plane, w, h);
+        let no_data = isoview::slice::reference::NO_DATA;
+        let mut gaps = 0;
+        let mut face = 0;
+        for (n, (p, r)) in image.pixels.iter().zip(&reference).enumerate() {
+            if p.value.is_nan() != r.is_nan() {
+                // The GPU finds the pixel's cell in f32: only a point within rounding of a
+                // cell face may land in the cell next to the reference's.
+                let u = plane.pixel_grid_point(n as u32 % w, n as u32 / w, w, h);
+                let near = (0..3).any(|a| (u[a] - u[a].round()).abs() < 1e-4);
+                assert!(near, "trial {trial} pixel {n} at {u}: {} vs {r}", p.value);
+                face += 1;
+                continue;
+            }
+            if r.is_nan() {
+                gaps += 1;
+                if p.contour == 0.0 {
+                    assert_eq!(p.rgba[..3], no_data, "trial {trial} pixel {n}");
+                }
+            } else {
+                assert!((p.value as f64 - r).abs() < 1e-4, "trial {trial} pixel {n}");
+            }
+        }
+        assert!(gaps > 0 && face * 50 <= gaps, "trial {trial}: {gaps} missing, {face} on faces");
+    }
+}

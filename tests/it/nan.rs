@@ -602,3 +602,24 @@ fn gpu_slice_shows_no_data_where_the_reference_does() {
         assert!(gaps > 0 && face * 50 <= gaps, "trial {trial}: {gaps} missing, {face} on faces");
     }
 }
+
+#[test]
+fn colour_by_a_field2_with_missing_samples_keeps_a_finite_range() {
+    use isoview::field::FieldSpec;
+    use isoview::render::color::Colorer;
+    use isoview::scene::{ColorBy, Scene};
+    let mut scene = Scene::new(FieldSpec::from_grid(sphere()));
+    scene.field2 = Some(FieldSpec::from_grid(holed()));
+    scene.color.by = ColorBy::Field2;
+    let c = Colorer::new(&scene, &sphere(), 0.0).unwrap().expect("colours by field2");
+    let (lo, hi) = (c.legend.lo, c.legend.hi);
+    assert!(lo.is_finite() && hi.is_finite() && lo < hi, "{lo} {hi}");
+    let (plain_lo, plain_hi) = sphere().range();
+    assert!(lo >= f64::from(plain_lo) && hi <= f64::from(plain_hi));
+    // In the block: no value, the colormap's low end (a colour, not NaN).
+    let g = holed();
+    let p = g.point(17, 11, 11);
+    assert!(c.value(p, 0).is_nan());
+    assert!(c.base(f64::NAN).is_finite());
+    assert!(c.value(g.point(3, 3, 3), 0).is_finite());
+}

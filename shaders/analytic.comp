@@ -28,6 +28,10 @@
 // after the bricks' in `bricks[]`, makes a stretch of empty bricks one jump; it counts as the
 // brick jumps it replaces (`brick_jumps`), so `steps` does not depend on the levels either.
 //
+// Missing data (field.nan = "empty"): a cell with a NaN or infinite corner (field.glsl's
+// cell_missing) is walked but never a candidate, as the reference skips its 6.2-6.5; the brick
+// ranges hold finite samples only (bricks.comp), so the skipping stays exact.
+//
 // The whole grid is read from a storage buffer (`GRID_BUFFER`, the default), an MPI rank's block
 // from the grid image, a brick pool (`GRID_POOL`) through its page table: field.glsl.
 //

@@ -623,3 +623,70 @@ fn colour_by_a_field2_with_missing_samples_keeps_a_finite_range() {
     assert!(c.base(f64::NAN).is_finite());
     assert!(c.value(g.point(3, 3, 3), 0).is_finite());
 }
+
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn brick_pool_renders_equal_whole_grid_renders_with_missing_samples() {
+    use isoview::field::SampleType;
+    use isoview::field::{Endian, FieldSource, FieldSpec, GridLimits, RawSource, Residency};
+    use isoview::render::{pool, Collect};
+    use isoview::vocab::{Bounds, Placement};
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let dir = scratch("nan-pool");
+    let mut rng = Rng::new(2907);
+    let n = 49;
+    let mut grid = grid_from([n; 3], DVec3::splat(-1.0), DVec3::ONE, |p| p.length() - 0.6);
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let block =
+                    (31..=38).contains(&i) && (19..=28).contains(&j) && (19..=28).contains(&k);
+                let corner = i <= 8 && j <= 8 && k <= 8; // a whole brick missing
+                if block || corner || rng.next_u64() % 500 == 0 {
+                    let at = grid.index(i, j, k);
+                    grid.values[at] = f32::NAN;
+                }
+            }
+        }
+    }
+    let file = dir.join("g.raw");
+    let bytes: Vec<u8> = grid.values.iter().flat_map(|v| v.to_le_bytes()).collect();
+    std::fs::write(&file, bytes).unwrap();
+    for (c, method) in
+        [Method::Analytic, Method::Analytic, Method::FixedStep].into_iter().enumerate()
+    {
+        let eye = DVec3::new(2.5, 0.4, 0.3) + 0.5 * rng.unit_vector();
+        let mut scene = scene_for(&grid, eye, 40, method);
+        scene.render.skip = c == 0;
+        let whole = renderer.render(&scene, &grid, 0.0).unwrap().pixels;
+        let mut mapped_scene = scene.clone();
+        mapped_scene.field = FieldSpec {
+            source: FieldSource::Raw(RawSource {
+                path: file.clone(),
+                dims: grid.dims,
+                dtype: SampleType::F32,
+                endian: Endian::Little,
+            }),
+            resolution: grid.dims,
+            bounds: Bounds { min: grid.min, max: grid.max },
+            placement: Placement::IDENTITY,
+            residency: Residency::Active,
+            nan: Default::default(),
+        };
+        let limits = GridLimits::default();
+        let mapped = pool::mapped_for(&mapped_scene, &limits).unwrap().unwrap();
+        let pooled = pool::upload_for(&ctx, &mapped_scene, &mapped, &limits).unwrap();
+        let mut sink = Collect::default();
+        renderer.render_to(&mapped_scene, &pooled.shape, &pooled.gpu, 0.0, &mut sink).unwrap();
+        let pixels = sink.into_frame().unwrap().pixels;
+        assert!(whole.iter().filter(|p| p.is_hit()).count() > 100, "{method:?}: too few hits");
+        for (i, (a, b)) in whole.iter().zip(&pixels).enumerate() {
+            assert_eq!(bytemuck::bytes_of(a), bytemuck::bytes_of(b), "{method:?} pixel {i}");
+        }
+        // And no hit in a missing cell.
+        for p in whole.iter().filter(|p| p.is_hit()) {
+            assert!(!missing(&grid, p.cell.map(|c| c as usize)), "{method:?}: {p:?}");
+        }
+    }
+}

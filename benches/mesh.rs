@@ -35,6 +35,7 @@ fn sdf_grid(shape: SdfShape, n: usize) -> Grid {
         bounds: Bounds { min: DVec3::splat(-1.0), max: DVec3::splat(1.0) },
         placement: Default::default(),
         residency: isoview::field::Residency::Whole,
+        nan: Default::default(),
     };
     spec.sample(0.0).expect("sdf grid")
 }

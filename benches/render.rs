@@ -21,6 +21,7 @@ fn torus_grid(n: usize) -> Grid {
         bounds: Bounds { min: DVec3::splat(-1.0), max: DVec3::splat(1.0) },
         placement: Default::default(),
         residency: isoview::field::Residency::Whole,
+        nan: Default::default(),
     };
     spec.sample(0.0).expect("torus grid")
 }

@@ -28,6 +28,10 @@
 // after the bricks' in `bricks[]`, makes a stretch of empty bricks one jump; it counts as the
 // brick jumps it replaces (`brick_jumps`), so `steps` does not depend on the levels either.
 //
+// Missing data (field.nan = "empty"): a cell with a NaN or infinite corner (field.glsl's
+// cell_missing) is walked but never a candidate, as the reference skips its 6.2-6.5; the brick
+// ranges hold finite samples only (bricks.comp), so the skipping stays exact.
+//
 // The whole grid is read from a storage buffer (`GRID_BUFFER`, the default), an MPI rank's block
 // from the grid image, a brick pool (`GRID_POOL`) through its page table: field.glsl.
 //
@@ -541,13 +545,14 @@ void main() {
             passes++;
             if (!empty && owned(cell)) {
                 corners = cell_corners(cell);
-                if (!skip || !cell_all_clear(corners)) {
+                // A missing cell (field.glsl) holds no crossing: stepped over like a clear one.
+                if (!cell_missing(corners) && (!skip || !cell_all_clear(corners))) {
                     candidate = true;
                     break;
                 }
             }
             // A cell with no crossing (a cell of an empty brick that cannot be jumped, a clear
-            // cell or another block's): step over it, as 6.6 does.
+            // or missing cell or another block's): step over it, as 6.6 does.
             float t_b = segment_end(tmax, t_in, t_hi);
             if (t_b >= t_hi) break;
             entered = lessThanEqual(tmax, vec3(t_b));

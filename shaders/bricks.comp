@@ -9,6 +9,8 @@
 
 layout(local_size_x = BRICKS_GROUP, local_size_y = BRICKS_GROUP, local_size_z = BRICKS_GROUP) in;  // build.rs
 
+#include "missing.glsl"
+
 layout(binding = 0) uniform sampler3D u_grid;
 layout(std430, binding = 1) writeonly buffer Bricks { vec2 bricks[]; };
 layout(push_constant) uniform Shape {
@@ -22,12 +24,15 @@ void main() {
     int size = shape.bricks.w;
     ivec3 lo = b * size;
     ivec3 hi = min(lo + size, shape.points.xyz - 1);
-    float vmin = texelFetch(u_grid, lo, 0).r;
-    float vmax = vmin;
+    // Missing samples (NaN, inf) are left out (`field::trilinear::widen`): GLSL's min/max are undefined
+    // with NaN. A brick with no finite sample keeps [inf, -inf], which no range test calls clear.
+    float vmin = uintBitsToFloat(0x7f800000u);
+    float vmax = -vmin;
     for (int z = lo.z; z <= hi.z; z++) {
         for (int y = lo.y; y <= hi.y; y++) {
             for (int x = lo.x; x <= hi.x; x++) {
                 float v = texelFetch(u_grid, ivec3(x, y, z), 0).r;
+                if (is_missing(v)) continue;
                 vmin = min(vmin, v);
                 vmax = max(vmax, v);
             }

@@ -7,6 +7,11 @@
 //      REFINE_BISECTIONS bisections keeping the predicate change bracketed, then one secant
 //      step on the final bracket;
 //   4. normal: analytic gradient of the trilinear interpolant at the hit.
+// Missing data (field.nan = "empty"): a sample whose cell is missing (field.glsl's
+// cell_missing) has no inside state, and a step with such a sample at either end has no
+// crossing; a bisection midpoint in a missing cell moves the far end of the bracket (keeping
+// its value), and a surface whose refined point lies in a missing cell is not hit there: when
+// no other surface is, the march goes on from the step's far sample.
 
 #extension GL_GOOGLE_include_directive : require
 
@@ -68,28 +73,36 @@ void main() {
         float ta = t0;
         float fa = field_cached(cache, to_grid(o + d * t0));
         uint ina = inside_mask(fa);
+        bool gap = cache.missing;  // the sample at ta is missing
         uint count = 1u;
-        // The march only finds the first interval [ta, tb] where the predicate of any surface
-        // changes; the refinement and the hit's attributes come after the loop on purpose:
+        // The sample loop only finds the first interval [ta, tb] where the predicate of any
+        // surface changes; the refinement and the hit's attributes come after it on purpose:
         // llvmpipe runs a branch's code for every lane under a mask, so code in the loop's
         // body costs on every sample of every ray.
-        uint flipped = 0u;  // bit k: surface k's predicate changes in [ta, tb]
-        float tb = t0;
-        float fb = fa;
-        for (uint i = 1u; i < n; i++) {
-            tb = t0 + (t1 - t0) * (float(i) / float(n - 1u));
-            fb = field_cached(cache, to_grid(o + d * tb));
-            count++;
-            flipped = inside_mask(fb) ^ ina;
-            if (flipped != 0u) break;
-            ta = tb;
-            fa = fb;
-        }
-        if (flipped != 0u) {
+        float th = uintBitsToFloat(0x7f800000u);
+        uint hit_surface = 0u;
+        uint i = 1u;
+        // Once per crossing step: more than once only where every crossing found fell in a
+        // missing cell.
+        for (;;) {
+            uint flipped = 0u;  // bit k: surface k's predicate changes in [ta, tb]
+            float tb = t0;
+            float fb = fa;
+            for (; i < n; i++) {
+                tb = t0 + (t1 - t0) * (float(i) / float(n - 1u));
+                fb = field_cached(cache, to_grid(o + d * tb));
+                count++;
+                uint inb = inside_mask(fb);
+                flipped = gap || cache.missing ? 0u : inb ^ ina;
+                if (flipped != 0u) break;
+                ta = tb;
+                fa = fb;
+                ina = inb;
+                gap = cache.missing;
+            }
+            if (flipped == 0u) break;
             // Each surface that changes in [ta, tb] refined alone (as if it were the only
             // one); the nearest kept, ties to the lower surface.
-            float th = uintBitsToFloat(0x7f800000u);
-            uint hit_surface = 0u;
             for (uint k = 0u; k < surfaces; k++) {
                 if ((flipped & (1u << k)) == 0u) continue;
                 float thr = P.thresholds[k / 4u][k % 4u];
@@ -99,15 +112,34 @@ void main() {
                 for (int j = 0; j < REFINE_BISECTIONS; j++) {
                     float tm = 0.5 * (a + b);
                     float fm = field_cached(cache, to_grid(o + d * tm));
-                    if (inside_of(fm, thr) == in_k) { a = tm; va = fm; } else { b = tm; vb = fm; }
+                    if (cache.missing) {
+                        b = tm;
+                    } else if (inside_of(fm, thr) == in_k) {
+                        a = tm;
+                        va = fm;
+                    } else {
+                        b = tm;
+                        vb = fm;
+                    }
                 }
                 float s = vb != va ? clamp((thr - va) / (vb - va), 0.0, 1.0) : 0.5;
                 float t = a + (b - a) * s;
-                if (t < th) {
+                field_cached(cache, to_grid(o + d * t));
+                if (t < th && !cache.missing) {
                     th = t;
                     hit_surface = k;
                 }
             }
+            if (!isinf(th)) break;
+            // Every crossing in [ta, tb] fell in a missing cell: march on from tb (whose cell is
+            // not missing: the step had a crossing).
+            ta = tb;
+            fa = fb;
+            ina = inside_mask(fb);
+            gap = false;
+            i++;
+        }
+        if (!isinf(th)) {
             vec3 hit = o + d * th;
             vec3 u = to_grid(hit);
             r.depth = th;

@@ -46,14 +46,25 @@ layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 
 const uint TILE = uint(SLICE_GROUP);
 
+#include "missing.glsl"
+
+// The colour of a pixel with no data (`slice::reference::NO_DATA`).
+const vec3 NO_DATA = vec3(0.2);
+
 float grid_value(ivec3 p) {
     return texelFetch(u_grid, p, 0).r;
 }
 
-// The trilinear interpolant at grid index coordinates g (inside the box).
+// The trilinear interpolant at grid index coordinates g (inside the box); NaN where g's cell
+// is missing (missing.glsl).
 float trilinear(vec3 g) {
     ivec3 c = clamp(ivec3(floor(g)), ivec3(0), P.dims.xyz - 2);
     vec3 f = g - vec3(c);
+    vec4 lo = vec4(grid_value(c), grid_value(c + ivec3(1, 0, 0)), grid_value(c + ivec3(0, 1, 0)),
+                   grid_value(c + ivec3(1, 1, 0)));
+    vec4 hi = vec4(grid_value(c + ivec3(0, 0, 1)), grid_value(c + ivec3(1, 0, 1)),
+                   grid_value(c + ivec3(0, 1, 1)), grid_value(c + ivec3(1, 1, 1)));
+    if (corners_missing(lo, hi)) return uintBitsToFloat(0x7fc00000u);
     float x00 = mix(grid_value(c), grid_value(c + ivec3(1, 0, 0)), f.x);
     float x10 = mix(grid_value(c + ivec3(0, 1, 0)), grid_value(c + ivec3(1, 1, 0)), f.x);
     float x01 = mix(grid_value(c + ivec3(0, 0, 1)), grid_value(c + ivec3(1, 0, 1)), f.x);
@@ -88,7 +99,9 @@ void main() {
     float value = trilinear(g);
 
     // Colour, centred on the isovalue.
-    vec4 colour = colormap_at(0.5 + 0.5 * P.plane.z * (value - P.plane.y) / P.plane.w);
+    vec4 colour = isnan(value)
+        ? vec4(NO_DATA, 1.0)
+        : colormap_at(0.5 + 0.5 * P.plane.z * (value - P.plane.y) / P.plane.w);
 
     // Contour lines of this tile.
     uint tile = (px.y / TILE) * P.image.z + px.x / TILE;

@@ -47,7 +47,7 @@ fn v3(v: DVec3) -> Value {
 }
 
 fn visit_json(v: &CellVisit) -> Value {
-    json!({
+    let mut out = json!({
         "cell": v.cell,
         "corners": v.corners,
         "t": [v.t_in, v.t_out],
@@ -60,7 +60,17 @@ fn visit_json(v: &CellVisit) -> Value {
             "crossing": r.crossing, "u": r.u, "t": r.t, "entering": r.entering,
             "exact": r.exact, "bracket": [r.bracket.0, r.bracket.1], "newton_iterates": r.iterates,
         })).collect::<Vec<_>>(),
-    })
+    });
+    if v.missing {
+        out["missing"] = json!(missing_note(v));
+    }
+    out
+}
+
+/// Why a missing cell has no surface (`field.nan = "empty"`), as the probe reports it.
+pub fn missing_note(v: &CellVisit) -> String {
+    let [i, j, k] = v.cell;
+    format!("cell ({i}, {j}, {k}) holds a non-finite sample: no surface")
 }
 
 impl PixelProbe {

@@ -54,6 +54,26 @@ uint cell_count(uint mask) {
     return t;
 }
 
+// Whether one of the four cells around the edge from padded point q along axis a (offsets -1
+// and 0 along the other two axes) is missing: a point of theirs, besides the edge's own finite
+// ends, is missing data.
+bool ring_missing(ivec3 q, int a) {
+    int b = (a + 1) % 3;
+    int c = (a + 2) % 3;
+    for (int i = 0; i < 2; i++) {
+        for (int j = -1; j <= 1; j++) {
+            for (int k = -1; k <= 1; k++) {
+                ivec3 r = q;
+                r[a] += i;
+                r[b] += j;
+                r[c] += k;
+                if (padded_missing(r)) return true;
+            }
+        }
+    }
+    return false;
+}
+
 void main() {
     uint id = item_index();
     if (id >= C.count) {
@@ -64,10 +84,12 @@ void main() {
     // Inside bits of the 8 points q + offset(k) (0 beyond the lattice): each sample is read
     // once here, for the point's edges and for its cell alike.
     uint corners = 0u;
+    uint missing = 0u;  // bit k: point q + offset(k) is missing data (missing.glsl)
     for (uint k = 0u; k < 8u; k++) {
         ivec3 r = q + offset_of(k);
-        if (all(lessThan(r, n)) && padded_inside(r)) {
-            corners |= 1u << k;
+        if (all(lessThan(r, n))) {
+            if (padded_inside(r)) corners |= 1u << k;
+            if (padded_missing(r)) missing |= 1u << k;
         }
     }
     bool in_q = (corners & 1u) != 0u;
@@ -75,7 +97,9 @@ void main() {
     uint families = C.mode == MODE_MT ? 7u : 3u;
     for (uint f = 0u; f < families; f++) {
         uint bits = C.mode == MODE_MT ? f + 1u : 1u << f;
-        if (all(lessThan(q + offset_of(bits), n)) && ((corners >> bits) & 1u) != uint(in_q)) {
+        // An edge with a missing end is not crossed (no finite cell holds it).
+        if (all(lessThan(q + offset_of(bits), n)) && ((corners >> bits) & 1u) != uint(in_q)
+            && ((missing | (missing >> bits)) & 1u) == 0u) {
             mask |= 1u << f;
         }
     }
@@ -89,7 +113,11 @@ void main() {
             int c = (a + 2) % 3;
             if ((mask & (1u << a)) != 0u && q[b] >= 1 && q[c] >= 1 && q[b] < cells[b]
                 && q[c] < cells[c]) {
-                count++;
+                if (ring_missing(q, a)) {
+                    mask |= RING_MISSING << a;  // a missing cell around it: no quad
+                } else {
+                    count++;
+                }
             }
         }
     } else {
@@ -102,7 +130,8 @@ void main() {
     if (q.x < cells.x && q.y < cells.y && q.z >= C.cell_z0) {
         uint cslot = cell_slot(q);
         if (cslot < C.owned_cell_end) {
-            cell_scan[cslot] = cell_count(corners);
+            // A missing cell owns nothing (`cell_missing`).
+            cell_scan[cslot] = missing != 0u ? 0u : cell_count(corners);
         }
     }
 }

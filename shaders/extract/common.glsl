@@ -11,6 +11,8 @@
 // image once by the `values` pass, so the other passes read a plain buffer) the padded point
 // layers from C.value_z0.
 
+#include "missing.glsl"
+
 layout(std140, binding = 0) uniform Params {
     ivec4 dims;     // xyz: grid points per axis; w: padding layers (pad)
     vec4 box_min;   // xyz: world position of grid point (0, 0, 0)
@@ -75,6 +77,9 @@ layout(push_constant) uniform Push {
 
 const uint INSIDE_BIT = 256u;
 const uint EDGE_BITS = 255u;
+// Dual methods: bit RING_MISSING << a set iff a cell around the crossed edge along axis a is
+// missing (no quad there; classify.comp).
+const uint RING_MISSING = 512u;
 
 // The item of this invocation, or C.count when there is none.
 uint item_index() {
@@ -156,6 +161,11 @@ uint cell_slot(ivec3 c) {
     return uint(c.x + n.x * (c.y + n.y * (c.z - C.cell_z0)));
 }
 
+// Offset of an edge family given as corner bits (x = 1, y = 2, z = 4).
+ivec3 offset_of(uint bits) {
+    return ivec3(int(bits & 1u), int((bits >> 1) & 1u), int((bits >> 2) & 1u));
+}
+
 // THE inside rule (Rust: `Inside::contains` with the f64 isovalue): `iso.x` is the f32 next to
 // the isovalue on the side that makes `v < iso.x` (below) or `v > iso.x` (above) exactly the f64
 // comparison for every f32 v. Equal is outside; NaN is outside.
@@ -178,6 +188,19 @@ bool padded_inside(ivec3 q) {
     return is_real(q) && inside_value(value_at(q));
 }
 
+// Whether padded point q holds missing data (missing.glsl; padding points never do).
+bool padded_missing(ivec3 q) {
+    return is_real(q) && is_missing(value_at(q));
+}
+
+// Whether grid cell c (unpadded) is missing: a corner is missing data (`cell_missing`).
+bool grid_cell_missing(ivec3 c) {
+    for (uint n = 0u; n < 8u; n++) {
+        if (is_missing(value_at(c + pad() + offset_of(n)))) return true;
+    }
+    return false;
+}
+
 // Global id of the vertex on the crossed lattice edge from padded point q along axis (x, y, z
 // families: marching cubes and mc33).
 uint edge_vertex(ivec3 q, uint axis) {
@@ -186,10 +209,6 @@ uint edge_vertex(ivec3 q, uint axis) {
     return C.vertex_base + point_scan[slot] - point_scan[C.owned_point] + bitCount(below);
 }
 
-// Offset of an edge family given as corner bits (x = 1, y = 2, z = 4).
-ivec3 offset_of(uint bits) {
-    return ivec3(int(bits & 1u), int((bits >> 1) & 1u), int((bits >> 2) & 1u));
-}
 
 // The crossing parameter on an edge from value a to value b: (iso - a) / (b - a) clamped to
 // [0, 1], 0.5 when NaN. The isovalue enters as hi + lo so that iso - a keeps its f64 digits
@@ -240,7 +259,8 @@ vec3 cell_gradient(ivec3 c, vec3 l) {
 // Index-space gradient at grid index-space point base + local (local in [0, 1]³), averaged over
 // the cells that contain it (`Field::gradient`): along each axis a coordinate strictly between
 // integers selects one cell; an integer coordinate inside the grid the two cells sharing that
-// plane; on the grid's boundary plane the one cell there.
+// plane; on the grid's boundary plane the one cell there. Missing cells are left out; with
+// none left, zero (the callers' fallback applies, as the CPU's NaN does).
 vec3 gradient_at(ivec3 base, vec3 local) {
     ivec2 cells[3];
     vec2 locs[3];
@@ -266,15 +286,18 @@ vec3 gradient_at(ivec3 base, vec3 local) {
         }
     }
     vec3 sum = vec3(0.0);
+    int used = 0;
     for (int iz = 0; iz < counts[2]; iz++) {
         for (int iy = 0; iy < counts[1]; iy++) {
             for (int ix = 0; ix < counts[0]; ix++) {
                 ivec3 c = ivec3(cells[0][ix], cells[1][iy], cells[2][iz]);
+                if (grid_cell_missing(c)) continue;
                 sum += cell_gradient(c, vec3(locs[0][ix], locs[1][iy], locs[2][iz]));
+                used++;
             }
         }
     }
-    return sum / float(counts[0] * counts[1] * counts[2]);
+    return used == 0 ? vec3(0.0) : sum / float(used);
 }
 
 // Normalises v (scaled first, so tiny vectors do not underflow); false if zero or not finite.

@@ -52,7 +52,7 @@ void main() {
         int b = (a + 1) % 3;
         int c = (a + 2) % 3;
         if ((mask & (1u << a)) == 0u || q[b] < 1 || q[c] < 1 || q[b] >= cells[b]
-            || q[c] >= cells[c]) {
+            || q[c] >= cells[c] || (mask & (RING_MISSING << a)) != 0u) {
             continue;
         }
         if (seen++ != rank) {

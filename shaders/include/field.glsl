@@ -10,6 +10,8 @@
 // POOL_APRON more on every side (the central differences of smooth normals at the brick's
 // points), so a cell never needs a second brick.
 
+#include "missing.glsl"
+
 // THE inside rule (Rust: `Inside::contains`): strictly below (or above) is inside; equal is
 // outside.
 // The inside predicate against one surface's threshold (P.thresholds; surface 0's is
@@ -137,6 +139,11 @@ Corners cell_corners(ivec3 c) {
 }
 #endif
 
+// Whether the cell of corners k is missing (missing.glsl: a corner is NaN or infinite).
+bool cell_missing(Corners k) {
+    return corners_missing(k.lo, k.hi);
+}
+
 // Trilinear interpolation at local coordinates f in [0,1]^3.
 float trilinear_local(Corners k, vec3 f) {
     vec4 x = mix(k.lo, k.hi, f.z);       // the 4 x-edges' ends on the plane z = f.z
@@ -157,9 +164,11 @@ vec3 gradient_local(Corners k, vec3 f) {
 }
 
 // A cell whose corners were fetched last; marching reuses it while samples stay in the cell.
+// `missing`: the cell is missing (cell_missing), tested once per cell.
 struct CellCache {
     ivec3 cell;
     Corners k;
+    bool missing;
 };
 
 CellCache cache_empty() {
@@ -167,15 +176,18 @@ CellCache cache_empty() {
     c.cell = ivec3(-1);
     c.k.lo = vec4(0.0);
     c.k.hi = vec4(0.0);
+    c.missing = false;
     return c;
 }
 
-// Field value at grid coordinates u (already inside the box), through the cache.
+// Field value at grid coordinates u (already inside the box), through the cache; afterwards
+// `cache.missing` says whether u's cell is missing.
 float field_cached(inout CellCache cache, vec3 u) {
     ivec3 c = cell_of(u);
     if (c != cache.cell) {
         cache.cell = c;
         cache.k = cell_corners(c);
+        cache.missing = cell_missing(cache.k);
     }
     return trilinear_local(cache.k, u - vec3(c));
 }

@@ -122,6 +122,10 @@ fn print_probe(scene: &Scene, probe: &PixelProbe, px: u32, py: u32) -> Result<()
     )?;
     for v in visits {
         let c = &v.corners;
+        if v.missing {
+            say!("  {}  t [{:.6}, {:.6}]", crate::probe::missing_note(v), v.t_in, v.t_out)?;
+            continue;
+        }
         say!(
             "  cell {:?}  t [{:.6}, {:.6}]  corners v000 {:.5} v100 {:.5} v010 {:.5} v110 {:.5} v001 {:.5} v101 {:.5} v011 {:.5} v111 {:.5}",
             v.cell, v.t_in, v.t_out, c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]

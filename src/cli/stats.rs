@@ -67,6 +67,11 @@ pub fn run(args: &StatsArgs) -> Result<i32, Failure> {
             f.placement.pivot.z
         )?;
     }
+    // Missing data (field.nan = "empty") is left out of every figure below.
+    say!(
+        "non-finite  {} sample(s) (NaN or inf: missing data, left out of the figures below)",
+        s.missing
+    )?;
     say!("range       {} .. {}", s.min, s.max)?;
     say!("mean        {}", s.mean)?;
     say!("sigma       {}", s.sigma)?;

@@ -55,11 +55,14 @@ impl Grid {
         out
     }
 
-    /// Smallest and largest sample.
+    /// Smallest and largest sample, of those that are not missing data (NaN or ±inf:
+    /// [`super::trilinear::is_missing`]); `(inf, -inf)` when none is.
     pub fn range(&self) -> (f32, f32) {
-        self.values
-            .iter()
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)))
+        let mut mm = [f32::INFINITY, f32::NEG_INFINITY];
+        for &v in &self.values {
+            crate::field::trilinear::widen(&mut mm, v);
+        }
+        (mm[0], mm[1])
     }
 
     /// Position `pos` (the grid's frame) → continuous grid coordinates, clamped into the box

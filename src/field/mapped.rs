@@ -20,7 +20,7 @@ use rayon::prelude::*;
 
 use super::samples::{self, Endian, SampleType, StorageOrder};
 use super::source::FieldSource;
-use super::{FieldError, FieldSpec, Grid};
+use super::{FieldError, FieldSpec, Grid, NanPolicy};
 
 /// A memory-mapped `raw` or `npy` grid.
 pub struct MappedGrid {
@@ -36,6 +36,8 @@ pub struct MappedGrid {
     /// The box (the spec's bounds).
     pub min: DVec3,
     pub max: DVec3,
+    /// `field.nan` of the spec: whether a non-finite sample is refused or missing data.
+    pub nan: NanPolicy,
 }
 
 impl MappedGrid {
@@ -71,6 +73,7 @@ impl MappedGrid {
             dims,
             min: spec.bounds.min,
             max: spec.bounds.max,
+            nan: spec.nan,
         }))
     }
 
@@ -151,12 +154,15 @@ impl MappedGrid {
         out
     }
 
-    /// [`MappedGrid::read_box`], checked finite (the first non-finite point, x fastest, is
-    /// named), with the pages read handed back: what a process reading only its part of the
+    /// [`MappedGrid::read_box`], checked finite under `field.nan` (the first non-finite point,
+    /// x fastest, is named), with the pages read handed back: what a process reading only its part of the
     /// file (an MPI rank's block or window) takes instead of sampling the grid.
     pub fn read_finite(&self, lo: [usize; 3], n: [usize; 3]) -> Result<Vec<f32>, FieldError> {
         let values = self.read_box(lo, n);
         self.release();
+        if self.nan == NanPolicy::Empty {
+            return Ok(values);
+        }
         match values.iter().position(|v| !v.is_finite()) {
             None => Ok(values),
             Some(at) => {
@@ -186,11 +192,13 @@ impl MappedGrid {
     }
 
     /// The min/max of every brick of `brick` cells (over its `brick + 1` points per axis), x
-    /// fastest, `ceil(cells / brick)` per axis, as `passes::bricks` lays them out; fails on a
-    /// non-finite sample (the first the scan meets: by brick layer along the file's slowest
-    /// axis). One pass over the file, in its order: each layer of bricks along the slowest axis
-    /// is read row by row along the fastest (every row once per brick row holding it), in
-    /// parallel over the brick rows, and its pages released before the next.
+    /// fastest, `ceil(cells / brick)` per axis, as `passes::bricks` lays them out; with
+    /// `field.nan = "error"` fails on a non-finite sample (the first the scan meets: by brick
+    /// layer along the file's slowest axis), with `"empty"` leaves it out of the range
+    /// ([`super::trilinear::widen`]). One pass over the file, in its order: each layer of
+    /// bricks along the slowest axis is read row by row along the fastest (every row once per
+    /// brick row holding it), in parallel over the brick rows, and its pages released before
+    /// the next.
     pub fn brick_ranges(&self, brick: usize) -> Result<Vec<[f32; 2]>, FieldError> {
         let counts = self.dims.map(|n| (n - 1).div_ceil(brick));
         // File axes: fastest f, middle y, slowest s (x, y, z for XFastest; z, y, x for C order).
@@ -248,7 +256,8 @@ impl MappedGrid {
                         &run
                     }
                 };
-                if let Some(pf) = row.iter().position(|v| !v.is_finite()) {
+                let refused = self.nan == NanPolicy::Error;
+                if let Some(pf) = row.iter().position(|v| refused && !v.is_finite()) {
                     let mut index = [0; 3];
                     (index[f], index[1], index[s]) = (pf, py, ps);
                     return Err(FieldError::NonFinite {
@@ -260,7 +269,7 @@ impl MappedGrid {
                 }
                 for (bf, m) in mm.iter_mut().enumerate() {
                     for &v in &row[span(f, bf)] {
-                        *m = [m[0].min(v), m[1].max(v)];
+                        crate::field::trilinear::widen(m, v);
                     }
                 }
             }

@@ -4,7 +4,7 @@
 use std::io::Read;
 use std::path::Path;
 
-use super::FieldError;
+use super::{FieldError, NanPolicy};
 
 /// Element type of a binary volume.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -249,14 +249,19 @@ fn fill(reader: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
     Ok(got)
 }
 
-/// Fails on the first NaN or infinity (x-fastest order), naming its grid point.
-/// `what` names the data (a path or an expression) and `detail` is inserted after the index.
+/// With `field.nan = "error"`, fails on the first NaN or infinity (x-fastest order), naming
+/// its grid point; with `"empty"` they are missing data and pass. `what` names the data (a path
+/// or an expression) and `detail` is inserted after the index.
 pub(crate) fn check_finite(
     values: &[f32],
     dims: [usize; 3],
+    nan: NanPolicy,
     what: impl FnOnce() -> String,
     detail: impl FnOnce([usize; 3]) -> String,
 ) -> Result<(), FieldError> {
+    if nan == NanPolicy::Empty {
+        return Ok(());
+    }
     match values.iter().position(|v| !v.is_finite()) {
         None => Ok(()),
         Some(n) => {

@@ -20,6 +20,25 @@ pub struct FieldSpec {
     pub placement: Placement,
     /// How much of the grid is read and uploaded (`field.residency`; `npy` and `raw` only).
     pub residency: Residency,
+    /// What a NaN or infinite sample means (`field.nan`).
+    pub nan: NanPolicy,
+}
+
+/// `field.nan`: what a non-finite sample (NaN or ±inf) means. With `Empty` it is missing data:
+/// a cell whose interpolation stencil holds one holds no surface, for every method (the rule:
+/// [`crate::field::trilinear::cell_missing`]; README "Missing data").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum NanPolicy {
+    /// The grid is refused at load time, naming the first such sample.
+    Error,
+    /// Missing data: the cells around the sample hold no surface.
+    #[default]
+    Empty,
+}
+
+impl NanPolicy {
+    pub const NAMES: [(&'static str, NanPolicy); 2] =
+        [("error", NanPolicy::Error), ("empty", NanPolicy::Empty)];
 }
 
 /// `field.residency`: whether a render reads the whole grid or only the bricks its isovalues
@@ -50,6 +69,7 @@ impl FieldSpec {
             bounds,
             placement: Placement::IDENTITY,
             residency: Residency::Whole,
+            nan: NanPolicy::default(),
         }
     }
 
@@ -66,6 +86,7 @@ impl FieldSpec {
             bounds,
             placement: Placement::IDENTITY,
             residency: Residency::Whole,
+            nan: NanPolicy::default(),
         }
     }
 
@@ -77,6 +98,7 @@ impl FieldSpec {
             source: FieldSource::Grid(std::sync::Arc::new(grid)),
             placement: Placement::IDENTITY,
             residency: Residency::Whole,
+            nan: NanPolicy::default(),
         }
     }
 
@@ -92,6 +114,7 @@ impl FieldSpec {
             bounds,
             placement: Placement::IDENTITY,
             residency: Residency::Whole,
+            nan: NanPolicy::default(),
         })
     }
 
@@ -121,7 +144,7 @@ impl FieldSpec {
             max: self.bounds.max,
             values: Vec::new(),
         };
-        grid.values = self.source.sample(&grid, time, limits)?;
+        grid.values = self.source.sample(&grid, time, limits, self.nan)?;
         Ok(grid)
     }
 

@@ -6,11 +6,19 @@
 //! - percentiles by NumPy's default (`method = "linear"`): for p in [0, 100] the sorted
 //!   samples' value at fractional rank `p / 100 * (n - 1)`, interpolated linearly between
 //!   the two neighbouring ranks.
+//!
+//! Missing data (NaN or ±inf samples, [`crate::field::trilinear::is_missing`]) is counted
+//! ([`Stats::missing`]) and left out of everything else.
+
+use crate::field::trilinear::is_missing;
 
 /// Statistics of a set of samples.
 #[derive(Clone, Debug)]
 pub struct Stats {
+    /// Samples, missing ones included.
     pub count: usize,
+    /// Samples that are missing data (NaN or ±inf).
+    pub missing: usize,
     pub min: f64,
     pub max: f64,
     pub mean: f64,
@@ -20,17 +28,18 @@ pub struct Stats {
 }
 
 impl Stats {
-    /// The statistics of `values` (finite, not empty: a sampled grid's).
+    /// The statistics of `values` (a sampled grid's), the missing ones counted only.
     pub fn of(values: &[f32]) -> Stats {
         let count = values.len();
         let (mean, sigma) = moments(values);
-        let mut sorted = values.to_vec();
+        let mut sorted: Vec<f32> = values.iter().copied().filter(|&v| !missing(v)).collect();
+        let missing = count - sorted.len();
         sorted.sort_unstable_by(f32::total_cmp);
         let (min, max) = match (sorted.first(), sorted.last()) {
             (Some(&a), Some(&b)) => (a as f64, b as f64),
             _ => (0.0, 0.0),
         };
-        Stats { count, min, max, mean, sigma, sorted }
+        Stats { count, missing, min, max, mean, sigma, sorted }
     }
 
     /// The `p`-th percentile (0..=100), NumPy's linear rule.
@@ -62,11 +71,18 @@ impl Stats {
     }
 }
 
-/// Mean and population σ of `values`, without the sorted copy [`Stats::of`] keeps.
+/// Whether a sample is missing data.
+fn missing(v: f32) -> bool {
+    is_missing(f64::from(v))
+}
+
+/// Mean and population σ of the samples of `values` that are not missing data, without the
+/// sorted copy [`Stats::of`] keeps.
 pub fn moments(values: &[f32]) -> (f64, f64) {
-    let n = values.len().max(1) as f64;
-    let mean = values.iter().map(|&v| v as f64).sum::<f64>() / n;
-    let var = values.iter().map(|&v| (v as f64 - mean).powi(2)).sum::<f64>() / n;
+    let finite = || values.iter().filter(|&&v| !missing(v)).map(|&v| v as f64);
+    let n = finite().count().max(1) as f64;
+    let mean = finite().sum::<f64>() / n;
+    let var = finite().map(|v| (v - mean).powi(2)).sum::<f64>() / n;
     (mean, var.sqrt())
 }
 
@@ -88,5 +104,16 @@ mod tests {
         assert!((s.sigma - 2.570_870_475_150_391_7).abs() < 1e-12, "{}", s.sigma);
         assert_eq!((s.min, s.max), (1.0, 9.0));
         assert_eq!(s.histogram(4), vec![3, 2, 2, 1]); // np.histogram(a, 4)
+    }
+
+    #[test]
+    fn missing_samples_are_counted_and_left_out() {
+        let s = Stats::of(&[3.0, f32::NAN, 1.0, f32::INFINITY, 5.0, f32::NEG_INFINITY]);
+        assert_eq!((s.count, s.missing), (6, 3));
+        assert_eq!((s.min, s.max, s.mean), (1.0, 5.0, 3.0));
+        assert_eq!(s.percentile(50.0), 3.0);
+        assert_eq!(s.histogram(2), vec![1, 2]);
+        let plain = Stats::of(&[3.0, 1.0, 5.0]);
+        assert_eq!((plain.mean, plain.sigma), (s.mean, s.sigma));
     }
 }

@@ -85,6 +85,15 @@ impl Padded<'_, '_, '_> {
         self.real(q).is_some_and(|p| self.f.is_inside(p[0], p[1], p[2]))
     }
 
+    /// Whether padded cell `c` is missing: a corner in the grid is missing data
+    /// (`field::trilinear::cell_missing`; padding points are outside, never missing).
+    fn cell_missing(&self, c: [usize; 3]) -> bool {
+        (0..8usize).any(|n| {
+            let q = [c[0] + (n & 1), c[1] + ((n >> 1) & 1), c[2] + ((n >> 2) & 1)];
+            self.real(q).is_some_and(|p| self.f.is_missing(p[0], p[1], p[2]))
+        })
+    }
+
     /// Crossing point (grid index space) of the edge from padded point `q` along `axis`, and
     /// whether it runs inside → outside, or None if the edge is not crossed.
     fn crossing(&self, q: [usize; 3], axis: usize) -> Option<(DVec3, bool)> {
@@ -119,7 +128,8 @@ impl Padded<'_, '_, '_> {
         let mixed = (1..8usize).any(|n| {
             self.inside([c[0] + (n & 1), c[1] + ((n >> 1) & 1), c[2] + ((n >> 2) & 1)]) != first
         });
-        if !mixed {
+        // A missing cell has no vertex, so no quad is made around its edges.
+        if !mixed || self.cell_missing(c) {
             return None;
         }
         let mut sum = DVec3::ZERO;
@@ -273,7 +283,11 @@ pub(crate) fn extract_slab(
                         ids[cc[2] % 2][cc[0] + nc[0] * cc[1]]
                     };
                     let mut quad = [cell(0, 0), cell(1, 0), cell(1, 1), cell(0, 1)];
-                    debug_assert!(quad.iter().all(|&v| v != u32::MAX));
+                    // A missing cell around the edge (an edge with a missing end has only
+                    // those): no quad.
+                    if quad.contains(&u32::MAX) {
+                        continue;
+                    }
                     if !out_pos {
                         quad.swap(1, 3);
                     }

@@ -12,7 +12,7 @@ use std::ops::Range;
 
 use glam::DVec3;
 
-use super::field::Field;
+use super::field::{Field, MISSING};
 use super::{to_u32, MeshError};
 
 /// Vertex positions and normals under construction.
@@ -190,7 +190,9 @@ impl<'f, 'g> EdgeLayers<'f, 'g> {
                 }
                 let (flags, values) = if d[2] == 0 { (ins, here) } else { (above, there) };
                 let q = ib + nx * jb;
-                if flags[q] == ina {
+                // Not crossed: both ends on one side, or an end missing (no finite cell holds
+                // the edge, so it has no vertex).
+                if flags[q] == ina || (flags[q] | ina) & MISSING != 0 {
                     continue;
                 }
                 let s = f.crossing(f64::from(here[p]), f64::from(values[q]));
@@ -204,16 +206,29 @@ impl<'f, 'g> EdgeLayers<'f, 'g> {
     }
 
     /// Nonzero for each cell of row `j` of cell layer `k` (into `out`, `nx - 1` long) that
-    /// has corners on both sides, from the flags of point layers `k` and `k + 1` (see
+    /// has corners on both sides (or some missing, some not: [`EdgeLayers::cell_missing`]
+    /// tells), from the flags of point layers `k` and `k + 1` (see
     /// [`EdgeLayers::corner_mask`]).
     pub fn active_cells(&self, j: usize, k: usize, out: &mut [u8]) {
         let nx = self.f.dims[0];
         cell_row_differs(&self.inside[k % 2], &self.inside[(k + 1) % 2], nx * j, nx, out);
     }
 
+    /// Whether cell `(i, j, k)` is missing (a corner's flag is [`MISSING`]): it has no
+    /// triangle. From the flags of point layers `k` and `k + 1`, as [`EdgeLayers::corner_mask`].
+    #[inline]
+    pub fn cell_missing(&self, i: usize, j: usize, k: usize) -> bool {
+        let nx = self.f.dims[0];
+        let (lo, hi) = (&self.inside[k % 2], &self.inside[(k + 1) % 2]);
+        let p = i + nx * j;
+        let (a, b) = (p + nx, p + 1);
+        (lo[p] | lo[b] | lo[a] | lo[a + 1] | hi[p] | hi[b] | hi[a] | hi[a + 1]) & MISSING != 0
+    }
+
     /// Bitmask of the inside corners of cell `(i, j, k)` (bit `n` for corner `n`, as
     /// [`Field::corner_mask`]), from the flags of point layers `k` and `k + 1`, both of which
-    /// must have been built or numbered last.
+    /// must have been built or numbered last; the cell must not be missing
+    /// ([`EdgeLayers::cell_missing`]).
     #[inline]
     pub fn corner_mask(&self, i: usize, j: usize, k: usize) -> u8 {
         let nx = self.f.dims[0];

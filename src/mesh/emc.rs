@@ -87,6 +87,9 @@ impl Emc<'_, '_, '_> {
         for k in 0..nz - 1 {
             for j in 0..ny - 1 {
                 for i in 0..nx - 1 {
+                    if f.cell_missing(i, j, k) {
+                        continue; // no surface (`field::trilinear::cell_missing`)
+                    }
                     let row = &MC_TRIANGLES[case_index(f.corner_mask(i, j, k))];
                     if row[0] < 0 {
                         continue;

@@ -4,8 +4,14 @@
 
 use glam::DVec3;
 
+use crate::field::trilinear::{cell_missing, is_missing};
 use crate::field::Grid;
 use crate::vocab::Inside;
+
+/// The flag of a missing sample ([`is_missing`]) in [`Field::inside_flags`], beside 1 (inside)
+/// and 0 (outside): a cell with such a corner is missing and an edge with such an end is never
+/// crossed (see [`crate::field::trilinear::cell_missing`]).
+pub(crate) const MISSING: u8 = 2;
 
 pub(crate) struct Field<'a> {
     /// The samples held: point layers `first..first + grid.dims[2]` of the whole grid (all
@@ -112,10 +118,28 @@ impl<'a> Field<'a> {
         &self.grid.values[(k - self.first) * n..][..n]
     }
 
-    /// The inside rule at each of `values` as 1 or 0, into `out` (resized to match).
+    /// The inside rule at each of `values` as 1 or 0, or [`MISSING`], into `out` (resized to
+    /// match).
     pub fn inside_flags(&self, values: &[f32], out: &mut Vec<u8>) {
         out.clear();
-        out.extend(values.iter().map(|&v| u8::from(self.inside.contains(f64::from(v), self.iso))));
+        out.extend(values.iter().map(|&v| {
+            let v = f64::from(v);
+            if is_missing(v) {
+                MISSING
+            } else {
+                u8::from(self.inside.contains(v, self.iso))
+            }
+        }));
+    }
+
+    /// Whether the sample at point `(i, j, k)` is missing data.
+    pub fn is_missing(&self, i: usize, j: usize, k: usize) -> bool {
+        is_missing(self.value(i, j, k))
+    }
+
+    /// Whether cell `(i, j, k)` is missing (a corner is missing data): it holds no surface.
+    pub fn cell_missing(&self, i: usize, j: usize, k: usize) -> bool {
+        cell_missing(&self.corners(i, j, k))
     }
 
     /// The inside rule at point `(i, j, k)`.
@@ -209,7 +233,9 @@ impl<'a> Field<'a> {
 
     /// Index-space gradient at `u`, averaged over the cells containing `u`: along each axis, a
     /// coordinate strictly between cells' integer boundaries selects one cell; an integer
-    /// coordinate inside the grid selects the two cells that share that plane.
+    /// coordinate inside the grid selects the two cells that share that plane. Missing cells
+    /// are left out (a vertex of a finite cell beside one takes its finite cells' mean; with
+    /// none, the result is NaN and the callers' fallback applies).
     pub fn gradient(&self, u: DVec3) -> DVec3 {
         let mut choices = [[(0usize, 0.0f64); 2]; 3];
         let mut counts = [0usize; 3];
@@ -233,6 +259,9 @@ impl<'a> Field<'a> {
             for &(cy, ly) in &choices[1][..counts[1]] {
                 for &(cx, lx) in &choices[0][..counts[0]] {
                     let v = self.corners(cx, cy, cz);
+                    if cell_missing(&v) {
+                        continue;
+                    }
                     sum += trilinear_gradient(&v, lx, ly, lz);
                     n += 1.0;
                 }

@@ -20,6 +20,7 @@
 use glam::DVec3;
 
 use super::field::Field;
+use crate::field::trilinear::is_missing;
 use crate::field::PointField;
 
 /// Where Hermite data comes from.
@@ -37,7 +38,11 @@ impl Hermite<'_, '_, '_> {
         let mut b = a;
         b[axis] += 1;
         let (va, vb) = (f.value(a[0], a[1], a[2]), f.value(b[0], b[1], b[2]));
-        if f.inside.contains(va, f.iso) == f.inside.contains(vb, f.iso) {
+        // An edge with a missing end is never crossed (`trilinear::cell_missing`).
+        if f.inside.contains(va, f.iso) == f.inside.contains(vb, f.iso)
+            || is_missing(va)
+            || is_missing(vb)
+        {
             return None;
         }
         let ua = DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64);

@@ -13,6 +13,7 @@ use std::sync::Arc;
 use super::window::{self, Extraction, Joiner, Lattice, SlabMesh};
 use super::{Mesh, MeshBudget, MeshError};
 use crate::field::mapped::MappedGrid;
+use crate::field::NanPolicy;
 
 /// Bytes of samples one window holds at most (at least its range's point layers).
 pub const WINDOW_BYTES: usize = 256 << 20;
@@ -47,7 +48,11 @@ pub fn extract_mapped_within(
         let cells = start..(start + depth).min(layers);
         let points = window::point_layers(x.algo, grid.dims, cells.clone());
         let n = [nx, ny, points.len()];
-        let values = grid.read_box([0, 0, points.start], n);
+        // `field.nan = "error"` refuses a non-finite sample as the whole grid's read would.
+        let values = match grid.nan {
+            NanPolicy::Error => grid.read_finite([0, 0, points.start], n)?,
+            NanPolicy::Empty => grid.read_box([0, 0, points.start], n),
+        };
         let outside = values.iter().all(|&v| !x.inside.contains(v as f64, x.iso));
         let part = if outside {
             SlabMesh::default()

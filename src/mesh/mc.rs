@@ -78,6 +78,9 @@ pub(crate) fn extract_slab(f: &Field, cells: Range<usize>) -> Result<Part, MeshE
             // Cells with corners on one side have no triangles (Bourke's rows 0 and 255).
             edges.active_cells(j, k, &mut active);
             for i in (0..nx - 1).filter(|&i| active[i] != 0) {
+                if edges.cell_missing(i, j, k) {
+                    continue; // no surface (`field::trilinear::cell_missing`)
+                }
                 let mask = edges.corner_mask(i, j, k);
                 let row = &MC_TRIANGLES[CASE_OF_MASK[usize::from(mask)]];
                 for tri in row.chunks_exact(3).take_while(|t| t[0] >= 0) {

@@ -213,6 +213,9 @@ pub enum MeshError {
     /// `ISOVIEW_MAX_MESH_MIB` is set to something that is not a positive whole number.
     #[error("{MESH_CAP_ENV}={value:?}: expected a positive whole number of MiB")]
     BadLimit { value: String },
+    /// The samples could not be used (`field.nan = "error"` and a non-finite one).
+    #[error(transparent)]
+    Field(#[from] crate::field::FieldError),
     #[error(
         "hermite = \"source\" needs a source that can be evaluated off the grid (sdf, expr, \
          corners, mesh); use hermite = \"trilinear\""

@@ -29,7 +29,7 @@ use glam::DVec3;
 
 use super::dual::split;
 use super::edges::Vertices;
-use super::field::Field;
+use super::field::{Field, MISSING};
 use super::slabs::Part;
 use super::{ExtractOptions, MeshError};
 
@@ -114,6 +114,8 @@ pub(crate) fn extract_slab(
                 super::edges::cell_row_differs(lo, hi, r, nx, &mut differs[..ncx]);
                 // The crossings of this row's last cell's y and z edges at x + 1 (slot 4: none).
                 let mut carry = [0.0f64; 5];
+                // The cell `carry` is from: a missing cell in between leaves none.
+                let mut carried_at = usize::MAX;
                 for cx in (0..ncx).filter(|&cx| differs[cx] != 0) {
                     let p = r + cx;
                     let corner = |n: usize| {
@@ -121,6 +123,10 @@ pub(crate) fn extract_slab(
                         layer[p + (n & 1) + nx * ((n >> 1) & 1)]
                     };
                     let mask = (0..8).fold(0u8, |m, n| m | corner(n) << n);
+                    // A missing cell has no vertex (`field::trilinear::cell_missing`).
+                    if (0..8).any(|n| corner(n) & MISSING != 0) {
+                        continue;
+                    }
                     let value = |n: u8| {
                         let n = usize::from(n);
                         f64::from(values[n >> 2][p + (n & 1) + nx * ((n >> 1) & 1)])
@@ -140,7 +146,7 @@ pub(crate) fn extract_slab(
                         // A y or z edge at x is the previous cell's at x + 1, and being crossed
                         // that cell was active and just visited: the same division, done once.
                         let from = usize::from(REUSE[e] & 15);
-                        let s = if cx > 0 && from < 4 {
+                        let s = if cx > 0 && from < 4 && carried_at == cx - 1 {
                             carry[from]
                         } else {
                             f.crossing(value(start), value(end))
@@ -154,6 +160,7 @@ pub(crate) fn extract_slab(
                         count += 1;
                     }
                     carry = next;
+                    carried_at = cx;
                     let u = sum / f64::from(count);
                     slot[cx + ncx * cy] = if !own {
                         verts.push_borrowed(f, u)?
@@ -208,7 +215,11 @@ pub(crate) fn extract_slab(
                         ],
                         _ => continue,
                     };
-                    debug_assert!(quad.iter().all(|&v| v != u32::MAX));
+                    // A missing cell around the edge (an edge with a missing end has only
+                    // those): no quad.
+                    if quad.contains(&u32::MAX) {
+                        continue;
+                    }
                     let mut quad = quad;
                     if inside == 0 {
                         quad.swap(1, 3);

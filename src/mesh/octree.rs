@@ -91,8 +91,9 @@ impl Octree<'_, '_, '_, '_> {
         }
         if size == 1 {
             let s = self.signs(min, 1);
-            if s.iter().all(|&x| x == s[0]) {
-                return None;
+            if s.iter().all(|&x| x == s[0]) || self.q.hermite.f.cell_missing(min[0], min[1], min[2])
+            {
+                return None; // no surface; a missing cell has none (`trilinear::cell_missing`)
             }
             let qef = self.q.cell_qef(min);
             let vertex = self.q.vertex(min);
@@ -138,7 +139,7 @@ impl Octree<'_, '_, '_, '_> {
             }
         }
         let s = self.signs(min, size);
-        if !one_piece(&s) || !self.midpoints_agree(min, size, &s) {
+        if !one_piece(&s) || !self.midpoints_agree(min, size, &s) || self.has_missing(min, size) {
             return None;
         }
         let lo = DVec3::new(min[0] as f64, min[1] as f64, min[2] as f64);
@@ -148,6 +149,16 @@ impl Octree<'_, '_, '_, '_> {
             return None;
         }
         Some(Node::Leaf { min, size, qef, vertex, manifold: true, id: 0 })
+    }
+
+    /// Whether a point of the cube at `min` with side `size` is missing data: such a cube
+    /// holds a missing cell (no leaf), so it never collapses into one leaf.
+    fn has_missing(&self, min: [usize; 3], size: usize) -> bool {
+        let f = self.q.hermite.f;
+        (min[2]..=min[2] + size).any(|k| {
+            (min[1]..=min[1] + size)
+                .any(|j| (min[0]..=min[0] + size).any(|i| f.is_missing(i, j, k)))
+        })
     }
 
     /// The sign at each edge midpoint, face centre and the centre of the cube is the sign of

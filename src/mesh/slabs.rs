@@ -80,7 +80,7 @@ pub(crate) fn run_part(
     let depth = depth.max(1);
     let ranges: Vec<Range<usize>> =
         cells.clone().step_by(depth).map(|a| a..(a + depth).min(cells.end)).collect();
-    let counted = |cells: Range<usize>| {
+    let counted = |cells: Range<usize>| -> Result<Part, MeshError> {
         let p = slab(cells)?;
         budget.add(p.own_vertices(), p.indices.len() / 3, p.quads.len())?;
         Ok(p)

@@ -17,6 +17,7 @@ use std::sync::Arc;
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
+use crate::field::trilinear::widen;
 use crate::gpu::{
     grid_groups, Buffer, Compute, ComputePipeline, Context, GpuError, Image3d, MemoryLocation,
     Resource, Timer, Tracker,
@@ -104,8 +105,7 @@ pub fn reference(grid: &crate::field::Grid) -> Vec<[f32; 2]> {
                 for k in lo[2]..=hi[2] {
                     for j in lo[1]..=hi[1] {
                         for i in lo[0]..=hi[0] {
-                            let v = grid.at(i, j, k);
-                            mm = [mm[0].min(v), mm[1].max(v)];
+                            widen(&mut mm, grid.at(i, j, k));
                         }
                     }
                 }

@@ -8,6 +8,12 @@
 //! 4. normal: the analytic gradient of the trilinear interpolant at the hit, inside → outside
 //!    (`-dir` where the gradient vanishes).
 //!
+//! Missing data (`field.nan = "empty"`, [`crate::field::trilinear::cell_missing`]): a sample
+//! whose cell is missing has no inside state, and a step with such a sample at either end has
+//! no crossing; a bisection midpoint in a missing cell moves the far end of the bracket (its
+//! value kept), and a crossing whose refined point lies in a missing cell is no hit: the march
+//! goes on from the step's far sample.
+//!
 //! A ray that enters the box reports `steps` samples visited up to and including the sample
 //! after the crossing, or all of them on a miss; a ray that misses the box reports 0.
 
@@ -15,6 +21,8 @@ use glam::DVec3;
 
 use super::field::{cell_of, clip_box, gradient_at, to_grid, value_at};
 use super::shade::{nearest_surface, render_with, RayHit};
+use super::trilinear::cell_corners;
+use crate::field::trilinear::cell_missing;
 use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::scene::{Inside, Scene};
@@ -79,28 +87,42 @@ pub fn march_clipped(
     if t0 > t1 {
         return none;
     }
-    let sample = |t: f64| value_at(grid, to_grid(grid, origin + dir * t));
-    let (mut ta, mut fa) = (t0, sample(t0));
-    let ina = inside.contains(fa, isovalue);
+    // The value at t and whether its cell is missing.
+    let sample = |t: f64| {
+        let u = to_grid(grid, origin + dir * t);
+        (value_at(grid, u), cell_missing(&cell_corners(grid, cell_of(grid, u))))
+    };
+    let (mut ta, (mut fa, mut gap)) = (t0, sample(t0));
+    let mut ina = inside.contains(fa, isovalue);
+    // f64::min ignores the NaN of a missing sample.
     let mut margin = (fa - isovalue).abs();
     let mut count = 1;
     for i in 1..steps {
-        let mut tb = t0 + (t1 - t0) * (i as f64 / (steps - 1) as f64);
-        let mut fb = sample(tb);
+        let tb = t0 + (t1 - t0) * (i as f64 / (steps - 1) as f64);
+        let (fb, missing) = sample(tb);
         count += 1;
         margin = margin.min((fb - isovalue).abs());
-        if inside.contains(fb, isovalue) != ina {
+        let inb = inside.contains(fb, isovalue);
+        if inb != ina && !gap && !missing {
+            let (mut a, mut va, mut b, mut vb) = (ta, fa, tb, fb);
             for _ in 0..REFINE_BISECTIONS {
-                let tm = 0.5 * (ta + tb);
-                let fm = sample(tm);
-                if inside.contains(fm, isovalue) == ina {
-                    (ta, fa) = (tm, fm);
+                let tm = 0.5 * (a + b);
+                let (fm, m) = sample(tm);
+                if m {
+                    b = tm;
+                } else if inside.contains(fm, isovalue) == ina {
+                    (a, va) = (tm, fm);
                 } else {
-                    (tb, fb) = (tm, fm);
+                    (b, vb) = (tm, fm);
                 }
             }
-            let s = if fb != fa { ((isovalue - fa) / (fb - fa)).clamp(0.0, 1.0) } else { 0.5 };
-            let t = ta + (tb - ta) * s;
+            let s = if vb != va { ((isovalue - va) / (vb - va)).clamp(0.0, 1.0) } else { 0.5 };
+            let t = a + (b - a) * s;
+            if sample(t).1 {
+                // The crossing fell in a missing cell: no hit here; march on.
+                (ta, fa, ina, gap) = (tb, fb, inb, missing);
+                continue;
+            }
             let position = origin + dir * t;
             let u = to_grid(grid, position);
             let hit = RayHit {
@@ -113,7 +135,7 @@ pub fn march_clipped(
             };
             return March { hit: Some(hit), steps: count, margin };
         }
-        (ta, fa) = (tb, fb);
+        (ta, fa, ina, gap) = (tb, fb, inb, missing);
     }
     March { hit: None, steps: count, margin }
 }

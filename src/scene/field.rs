@@ -17,10 +17,12 @@ use super::read::{self, choice, integer, number_where, points3, string, vec3, Re
 use super::tree::{Origin, Source};
 use super::validate::show_vec;
 use super::Bounds;
-use crate::field::{FieldError, FieldSpec, GridLimits, Need, Params, Residency, Rule, SourceKind};
+use crate::field::{
+    FieldError, FieldSpec, GridLimits, NanPolicy, Need, Params, Residency, Rule, SourceKind,
+};
 use crate::vocab::Placement;
 
-const COMMON: [&str; 2] = ["source", "bounds"];
+const COMMON: [&str; 3] = ["source", "bounds", "nan"];
 
 /// Every `[field]` key, each once, in the order of first mention (common keys, then each
 /// kind's).
@@ -72,8 +74,9 @@ fn field_named(root: &View, name: &str, base_dir: &Path, limits: &GridLimits) ->
     };
     let kinds: Vec<(&str, SourceKind)> = SourceKind::ALL.iter().map(|k| (k.name(), *k)).collect();
     let kind = choice(t.src, &t.key("source"), source_node, &kinds)?;
-    let common: &[&str] = if kind.own_box().is_some() { &COMMON[..1] } else { &COMMON };
-    let allowed: Vec<&str> = common.iter().chain(kind.keys()).copied().collect();
+    // Kinds with their own box take no `bounds`.
+    let common = COMMON.iter().filter(|&&k| k != "bounds" || kind.own_box().is_none());
+    let allowed: Vec<&str> = common.chain(kind.keys()).copied().collect();
     let source = kind.name();
     t.check_keys_with(&allowed, |key| {
         if let (Some(why), "bounds") = (kind.own_box(), key) {
@@ -96,6 +99,11 @@ fn field_named(root: &View, name: &str, base_dir: &Path, limits: &GridLimits) ->
         Some(node) => choice(t.src, &t.key("residency"), node, &Residency::NAMES)?,
         None => Residency::Whole,
     };
+    // `nan` (every kind): what a NaN or infinite sample means.
+    let nan = match t.get("nan") {
+        Some(node) => choice(t.src, &t.key("nan"), node, &NanPolicy::NAMES)?,
+        None => NanPolicy::default(),
+    };
     let unlimited = GridLimits { max_bytes: u64::MAX };
     let limits = if residency == Residency::Whole { limits } else { &unlimited };
     let parsed = kind.parse(&FieldParams { t: &t, base_dir, limits })?;
@@ -112,6 +120,7 @@ fn field_named(root: &View, name: &str, base_dir: &Path, limits: &GridLimits) ->
         bounds,
         placement,
         residency,
+        nan,
     })
 }
 

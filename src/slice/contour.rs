@@ -412,6 +412,10 @@ pub fn extract(
     let mut stats = ContourStats { cells: leaves.len(), on_source, ..Default::default() };
     let mut segments: Vec<(Key, Key)> = Vec::new();
     for leaf in &leaves {
+        // A missing cell holds no contour (`field::trilinear::cell_missing`).
+        if plane.cell_missing((leaf.x / scale) as usize, (leaf.y / scale) as usize) {
+            continue;
+        }
         let c = leaf.corners();
         let values = c.map(|v| lat.corners[&v]);
         let case = squares::case_index(values.map(|x| lat.inside(x)));

@@ -19,7 +19,7 @@
 use glam::{DVec2, DVec3};
 
 use super::SliceError;
-use crate::field::trilinear::lerp;
+use crate::field::trilinear::{is_missing, lerp};
 use crate::field::Grid;
 
 /// A slicing axis.
@@ -224,11 +224,20 @@ impl PlaneGrid {
         DVec3::from_array(g)
     }
 
-    /// Smallest and largest value on the plane (the bilinear interpolant's range).
+    /// Smallest and largest value on the plane (the bilinear interpolant's range), missing
+    /// data left out.
     pub fn range(&self) -> (f64, f64) {
         self.values
             .iter()
+            .filter(|&&v| !is_missing(v))
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)))
+    }
+
+    /// Whether plane cell `(i, j)` is missing: a corner value is missing data. Its values mix
+    /// the two grid layers around the plane (a missing sample in either makes theirs missing), so
+    /// this is [`crate::field::trilinear::cell_missing`] of the grid cell the plane cuts.
+    pub fn cell_missing(&self, i: usize, j: usize) -> bool {
+        self.cell_corners(i, j).iter().any(|&v| is_missing(v))
     }
 }
 

@@ -26,6 +26,7 @@ mod mesh_parallel;
 mod mesh_render;
 mod methods;
 mod modules;
+mod nan;
 mod normals;
 mod output;
 mod physical;

@@ -37,6 +37,7 @@ fn raw_spec(path: &Path, grid: &Grid, residency: Residency) -> FieldSpec {
         bounds: Bounds { min: grid.min, max: grid.max },
         placement: Placement::IDENTITY,
         residency,
+        nan: Default::default(),
     }
 }
 
@@ -170,6 +171,7 @@ fn mapped_reads_equal_the_in_memory_readers() {
         bounds: Bounds { min: DVec3::ZERO, max: DVec3::ONE },
         placement: Placement::IDENTITY,
         residency: Residency::Active,
+        nan: Default::default(),
     };
     let grid = Grid { dims, min: DVec3::ZERO, max: DVec3::ONE, values: whole };
     let mapped = MappedGrid::open(&spec).unwrap().unwrap();

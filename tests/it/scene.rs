@@ -168,7 +168,10 @@ fn unknown_keys_are_errors_naming_key_and_line() {
     let e = error(&format!("[imag]\nwidth = 4\n{CELL}"), &[]);
     assert_eq!(e, "t.toml:1:2: imag: unknown table or key (did you mean \"image\"?)");
     let e = error(&format!("{CELL}colour = 3\n"), &[]);
-    assert_eq!(e, "t.toml:4:1: field.colour: unknown key ([field] has source, bounds, values)");
+    assert_eq!(
+        e,
+        "t.toml:4:1: field.colour: unknown key ([field] has source, bounds, nan, values)"
+    );
     let e = error("[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradus = 1\n", &[]);
     assert_eq!(e, "t.toml:4:1: field.radus: unknown key (did you mean \"radius\"?)");
     let e = error("[field]\nradius = 1\nvalue = 3\n", &[]);
@@ -188,7 +191,7 @@ fn keys_of_other_sources_and_shapes_are_errors() {
     assert_eq!(
         e,
         "t.toml:7:1: field.path: not a key of source \"sdf\" (it belongs to \"npy\", \"raw\", \"mesh\", \"file\"; \"sdf\" \
-         takes source, bounds, shape, center, resolution, radius, half_extents, major_radius, \
+         takes source, bounds, nan, shape, center, resolution, radius, half_extents, major_radius, \
          minor_radius, scale, thickness)"
     );
     let e = error(&format!("{sdf}radius = 0.5\n"), &[]);
@@ -217,7 +220,10 @@ fn wrong_types_say_what_was_expected_and_found() {
     let e = error(&format!("{CELL}[camera]\neye = 3\n"), &[]);
     assert_eq!(e, "t.toml:5:7: camera.eye: expected an array of 3 numbers, got an integer 3");
     let e = error(&format!("{CELL}camera = 3\n"), &[]);
-    assert_eq!(e, "t.toml:4:1: field.camera: unknown key ([field] has source, bounds, values)");
+    assert_eq!(
+        e,
+        "t.toml:4:1: field.camera: unknown key ([field] has source, bounds, nan, values)"
+    );
     let e = error(&format!("camera = 3\n{CELL}"), &[]);
     assert_eq!(e, "t.toml:1:10: camera: expected a table, got an integer 3");
     let e = error(&format!("{CELL}[render]\nmethod = \"fixed_step\"\n"), &[]);

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use isoview::field::{FieldError, FieldSource, FieldSpec, Grid, GridLimits};
+use isoview::field::{FieldError, FieldSource, FieldSpec, Grid, GridLimits, NanPolicy};
 use isoview::scene::{self, Bounds, Scene, SceneError, SceneErrorKind, SdfShape};
 
 /// A fresh folder for this test's files.
@@ -290,7 +290,10 @@ fn npy_non_finite_samples_are_reported_at_their_grid_point() {
         npy("'>f8'", false, &[2, 3, 4], &payload("f8", true, false, [2, 3, 4], f)),
     )
     .unwrap();
+    // Missing data by default (tests/it/nan.rs); `nan = "error"` refuses it.
     let s = load(&d, "source = \"npy\"\npath = \"nan.npy\"\n").unwrap();
+    assert!(sample(&s).is_ok());
+    let s = load(&d, "source = \"npy\"\npath = \"nan.npy\"\nnan = \"error\"\n").unwrap();
     let e = sample(&s).unwrap_err();
     // The first bad point in x-fastest order: [1, 0, 2] comes before [0, 2, 3].
     assert_eq!(
@@ -305,7 +308,7 @@ fn npy_non_finite_samples_are_reported_at_their_grid_point() {
         npy("'<f8'", true, &[2, 2, 2], &payload("f8", false, true, [2, 2, 2], g)),
     )
     .unwrap();
-    let s = load(&d, "source = \"npy\"\npath = \"big.npy\"\n").unwrap();
+    let s = load(&d, "source = \"npy\"\npath = \"big.npy\"\nnan = \"error\"\n").unwrap();
     assert!(sample(&s)
         .unwrap_err()
         .to_string()
@@ -489,13 +492,17 @@ fn expressions_are_evaluated_at_world_points_and_time() {
 #[test]
 fn non_finite_expression_values_name_the_point_and_time() {
     let b = Bounds { min: DVec3::splat(-1.0), max: DVec3::ONE };
+    // With `field.nan = "error"` (the default takes them as missing data: tests/it/nan.rs).
+    let error = |s: FieldSpec| FieldSpec { nan: NanPolicy::Error, ..s };
     let spec = FieldSpec::expr("sqrt(x)", [3, 3, 3], b).unwrap();
+    assert!(spec.sample_with(0.0, &GridLimits::default()).is_ok());
+    let spec = error(spec);
     let e = spec.sample_with(0.0, &GridLimits::default()).unwrap_err();
     assert_eq!(
         e.to_string(),
         "expression \"sqrt(x)\" at t = 0: value NaN at grid point [0, 0, 0] (x = -1, y = -1, z = -1) is not finite"
     );
-    let spec = FieldSpec::expr("1/(t - 2) + x", [2, 2, 2], Bounds::UNIT).unwrap();
+    let spec = error(FieldSpec::expr("1/(t - 2) + x", [2, 2, 2], Bounds::UNIT).unwrap());
     assert!(spec.sample_with(0.0, &GridLimits::default()).is_ok());
     let e = spec.sample_with(2.0, &GridLimits::default()).unwrap_err().to_string();
     assert!(

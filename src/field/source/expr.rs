@@ -7,7 +7,7 @@ use glam::DVec3;
 use super::params::{self, Need, Params};
 use super::{fill, FieldSource, Info, Parsed, PointField, Supports};
 use crate::field::samples::check_finite;
-use crate::field::{ExprSource, FieldError, Grid};
+use crate::field::{ExprSource, FieldError, Grid, NanPolicy};
 
 pub(super) const INFO: Info = Info {
     name: "expr",
@@ -26,13 +26,20 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
     Ok(Parsed { source: FieldSource::Expr(expr), resolution, bounds: None, placement: None })
 }
 
-/// The samples at `time`; a non-finite one is reported with its world position.
-pub(super) fn sample(e: &ExprSource, grid: &Grid, time: f64) -> Result<Vec<f32>, FieldError> {
+/// The samples at `time`; a non-finite one, which `nan` refuses, is reported with its world
+/// position.
+pub(super) fn sample(
+    e: &ExprSource,
+    grid: &Grid,
+    time: f64,
+    nan: NanPolicy,
+) -> Result<Vec<f32>, FieldError> {
     let values = fill(grid, |p| e.eval(p, time));
     let spacing = grid.spacing();
     check_finite(
         &values,
         grid.dims,
+        nan,
         || format!("expression \"{}\" at t = {time}", e.text),
         |[i, j, k]| {
             let p = grid.min + spacing * DVec3::new(i as f64, j as f64, k as f64);

@@ -52,7 +52,9 @@ use glam::DVec3;
 pub use params::{Need, Params, Rule};
 
 use super::formats::FileSource;
-use super::{samples, ExprSource, FieldError, Grid, GridLimits, MeshSource, NpySource, RawSource};
+use super::{
+    samples, ExprSource, FieldError, Grid, GridLimits, MeshSource, NanPolicy, NpySource, RawSource,
+};
 use crate::vocab::{Bounds, Placement, SdfShape};
 
 /// Declares [`SourceKind`] and its `ALL` from one list, so a kind cannot be left out of `ALL`.
@@ -296,24 +298,25 @@ impl FieldSource {
         }
     }
 
-    /// The samples at the points of `grid` (its dims and box; values empty), checked finite.
+    /// The samples at the points of `grid` (its dims and box; values empty), checked finite
+    /// under `field.nan` (`nan`).
     pub(super) fn sample(
         &self,
         grid: &Grid,
         time: f64,
         limits: &GridLimits,
+        nan: NanPolicy,
     ) -> Result<Vec<f32>, FieldError> {
+        let finite = |values: Vec<f32>| finite(grid, values, self, nan);
         match self {
-            FieldSource::Sdf { shape, center } => {
-                finite(grid, sdf::sample(shape, *center, grid), self)
-            }
-            FieldSource::Corners(v) => finite(grid, corners::sample(v, grid), self),
-            FieldSource::Npy(n) => finite(grid, npy::sample(n, grid, limits)?, self),
-            FieldSource::Raw(r) => finite(grid, raw::sample(r, grid, limits)?, self),
-            FieldSource::Expr(e) => expr::sample(e, grid, time),
-            FieldSource::Grid(g) => finite(grid, g.values.clone(), self),
-            FieldSource::Mesh(m) => finite(grid, mesh::sample(m, grid), self),
-            FieldSource::File(f) => finite(grid, file::sample(f, grid)?, self),
+            FieldSource::Sdf { shape, center } => finite(sdf::sample(shape, *center, grid)),
+            FieldSource::Corners(v) => finite(corners::sample(v, grid)),
+            FieldSource::Npy(n) => finite(npy::sample(n, grid, limits)?),
+            FieldSource::Raw(r) => finite(raw::sample(r, grid, limits)?),
+            FieldSource::Expr(e) => expr::sample(e, grid, time, nan),
+            FieldSource::Grid(g) => finite(g.values.clone()),
+            FieldSource::Mesh(m) => finite(mesh::sample(m, grid)),
+            FieldSource::File(f) => finite(file::sample(f, grid)?),
         }
     }
 
@@ -346,9 +349,14 @@ impl FieldSource {
     }
 }
 
-/// `values` if every one is finite, else the error naming the first other one.
-fn finite(grid: &Grid, values: Vec<f32>, source: &FieldSource) -> Result<Vec<f32>, FieldError> {
-    samples::check_finite(&values, grid.dims, || source.label(), |_| String::new())?;
+/// `values` unless `nan` refuses one that is not finite (the error names the first).
+fn finite(
+    grid: &Grid,
+    values: Vec<f32>,
+    source: &FieldSource,
+    nan: NanPolicy,
+) -> Result<Vec<f32>, FieldError> {
+    samples::check_finite(&values, grid.dims, nan, || source.label(), |_| String::new())?;
     Ok(values)
 }
 

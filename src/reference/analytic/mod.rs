@@ -115,6 +115,11 @@
 //!    point, or a touch at a critical point), the normal is `-normalize(dir)`. Position
 //!    `origin + t dir`.
 //!
+//! **Missing data** (`field.nan = "empty"`): a missing cell
+//! ([`crate::field::trilinear::cell_missing`]) is walked (it counts in `cells_total`) but holds
+//! no crossing: steps 6.2–6.5 are skipped, and the next cell's `g_in` is evaluated from its own
+//! corners at its entry point (by face exactness, what a finite neighbour would have carried).
+//!
 //! A crossing exactly on a cell face belongs to the cell on the face's inside side: the face
 //! point is outside, so the change is detected in the piece that contains inside values.
 //!
@@ -161,6 +166,7 @@ mod tests;
 
 use glam::DVec3;
 
+use crate::field::trilinear::cell_missing;
 use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::reference::shade::{nearest_surface, render_with, RayHit};
@@ -276,6 +282,9 @@ pub struct CellVisit {
     pub splits: Vec<SplitPoint>,
     /// Crossings in this cell, in order (all of them refined, whichever the hit is).
     pub roots: Vec<RootTrace>,
+    /// The cell is missing (a corner is NaN or infinite): no surface, nothing evaluated (the
+    /// coefficients are NaN, the lists empty).
+    pub missing: bool,
 }
 
 /// Traces one ray: the requested crossing, the cell counts and the number of crossings.
@@ -467,6 +476,7 @@ fn walk(
     let max_passes = cells[0] + cells[1] + cells[2];
     for _ in 0..max_passes {
         result.cells_total += 1;
+        let missing = cell_missing(&corners);
 
         // 6.1 Segment end.
         let t_out = tmax.min_element().min(t_hi).max(t_in);
@@ -490,101 +500,124 @@ fn walk(
         }
         let g_out = if t_out == t_in { g_in } else { trilerp(&corners, q_out) - iso };
 
-        // 6.3 Cubic; 6.4 split points.
-        let cubic = Cubic::along_segment(&corners, q_in, q_out, g_in);
-        let (droots, nd) = cubic.derivative_roots();
-        let mut splits = [SplitPoint { u: 0.0, g: g_in, inside: inside_g(inside, g_in) }; 4];
-        for (s, &r) in droots[..nd].iter().enumerate() {
-            let g = cubic.eval(r);
-            splits[s + 1] = SplitPoint { u: r, g, inside: inside_g(inside, g) };
-        }
-        splits[nd + 1] = SplitPoint { u: 1.0, g: g_out, inside: inside_g(inside, g_out) };
-
-        let mut visit = trace.as_ref().map(|_| CellVisit {
-            cell: cell.map(|c| c as i32),
-            corners,
-            t_in,
-            t_out,
-            q_in,
-            q_out,
-            coefficients: cubic.c,
-            derivative_roots: droots[..nd].to_vec(),
-            splits: splits[..nd + 2].to_vec(),
-            roots: Vec::new(),
-        });
-
-        // 6.5 Crossings, piece by piece.
-        for s in 0..=nd {
-            let (a, b) = (splits[s], splits[s + 1]);
-            if a.inside == b.inside {
-                continue;
-            }
-            let exact = if a.g == 0.0 {
-                Some(a.u)
-            } else if b.g == 0.0 {
-                Some(b.u)
-            } else {
-                None
-            };
-            let dropped = exact.is_some_and(|u| segment_t(t_in, t_out, u) <= 0.0);
-            let number = if dropped {
-                0
-            } else {
-                result.crossings += 1;
-                result.crossings
-            };
-            let is_hit = number == wanted;
-            if !is_hit && visit.is_none() {
-                continue;
-            }
-            let mut iterates = Vec::new();
-            let u = match exact {
-                Some(u) => u,
-                None => refine(
-                    &cubic,
-                    inside,
-                    (a.u, b.u),
-                    (a.g, b.g),
-                    opts.newton_steps,
-                    visit.as_ref().map(|_| &mut iterates),
-                ),
-            };
-            let t = segment_t(t_in, t_out, u);
-            if is_hit {
-                let q = lerp3(q_in, q_out, u);
-                let grad = gradient(&corners, q) / h;
-                let oriented = match inside {
-                    Inside::Below => grad,
-                    Inside::Above => -grad,
-                };
-                let len = oriented.length();
-                let normal =
-                    if len > 0.0 && len.is_finite() { oriented / len } else { -dir.normalize() };
-                result.hit = Some(Hit {
-                    t,
-                    position: origin + dir * t,
-                    normal,
+        // A missing cell holds no crossing (see the module doc).
+        if missing {
+            if let Some(list) = trace.as_deref_mut() {
+                list.push(CellVisit {
                     cell: cell.map(|c| c as i32),
-                    local: q,
-                    entering: b.inside,
-                    crossing: number,
-                });
-                result.cells_visited = result.cells_total;
-            }
-            if let Some(v) = visit.as_mut() {
-                v.roots.push(RootTrace {
-                    crossing: number,
-                    u,
-                    t,
-                    entering: b.inside,
-                    exact: exact.is_some(),
-                    bracket: (a.u, b.u),
-                    iterates,
+                    corners,
+                    t_in,
+                    t_out,
+                    q_in,
+                    q_out,
+                    coefficients: [f64::NAN; 4],
+                    derivative_roots: Vec::new(),
+                    splits: Vec::new(),
+                    roots: Vec::new(),
+                    missing: true,
                 });
             }
-        }
-        if let (Some(list), Some(v)) = (trace.as_deref_mut(), visit) {
-            list.push(v);
+        } else {
+            // 6.3 Cubic; 6.4 split points.
+            let cubic = Cubic::along_segment(&corners, q_in, q_out, g_in);
+            let (droots, nd) = cubic.derivative_roots();
+            let mut splits = [SplitPoint { u: 0.0, g: g_in, inside: inside_g(inside, g_in) }; 4];
+            for (s, &r) in droots[..nd].iter().enumerate() {
+                let g = cubic.eval(r);
+                splits[s + 1] = SplitPoint { u: r, g, inside: inside_g(inside, g) };
+            }
+            splits[nd + 1] = SplitPoint { u: 1.0, g: g_out, inside: inside_g(inside, g_out) };
+
+            let mut visit = trace.as_ref().map(|_| CellVisit {
+                cell: cell.map(|c| c as i32),
+                corners,
+                t_in,
+                t_out,
+                q_in,
+                q_out,
+                coefficients: cubic.c,
+                derivative_roots: droots[..nd].to_vec(),
+                splits: splits[..nd + 2].to_vec(),
+                roots: Vec::new(),
+                missing: false,
+            });
+
+            // 6.5 Crossings, piece by piece.
+            for s in 0..=nd {
+                let (a, b) = (splits[s], splits[s + 1]);
+                if a.inside == b.inside {
+                    continue;
+                }
+                let exact = if a.g == 0.0 {
+                    Some(a.u)
+                } else if b.g == 0.0 {
+                    Some(b.u)
+                } else {
+                    None
+                };
+                let dropped = exact.is_some_and(|u| segment_t(t_in, t_out, u) <= 0.0);
+                let number = if dropped {
+                    0
+                } else {
+                    result.crossings += 1;
+                    result.crossings
+                };
+                let is_hit = number == wanted;
+                if !is_hit && visit.is_none() {
+                    continue;
+                }
+                let mut iterates = Vec::new();
+                let u = match exact {
+                    Some(u) => u,
+                    None => refine(
+                        &cubic,
+                        inside,
+                        (a.u, b.u),
+                        (a.g, b.g),
+                        opts.newton_steps,
+                        visit.as_ref().map(|_| &mut iterates),
+                    ),
+                };
+                let t = segment_t(t_in, t_out, u);
+                if is_hit {
+                    let q = lerp3(q_in, q_out, u);
+                    let grad = gradient(&corners, q) / h;
+                    let oriented = match inside {
+                        Inside::Below => grad,
+                        Inside::Above => -grad,
+                    };
+                    let len = oriented.length();
+                    let normal = if len > 0.0 && len.is_finite() {
+                        oriented / len
+                    } else {
+                        -dir.normalize()
+                    };
+                    result.hit = Some(Hit {
+                        t,
+                        position: origin + dir * t,
+                        normal,
+                        cell: cell.map(|c| c as i32),
+                        local: q,
+                        entering: b.inside,
+                        crossing: number,
+                    });
+                    result.cells_visited = result.cells_total;
+                }
+                if let Some(v) = visit.as_mut() {
+                    v.roots.push(RootTrace {
+                        crossing: number,
+                        u,
+                        t,
+                        entering: b.inside,
+                        exact: exact.is_some(),
+                        bracket: (a.u, b.u),
+                        iterates,
+                    });
+                }
+            }
+            if let (Some(list), Some(v)) = (trace.as_deref_mut(), visit) {
+                list.push(v);
+            }
         }
 
         // 6.6 Advance.
@@ -607,7 +640,8 @@ fn walk(
             break;
         }
         corners = cell_corners(grid, cell.map(|c| c as usize));
-        g_in = g_out;
+        // After a missing cell, from the new cell's own corners (its g_out is not a value).
+        g_in = if missing { trilerp(&corners, q_in) - iso } else { g_out };
         t_in = t_out;
     }
     if result.hit.is_none() {

@@ -83,6 +83,11 @@ pub enum FieldError {
     )]
     TablesTooLarge { what: String, dims: [usize; 3], bricks: u64, bytes: u64, cap: u64 },
 
+    /// A file read on demand (`field.residency`) came back short: another process truncated it
+    /// after it was opened and checked. `len`: its size now, when it can still be read.
+    #[error("{}: shrank to {} while being read", path.display(), len.map_or("fewer bytes".to_string(), |n| format!("{n} bytes")))]
+    Shrank { path: PathBuf, len: Option<u64> },
+
     /// A sample is NaN or infinite; `index` is the first such grid point (x fastest).
     #[error("{what}: value {value} at grid point [{}, {}, {}]{detail} is not finite", index[0], index[1], index[2])]
     NonFinite { what: String, index: [usize; 3], value: f32, detail: String },

@@ -34,7 +34,7 @@ pub fn extract_mapped(
         let cells = start..(start + depth).min(layers);
         let points = window::point_layers(x.algo, grid.dims, cells.clone());
         let n = [nx, ny, points.len()];
-        let values = grid.read_box([0, 0, points.start], n);
+        let values = grid.read_box([0, 0, points.start], n)?;
         let outside = values.iter().all(|&v| !x.inside.contains(v as f64, x.iso));
         let part = if outside {
             SlabMesh::default()
@@ -43,7 +43,6 @@ pub fn extract_mapped(
             window::extract_window(&held, points.start, &lattice, x, cells.clone())?
         };
         joiner.push(part)?;
-        grid.release();
         start = cells.end;
     }
     joiner.finish(x.keeps_quads())

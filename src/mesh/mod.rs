@@ -203,6 +203,9 @@ pub enum MeshError {
          corners, mesh); use hermite = \"trilinear\""
     )]
     NoPointSource,
+    /// A grid read from its file as it is extracted (`mesh::mapped`) could not be read.
+    #[error(transparent)]
+    Read(#[from] crate::field::FieldError),
 }
 
 /// Extracts the isosurface `{x : f(x) = iso}` of `grid`'s trilinear interpolant as an indexed

@@ -155,7 +155,7 @@ impl GpuGrid {
         grid: &crate::field::mapped::MappedGrid,
         ranges: &[[f32; 2]],
         residency: pool::Residency,
-    ) -> Result<Self, GpuError> {
+    ) -> Result<Self, pool::PoolError> {
         let pool = pool::Pool::upload(ctx, grid, residency)?;
         let gpu = GpuGrid {
             storage: Storage::Pool(Box::new(pool)),

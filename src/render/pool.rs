@@ -158,14 +158,15 @@ impl Residency {
 
 /// The slot of brick `b`: its points and [`APRON`] more per side, x fastest, [`SLOT`]³ values;
 /// positions past the grid's faces repeat the nearest point (nothing reads them with weight).
-pub fn slot(grid: &MappedGrid, b: [usize; 3]) -> Vec<f32> {
+/// Fails if the file shrank since it was opened.
+pub fn slot(grid: &MappedGrid, b: [usize; 3]) -> Result<Vec<f32>, FieldError> {
     let dims = grid.dims;
     // The slot's first point, per axis (may be -APRON), and the points of the grid it covers.
     let first = [0, 1, 2].map(|a| (b[a] * BRICK) as i64 - APRON as i64);
     let lo = [0, 1, 2].map(|a| first[a].max(0) as usize);
     let hi = [0, 1, 2].map(|a| ((first[a] + SLOT as i64 - 1) as usize).min(dims[a] - 1));
     let n = [0, 1, 2].map(|a| hi[a] - lo[a] + 1);
-    let values = grid.read_box(lo, n);
+    let values = grid.read_box(lo, n)?;
     let mut out = Vec::with_capacity(SLOT * SLOT * SLOT);
     let clamp = |a: usize, l: usize| {
         let p = (first[a] + l as i64).clamp(lo[a] as i64, hi[a] as i64) as usize;
@@ -178,7 +179,7 @@ pub fn slot(grid: &MappedGrid, b: [usize; 3]) -> Vec<f32> {
             }
         }
     }
-    out
+    Ok(out)
 }
 
 /// The pool and page table on the device.
@@ -197,7 +198,7 @@ impl Pool {
         ctx: &Arc<Context>,
         grid: &MappedGrid,
         residency: Residency,
-    ) -> Result<Pool, GpuError> {
+    ) -> Result<Pool, PoolError> {
         let slot_bytes = (SLOT * SLOT * SLOT * 4) as u64;
         let pool = Buffer::new(
             ctx,
@@ -215,15 +216,15 @@ impl Pool {
             MemoryLocation::CpuToGpu,
         )?;
         for (c, bricks) in residency.resident.chunks(chunk).enumerate() {
-            let slots: Vec<f32> = bricks.par_iter().flat_map_iter(|&b| slot(grid, b)).collect();
-            staging.write(&slots)?;
+            let slots: Vec<Vec<f32>> =
+                bricks.par_iter().map(|&b| slot(grid, b)).collect::<Result<_, _>>()?;
+            staging.write(&slots.concat())?;
             let offset = (c * chunk) as u64 * slot_bytes;
             let bytes = bricks.len() as u64 * slot_bytes;
             ctx.submit("upload brick pool", |cmd| {
                 crate::gpu::copy_buffer(ctx, cmd, &staging, 0, &pool, offset, bytes);
                 Ok(())
             })?;
-            grid.release();
         }
         let pages = Buffer::upload(
             ctx,

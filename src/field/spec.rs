@@ -23,16 +23,18 @@ pub struct FieldSpec {
 }
 
 /// `field.residency`: whether a render reads the whole grid or only the bricks its isovalues
-/// need from a memory-mapped file (README "Large data").
+/// need from the file (README "Large data"). The default is `Auto`: a grid under the cap is
+/// read whole as before, a larger one goes to the paths that can read it in parts (the ray
+/// methods' brick pool, `extract`'s streaming) and the others refuse it with the cap.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Residency {
     /// The whole grid, read into memory and uploaded (the cap applies to the grid).
-    #[default]
     Whole,
     /// The file memory-mapped; the ray methods upload only the active bricks (the cap applies
     /// to them), `extract` streams slabs; other commands refuse.
     Active,
-    /// `Active` when the whole grid is over the cap, else `Whole`.
+    /// `Active` when the whole grid is over the cap, else `Whole`: the default.
+    #[default]
     Auto,
 }
 

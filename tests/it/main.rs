@@ -29,6 +29,7 @@ mod output;
 mod physical;
 mod placement;
 mod projection;
+mod reliability_formats;
 mod render;
 mod residency;
 mod scene;

@@ -148,6 +148,16 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         }
         cached = Some((pooled.shape, pooled.gpu));
     }
+    // A grid uploaded whole is one 3D image: over the device's extent it is the input's size
+    // that is wrong (exit 2, the key named), not the GPU. Under MPI each rank holds a block.
+    #[cfg(feature = "mpi")]
+    let whole = cached.is_none() && world.is_none();
+    #[cfg(not(feature = "mpi"))]
+    let whole = cached.is_none();
+    if whole {
+        let max = ctx.info.max_image_dimension_3d;
+        scene.field.check_image_extent(max).map_err(Failure::input)?;
+    }
     for (time, exr, png) in &frames {
         let started = Instant::now();
         // Under MPI a raw or npy file is mapped and each rank reads only its block.

@@ -83,6 +83,15 @@ pub enum FieldError {
     )]
     TablesTooLarge { what: String, dims: [usize; 3], bricks: u64, bytes: u64, cap: u64 },
 
+    /// The grid has more points along an axis than the device's 3D images hold (a grid uploaded
+    /// whole is one image). `what`: the key or header that sets the dims.
+    #[error(
+        "{what} [{}, {}, {}]: {} points along {} are over this device's limit of {max} per axis \
+         (its largest 3D image; `isoview info` shows it){hint}",
+        dims[0], dims[1], dims[2], dims[*axis], ["x", "y", "z"][*axis]
+    )]
+    OverDevice { what: String, dims: [usize; 3], axis: usize, max: u32, hint: &'static str },
+
     /// A file read on demand (`field.residency`) came back short: another process truncated it
     /// after it was opened and checked. `len`: its size now, when it can still be read.
     #[error("{}: shrank to {} while being read", path.display(), len.map_or("fewer bytes".to_string(), |n| format!("{n} bytes")))]

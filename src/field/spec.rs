@@ -127,6 +127,25 @@ impl FieldSpec {
         Ok(grid)
     }
 
+    /// Checks that the grid fits one 3D image of at most `max` points per axis (the device's
+    /// limit, for paths that upload the grid whole), naming what sets its dims; the memory cap
+    /// is not the only limit, and a device's failure to create the image would read as a GPU
+    /// fault (exit 3) rather than the input's size.
+    pub fn check_image_extent(&self, max: u32) -> Result<(), FieldError> {
+        let Some(axis) = (0..3).find(|&a| self.resolution[a] as u64 > max as u64) else {
+            return Ok(());
+        };
+        let pool = "; with field.residency = \"active\" the ray methods read it from a brick pool \
+                    instead";
+        let (what, hint) = match &self.source {
+            FieldSource::Npy(n) => (format!("{}: the array's shape", n.path.display()), pool),
+            FieldSource::Raw(_) => ("field.dims".to_string(), pool),
+            FieldSource::File(f) => (format!("{}: the header's dims", f.path.display()), ""),
+            _ => ("field.resolution".to_string(), ""),
+        };
+        Err(FieldError::OverDevice { what, dims: self.resolution, axis, max, hint })
+    }
+
     /// Whether [`FieldSpec::sample`] depends on its time argument.
     pub fn is_time_varying(&self) -> bool {
         self.source.is_time_varying()

@@ -264,6 +264,16 @@ pub fn mapped_for(
 ) -> Result<Option<MappedGrid>, PoolError> {
     let Some(grid) = MappedGrid::for_residency(&scene.field, limits)? else { return Ok(None) };
     if scene.render.method == crate::scene::Method::Mesh {
+        // Under "auto" (the default) the user asked for nothing: say why the grid is too large
+        // (the cap's own message) and which paths read it in parts.
+        if scene.field.residency == crate::field::Residency::Auto {
+            let over = limits.check(grid.dims.map(|d| d as u64), &grid.label()).err();
+            let why = over.map_or_else(|| grid.label(), |e| e.to_string());
+            return Err(PoolError::Refused(format!(
+                "{why}; render.method = \"mesh\" needs the whole grid (a ray method or \
+                 `isoview extract` reads a grid over the cap in parts)"
+            )));
+        }
         return Err(PoolError::Refused(
             "field.residency = \"active\": render.method = \"mesh\" needs the whole grid; use \
              `isoview extract`, which streams the file, or a ray method"

@@ -285,3 +285,58 @@ fn residency_defaults_to_auto() {
     let e = scene::from_str_with(&whole, "t.toml", &dir, &[], &cap).unwrap_err().to_string();
     assert!(e.contains("over the cap") && e.contains("field.residency = \"auto\""), "{e}");
 }
+
+#[test]
+fn a_grid_over_the_device_extent_names_its_key() {
+    use glam::DVec3;
+    use isoview::field::FieldSpec;
+    use isoview::vocab::{Bounds, SdfShape};
+    let unit = Bounds { min: DVec3::ZERO, max: DVec3::ONE };
+    let sphere = |res| FieldSpec::sdf(SdfShape::Sphere { radius: 1.0 }, DVec3::ZERO, res, unit);
+    assert_eq!(
+        sphere([2, 4097, 2]).check_image_extent(4096).unwrap_err().to_string(),
+        "field.resolution [2, 4097, 2]: 4097 points along y are over this device's limit of 4096 \
+         per axis (its largest 3D image; `isoview info` shows it)"
+    );
+    assert!(sphere([4096, 4096, 2]).check_image_extent(4096).is_ok());
+}
+
+/// The render verb: exit 2 naming the key (it was exit 3, "a grid of ... points", from the
+/// device's image limit).
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn render_over_the_device_extent_exits_2_naming_the_key() {
+    let max = gpu().info.max_image_dimension_3d;
+    let dir = scratch("rel-extent");
+    let scene = write(
+        &dir,
+        "wide.toml",
+        &format!(
+            "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 0.5\n\
+             resolution = [{}, 2, 2]\n[image]\nwidth = 8\nheight = 8\n",
+            max + 1
+        ),
+    );
+    let out = dir.join("wide.exr").display().to_string();
+    let o = isoview(&["render", &scene, "-o", &out], &[]);
+    let limit = format!("limit of {max} per axis");
+    assert_fails(&o, 2, &["field.resolution [", &limit]);
+    assert!(!Path::new(&out).exists());
+}
+
+#[test]
+fn a_mesh_render_of_a_grid_over_the_cap_says_which_paths_read_it() {
+    let dir = scratch("rel-auto-mesh");
+    std::fs::write(dir.join("v.raw"), vec![0u8; 4 * 16 * 16 * 17]).unwrap();
+    let text =
+        "[field]\nsource = \"raw\"\npath = \"v.raw\"\ndims = [16, 16, 17]\ndtype = \"f32\"\n\
+                [render]\nmethod = \"mesh\"\n";
+    let cap = GridLimits { max_bytes: 16 << 10 };
+    let s = scene::from_str_with(text, "t.toml", &dir, &[], &cap).unwrap();
+    let e = isoview::render::pool::mapped_for(&s, &cap).err().unwrap().to_string();
+    assert!(
+        e.contains("over the cap of 16 KiB") && e.contains("a ray method or `isoview extract`"),
+        "{e}"
+    );
+    assert!(!e.contains("\"active\""), "the user set no residency: {e}");
+}

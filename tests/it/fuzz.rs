@@ -305,9 +305,9 @@ proptest! {
                 // MRC: dims, cell and origin words in a 1024-byte header.
                 let mut h = vec![0u8; 1024];
                 let mut put = |i: usize, v: [u8; 4]| h[4 * i..4 * i + 4].copy_from_slice(&v);
-                for k in 0..3 {
-                    put(k, (sizes[k] as i32).to_le_bytes());
-                    put(7 + k, (sizes[k] as i32).to_le_bytes());
+                for (k, &size) in sizes.iter().enumerate() {
+                    put(k, (size as i32).to_le_bytes());
+                    put(7 + k, (size as i32).to_le_bytes());
                     put(10 + k, g(k).parse::<f32>().unwrap_or(1.0).to_le_bytes());
                     put(16 + k, (k as i32 + 1).to_le_bytes());
                     put(49 + k, g(3 + k).parse::<f32>().unwrap_or(0.0).to_le_bytes());

@@ -86,11 +86,10 @@ fn a_file_that_shrinks_while_read_on_demand_is_one_line() {
     let dims = [20usize, 20, 20];
     let bytes: Vec<u8> = (0..8000).flat_map(|i| (i as f32).to_le_bytes()).collect();
     std::fs::write(&path, &bytes).unwrap();
-    let text = format!(
+    let text =
         "[field]\nsource = \"raw\"\npath = \"v.raw\"\ndims = [20, 20, 20]\ndtype = \"f32\"\n\
-         residency = \"active\"\n"
-    );
-    let s = scene::from_str_with(&text, "t.toml", &dir, &[], &GridLimits::default()).unwrap();
+                residency = \"active\"\n";
+    let s = scene::from_str_with(text, "t.toml", &dir, &[], &GridLimits::default()).unwrap();
     let grid = MappedGrid::open(&s.field).unwrap().unwrap();
     assert_eq!(grid.dims, dims);
     // Truncated by "another process" after it was opened and its size checked: a mapped read
@@ -195,10 +194,10 @@ fn header_geometry_must_be_finite_and_positive() {
     let mrc = |name: &str, cell: [f32; 3]| {
         let mut h = vec![0u8; 1024];
         let mut word = |i: usize, v: [u8; 4]| h[4 * i..4 * i + 4].copy_from_slice(&v);
-        for i in 0..3 {
+        for (i, c) in cell.iter().enumerate() {
             word(i, 2i32.to_le_bytes()); // NX, NY, NZ
             word(7 + i, 2i32.to_le_bytes()); // MX, MY, MZ
-            word(10 + i, cell[i].to_le_bytes()); // cell dimensions
+            word(10 + i, c.to_le_bytes()); // cell dimensions
             word(16 + i, (i as i32 + 1).to_le_bytes()); // MAPC, MAPR, MAPS
         }
         word(3, 2i32.to_le_bytes()); // mode 2, float32

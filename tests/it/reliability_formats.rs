@@ -339,3 +339,24 @@ fn a_mesh_render_of_a_grid_over_the_cap_says_which_paths_read_it() {
     );
     assert!(!e.contains("\"active\""), "the user set no residency: {e}");
 }
+
+/// VTI and legacy VTK are read whole (their header is text before binary data): the declared
+/// dims are checked against the cap from the file's first bytes, before the rest is read or
+/// parsed (here the rest is malformed, which used to be the error).
+#[test]
+fn whole_file_readers_check_the_declared_dims_first() {
+    let dir = scratch("rel-peek");
+    let small = ReadOptions { limits: GridLimits { max_bytes: 1 << 20 }, spacing: None };
+    let p = dir.join("big.vti");
+    let text = "<VTKFile type=\"ImageData\"><ImageData WholeExtent=\"0 999 0 999 0 999\">\
+                <Piece><PointData><DataArray <<< not xml";
+    std::fs::write(&p, text).unwrap();
+    let m = refusal(&p, &small);
+    assert!(m.contains("a grid of 1000x1000x1000 points needs 3815 MiB"), "{m}");
+    let p = dir.join("big.vtk");
+    let text = "# vtk DataFile Version 3.0\nt\nBINARY\nDATASET STRUCTURED_POINTS\n\
+                DIMENSIONS 1000 1000 1000\nPOINT_DATA lots\n";
+    std::fs::write(&p, text).unwrap();
+    let m = refusal(&p, &small);
+    assert!(m.contains("a grid of 1000x1000x1000 points needs 3815 MiB"), "{m}");
+}

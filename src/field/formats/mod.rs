@@ -249,6 +249,20 @@ fn check(err: &Located, v: &Volume) -> Result<(), FieldError> {
     Ok(())
 }
 
+/// The bytes a reader looks at for its dims before it reads a whole file into memory.
+const PEEK_BYTES: u64 = 64 << 10;
+
+/// The first [`PEEK_BYTES`] of a file that is read whole (VTI, legacy VTK): the readers find
+/// the declared dims there and check them against the cap before reading the rest, so a
+/// header over the cap is refused without reading gigabytes first.
+pub(crate) fn peek(err: &Located) -> Result<Vec<u8>, FieldError> {
+    use std::io::Read;
+    let file = std::fs::File::open(err.path).map_err(|e| err.io(&e))?;
+    let mut head = Vec::new();
+    file.take(PEEK_BYTES).read_to_end(&mut head).map_err(|e| err.io(&e))?;
+    Ok(head)
+}
+
 /// A file being read as a format: builds its errors.
 pub(crate) struct Located<'a> {
     pub path: &'a Path,

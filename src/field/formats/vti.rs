@@ -22,6 +22,11 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
             "the file has {len} bytes, more than any grid under the memory cap needs"
         )));
     }
+    // The declared extent against the cap before the whole file is read (it is checked again,
+    // with the rest of the XML, below).
+    if let Some(dims) = peek_extent(&super::peek(err)?) {
+        err.limits_check(&opts.limits, dims)?;
+    }
     let bytes = std::fs::read(err.path).map_err(|e| err.io(&e))?;
     // Raw appended data is binary: parse the XML before it, and find the data after its `_`.
     let (xml, appended) = match find(&bytes, b"<AppendedData") {
@@ -289,6 +294,21 @@ impl Block<'_> {
         }
         payload::exact(self.err, out, self.ty, self.endian, self.dims)
     }
+}
+
+/// The points per axis of the first `WholeExtent="x0 x1 y0 y1 z0 z1"` in `head`, if it is there
+/// and well formed.
+fn peek_extent(head: &[u8]) -> Option<[u64; 3]> {
+    let key = b"WholeExtent=";
+    let at = find(head, key)? + key.len();
+    let quote = *head.get(at)?;
+    let len = head[at + 1..].iter().position(|&c| c == quote)?;
+    let text = std::str::from_utf8(&head[at + 1..at + 1 + len]).ok()?;
+    let e: Vec<i64> =
+        text.split_ascii_whitespace().map(|w| w.parse().ok()).collect::<Option<_>>()?;
+    let [x0, x1, y0, y1, z0, z1] = e.as_slice() else { return None };
+    let n = |a: i64, b: i64| u64::try_from(b.checked_sub(a)?.checked_add(1)?).ok();
+    Some([n(*x0, *x1)?, n(*y0, *y1)?, n(*z0, *z1)?])
 }
 
 /// Most nested elements a `.vti` may have: VTK writes 5 or 6 (`VTKFile`, `ImageData`,

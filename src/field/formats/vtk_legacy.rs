@@ -25,6 +25,20 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
             "the file has {len} bytes, more than any grid under the memory cap needs"
         )));
     }
+    // The declared DIMENSIONS against the cap before the whole file is read (checked again
+    // after the header is parsed).
+    let head = super::peek(err)?;
+    let dims_line = head
+        .split(|&b| b == b'\n')
+        .take_while(|l| !l.starts_with(b"POINT_DATA") && !l.starts_with(b"CELL_DATA"))
+        .find(|l| l.len() > 10 && l[..10].eq_ignore_ascii_case(b"DIMENSIONS"));
+    let declared = dims_line
+        .and_then(|l| std::str::from_utf8(&l[10..]).ok())
+        .and_then(super::text::sizes)
+        .filter(|d| d.len() == 3);
+    if let Some(d) = declared {
+        err.limits_check(&opts.limits, [d[0], d[1], d[2]])?;
+    }
     file.take(most).read_to_end(&mut r.bytes).map_err(|e| err.io(&e))?;
 
     let magic = r.line(err)?;

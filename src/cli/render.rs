@@ -133,7 +133,15 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
     // (`field.residency`) is scanned and its active bricks uploaded once.
     let mut cached: Option<(crate::field::Grid, GpuGrid)> = None;
     let limits = crate::field::GridLimits::from_env().map_err(Failure::input)?;
-    if let Some(mapped) = crate::render::pool::mapped_for(&scene, &limits).map_err(pool_failure)? {
+    let mapped = crate::render::pool::mapped_for(&scene, &limits).map_err(pool_failure)?;
+    // Under MPI each rank reads its block of the file (below): the default "auto" leaves the
+    // brick pool to a single process; "active", asked for, is refused.
+    #[cfg(feature = "mpi")]
+    let mapped = match (&world, scene.field.residency) {
+        (Some(_), crate::field::Residency::Auto) => None,
+        _ => mapped,
+    };
+    if let Some(mapped) = mapped {
         #[cfg(feature = "mpi")]
         if world.is_some() {
             return Err(Failure::input(

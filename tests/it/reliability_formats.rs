@@ -360,3 +360,41 @@ fn whole_file_readers_check_the_declared_dims_first() {
     let m = refusal(&p, &small);
     assert!(m.contains("a grid of 1000x1000x1000 points needs 3815 MiB"), "{m}");
 }
+
+/// Under MPI each rank reads its block of a raw/npy file: the default residency ("auto") must
+/// not turn a grid over the cap into the single-process brick pool, which MPI refuses (it did
+/// once "auto" became the default: "field.residency = \"active\" is not available under MPI").
+#[test]
+#[cfg_attr(not(feature = "mpi"), ignore = "MPI test: build with --features mpi")]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn mpi_renders_a_grid_over_the_cap_by_blocks_under_the_default_residency() {
+    let dir = scratch("rel-mpi-auto");
+    // 72^3 f32 samples: 1.4 MiB, over a 1 MiB cap.
+    let n = 72usize;
+    let values: Vec<u8> = (0..n * n * n)
+        .flat_map(|i| {
+            let p = [i % n, (i / n) % n, i / (n * n)].map(|c| c as f32 - 35.5);
+            ((p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt() - 20.0).to_le_bytes()
+        })
+        .collect();
+    std::fs::write(dir.join("ball.raw"), values).unwrap();
+    let scene = write(
+        &dir,
+        "ball.toml",
+        "[image]\nwidth = 24\nheight = 24\n[camera]\neye = [150, 120, 100]\ntarget = [35.5, 35.5, 35.5]\n\
+         [field]\nsource = \"raw\"\npath = \"ball.raw\"\ndims = [72, 72, 72]\ndtype = \"f32\"\n",
+    );
+    let out = dir.join("ball.exr").display().to_string();
+    let o = std::process::Command::new("mpirun")
+        .args(["-np", "2", "--oversubscribe"])
+        .arg(env!("CARGO_BIN_EXE_isoview"))
+        .args(["render", &scene, "-o", &out])
+        .env("ISOVIEW_MAX_GRID_MIB", "1")
+        .env_remove("ISOVIEW_DEVICE")
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .output()
+        .expect("mpirun (apt-get install openmpi-bin) must be on PATH for the MPI tests");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(Path::new(&out).exists());
+}

@@ -8,6 +8,12 @@ use super::limits::GRID_CAP_ENV;
 pub const RESIDENCY_HINT: &str =
     ", or read only the bricks a render needs with field.residency = \"auto\"";
 
+/// Appended to [`FieldError::TooLarge`] when an npy or raw grid that `field.residency` lets
+/// be read in parts ("auto", "active") reaches a command that needs it whole.
+pub const WHOLE_GRID_HINT: &str =
+    "; this command needs the whole grid (the ray methods of `render` and `extract` read one \
+     over the cap in parts)";
+
 /// Why a field could not be sampled: a data file that is missing, malformed or too large, or an
 /// expression that does not parse or produces a non-finite value.
 ///

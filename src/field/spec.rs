@@ -116,7 +116,15 @@ impl FieldSpec {
             });
         }
         let dims = [nx as u64, ny as u64, nz as u64];
-        limits.check(dims, &self.source.label())?;
+        limits.check(dims, &self.source.label()).map_err(|e| match (&e, &self.source) {
+            // The grid could be read in parts, but not by the command that asked for it whole.
+            (FieldError::TooLarge { .. }, FieldSource::Npy(_) | FieldSource::Raw(_))
+                if self.residency != Residency::Whole =>
+            {
+                super::limits::with_hint(e, super::error::WHOLE_GRID_HINT)
+            }
+            _ => e,
+        })?;
         let mut grid = Grid {
             dims: self.resolution,
             min: self.bounds.min,

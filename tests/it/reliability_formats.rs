@@ -277,6 +277,16 @@ fn residency_defaults_to_auto() {
     let s = scene::from_str_with(text, "t.toml", &dir, &[], &cap).unwrap();
     assert_eq!(s.field.residency, Residency::Auto);
     assert!(MappedGrid::for_residency(&s.field, &cap).unwrap().is_some());
+    // A command that needs it whole (slice, probe, stats) says so, and which ones do not.
+    let e = s.field.sample_with(0.0, &cap).unwrap_err().to_string();
+    assert!(
+        e.contains("over the cap of 16 KiB")
+            && e.ends_with(
+                "; this command needs the whole grid (the ray methods of `render` and `extract` \
+                 read one over the cap in parts)"
+            ),
+        "{e}"
+    );
     // Under the cap it is read whole, as before.
     assert!(MappedGrid::for_residency(&s.field, &GridLimits::default()).unwrap().is_none());
     // Asking for "whole" keeps today's refusal, with the hint.

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use super::limits::GRID_CAP_ENV;
 
-/// Appended to [`FieldError::TooLarge`] for the sources that can be memory-mapped.
+/// Appended to [`FieldError::TooLarge`] for the sources `field.residency` can read in parts.
 pub const RESIDENCY_HINT: &str =
     ", or read only the bricks a render needs with field.residency = \"auto\"";
 

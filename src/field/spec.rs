@@ -30,7 +30,7 @@ pub struct FieldSpec {
 pub enum Residency {
     /// The whole grid, read into memory and uploaded (the cap applies to the grid).
     Whole,
-    /// The file memory-mapped; the ray methods upload only the active bricks (the cap applies
+    /// The file read in parts as needed; the ray methods upload only the active bricks (the cap applies
     /// to them), `extract` streams slabs; other commands refuse.
     Active,
     /// `Active` when the whole grid is over the cap, else `Whole`: the default.

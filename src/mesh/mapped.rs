@@ -1,5 +1,5 @@
-//! Extraction from a memory-mapped grid (`field.residency = "active"`): the cell layers in
-//! z-ranges, each read from the map into a window of the point layers it needs
+//! Extraction from a grid read from its file in parts (`field.residency`): the cell layers in
+//! z-ranges, each read from the file into a window of the point layers it needs
 //! ([`super::window`]), extracted, joined, and the window dropped before the next is read, so
 //! memory holds one window and the mesh, never the grid.
 //!

@@ -3,7 +3,7 @@
 //! (`shaders/include/field.glsl`, `GRID_POOL`).
 //!
 //! ```text
-//!   mapped file ──brick_ranges──> min/max of every brick of BRICK³ cells (one pass, in file order)
+//!   source file ──brick_ranges──> min/max of every brick of BRICK³ cells (one pass, in file order)
 //!        │                            │ select: active = not clear of every isovalue
 //!        │                            ▼   (fixed-step: and the bricks around them)
 //!        └──read_box per resident brick──> slots of SLOT³ points ──staging chunks──> pool buffer
@@ -256,7 +256,7 @@ pub enum PoolError {
     Refused(String),
 }
 
-/// Whether `scene` renders from a memory-mapped brick pool: `field.residency = "active"`, or
+/// Whether `scene` renders from a brick pool read from its file: `field.residency = "active"`, or
 /// `"auto"` with the whole grid over the cap; the grid mapped, or None to sample it whole.
 pub fn mapped_for(
     scene: &crate::scene::Scene,
@@ -305,7 +305,7 @@ pub fn upload_for(
         (residency.resident.len(), residency.pool_bytes() as f64 / (1 << 20) as f64);
     let gpu = super::GpuGrid::upload_pool(ctx, grid, &ranges, residency)?;
     let summary = format!(
-        "{}x{}x{} grid memory-mapped ({} MiB of f32): {active} of {bricks} bricks of {BRICK}^3 \
+        "{}x{}x{} grid read from the file in parts ({} MiB of f32): {active} of {bricks} bricks of {BRICK}^3 \
          cells active, {resident} resident, {pool_mib:.1} MiB pool (scan {:.1} s, upload {:.1} s)",
         grid.dims[0],
         grid.dims[1],

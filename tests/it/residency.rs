@@ -1,4 +1,4 @@
-//! `field.residency = "active"`: a memory-mapped raw/npy grid, only the bricks its isovalues
+//! `field.residency = "active"`: a raw/npy grid read from its file in parts, only the bricks its isovalues
 //! need uploaded into the brick pool. The mapped reads equal the in-memory readers, the brick
 //! scan equals the GPU's min/max grid, and every ray render from the pool is **bit for bit** the
 //! whole grid's (every channel), over random fields, cameras and settings, with bricks left out.
@@ -262,7 +262,7 @@ fn pool_errors_are_one_line() {
     let o =
         isoview(&["render", &scene, "-o", out.to_str().unwrap()], &[("ISOVIEW_MAX_GRID_MIB", "1")]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("40x40x40 grid memory-mapped"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("40x40x40 grid read from the file in parts"), "{}", stderr(&o));
     let o = isoview(
         &["render", &scene, "-o", out.to_str().unwrap(), "--set", "render.method=\"mesh\""],
         &[],

@@ -285,7 +285,7 @@ proptest! {
     fn odd_headers_never_panic(
         sizes in prop::array::uniform3(odd_size()),
         geometry in prop::collection::vec(odd_number(), 6),
-        which in 0usize..5,
+        which in 0usize..6,
         payload in prop::collection::vec(any::<u8>(), 60..130),
     ) {
         let dir = crate::common::scratch("fuzz-headers");
@@ -311,6 +311,33 @@ proptest! {
                  </PointData></Piece></ImageData></VTKFile>",
                 x.wrapping_sub(1), y.wrapping_sub(1), z.wrapping_sub(1),
                 g(0), g(1), g(2), g(3), g(4), g(5))),
+            4 => {
+                // NIfTI-1: dims, pixdim and (half the time) an sform from the odd numbers.
+                let mut h = vec![0u8; 352];
+                h[0..4].copy_from_slice(&348i32.to_le_bytes());
+                let mut short = |o: usize, v: i16| h[o..o + 2].copy_from_slice(&v.to_le_bytes());
+                short(40, 3);
+                for (k, &size) in sizes.iter().enumerate() {
+                    short(42 + 2 * k, size.min(i16::MAX as u64) as i16);
+                }
+                short(70, 2); // uint8
+                short(72, 8);
+                let sform = payload.first().is_some_and(|b| b % 2 == 0);
+                short(254, sform as i16);
+                let mut real = |o: usize, v: f32| h[o..o + 4].copy_from_slice(&v.to_le_bytes());
+                let num = |k: usize| g(k).parse::<f32>().unwrap_or(1.0);
+                real(108, 352.0); // vox_offset
+                for k in 0..3 {
+                    real(80 + 4 * k, num(k)); // pixdim[1..3]
+                    real(280 + 16 * k + 4 * k, num(k)); // srow diagonal
+                    real(280 + 16 * k + 12, num(3 + k)); // srow offsets
+                }
+                h[344..348].copy_from_slice(b"n+1\0");
+                let p = dir.join("v.nii");
+                std::fs::write(&p, [h.as_slice(), &payload].concat()).unwrap();
+                let _ = read_volume(&p);
+                return Ok(());
+            }
             _ => {
                 // MRC: dims, cell and origin words in a 1024-byte header.
                 let mut h = vec![0u8; 1024];

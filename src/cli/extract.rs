@@ -520,6 +520,12 @@ fn extract_on(
         );
         return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
     }
+    // The GPU passes read the grid as one 3D image: over the device's extent the CPU extracts
+    // it instead (as for mc33 above), rather than a GPU failure (exit 3) naming no key.
+    if let Err(e) = scene.field.check_image_extent(ctx.info.max_image_dimension_3d) {
+        eprintln!("isoview: note: extracted on the CPU ({e})");
+        return Ok((extract_cpu(scene, grid, time, opts)?, Backend::Cpu));
+    }
     let image =
         crate::gpu::Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values)?;
     let gpu_opts = crate::passes::extract::GpuExtractOptions {

@@ -408,3 +408,28 @@ fn mpi_renders_a_grid_over_the_cap_by_blocks_under_the_default_residency() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(Path::new(&out).exists());
 }
+
+/// `extract --device gpu` on a grid over the device's 3D image extent: extracted on the CPU
+/// with a note naming the key and the limit (it was exit 3, "a grid of ... points does not fit
+/// the device's 3D images").
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn extract_over_the_device_extent_falls_back_to_the_cpu() {
+    let max = gpu().info.max_image_dimension_3d;
+    let dir = scratch("rel-extract-extent");
+    let scene = write(
+        &dir,
+        "wide.toml",
+        &format!(
+            "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 0.5\nresolution = [{}, 2, 2]\n",
+            max + 1
+        ),
+    );
+    let out = dir.join("wide.ply").display().to_string();
+    let o = isoview(&["extract", &scene, "-o", &out, "--device", "gpu"], &[]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("note: extracted on the CPU (field.resolution ["), "{err}");
+    assert!(err.contains(&format!("limit of {max} per axis")), "{err}");
+    assert!(Path::new(&out).exists());
+}

@@ -433,3 +433,26 @@ fn extract_over_the_device_extent_falls_back_to_the_cpu() {
     assert!(err.contains(&format!("limit of {max} per axis")), "{err}");
     assert!(Path::new(&out).exists());
 }
+
+/// NRRD ASCII data is read a block at a time (the text may be many times the samples' size):
+/// words cut by the 64 KiB block boundaries read whole, and the errors are the same.
+#[test]
+fn nrrd_ascii_data_streams_across_blocks() {
+    let dir = scratch("rel-ascii-stream");
+    let n = 40usize;
+    let words: Vec<String> = (0..n * n * n).map(|i| format!("{}.25", i as f32 - 7.0)).collect();
+    let head =
+        format!("NRRD0004\ntype: float\ndimension: 3\nsizes: {n} {n} {n}\nencoding: ascii\n\n");
+    let body = words.join(" \n,\t");
+    assert!(body.len() > 4 * (1 << 16));
+    let p = dir.join("a.nrrd");
+    std::fs::write(&p, format!("{head}{body}\n")).unwrap();
+    let v = formats::read(&p, Format::Nrrd, &opts()).unwrap();
+    let want: Vec<f32> = words.iter().map(|w| w.parse::<f64>().unwrap() as f32).collect();
+    assert_eq!(v.values, want);
+    let bad = body.replacen("100.25", "1o0.25", 1);
+    std::fs::write(&p, format!("{head}{bad}")).unwrap();
+    assert!(refusal(&p, &opts()).contains("ASCII value 107 is not a number: \"1o0.25\""));
+    std::fs::write(&p, format!("{head}{body} 1")).unwrap();
+    assert!(refusal(&p, &opts()).contains("holds more than the 64000 values"));
+}

@@ -657,6 +657,12 @@ fn extract_on(ctx: Arc<crate::gpu::Context>, job: &Job) -> Result<(Mesh, Backend
         );
         return Ok((extract_cpu(job)?, Backend::Cpu));
     }
+    // The GPU passes read the grid as one 3D image: over the device's extent the CPU extracts
+    // it instead (as for mc33 above), rather than a GPU failure (exit 3) naming no key.
+    if let Err(e) = scene.field.check_image_extent(ctx.info.max_image_dimension_3d) {
+        note!("note: extracted on the CPU ({e})");
+        return Ok((extract_cpu(job)?, Backend::Cpu));
+    }
     let image =
         crate::gpu::Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values)?;
     let gpu_opts = crate::passes::extract::GpuExtractOptions {

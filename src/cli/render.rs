@@ -138,7 +138,15 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
     // (`field.residency`) is scanned and its active bricks uploaded once.
     let mut cached: Option<(crate::field::Grid, GpuGrid)> = None;
     let limits = crate::field::GridLimits::from_env().map_err(Failure::input)?;
-    if let Some(mapped) = crate::render::pool::mapped_for(&scene, &limits).map_err(pool_failure)? {
+    let mapped = crate::render::pool::mapped_for(&scene, &limits).map_err(pool_failure)?;
+    // Under MPI each rank reads its block of the file (below): the default "auto" leaves the
+    // brick pool to a single process; "active", asked for, is refused.
+    #[cfg(feature = "mpi")]
+    let mapped = match (&world, scene.field.residency) {
+        (Some(_), crate::field::Residency::Auto) => None,
+        _ => mapped,
+    };
+    if let Some(mapped) = mapped {
         #[cfg(feature = "mpi")]
         if world.is_some() {
             return Err(Failure::input(
@@ -152,6 +160,16 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
             note!("{}", pooled.summary);
         }
         cached = Some((pooled.shape, pooled.gpu));
+    }
+    // A grid uploaded whole is one 3D image: over the device's extent it is the input's size
+    // that is wrong (exit 2, the key named), not the GPU. Under MPI each rank holds a block.
+    #[cfg(feature = "mpi")]
+    let whole = cached.is_none() && world.is_none();
+    #[cfg(not(feature = "mpi"))]
+    let whole = cached.is_none();
+    if whole {
+        let max = ctx.info.max_image_dimension_3d;
+        scene.field.check_image_extent(max).map_err(Failure::input)?;
     }
     // The first failure to reach tev; the frames are still drawn and written.
     let mut tev_failed: Option<output::tev::TevError> = None;

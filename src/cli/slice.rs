@@ -98,6 +98,8 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
 
     let ctx = cli.gpu()?;
     let renderer = SliceRenderer::new(&ctx)?;
+    // Over the device's 3D image extent: the input's size, named (exit 2), not a GPU fault.
+    scene.field.check_image_extent(ctx.info.max_image_dimension_3d).map_err(Failure::input)?;
     let gpu_grid = GpuGrid::upload(&ctx, &grid)?;
     let picture = renderer.render(&gpu_grid, &plane, &set.contours, &style)?;
 

@@ -4,9 +4,15 @@ use std::path::PathBuf;
 
 use super::limits::GRID_CAP_ENV;
 
-/// Appended to [`FieldError::TooLarge`] for the sources that can be memory-mapped.
+/// Appended to [`FieldError::TooLarge`] for the sources `field.residency` can read in parts.
 pub const RESIDENCY_HINT: &str =
     ", or read only the bricks a render needs with field.residency = \"auto\"";
+
+/// Appended to [`FieldError::TooLarge`] when an npy or raw grid that `field.residency` lets
+/// be read in parts ("auto", "active") reaches a command that needs it whole.
+pub const WHOLE_GRID_HINT: &str =
+    "; this command needs the whole grid (the ray methods of `render` and `extract` read one \
+     over the cap in parts)";
 
 /// Why a field could not be sampled: a data file that is missing, malformed or too large, or an
 /// expression that does not parse or produces a non-finite value.
@@ -82,6 +88,20 @@ pub enum FieldError {
         dims[0], dims[1], dims[2], mib(*bytes as u128), mib(*cap as u128), bytes.div_ceil(1 << 20)
     )]
     TablesTooLarge { what: String, dims: [usize; 3], bricks: u64, bytes: u64, cap: u64 },
+
+    /// The grid has more points along an axis than the device's 3D images hold (a grid uploaded
+    /// whole is one image). `what`: the key or header that sets the dims.
+    #[error(
+        "{what} [{}, {}, {}]: {} points along {} are over this device's limit of {max} per axis \
+         (its largest 3D image; `isoview info` shows it){hint}",
+        dims[0], dims[1], dims[2], dims[*axis], ["x", "y", "z"][*axis]
+    )]
+    OverDevice { what: String, dims: [usize; 3], axis: usize, max: u32, hint: &'static str },
+
+    /// A file read on demand (`field.residency`) came back short: another process truncated it
+    /// after it was opened and checked. `len`: its size now, when it can still be read.
+    #[error("{}: shrank to {} while being read", path.display(), len.map_or("fewer bytes".to_string(), |n| format!("{n} bytes")))]
+    Shrank { path: PathBuf, len: Option<u64> },
 
     /// A sample is NaN or infinite; `index` is the first such grid point (x fastest).
     #[error("{what}: value {value} at grid point [{}, {}, {}]{detail} is not finite", index[0], index[1], index[2])]

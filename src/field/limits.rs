@@ -76,11 +76,16 @@ impl GridLimits {
 }
 
 /// `e` with [`super::error::RESIDENCY_HINT`] added when it is [`FieldError::TooLarge`] (for
-/// the npy and raw sources, which `field.residency` can memory-map).
+/// the npy and raw sources, which `field.residency` can read in parts).
 pub(crate) fn with_residency_hint(e: FieldError) -> FieldError {
+    with_hint(e, super::error::RESIDENCY_HINT)
+}
+
+/// `e` with `hint` as what else the source allows, when it is [`FieldError::TooLarge`].
+pub(crate) fn with_hint(e: FieldError, hint: &'static str) -> FieldError {
     match e {
         FieldError::TooLarge { what, dims, bytes, cap, .. } => {
-            FieldError::TooLarge { what, dims, bytes, cap, hint: super::error::RESIDENCY_HINT }
+            FieldError::TooLarge { what, dims, bytes, cap, hint }
         }
         other => other,
     }

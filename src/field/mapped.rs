@@ -1,11 +1,13 @@
-//! Grids larger than memory: a `raw` or `npy` file memory-mapped and read box by box
+//! Grids larger than memory: a `raw` or `npy` file read box by box with positioned reads
 //! (`field.residency = "active"`, README "Large data").
 //!
-//! Nothing is read when the map is made; each [`MappedGrid::read_box`] decodes the points it
+//! Nothing is read when the grid is opened; each [`MappedGrid::read_box`] decodes the points it
 //! asks for (any dtype and byte order the in-memory readers take, either storage order) into
-//! the grid's x-fastest `f32` layout. Pages the kernel brought in are handed back with
-//! [`MappedGrid::release`] after a pass over the file, so the resident set stays at what one
-//! pass holds (a slab of brick layers), not the file.
+//! the grid's x-fastest `f32` layout. The file is read with `pread` (`FileExt::read_exact_at`),
+//! not through a memory map: a file another process truncates while it is being read would
+//! make a mapped page fault with SIGBUS, which no Rust code can catch; a checked read instead
+//! comes back short and is reported as one line ([`FieldError::Shrank`]). The process holds
+//! only the buffers of what it reads (the kernel's page cache is not the process's memory).
 //!
 //! [`MappedGrid::brick_ranges`] is the one pass every use starts with: the min/max of every
 //! brick of `passes::bricks::BRICK`³ cells over its (BRICK + 1)³ points, in the
@@ -13,6 +15,7 @@
 //! are exact, so both are bit for bit equal), and the finiteness check of every sample.
 
 use std::fs::File;
+use std::os::unix::fs::FileExt;
 use std::path::PathBuf;
 
 use glam::DVec3;
@@ -22,12 +25,12 @@ use super::samples::{self, Endian, SampleType, StorageOrder};
 use super::source::FieldSource;
 use super::{FieldError, FieldSpec, Grid, NanPolicy};
 
-/// A memory-mapped `raw` or `npy` grid.
+/// A `raw` or `npy` grid read from its file on demand (the name is from when it was mapped).
 pub struct MappedGrid {
     path: PathBuf,
-    map: memmap2::Mmap,
+    file: File,
     /// Byte offset of the first sample.
-    offset: usize,
+    offset: u64,
     dtype: SampleType,
     endian: Endian,
     order: StorageOrder,
@@ -41,8 +44,8 @@ pub struct MappedGrid {
 }
 
 impl MappedGrid {
-    /// Maps the file of `spec` when its source is `npy` or `raw`; None for other sources
-    /// (they are computed or parsed whole).
+    /// Opens the file of `spec` when its source is `npy` or `raw` (its size checked against the
+    /// dims); None for other sources (they are computed or parsed whole).
     pub fn open(spec: &FieldSpec) -> Result<Option<MappedGrid>, FieldError> {
         let (path, offset, dtype, endian, order, dims) = match &spec.source {
             FieldSource::Npy(n) => {
@@ -56,16 +59,9 @@ impl MappedGrid {
         let file = File::open(&path).map_err(|e| FieldError::io(&path, &e))?;
         let len = file.metadata().map_err(|e| FieldError::io(&path, &e))?.len();
         samples::check_file_size(&path, len, offset, dims, dtype)?;
-        // SAFETY: the map is read only; a file truncated by another process while mapped
-        // would fault (SIGBUS), as with any reader of a memory-mapped file (README "Large data").
-        let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|e| FieldError::io(&path, &e))?;
-        let offset = usize::try_from(offset).map_err(|_| FieldError::Io {
-            path: path.clone(),
-            message: "the data offset does not fit this machine's address space".into(),
-        })?;
         Ok(Some(MappedGrid {
             path,
-            map,
+            file,
             offset,
             dtype,
             endian,
@@ -109,24 +105,18 @@ impl MappedGrid {
         self.dims.iter().map(|&d| d as u64).product::<u64>() * 4
     }
 
-    /// The points `lo .. lo + n` (each inside the grid), x fastest, decoded to `f32`.
-    pub fn read_box(&self, lo: [usize; 3], n: [usize; 3]) -> Vec<f32> {
+    /// The points `lo .. lo + n` (each inside the grid), x fastest, decoded to `f32`; fails
+    /// (one line) if the file has shrunk since it was opened.
+    pub fn read_box(&self, lo: [usize; 3], n: [usize; 3]) -> Result<Vec<f32>, FieldError> {
         let mut out = vec![0.0f32; n[0] * n[1] * n[2]];
-        let size = self.dtype.size();
         let [nx, ny, nz] = self.dims;
-        let mut run = Vec::new();
+        let (mut run, mut raw) = (Vec::new(), Vec::new());
         match self.order {
             StorageOrder::XFastest => {
                 for k in 0..n[2] {
                     for j in 0..n[1] {
                         let first = lo[0] + nx * ((lo[1] + j) + ny * (lo[2] + k));
-                        run.clear();
-                        samples::decode(
-                            self.dtype,
-                            self.endian,
-                            self.bytes(first, n[0], size),
-                            &mut run,
-                        );
+                        self.read_run(first, n[0], &mut run, &mut raw)?;
                         let at = n[0] * (j + n[1] * k);
                         out[at..at + n[0]].copy_from_slice(&run);
                     }
@@ -137,13 +127,7 @@ impl MappedGrid {
                 for i in 0..n[0] {
                     for j in 0..n[1] {
                         let first = lo[2] + nz * ((lo[1] + j) + ny * (lo[0] + i));
-                        run.clear();
-                        samples::decode(
-                            self.dtype,
-                            self.endian,
-                            self.bytes(first, n[2], size),
-                            &mut run,
-                        );
+                        self.read_run(first, n[2], &mut run, &mut raw)?;
                         for (k, &v) in run.iter().enumerate() {
                             out[i + n[0] * (j + n[1] * k)] = v;
                         }
@@ -151,15 +135,14 @@ impl MappedGrid {
                 }
             }
         }
-        out
+        Ok(out)
     }
 
     /// [`MappedGrid::read_box`], checked finite under `field.nan` (the first non-finite point,
-    /// x fastest, is named), with the pages read handed back: what a process reading only its part of the
-    /// file (an MPI rank's block or window) takes instead of sampling the grid.
+    /// x fastest, is named): what a process reading only its part of the file (an MPI rank's
+    /// block or window) takes instead of sampling the grid.
     pub fn read_finite(&self, lo: [usize; 3], n: [usize; 3]) -> Result<Vec<f32>, FieldError> {
-        let values = self.read_box(lo, n);
-        self.release();
+        let values = self.read_box(lo, n)?;
         if self.nan == NanPolicy::Empty {
             return Ok(values);
         }
@@ -177,28 +160,52 @@ impl MappedGrid {
         }
     }
 
-    fn bytes(&self, first: usize, count: usize, size: usize) -> &[u8] {
-        let start = self.offset + first * size;
-        &self.map[start..start + count * size]
+    /// Samples `first .. first + count` in file order, decoded into `run` (`raw`: scratch for
+    /// the bytes). The one place the file is read: a read that comes back short means the file
+    /// shrank after it was opened (its size was checked then).
+    fn read_run(
+        &self,
+        first: usize,
+        count: usize,
+        run: &mut Vec<f32>,
+        raw: &mut Vec<u8>,
+    ) -> Result<(), FieldError> {
+        let size = self.dtype.size();
+        let at = self.offset + (first * size) as u64;
+        let read = |buf: &mut [u8]| {
+            self.file.read_exact_at(buf, at).map_err(|e| match e.kind() {
+                std::io::ErrorKind::UnexpectedEof => self.shrank(),
+                _ => FieldError::io(&self.path, &e),
+            })
+        };
+        run.clear();
+        if (self.dtype, self.endian) == (SampleType::F32, Endian::Little)
+            && cfg!(target_endian = "little")
+        {
+            // Little-endian f32 on a little-endian machine: the bytes are the values.
+            run.resize(count, 0.0);
+            read(bytemuck::cast_slice_mut(run.as_mut_slice()))
+        } else {
+            raw.resize(count * size, 0);
+            read(raw)?;
+            samples::decode(self.dtype, self.endian, raw, run);
+            Ok(())
+        }
     }
 
-    /// Hands every page of the map back to the kernel (they are re-read from the file if asked
-    /// for again): called after each pass so the process does not keep the file resident.
-    pub fn release(&self) {
-        // Advice only: if the kernel refuses, the pages stay cached and nothing else changes.
-        // SAFETY: the map is private and read-only; DONTNEED drops clean file pages, and later
-        // reads fault them in again from the file.
-        let _ = unsafe { self.map.unchecked_advise(memmap2::UncheckedAdvice::DontNeed) };
+    /// The error for a file shorter than when it was opened, with its size now.
+    fn shrank(&self) -> FieldError {
+        let now = std::fs::metadata(&self.path).map(|m| m.len());
+        FieldError::Shrank { path: self.path.clone(), len: now.ok() }
     }
 
     /// The min/max of every brick of `brick` cells (over its `brick + 1` points per axis), x
     /// fastest, `ceil(cells / brick)` per axis, as `passes::bricks` lays them out; with
     /// `field.nan = "error"` fails on a non-finite sample (the first the scan meets: by brick
     /// layer along the file's slowest axis), with `"empty"` leaves it out of the range
-    /// ([`super::trilinear::widen`]). One pass over the file, in its order: each layer of
-    /// bricks along the slowest axis is read row by row along the fastest (every row once per
-    /// brick row holding it), in parallel over the brick rows, and its pages released before
-    /// the next.
+    /// ([`super::trilinear::widen`]); fails on a file that shrank. One pass over the file, in
+    /// its order: each layer of bricks along the slowest axis is read row by row along the
+    /// fastest (every row once per brick row holding it), in parallel over the brick rows.
     pub fn brick_ranges(&self, brick: usize) -> Result<Vec<[f32; 2]>, FieldError> {
         let counts = self.dims.map(|n| (n - 1).div_ceil(brick));
         // File axes: fastest f, middle y, slowest s (x, y, z for XFastest; z, y, x for C order).
@@ -220,7 +227,6 @@ impl MappedGrid {
                     out[index(b)] = mm;
                 }
             }
-            self.release();
         }
         Ok(out)
     }
@@ -239,23 +245,12 @@ impl MappedGrid {
         let mut mm = vec![[f32::INFINITY, f32::NEG_INFINITY]; count_f];
         let span = |a: usize, b: usize| b * brick..=((b + 1) * brick).min(self.dims[a] - 1);
         let n = self.dims[f];
-        let size = self.dtype.size();
-        let mut run = Vec::with_capacity(n);
+        let (mut row, mut raw) = (Vec::with_capacity(n), Vec::new());
         for ps in span(s, bs) {
             for py in span(1, by) {
                 // The row of file axis f at (py, ps): contiguous in the file.
                 let first = n * (py + self.dims[1] * ps);
-                let bytes = self.bytes(first, n, size);
-                let row: &[f32] = match (self.dtype, self.endian) {
-                    (SampleType::F32, Endian::Little) if bytes.as_ptr() as usize % 4 == 0 => {
-                        bytemuck::cast_slice(bytes)
-                    }
-                    _ => {
-                        run.clear();
-                        samples::decode(self.dtype, self.endian, bytes, &mut run);
-                        &run
-                    }
-                };
+                self.read_run(first, n, &mut row, &mut raw)?;
                 let refused = self.nan == NanPolicy::Error;
                 if let Some(pf) = row.iter().position(|v| refused && !v.is_finite()) {
                     let mut index = [0; 3];

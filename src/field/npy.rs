@@ -22,6 +22,33 @@ use super::{FieldError, GridLimits};
 /// Largest header accepted (NumPy itself refuses headers over 10 000 bytes by default).
 const MAX_HEADER_BYTES: usize = 1 << 20;
 
+/// Most brackets a header may nest: a plain array's header nests 2 (`{'shape': (2, 3, 4)}`).
+const MAX_HEADER_NESTING: usize = 16;
+
+/// The offset of the first bracket (`(`, `[`, `{`) that opens deeper than `max`, outside
+/// Python string literals; found without recursion.
+fn nests_deeper(text: &[u8], max: usize) -> Option<usize> {
+    let (mut depth, mut quote, mut escaped) = (0usize, None, false);
+    for (i, &c) in text.iter().enumerate() {
+        match (quote, c) {
+            (Some(_), _) if escaped => escaped = false,
+            (Some(_), b'\\') => escaped = true,
+            (Some(q), c) if c == q => quote = None,
+            (Some(_), _) => {}
+            (None, b'\'' | b'"') => quote = Some(c),
+            (None, b'(' | b'[' | b'{') => {
+                depth += 1;
+                if depth > max {
+                    return Some(i);
+                }
+            }
+            (None, b')' | b']' | b'}') => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    None
+}
+
 /// A checked `.npy` file: its header has been parsed and its size matches the header.
 #[derive(Clone, Debug, PartialEq)]
 pub struct NpySource {
@@ -82,6 +109,13 @@ impl NpySource {
                 limits
                     .check([shape[0] as u64, shape[1] as u64, shape[2] as u64], &path_str(path))?;
             }
+        }
+        // npyz parses the header's Python literal by recursive descent: deep nesting would
+        // overflow the stack, so it is refused before npyz sees it.
+        if let Some(at) = nests_deeper(&bytes[prefix..], MAX_HEADER_NESTING) {
+            return Err(not_npy(&format!(
+                "the header nests brackets deeper than {MAX_HEADER_NESTING} (at header byte {at})"
+            )));
         }
         let header = NpyHeader::from_reader(bytes.as_slice())
             .map_err(|e| not_npy(&one_line(&e.to_string())))?;

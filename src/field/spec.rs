@@ -42,16 +42,18 @@ impl NanPolicy {
 }
 
 /// `field.residency`: whether a render reads the whole grid or only the bricks its isovalues
-/// need from a memory-mapped file (README "Large data").
+/// need from the file (README "Large data"). The default is `Auto`: a grid under the cap is
+/// read whole as before, a larger one goes to the paths that can read it in parts (the ray
+/// methods' brick pool, `extract`'s streaming) and the others refuse it with the cap.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Residency {
     /// The whole grid, read into memory and uploaded (the cap applies to the grid).
-    #[default]
     Whole,
-    /// The file memory-mapped; the ray methods upload only the active bricks (the cap applies
+    /// The file read in parts as needed; the ray methods upload only the active bricks (the cap applies
     /// to them), `extract` streams slabs; other commands refuse.
     Active,
-    /// `Active` when the whole grid is over the cap, else `Whole`.
+    /// `Active` when the whole grid is over the cap, else `Whole`: the default.
+    #[default]
     Auto,
 }
 
@@ -137,7 +139,15 @@ impl FieldSpec {
             });
         }
         let dims = [nx as u64, ny as u64, nz as u64];
-        limits.check(dims, &self.source.label())?;
+        limits.check(dims, &self.source.label()).map_err(|e| match (&e, &self.source) {
+            // The grid could be read in parts, but not by the command that asked for it whole.
+            (FieldError::TooLarge { .. }, FieldSource::Npy(_) | FieldSource::Raw(_))
+                if self.residency != Residency::Whole =>
+            {
+                super::limits::with_hint(e, super::error::WHOLE_GRID_HINT)
+            }
+            _ => e,
+        })?;
         let mut grid = Grid {
             dims: self.resolution,
             min: self.bounds.min,
@@ -146,6 +156,25 @@ impl FieldSpec {
         };
         grid.values = self.source.sample(&grid, time, limits, self.nan)?;
         Ok(grid)
+    }
+
+    /// Checks that the grid fits one 3D image of at most `max` points per axis (the device's
+    /// limit, for paths that upload the grid whole), naming what sets its dims; the memory cap
+    /// is not the only limit, and a device's failure to create the image would read as a GPU
+    /// fault (exit 3) rather than the input's size.
+    pub fn check_image_extent(&self, max: u32) -> Result<(), FieldError> {
+        let Some(axis) = (0..3).find(|&a| self.resolution[a] as u64 > max as u64) else {
+            return Ok(());
+        };
+        let pool = "; with field.residency = \"active\" the ray methods read it from a brick pool \
+                    instead";
+        let (what, hint) = match &self.source {
+            FieldSource::Npy(n) => (format!("{}: the array's shape", n.path.display()), pool),
+            FieldSource::Raw(_) => ("field.dims".to_string(), pool),
+            FieldSource::File(f) => (format!("{}: the header's dims", f.path.display()), ""),
+            _ => ("field.resolution".to_string(), ""),
+        };
+        Err(FieldError::OverDevice { what, dims: self.resolution, axis, max, hint })
     }
 
     /// Whether [`FieldSpec::sample`] depends on its time argument.

@@ -1,5 +1,5 @@
-//! Extraction from a memory-mapped grid (`field.residency = "active"`): the cell layers in
-//! z-ranges, each read from the map into a window of the point layers it needs
+//! Extraction from a grid read from its file in parts (`field.residency`): the cell layers in
+//! z-ranges, each read from the file into a window of the point layers it needs
 //! ([`super::window`]), extracted, joined, and the window dropped before the next is read, so
 //! memory holds one window and the mesh, never the grid.
 //!
@@ -51,7 +51,7 @@ pub fn extract_mapped_within(
         // `field.nan = "error"` refuses a non-finite sample as the whole grid's read would.
         let values = match grid.nan {
             NanPolicy::Error => grid.read_finite([0, 0, points.start], n)?,
-            NanPolicy::Empty => grid.read_box([0, 0, points.start], n),
+            NanPolicy::Empty => grid.read_box([0, 0, points.start], n)?,
         };
         let outside = values.iter().all(|&v| !x.inside.contains(v as f64, x.iso));
         let part = if outside {
@@ -61,7 +61,6 @@ pub fn extract_mapped_within(
             window::extract_window(&held, points.start, &lattice, x, cells.clone())?
         };
         joiner.push(part)?;
-        grid.release();
         start = cells.end;
     }
     joiner.finish(x.keeps_quads())

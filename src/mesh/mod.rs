@@ -213,7 +213,8 @@ pub enum MeshError {
     /// `ISOVIEW_MAX_MESH_MIB` is set to something that is not a positive whole number.
     #[error("{MESH_CAP_ENV}={value:?}: expected a positive whole number of MiB")]
     BadLimit { value: String },
-    /// The samples could not be used (`field.nan = "error"` and a non-finite one).
+    /// The samples could not be used (`field.nan = "error"` and a non-finite one), or a grid
+    /// read from its file as it is extracted (`mesh::mapped`) could not be read.
     #[error(transparent)]
     Field(#[from] crate::field::FieldError),
     #[error(

@@ -146,7 +146,7 @@ impl GpuGrid {
         Ok(grid)
     }
 
-    /// Uploads the bricks of a memory-mapped grid that `residency` names into a brick pool
+    /// Uploads the bricks of a grid read from its file (`field.residency`) that `residency` names into a brick pool
     /// ([`pool`]), with the grid's brick min/max grid (`ranges`, from
     /// [`MappedGrid::brick_ranges`](crate::field::mapped::MappedGrid::brick_ranges); its
     /// superbricks are added here).
@@ -155,7 +155,7 @@ impl GpuGrid {
         grid: &crate::field::mapped::MappedGrid,
         ranges: &[[f32; 2]],
         residency: pool::Residency,
-    ) -> Result<Self, GpuError> {
+    ) -> Result<Self, pool::PoolError> {
         let pool = pool::Pool::upload(ctx, grid, residency)?;
         let gpu = GpuGrid {
             storage: Storage::Pool(Box::new(pool)),

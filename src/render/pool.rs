@@ -3,7 +3,7 @@
 //! (`shaders/include/field.glsl`, `GRID_POOL`).
 //!
 //! ```text
-//!   mapped file ──brick_ranges──> min/max of every brick of BRICK³ cells (one pass, in file order)
+//!   source file ──brick_ranges──> min/max of every brick of BRICK³ cells (one pass, in file order)
 //!        │                            │ select: active = not clear of every isovalue
 //!        │                            ▼   (fixed-step: and the bricks around them)
 //!        └──read_box per resident brick──> slots of SLOT³ points ──staging chunks──> pool buffer
@@ -158,14 +158,15 @@ impl Residency {
 
 /// The slot of brick `b`: its points and [`APRON`] more per side, x fastest, [`SLOT`]³ values;
 /// positions past the grid's faces repeat the nearest point (nothing reads them with weight).
-pub fn slot(grid: &MappedGrid, b: [usize; 3]) -> Vec<f32> {
+/// Fails if the file shrank since it was opened.
+pub fn slot(grid: &MappedGrid, b: [usize; 3]) -> Result<Vec<f32>, FieldError> {
     let dims = grid.dims;
     // The slot's first point, per axis (may be -APRON), and the points of the grid it covers.
     let first = [0, 1, 2].map(|a| (b[a] * BRICK) as i64 - APRON as i64);
     let lo = [0, 1, 2].map(|a| first[a].max(0) as usize);
     let hi = [0, 1, 2].map(|a| ((first[a] + SLOT as i64 - 1) as usize).min(dims[a] - 1));
     let n = [0, 1, 2].map(|a| hi[a] - lo[a] + 1);
-    let values = grid.read_box(lo, n);
+    let values = grid.read_box(lo, n)?;
     let mut out = Vec::with_capacity(SLOT * SLOT * SLOT);
     let clamp = |a: usize, l: usize| {
         let p = (first[a] + l as i64).clamp(lo[a] as i64, hi[a] as i64) as usize;
@@ -178,7 +179,7 @@ pub fn slot(grid: &MappedGrid, b: [usize; 3]) -> Vec<f32> {
             }
         }
     }
-    out
+    Ok(out)
 }
 
 /// The pool and page table on the device.
@@ -197,7 +198,7 @@ impl Pool {
         ctx: &Arc<Context>,
         grid: &MappedGrid,
         residency: Residency,
-    ) -> Result<Pool, GpuError> {
+    ) -> Result<Pool, PoolError> {
         let slot_bytes = (SLOT * SLOT * SLOT * 4) as u64;
         let pool = Buffer::new(
             ctx,
@@ -215,15 +216,15 @@ impl Pool {
             MemoryLocation::CpuToGpu,
         )?;
         for (c, bricks) in residency.resident.chunks(chunk).enumerate() {
-            let slots: Vec<f32> = bricks.par_iter().flat_map_iter(|&b| slot(grid, b)).collect();
-            staging.write(&slots)?;
+            let slots: Vec<Vec<f32>> =
+                bricks.par_iter().map(|&b| slot(grid, b)).collect::<Result<_, _>>()?;
+            staging.write(&slots.concat())?;
             let offset = (c * chunk) as u64 * slot_bytes;
             let bytes = bricks.len() as u64 * slot_bytes;
             ctx.submit("upload brick pool", |cmd| {
                 crate::gpu::copy_buffer(ctx, cmd, &staging, 0, &pool, offset, bytes);
                 Ok(())
             })?;
-            grid.release();
         }
         let pages = Buffer::upload(
             ctx,
@@ -255,7 +256,7 @@ pub enum PoolError {
     Refused(String),
 }
 
-/// Whether `scene` renders from a memory-mapped brick pool: `field.residency = "active"`, or
+/// Whether `scene` renders from a brick pool read from its file: `field.residency = "active"`, or
 /// `"auto"` with the whole grid over the cap; the grid mapped, or None to sample it whole.
 pub fn mapped_for(
     scene: &crate::scene::Scene,
@@ -263,6 +264,16 @@ pub fn mapped_for(
 ) -> Result<Option<MappedGrid>, PoolError> {
     let Some(grid) = MappedGrid::for_residency(&scene.field, limits)? else { return Ok(None) };
     if scene.render.method == crate::scene::Method::Mesh {
+        // Under "auto" (the default) the user asked for nothing: say why the grid is too large
+        // (the cap's own message) and which paths read it in parts.
+        if scene.field.residency == crate::field::Residency::Auto {
+            let over = limits.check(grid.dims.map(|d| d as u64), &grid.label()).err();
+            let why = over.map_or_else(|| grid.label(), |e| e.to_string());
+            return Err(PoolError::Refused(format!(
+                "{why}; render.method = \"mesh\" needs the whole grid (a ray method or \
+                 `isoview extract` reads a grid over the cap in parts)"
+            )));
+        }
         return Err(PoolError::Refused(
             "field.residency = \"active\": render.method = \"mesh\" needs the whole grid; use \
              `isoview extract`, which streams the file, or a ray method"
@@ -294,7 +305,7 @@ pub fn upload_for(
         (residency.resident.len(), residency.pool_bytes() as f64 / (1 << 20) as f64);
     let gpu = super::GpuGrid::upload_pool(ctx, grid, &ranges, residency)?;
     let summary = format!(
-        "{}x{}x{} grid memory-mapped ({} MiB of f32): {active} of {bricks} bricks of {BRICK}^3 \
+        "{}x{}x{} grid read from the file in parts ({} MiB of f32): {active} of {bricks} bricks of {BRICK}^3 \
          cells active, {resident} resident, {pool_mib:.1} MiB pool (scan {:.1} s, upload {:.1} s)",
         grid.dims[0],
         grid.dims[1],

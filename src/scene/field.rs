@@ -97,6 +97,8 @@ fn field_named(root: &View, name: &str, base_dir: &Path, limits: &GridLimits) ->
     // may be over the cap (the cap then applies to the bricks a render uploads).
     let residency = match t.get("residency") {
         Some(node) => choice(t.src, &t.key("residency"), node, &Residency::NAMES)?,
+        // Only the kinds that take the key can be read in parts; the others are sampled whole.
+        None if kind.keys().contains(&"residency") => Residency::default(),
         None => Residency::Whole,
     };
     // `nan` (every kind): what a NaN or infinite sample means.

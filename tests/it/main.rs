@@ -32,6 +32,7 @@ mod output;
 mod physical;
 mod placement;
 mod projection;
+mod reliability_formats;
 mod reliability_io;
 mod render;
 mod residency;

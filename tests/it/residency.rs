@@ -1,4 +1,4 @@
-//! `field.residency = "active"`: a memory-mapped raw/npy grid, only the bricks its isovalues
+//! `field.residency = "active"`: a raw/npy grid read from its file in parts, only the bricks its isovalues
 //! need uploaded into the brick pool. The mapped reads equal the in-memory readers, the brick
 //! scan equals the GPU's min/max grid, and every ray render from the pool is **bit for bit** the
 //! whole grid's (every channel), over random fields, cameras and settings, with bricks left out.
@@ -175,8 +175,8 @@ fn mapped_reads_equal_the_in_memory_readers() {
     };
     let grid = Grid { dims, min: DVec3::ZERO, max: DVec3::ONE, values: whole };
     let mapped = MappedGrid::open(&spec).unwrap().unwrap();
-    assert_eq!(mapped.read_box([0, 0, 0], dims), grid.values);
-    let part = mapped.read_box([3, 2, 5], [7, 4, 9]);
+    assert_eq!(mapped.read_box([0, 0, 0], dims).unwrap(), grid.values);
+    let part = mapped.read_box([3, 2, 5], [7, 4, 9]).unwrap();
     for k in 0..9 {
         for j in 0..4 {
             for i in 0..7 {
@@ -197,7 +197,7 @@ fn mapped_reads_equal_the_in_memory_readers() {
         (r.dtype, r.endian) = (SampleType::F64, Endian::Big);
     }
     let mapped = MappedGrid::open(&spec).unwrap().unwrap();
-    assert_eq!(mapped.read_box([0, 0, 0], g.dims), g.values);
+    assert_eq!(mapped.read_box([0, 0, 0], g.dims).unwrap(), g.values);
     assert_eq!(mapped.brick_ranges(brick).unwrap(), isoview::passes::bricks::reference(&g));
 }
 
@@ -212,7 +212,7 @@ fn slots_hold_the_brick_and_its_apron() {
     let mapped = MappedGrid::open(&raw_spec(&file, &g, Residency::Active)).unwrap().unwrap();
     let (b, s) = (isoview::passes::bricks::BRICK as i64, pool::SLOT);
     for brick in [[0, 0, 0], [1, 1, 2], [2, 0, 1]] {
-        let slot = pool::slot(&mapped, brick);
+        let slot = pool::slot(&mapped, brick).unwrap();
         assert_eq!(slot.len(), s * s * s);
         for (n, &v) in slot.iter().enumerate() {
             let l = [n % s, (n / s) % s, n / (s * s)];
@@ -264,7 +264,7 @@ fn pool_errors_are_one_line() {
     let o =
         isoview(&["render", &scene, "-o", out.to_str().unwrap()], &[("ISOVIEW_MAX_GRID_MIB", "1")]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("40x40x40 grid memory-mapped"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("40x40x40 grid read from the file in parts"), "{}", stderr(&o));
     let o = isoview(
         &["render", &scene, "-o", out.to_str().unwrap(), "--set", "render.method=\"mesh\""],
         &[],

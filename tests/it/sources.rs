@@ -322,7 +322,9 @@ fn npy_over_the_memory_cap_is_refused_without_reading_the_data() {
     // not reported as truncated, so nothing past the header was considered.
     std::fs::write(d.join("huge.npy"), npy("'<f4'", false, &[100000, 100000, 100000], &[]))
         .unwrap();
-    let e = load_err(&d, "source = \"npy\"\npath = \"huge.npy\"\n");
+    // (With residency "auto", the default, the cap applies to what a render uploads: the
+    // header's size against the file's is what refuses it then.)
+    let e = load_err(&d, "source = \"npy\"\npath = \"huge.npy\"\nresidency = \"whole\"\n");
     assert_eq!(
         e,
         format!(
@@ -336,7 +338,7 @@ fn npy_over_the_memory_cap_is_refused_without_reading_the_data() {
     // Dims whose product overflows 64 bits are refused the same way, without a panic.
     let max = u64::MAX;
     std::fs::write(d.join("overflow.npy"), npy("'<f4'", false, &[max, max, 4], &[])).unwrap();
-    assert!(load_err(&d, "source = \"npy\"\npath = \"overflow.npy\"\n")
+    assert!(load_err(&d, "source = \"npy\"\npath = \"overflow.npy\"\nresidency = \"whole\"\n")
         .contains("over the cap of 1024 MiB"));
     // A header length larger than the file.
     let mut bad = npy("'<f4'", false, &[2, 2, 2], &[0; 32]);
@@ -347,9 +349,12 @@ fn npy_over_the_memory_cap_is_refused_without_reading_the_data() {
         .contains("not a valid .npy file (the header claims 2147483647 bytes, the file has"));
     // The cap is settable in code: a real 2x3x4 file under a 64-byte cap.
     std::fs::write(d.join("small.npy"), npy("'<f4'", false, &[2, 3, 4], &[0; 96])).unwrap();
-    let e =
-        load_capped(&d, "source = \"npy\"\npath = \"small.npy\"\n", GridLimits { max_bytes: 64 })
-            .unwrap_err();
+    let e = load_capped(
+        &d,
+        "source = \"npy\"\npath = \"small.npy\"\nresidency = \"whole\"\n",
+        GridLimits { max_bytes: 64 },
+    )
+    .unwrap_err();
     assert_eq!(e.kind, SceneErrorKind::Data);
     assert!(
         matches!(e.field_error.as_deref(), Some(FieldError::TooLarge { bytes: 96, cap: 64, .. })),
@@ -423,7 +428,7 @@ fn raw_errors_name_the_file_dims_and_sizes() {
         format!("t.toml:4:8: field.dims: {p}: dims do not match the data: [3, 2, 2] x u16 is 24 bytes of samples, the file has 47")
     );
     assert_eq!(
-        load_err(&d, &field("[4096, 4096, 4096]", "f32")),
+        load_err(&d, &format!("{}residency = \"whole\"\n", field("[4096, 4096, 4096]", "f32"))),
         format!(
             "t.toml:4:8: field.dims: {p}: a grid of 4096x4096x4096 points needs 262144 MiB of f32 samples, \
              over the cap of 1024 MiB; raise the cap with ISOVIEW_MAX_GRID_MIB=262144 (or GridLimits::max_bytes), \

@@ -159,7 +159,8 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     let mut v = Volume {
         dims,
         values,
-        origin: vec3(&["Offset", "Position", "Origin"])?.unwrap_or(DVec3::ZERO),
+        origin: err
+            .finite("Offset", vec3(&["Offset", "Position", "Origin"])?.unwrap_or(DVec3::ZERO))?,
         spacing: DVec3::ONE,
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         dtype: et.to_string(),
@@ -174,6 +175,6 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
             _ => return Err(line_err(n, format!("TransformMatrix = {m:?}: expected 9 numbers"))),
         },
     };
-    v.set_axes([0, 1, 2].map(|k| axes[k] * spacing[k]), err)?;
+    v.set_axes([0, 1, 2].map(|k| axes[k] * spacing[k]), "ElementSpacing and TransformMatrix", err)?;
     Ok(v)
 }

@@ -80,6 +80,19 @@ impl Format {
         }
     }
 
+    /// The header fields that place the grid, for messages about its box.
+    pub fn geometry_fields(self) -> &'static str {
+        match self {
+            Format::Nrrd => "space origin, space directions, spacings, axis mins",
+            Format::Nifti => "srow_x/y/z or qoffset_x/y/z and pixdim",
+            Format::Mrc => "ORIGIN, cell dimensions and MX, MY, MZ",
+            Format::MetaImage => "Offset, ElementSpacing, TransformMatrix",
+            Format::Vti => "Origin, Spacing, Direction, WholeExtent",
+            Format::Vtk => "ORIGIN, SPACING",
+            Format::Tiff => "field.spacing",
+        }
+    }
+
     /// The extensions that select the format (lower case, without the dot).
     pub fn extensions(self) -> &'static [&'static str] {
         match self {
@@ -143,23 +156,23 @@ pub struct Volume {
 
 impl Volume {
     /// Splits a world-from-index matrix (columns: the index axes' steps) into spacing (column
-    /// lengths) and unit directions; fails on a zero or non-finite column.
+    /// lengths) and unit directions; fails on a zero or non-finite column, naming the header
+    /// `field` it came from.
     pub(crate) fn set_axes(
         &mut self,
         columns: [DVec3; 3],
+        field: &str,
         err: &Located,
     ) -> Result<(), FieldError> {
         for (k, c) in columns.iter().enumerate() {
             // An axis-aligned column keeps its spacing exact (no square root of a square).
             let aligned = c.to_array().iter().filter(|v| **v != 0.0).count() == 1;
             let len = if aligned { c.abs().max_element() } else { c.length() };
-            if !(len.is_finite() && len > 0.0) {
+            if !usable_step(len) {
                 return Err(err.bad(format!(
-                    "axis {} has no direction or spacing ({}, {}, {})",
+                    "{field}: axis {} steps by {}; {STEP_RULE}",
                     "xyz".as_bytes()[k] as char,
-                    c.x,
-                    c.y,
-                    c.z
+                    point(*c)
                 )));
             }
             self.spacing[k] = len;
@@ -167,6 +180,29 @@ impl Volume {
         }
         Ok(())
     }
+}
+
+/// What every grid step must be, for messages: the one rule [`usable_step`] checks.
+pub(crate) const STEP_RULE: &str = "a spacing must be a finite number over 0";
+
+/// A header number for messages, short at any magnitude: `1e308` rather than 309 digits.
+pub(crate) fn num(v: f64) -> String {
+    let a = v.abs();
+    if a.is_finite() && a != 0.0 && !(1e-5..1e16).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// Three header numbers for messages: `(1, 0, 1e308)`.
+pub(crate) fn point(v: DVec3) -> String {
+    format!("({}, {}, {})", num(v.x), num(v.y), num(v.z))
+}
+
+/// Whether `s` can be the distance between neighbouring grid points.
+pub(crate) fn usable_step(s: f64) -> bool {
+    s.is_finite() && s > 0.0
 }
 
 /// Reads `path` as `format`.
@@ -185,7 +221,9 @@ pub fn read(path: &Path, format: Format, opts: &ReadOptions) -> Result<Volume, F
     Ok(v)
 }
 
-/// The invariants every reader promises, checked once here.
+/// The invariants every reader promises, checked once here: at least 2 points per axis, and
+/// a box whose every corner is a finite point (each reader has already named a bad header
+/// field; this catches what only the sum overflows, e.g. a spacing of 1e308 times the points).
 fn check(err: &Located, v: &Volume) -> Result<(), FieldError> {
     debug_assert_eq!(v.values.len(), v.dims.iter().product::<usize>());
     if v.dims.iter().any(|&d| d < 2) {
@@ -194,13 +232,35 @@ fn check(err: &Located, v: &Volume) -> Result<(), FieldError> {
             v.dims[0], v.dims[1], v.dims[2]
         )));
     }
-    if !(v.origin.is_finite() && v.spacing.is_finite() && v.spacing.min_element() > 0.0) {
+    let far = (0..3).fold(v.origin, |p, k| p + v.axes[k] * (v.spacing[k] * (v.dims[k] - 1) as f64));
+    let steps_ok = v.spacing.to_array().into_iter().all(usable_step);
+    if !(v.origin.is_finite() && steps_ok && far.is_finite()) {
         return Err(err.bad(format!(
-            "the header's geometry is not usable (origin {}, spacing {})",
-            v.origin, v.spacing
+            "{}: origin {} and spacing {} over {}x{}x{} points put the grid's box out of range \
+             (every coordinate must be a finite number)",
+            err.format.geometry_fields(),
+            point(v.origin),
+            point(v.spacing),
+            v.dims[0],
+            v.dims[1],
+            v.dims[2]
         )));
     }
     Ok(())
+}
+
+/// The bytes a reader looks at for its dims before it reads a whole file into memory.
+const PEEK_BYTES: u64 = 64 << 10;
+
+/// The first [`PEEK_BYTES`] of a file that is read whole (VTI, legacy VTK): the readers find
+/// the declared dims there and check them against the cap before reading the rest, so a
+/// header over the cap is refused without reading gigabytes first.
+pub(crate) fn peek(err: &Located) -> Result<Vec<u8>, FieldError> {
+    use std::io::Read;
+    let file = std::fs::File::open(err.path).map_err(|e| err.io(&e))?;
+    let mut head = Vec::new();
+    file.take(PEEK_BYTES).read_to_end(&mut head).map_err(|e| err.io(&e))?;
+    Ok(head)
 }
 
 /// A file being read as a format: builds its errors.
@@ -222,6 +282,14 @@ impl Located<'_> {
     /// The memory cap for a grid of `dims`, named by this file.
     pub fn limits_check(&self, limits: &GridLimits, dims: [u64; 3]) -> Result<(), FieldError> {
         limits.check(dims, &self.path.display().to_string()).map(|_| ())
+    }
+
+    /// `v` when each of its numbers is finite, else the error naming the header `field`.
+    pub fn finite(&self, field: &str, v: DVec3) -> Result<DVec3, FieldError> {
+        match v.is_finite() {
+            true => Ok(v),
+            false => Err(self.bad(format!("{field} {} is not a finite point", point(v)))),
+        }
     }
 
     pub fn io(&self, e: &std::io::Error) -> FieldError {

@@ -102,16 +102,30 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     }
     let values = if axis == [0, 1, 2] { stored } else { reorder(&stored, stored_dims, axis, dims) };
 
-    // Voxel size from the cell, per world axis; a zero cell (some tools) means 1 Å.
+    // Voxel size from the cell, per world axis: both must be positive (a zero cell would put
+    // every point at the origin, a NaN one nowhere).
     let cell = [real(10), real(11), real(12)];
     let sampling = [word(7), word(8), word(9)];
     let mut spacing = DVec3::ONE;
     for k in 0..3 {
-        if cell[k] > 0.0 && sampling[k] > 0 {
-            spacing[k] = cell[k] / sampling[k] as f64;
+        spacing[k] = cell[k] / sampling[k] as f64;
+        if !(sampling[k] > 0 && super::usable_step(spacing[k])) {
+            return Err(err.bad(format!(
+                "cell dimensions (CELLA) {} {} {} over MX, MY, MZ = {} {} {}: axis {} has voxel \
+                 size {}; {}",
+                super::num(cell[0]),
+                super::num(cell[1]),
+                super::num(cell[2]),
+                sampling[0],
+                sampling[1],
+                sampling[2],
+                "xyz".as_bytes()[k] as char,
+                super::num(spacing[k]),
+                super::STEP_RULE
+            )));
         }
     }
-    let origin_words = DVec3::new(real(49), real(50), real(51));
+    let origin_words = err.finite("ORIGIN", DVec3::new(real(49), real(50), real(51)))?;
     let origin = if origin_words != DVec3::ZERO {
         origin_words
     } else {

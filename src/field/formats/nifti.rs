@@ -147,10 +147,11 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         let row = |o: usize| [f32_at(o), f32_at(o + 4), f32_at(o + 8), f32_at(o + 12)];
         let (x, y, z) = (row(280), row(296), row(312));
         let cols = [0, 1, 2].map(|c| DVec3::new(x[c], y[c], z[c]));
-        v.set_axes(cols, err)?;
-        v.origin = DVec3::new(x[3], y[3], z[3]);
+        v.set_axes(cols, "srow_x/y/z", err)?;
+        v.origin = err.finite("srow_x/y/z offsets", DVec3::new(x[3], y[3], z[3]))?;
     } else if qform_code > 0 {
         let (b, c, d) = (f32_at(256), f32_at(260), f32_at(264));
+        err.finite("quatern_b/c/d", DVec3::new(b, c, d))?;
         let a2 = 1.0 - (b * b + c * c + d * d);
         // nibabel's tolerance: a slightly negative a² (rounding of stored f32s) is 0.
         let a = if a2 < -1e-6 {
@@ -162,11 +163,13 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         let qfac = if pixdim[0] == -1.0 { -1.0 } else { 1.0 };
         let zooms = DVec3::new(pixdim[1], pixdim[2], pixdim[3] * qfac);
         let cols = [r.x_axis * zooms.x, r.y_axis * zooms.y, r.z_axis * zooms.z];
-        v.set_axes(cols, err)?;
-        v.origin = DVec3::new(f32_at(268), f32_at(272), f32_at(276));
+        v.set_axes(cols, "pixdim[1..3]", err)?;
+        v.origin =
+            err.finite("qoffset_x/y/z", DVec3::new(f32_at(268), f32_at(272), f32_at(276)))?;
     } else {
         let zooms = DVec3::new(pixdim[1], pixdim[2], pixdim[3]);
-        v.set_axes([DVec3::X * zooms.x, DVec3::Y * zooms.y, DVec3::Z * zooms.z], err)?;
+        let cols = [DVec3::X * zooms.x, DVec3::Y * zooms.y, DVec3::Z * zooms.z];
+        v.set_axes(cols, "pixdim[1..3]", err)?;
     }
     Ok(v)
 }

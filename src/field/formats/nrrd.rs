@@ -64,19 +64,20 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     };
     match &h.directions {
         Some(dirs) => {
-            v.set_axes(*dirs, err)?;
-            v.origin = h.origin.unwrap_or(DVec3::ZERO);
+            v.set_axes(*dirs, "space directions", err)?;
+            v.origin = err.finite("space origin", h.origin.unwrap_or(DVec3::ZERO))?;
         }
         None => {
             for k in 0..3 {
-                // `nan` spacings and mins mean "unknown": 1 and 0.
-                if let Some(s) = h.spacings.map(|s| s[k]).filter(|s| s.is_finite()) {
+                // `nan` spacings and mins mean "unknown" (the NRRD format's own rule): 1 and 0;
+                // other values were checked in the header.
+                if let Some(s) = h.spacings.map(|s| s[k]).filter(|s| !s.is_nan()) {
                     v.spacing[k] = s.abs();
                     if s < 0.0 {
                         v.axes[k] = -v.axes[k];
                     }
                 }
-                if let Some(m) = h.axis_mins.map(|m| m[k]).filter(|m| m.is_finite()) {
+                if let Some(m) = h.axis_mins.map(|m| m[k]).filter(|m| !m.is_nan()) {
                     v.origin[k] = m;
                 }
             }
@@ -274,6 +275,33 @@ impl Header {
                 }
             }
         };
+        // `nan` means "unknown"; anything else must be a usable spacing (negative: the axis
+        // runs backwards) or a finite minimum.
+        let spacings = per_axis(&["spacings"])?;
+        if let (Some(s), Some((n, text))) = (spacings, get(&["spacings"])) {
+            if let Some(k) = (0..3).find(|&k| !(s[k].is_nan() || super::usable_step(s[k].abs()))) {
+                return Err(line_err(
+                    n,
+                    format!(
+                        "spacings {text:?}: axis {k} spacing {}; {}",
+                        super::num(s[k]),
+                        super::STEP_RULE
+                    ),
+                ));
+            }
+        }
+        let axis_mins = per_axis(&["axis mins", "axismins"])?;
+        if let (Some(m), Some((n, text))) = (axis_mins, get(&["axis mins", "axismins"])) {
+            if let Some(k) = (0..3).find(|&k| m[k].is_infinite()) {
+                return Err(line_err(
+                    n,
+                    format!(
+                        "axis mins {text:?}: axis {k} minimum {} is not finite",
+                        super::num(m[k])
+                    ),
+                ));
+            }
+        }
         Ok(Header {
             sizes,
             ty,
@@ -285,8 +313,8 @@ impl Header {
             byte_skip,
             directions,
             origin,
-            spacings: per_axis(&["spacings"])?,
-            axis_mins: per_axis(&["axis mins", "axismins"])?,
+            spacings,
+            axis_mins,
         })
     }
 }

@@ -85,14 +85,9 @@ pub fn from_file(
                 return Err(at.bad("byte skip -1 is only allowed for raw data"));
             };
             file.seek(SeekFrom::Start(skip)).map_err(|e| at.io(&e))?;
-            let mut text = String::new();
             // ASCII needs at least 2 bytes a sample: more than 64 a sample is not a volume.
             let most = byte_count(dims, SampleType::U8).saturating_mul(64).saturating_add(4096);
-            BufReader::new(file)
-                .take(most)
-                .read_to_string(&mut text)
-                .map_err(|_| at.bad("the ASCII data is not text"))?;
-            ascii(&at, &text, dims)
+            ascii_stream(&at, BufReader::new(file).take(most), dims)
         }
         Encoding::Gzip | Encoding::Zlib => {
             let Start::At(skip) = start else {
@@ -172,27 +167,96 @@ pub fn exact(
 
 /// Whitespace-separated numbers, exactly one per grid point (anything after them is refused).
 pub fn ascii(err: &Located, text: &str, dims: [usize; 3]) -> Result<Vec<f32>, FieldError> {
-    let count: usize = dims.iter().product();
-    let mut out = Vec::with_capacity(count);
-    for word in text.split(|c: char| c.is_ascii_whitespace() || c == ',').filter(|w| !w.is_empty())
-    {
-        if out.len() == count {
-            return Err(err.bad(format!(
-                "the ASCII data holds more than the {count} values the header declares"
+    let mut values = AsciiValues::new(err, dims);
+    for word in text.split(is_separator).filter(|w| !w.is_empty()) {
+        values.push(word)?;
+    }
+    values.finish()
+}
+
+/// [`ascii`] read from `reader` a block at a time: the memory is the grid's samples and one
+/// block of text, not the whole text (which may be many times the samples' size).
+pub fn ascii_stream(
+    err: &Located,
+    mut reader: impl Read,
+    dims: [usize; 3],
+) -> Result<Vec<f32>, FieldError> {
+    let mut values = AsciiValues::new(err, dims);
+    let mut block = vec![0u8; 1 << 16];
+    // The bytes of a word cut by the end of the last block.
+    let mut partial = Vec::new();
+    loop {
+        let n = reader.read(&mut block).map_err(|e| err.io(&e))?;
+        let done = n == 0;
+        let mut start = 0;
+        for (i, &b) in block[..n].iter().enumerate() {
+            if is_separator(b as char) {
+                partial.extend_from_slice(&block[start..i]);
+                start = i + 1;
+                if !partial.is_empty() {
+                    values.push_bytes(&partial)?;
+                    partial.clear();
+                }
+            }
+        }
+        partial.extend_from_slice(&block[start..n]);
+        if done {
+            if !partial.is_empty() {
+                values.push_bytes(&partial)?;
+            }
+            return values.finish();
+        }
+    }
+}
+
+/// What separates ASCII values: whitespace or a comma.
+fn is_separator(c: char) -> bool {
+    c.is_ascii_whitespace() || c == ','
+}
+
+/// ASCII values being read: exactly one per grid point, each a number.
+struct AsciiValues<'a, 'p> {
+    err: &'a Located<'p>,
+    count: usize,
+    out: Vec<f32>,
+}
+
+impl<'a, 'p> AsciiValues<'a, 'p> {
+    fn new(err: &'a Located<'p>, dims: [usize; 3]) -> Self {
+        let count = dims.iter().product();
+        AsciiValues { err, count, out: Vec::with_capacity(count) }
+    }
+
+    fn push_bytes(&mut self, word: &[u8]) -> Result<(), FieldError> {
+        let word =
+            std::str::from_utf8(word).map_err(|_| self.err.bad("the ASCII data is not text"))?;
+        self.push(word)
+    }
+
+    fn push(&mut self, word: &str) -> Result<(), FieldError> {
+        if self.out.len() == self.count {
+            return Err(self.err.bad(format!(
+                "the ASCII data holds more than the {} values the header declares",
+                self.count
             )));
         }
-        let v: f64 = word
-            .parse()
-            .map_err(|_| err.bad(format!("ASCII value {} is not a number: {word:?}", out.len())))?;
-        out.push(v as f32);
+        let v: f64 = word.parse().map_err(|_| {
+            self.err.bad(format!("ASCII value {} is not a number: {word:?}", self.out.len()))
+        })?;
+        self.out.push(v as f32);
+        Ok(())
     }
-    if out.len() < count {
-        return Err(err.bad(format!(
-            "truncated data: the ASCII data holds {} of the {count} values the header declares",
-            out.len()
-        )));
+
+    fn finish(self) -> Result<Vec<f32>, FieldError> {
+        if self.out.len() < self.count {
+            return Err(self.err.bad(format!(
+                "truncated data: the ASCII data holds {} of the {} values the header declares",
+                self.out.len(),
+                self.count
+            )));
+        }
+        Ok(self.out)
     }
-    Ok(out)
 }
 
 /// Bytes of `dims` samples of `ty` (dims have passed the cap, so this cannot overflow).

@@ -24,15 +24,29 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     if !matches!(color, ColorType::Gray(_)) {
         return Err(err.bad(format!("page 0 is {color:?}; isoview reads grayscale stacks")));
     }
-    let mut values = Vec::new();
-    let mut pages = 0u64;
+    // First pass, over the page headers only: every page the same, and the whole stack under
+    // the cap (counted page by page, so a long or cyclic chain of pages stops at the cap)
+    // before any page is decoded.
+    let mut pages = 1u64;
     loop {
-        // The cap counts the pages so far plus this one, before it is decoded.
-        err.limits_check(&opts.limits, [w as u64, h as u64, pages + 1])?;
+        err.limits_check(&opts.limits, [w as u64, h as u64, pages])?;
         if dec.dimensions().map_err(tiff_err)? != (w, h)
             || dec.colortype().map_err(tiff_err)? != color
         {
-            return Err(err.bad(format!("page {pages} differs in size or type from page 0")));
+            return Err(err.bad(format!("page {} differs in size or type from page 0", pages - 1)));
+        }
+        if !dec.more_images() {
+            break;
+        }
+        dec.next_image().map_err(tiff_err)?;
+        pages += 1;
+    }
+    let dims = super::payload::grid(err, [w as u64, h as u64, pages], &opts.limits)?;
+    dec.seek_to_image(0).map_err(tiff_err)?;
+    let mut values = Vec::with_capacity(dims.iter().product());
+    for page in 0..pages {
+        if page > 0 {
+            dec.next_image().map_err(tiff_err)?;
         }
         match dec.read_image().map_err(tiff_err)? {
             DecodingResult::U8(v) => values.extend(v.iter().map(|&x| x as f32)),
@@ -45,18 +59,12 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
             DecodingResult::I64(v) => values.extend(v.iter().map(|&x| x as f32)),
             DecodingResult::F32(v) => values.extend(v),
             DecodingResult::F64(v) => values.extend(v.iter().map(|&x| x as f32)),
-            _ => return Err(err.bad(format!("page {pages}: a sample type isoview does not read"))),
+            _ => return Err(err.bad(format!("page {page}: a sample type isoview does not read"))),
         }
-        pages += 1;
-        if values.len() as u64 != w as u64 * h as u64 * pages {
-            return Err(err.bad(format!("page {} does not hold {w}x{h} samples", pages - 1)));
+        if values.len() as u64 != w as u64 * h as u64 * (page + 1) {
+            return Err(err.bad(format!("page {page} does not hold {w}x{h} samples")));
         }
-        if !dec.more_images() {
-            break;
-        }
-        dec.next_image().map_err(tiff_err)?;
     }
-    let dims = super::payload::grid(err, [w as u64, h as u64, pages], &opts.limits)?;
     let bits = match color {
         ColorType::Gray(b) => b,
         _ => 0,

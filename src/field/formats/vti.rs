@@ -22,6 +22,11 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
             "the file has {len} bytes, more than any grid under the memory cap needs"
         )));
     }
+    // The declared extent against the cap before the whole file is read (it is checked again,
+    // with the rest of the XML, below).
+    if let Some(dims) = peek_extent(&super::peek(err)?) {
+        err.limits_check(&opts.limits, dims)?;
+    }
     let bytes = std::fs::read(err.path).map_err(|e| err.io(&e))?;
     // Raw appended data is binary: parse the XML before it, and find the data after its `_`.
     let (xml, appended) = match find(&bytes, b"<AppendedData") {
@@ -42,6 +47,12 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         .to_string();
     if appended.is_some() {
         text.push_str("</VTKFile>");
+    }
+    // roxmltree parses nested elements by recursion: refuse deep nesting before it starts.
+    if let Some((line, column)) = too_deep(&text, MAX_XML_DEPTH) {
+        return Err(err.bad(format!(
+            "line {line}, column {column}: the XML nests deeper than {MAX_XML_DEPTH} elements"
+        )));
     }
     let doc =
         roxmltree::Document::parse(&text).map_err(|e| err.bad(format!("malformed XML: {e}")))?;
@@ -134,18 +145,30 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
 
     let origin = numbers(image, "Origin", 3)?.map_or(DVec3::ZERO, |v| DVec3::from_slice(&v));
     let spacing = numbers(image, "Spacing", 3)?.map_or(DVec3::ONE, |v| DVec3::from_slice(&v));
+    // Checked before the Direction multiplies it (0 * inf would hide which number is wrong);
+    // a negative spacing runs its axis backwards.
+    if let Some(k) = (0..3).find(|&k| !super::usable_step(spacing[k].abs())) {
+        return Err(err.bad(format!(
+            "Spacing {}: axis {} spacing {}; {}",
+            super::point(spacing),
+            "xyz".as_bytes()[k] as char,
+            super::num(spacing[k]),
+            super::STEP_RULE
+        )));
+    }
     let d = numbers(image, "Direction", 9)?
         .map_or(DMat3::IDENTITY, |m| DMat3::from_cols_slice(&m).transpose());
     let start = DVec3::new(ext[0] as f64, ext[2] as f64, ext[4] as f64) * spacing;
     let mut v = Volume {
         dims,
         values,
-        origin: origin + d * start,
+        origin: err.finite("Origin", origin)? + d * start,
         spacing: DVec3::ONE,
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         dtype: format!("{ty_name} ({})", array.attribute("Name").unwrap_or("unnamed")),
     };
-    v.set_axes([d.x_axis * spacing.x, d.y_axis * spacing.y, d.z_axis * spacing.z], err)?;
+    let cols = [d.x_axis * spacing.x, d.y_axis * spacing.y, d.z_axis * spacing.z];
+    v.set_axes(cols, "Spacing and Direction", err)?;
     Ok(v)
 }
 
@@ -271,6 +294,84 @@ impl Block<'_> {
         }
         payload::exact(self.err, out, self.ty, self.endian, self.dims)
     }
+}
+
+/// The points per axis of the first `WholeExtent="x0 x1 y0 y1 z0 z1"` in `head`, if it is there
+/// and well formed.
+fn peek_extent(head: &[u8]) -> Option<[u64; 3]> {
+    let key = b"WholeExtent=";
+    let at = find(head, key)? + key.len();
+    let quote = *head.get(at)?;
+    let len = head[at + 1..].iter().position(|&c| c == quote)?;
+    let text = std::str::from_utf8(&head[at + 1..at + 1 + len]).ok()?;
+    let e: Vec<i64> =
+        text.split_ascii_whitespace().map(|w| w.parse().ok()).collect::<Option<_>>()?;
+    let [x0, x1, y0, y1, z0, z1] = e.as_slice() else { return None };
+    let n = |a: i64, b: i64| u64::try_from(b.checked_sub(a)?.checked_add(1)?).ok();
+    Some([n(*x0, *x1)?, n(*y0, *y1)?, n(*z0, *z1)?])
+}
+
+/// Most nested elements a `.vti` may have: VTK writes 5 or 6 (`VTKFile`, `ImageData`,
+/// `Piece`, `PointData`, `DataArray`, `InformationKey`); the bound keeps roxmltree's recursive
+/// descent far from the end of any thread's stack.
+pub const MAX_XML_DEPTH: usize = 64;
+
+/// Where (1-based line and column) an element opens deeper than `max` elements, found without
+/// recursion; None when the nesting stays within `max`. Counts start tags that are not
+/// self-closing, minus end tags, skipping comments, CDATA, processing instructions,
+/// declarations and quoted attribute values. Malformed markup may be counted deeper than it is
+/// but never shallower than roxmltree gets before it fails on it.
+pub fn too_deep(xml: &str, max: usize) -> Option<(usize, usize)> {
+    let b = xml.as_bytes();
+    let (mut depth, mut at) = (0usize, 0usize);
+    // The index just past `end` from `from`, or the end of the text.
+    let past = |from: usize, end: &[u8]| {
+        find(&b[from.min(b.len())..], end).map_or(b.len(), |p| from + p + end.len())
+    };
+    while let Some(p) = b[at..].iter().position(|&c| c == b'<') {
+        let open = at + p;
+        let rest = &b[open..];
+        at = if rest.starts_with(b"<!--") {
+            past(open + 4, b"-->")
+        } else if rest.starts_with(b"<![CDATA[") {
+            past(open + 9, b"]]>")
+        } else if rest.starts_with(b"<?") {
+            past(open + 2, b"?>")
+        } else if rest.starts_with(b"<!") {
+            past(open + 2, b">")
+        } else if rest.starts_with(b"</") {
+            depth = depth.saturating_sub(1);
+            past(open + 2, b">")
+        } else {
+            // A start tag: to its `>`, past quoted attribute values (which may hold `>`).
+            let mut i = open + 1;
+            let mut quote = None;
+            while i < b.len() {
+                match (quote, b[i]) {
+                    (None, b'"' | b'\'') => quote = Some(b[i]),
+                    (Some(q), c) if c == q => quote = None,
+                    (None, b'>') => break,
+                    _ => {}
+                }
+                i += 1;
+            }
+            if b.get(i.wrapping_sub(1)) != Some(&b'/') {
+                depth += 1;
+                if depth > max {
+                    let line_start =
+                        b[..open].iter().rposition(|&c| c == b'\n').map_or(0, |n| n + 1);
+                    let line = 1 + b[..open].iter().filter(|&&c| c == b'\n').count();
+                    let column = 1 + xml[line_start..open].chars().count();
+                    return Some((line, column));
+                }
+            }
+            i + 1
+        };
+        if at >= b.len() {
+            break;
+        }
+    }
+    None
 }
 
 fn child<'a, 'i>(n: roxmltree::Node<'a, 'i>, name: &str) -> Option<roxmltree::Node<'a, 'i>> {

@@ -25,6 +25,20 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
             "the file has {len} bytes, more than any grid under the memory cap needs"
         )));
     }
+    // The declared DIMENSIONS against the cap before the whole file is read (checked again
+    // after the header is parsed).
+    let head = super::peek(err)?;
+    let dims_line = head
+        .split(|&b| b == b'\n')
+        .take_while(|l| !l.starts_with(b"POINT_DATA") && !l.starts_with(b"CELL_DATA"))
+        .find(|l| l.len() > 10 && l[..10].eq_ignore_ascii_case(b"DIMENSIONS"));
+    let declared = dims_line
+        .and_then(|l| std::str::from_utf8(&l[10..]).ok())
+        .and_then(super::text::sizes)
+        .filter(|d| d.len() == 3);
+    if let Some(d) = declared {
+        err.limits_check(&opts.limits, [d[0], d[1], d[2]])?;
+    }
     file.take(most).read_to_end(&mut r.bytes).map_err(|e| err.io(&e))?;
 
     let magic = r.line(err)?;
@@ -167,17 +181,21 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         payload::exact(err, data, ty, Endian::Big, dims)?
     } else {
         let text = std::str::from_utf8(rest).map_err(|_| err.bad("the ASCII data is not text"))?;
-        // Only the array's own numbers: stop at the next keyword (another array).
-        let end = text
-            .find(|c: char| c.is_ascii_alphabetic() && c != 'e' && c != 'E')
-            .unwrap_or(text.len());
-        payload::ascii(err, &text[..end], dims)?
+        // Only the array's own words: the `count` after the header, and after them at most a
+        // keyword (another array); every one of them must then be a number, so a bad word
+        // (`abc`) is named where it stands rather than read as the end of the data.
+        payload::ascii(err, &text[..ascii_end(text, count)], dims)?
     };
-    if spacing.min_element() <= 0.0 {
-        return Err(
-            err.bad(format!("SPACING {} {} {} is not positive", spacing.x, spacing.y, spacing.z))
-        );
+    if !spacing.to_array().into_iter().all(super::usable_step) {
+        return Err(err.bad(format!(
+            "SPACING {} {} {}: {}",
+            super::num(spacing.x),
+            super::num(spacing.y),
+            super::num(spacing.z),
+            super::STEP_RULE
+        )));
     }
+    let origin = err.finite("ORIGIN", origin)?;
     Ok(Volume {
         dims,
         values,
@@ -186,6 +204,23 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         dtype: format!("{} ({name})", type_name(ty)),
     })
+}
+
+/// Where the ASCII array at the start of `text` ends: after its `count` words, unless the word
+/// after them is a number too (more values than declared: kept, for the reader to refuse).
+fn ascii_end(text: &str, count: u64) -> usize {
+    let mut words = text
+        .char_indices()
+        .filter(|&(i, c)| {
+            !c.is_ascii_whitespace() && (i == 0 || text.as_bytes()[i - 1].is_ascii_whitespace())
+        })
+        .map(|(i, _)| i)
+        .skip(usize::try_from(count).unwrap_or(usize::MAX));
+    match words.next() {
+        Some(at) if !text[at..].starts_with(|c: char| c.is_ascii_alphabetic()) => text.len(),
+        Some(at) => at,
+        None => text.len(),
+    }
 }
 
 /// The file's bytes and a line cursor over its text header.

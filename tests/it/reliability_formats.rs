@@ -1,0 +1,458 @@
+//! Issue 29, the volume readers: inputs that crashed or misled isoview, each refused with one
+//! line (or read as it should be). Nested XML and npy headers (stack overflow), a file that
+//! shrinks while it is read on demand (SIGBUS), a TIFF stack over the cap (decoded before the
+//! cap refused it), header geometry that puts the box at infinity, a bad ASCII token reported
+//! as truncation, and `field.residency` defaulting to `"auto"`.
+
+use std::path::Path;
+
+use isoview::field::formats::{self, Format, ReadOptions};
+use isoview::field::mapped::MappedGrid;
+use isoview::field::{FieldError, GridLimits, Residency};
+use isoview::scene;
+
+use crate::common::*;
+
+fn opts() -> ReadOptions {
+    ReadOptions { limits: GridLimits::default(), spacing: None }
+}
+
+/// The error reading `path` (its format from the extension) as one line.
+fn refusal(path: &Path, opts: &ReadOptions) -> String {
+    let format = Format::from_path(path).unwrap();
+    let e = formats::read(path, format, opts).err().unwrap_or_else(|| panic!("{path:?} read"));
+    let m = e.to_string();
+    assert!(!m.contains('\n') && m.contains(&path.display().to_string()), "{m}");
+    m
+}
+
+/// A `.vti` of 2x2x2 ASCII samples with `depth` elements nested inside its `PointData`.
+fn nested_vti(depth: usize) -> String {
+    format!(
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"ImageData\">\n<ImageData WholeExtent=\"0 1 0 1 0 1\">\
+         <Piece Extent=\"0 1 0 1 0 1\"><PointData>{}{}<DataArray type=\"Float32\" format=\"ascii\">\
+         0 1 2 3 4 5 6 7</DataArray></PointData></Piece></ImageData></VTKFile>\n",
+        "<a x=\"1>2\">".repeat(depth),
+        "</a>".repeat(depth)
+    )
+}
+
+#[test]
+fn deeply_nested_xml_is_refused_with_its_place() {
+    let dir = scratch("rel-xml");
+    // 20,000 deep overflowed roxmltree's recursive descent (abort, rc 134). Test threads have
+    // a 2 MiB stack, less than the main thread's: the refusal must come before any recursion.
+    let p = dir.join("deep.vti");
+    std::fs::write(&p, nested_vti(20_000)).unwrap();
+    let m = refusal(&p, &opts());
+    assert!(m.contains("line 3, column ") && m.contains("the XML nests deeper than 64"), "{m}");
+    // The bound is on nesting only: comments, CDATA and `>` in attribute values do not count,
+    // and a file nested within it reads.
+    let p = dir.join("ok.vti");
+    let text =
+        nested_vti(40).replace("<PointData>", "<PointData><!-- <b><b><b> --><![CDATA[<c>]]>");
+    std::fs::write(&p, text).unwrap();
+    let v = formats::read(&p, Format::Vti, &opts()).unwrap();
+    assert_eq!(v.values, (0..8).map(|v| v as f32).collect::<Vec<_>>());
+}
+
+#[test]
+fn deeply_nested_npy_header_is_refused() {
+    let dir = scratch("rel-npy");
+    // npyz parses the header's Python literal by recursive descent.
+    let nest = 200_000;
+    let dict = format!(
+        "{{'descr': '<f4', 'fortran_order': False, 'shape': (2, 2, 2), 'x': {}{}}}",
+        "[".repeat(nest),
+        "]".repeat(nest)
+    );
+    let mut header = dict.into_bytes();
+    header.push(b'\n');
+    let mut bytes = b"\x93NUMPY\x02\x00".to_vec();
+    bytes.extend((header.len() as u32).to_le_bytes());
+    bytes.extend(&header);
+    bytes.extend([0u8; 32]);
+    std::fs::write(dir.join("deep.npy"), &bytes).unwrap();
+    let text = "[field]\nsource = \"npy\"\npath = \"deep.npy\"\n";
+    let e = scene::from_str_with(text, "t.toml", &dir, &[], &GridLimits::default()).unwrap_err();
+    let m = e.to_string();
+    assert!(m.contains("deep.npy") && m.contains("nests brackets deeper than 16"), "{m}");
+}
+
+#[test]
+fn a_file_that_shrinks_while_read_on_demand_is_one_line() {
+    let dir = scratch("rel-shrink");
+    let path = dir.join("v.raw");
+    let dims = [20usize, 20, 20];
+    let bytes: Vec<u8> = (0..8000).flat_map(|i| (i as f32).to_le_bytes()).collect();
+    std::fs::write(&path, &bytes).unwrap();
+    let text =
+        "[field]\nsource = \"raw\"\npath = \"v.raw\"\ndims = [20, 20, 20]\ndtype = \"f32\"\n\
+                residency = \"active\"\n";
+    let s = scene::from_str_with(text, "t.toml", &dir, &[], &GridLimits::default()).unwrap();
+    let grid = MappedGrid::open(&s.field).unwrap().unwrap();
+    assert_eq!(grid.dims, dims);
+    // Truncated by "another process" after it was opened and its size checked: a mapped read
+    // of the lost pages died of SIGBUS (rc 135); the checked reads say what happened.
+    std::fs::OpenOptions::new().write(true).open(&path).unwrap().set_len(1000).unwrap();
+    let want = format!("{}: shrank to 1000 bytes while being read", path.display());
+    let e = grid.brick_ranges(8).unwrap_err();
+    assert_eq!(e.to_string(), want);
+    assert!(matches!(e, FieldError::Shrank { len: Some(1000), .. }));
+    assert_eq!(grid.read_box([0, 0, 10], [20, 20, 5]).unwrap_err().to_string(), want);
+    // What is still there reads as before.
+    assert_eq!(grid.read_box([0, 0, 0], [5, 2, 1]).unwrap()[5..], [20.0, 21.0, 22.0, 23.0, 24.0]);
+}
+
+/// A little-endian TIFF of `pages` 8-bit pages of `w` x `h`, whose strips point past the end
+/// of the file: decoding any page fails, reading its header does not.
+fn tiff_without_data(w: u32, h: u32, pages: u32) -> Vec<u8> {
+    let mut b = b"II\x2a\x00\x08\x00\x00\x00".to_vec();
+    let entries: [(u16, u16, u32); 8] = [
+        (256, 4, w),       // ImageWidth
+        (257, 4, h),       // ImageLength
+        (258, 3, 8),       // BitsPerSample
+        (259, 3, 1),       // Compression: none
+        (262, 3, 1),       // PhotometricInterpretation: black is zero
+        (273, 4, 1 << 30), // StripOffsets: far past the end
+        (278, 4, h),       // RowsPerStrip
+        (279, 4, w * h),   // StripByteCounts
+    ];
+    for page in 0..pages {
+        let ifd_len = 2 + 12 * entries.len() as u32 + 4;
+        b.extend((entries.len() as u16).to_le_bytes());
+        for (tag, ty, value) in entries {
+            b.extend(tag.to_le_bytes());
+            b.extend(ty.to_le_bytes());
+            b.extend(1u32.to_le_bytes());
+            match ty {
+                3 => b.extend((value as u16).to_le_bytes().iter().chain(&[0, 0])),
+                _ => b.extend(value.to_le_bytes()),
+            }
+        }
+        let next = if page + 1 < pages { b.len() as u32 + 4 } else { 0 };
+        debug_assert_eq!(b.len() as u32 + 4, 8 + ifd_len * (page + 1));
+        b.extend(next.to_le_bytes());
+    }
+    b
+}
+
+#[test]
+fn a_tiff_stack_over_the_cap_is_refused_from_its_headers() {
+    let dir = scratch("rel-tiff");
+    // 3 pages of 1024^2: each page (4 MiB of f32) fits a 10 MiB cap, the stack (12 MiB) does
+    // not. The pages were decoded one by one until the cap refused the next; now the page
+    // headers are counted first, so not one page is decoded (here decoding would fail).
+    let p = dir.join("stack.tif");
+    std::fs::write(&p, tiff_without_data(1024, 1024, 3)).unwrap();
+    let capped = ReadOptions { limits: GridLimits { max_bytes: 10 << 20 }, spacing: None };
+    let m = refusal(&p, &capped);
+    assert!(m.contains("a grid of 1024x1024x3 points needs 12 MiB"), "{m}");
+    // Under the cap the same file gets as far as decoding, and says what is wrong there.
+    let m = refusal(&p, &opts());
+    assert!(!m.contains("over the cap"), "{m}");
+}
+
+#[test]
+fn header_geometry_must_be_finite_and_positive() {
+    let dir = scratch("rel-geometry");
+    let nrrd = |name: &str, field: &str| {
+        let p = dir.join(name);
+        let head = format!(
+            "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n{field}\n\n"
+        );
+        std::fs::write(&p, [head.as_bytes(), &[0u8; 8]].concat()).unwrap();
+        p
+    };
+    // `inf` was read as "unknown" (1), 1e308 put the box at infinity.
+    let m = refusal(&nrrd("inf.nrrd", "spacings: 1 inf 1"), &opts());
+    assert!(m.contains("line 6: spacings \"1 inf 1\": axis 1 spacing inf"), "{m}");
+    let m = refusal(&nrrd("zero.nrrd", "spacings: 0 1 1"), &opts());
+    assert!(m.contains("axis 0 spacing 0; a spacing must be a finite number over 0"), "{m}");
+    let m =
+        refusal(&nrrd("huge.nrrd", "spacings: 1e308 1e308 1e308\naxis mins: 1e308 0 0"), &opts());
+    assert!(m.contains("spacings, axis mins: origin (1e308, 0, 0) and spacing (1e308"), "{m}");
+    assert!(m.contains("box out of range"), "{m}");
+    let m = refusal(
+        &nrrd("dirs.nrrd", "space: RAS\nspace directions: (inf,0,0) (0,1,0) (0,0,1)"),
+        &opts(),
+    );
+    assert!(m.contains("space directions: axis x steps by (inf, 0, 0)"), "{m}");
+    let m = refusal(
+        &nrrd(
+            "origin.nrrd",
+            "space: RAS\nspace directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: (nan,0,0)",
+        ),
+        &opts(),
+    );
+    assert!(m.contains("space origin (NaN, 0, 0) is not a finite point"), "{m}");
+    // `nan` stays NRRD's "unknown": spacing 1.
+    let v = formats::read(&nrrd("nan.nrrd", "spacings: nan 2 nan"), Format::Nrrd, &opts()).unwrap();
+    assert_eq!(v.spacing, glam::DVec3::new(1.0, 2.0, 1.0));
+
+    // MRC: a zero or NaN cell was read as spacing 1 without a word.
+    let mrc = |name: &str, cell: [f32; 3]| {
+        let mut h = vec![0u8; 1024];
+        let mut word = |i: usize, v: [u8; 4]| h[4 * i..4 * i + 4].copy_from_slice(&v);
+        for (i, c) in cell.iter().enumerate() {
+            word(i, 2i32.to_le_bytes()); // NX, NY, NZ
+            word(7 + i, 2i32.to_le_bytes()); // MX, MY, MZ
+            word(10 + i, c.to_le_bytes()); // cell dimensions
+            word(16 + i, (i as i32 + 1).to_le_bytes()); // MAPC, MAPR, MAPS
+        }
+        word(3, 2i32.to_le_bytes()); // mode 2, float32
+        h[208..212].copy_from_slice(b"MAP ");
+        h[212] = 0x44;
+        h.extend([0u8; 32]);
+        let p = dir.join(name);
+        std::fs::write(&p, h).unwrap();
+        p
+    };
+    let m = refusal(&mrc("zero.mrc", [0.0, 2.0, 2.0]), &opts());
+    assert!(m.contains("cell dimensions (CELLA) 0 2 2 over MX, MY, MZ = 2 2 2: axis x"), "{m}");
+    let m = refusal(&mrc("nan.mrc", [2.0, f32::NAN, 2.0]), &opts());
+    assert!(m.contains("axis y has voxel size NaN"), "{m}");
+    let v = formats::read(&mrc("ok.mrc", [3.0, 2.0, 2.0]), Format::Mrc, &opts()).unwrap();
+    assert_eq!(v.spacing, glam::DVec3::new(1.5, 1.0, 1.0));
+
+    // Legacy VTK and VTI name their own fields.
+    let vtk = |name: &str, geometry: &str| {
+        let p = dir.join(name);
+        let text = format!(
+            "# vtk DataFile Version 3.0\nt\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 2 2\n\
+             {geometry}\nPOINT_DATA 8\nSCALARS s float\nLOOKUP_TABLE default\n0 1 2 3 4 5 6 7\n"
+        );
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    let m = refusal(&vtk("s.vtk", "SPACING 1 nan 1"), &opts());
+    assert!(m.contains("SPACING 1 NaN 1: a spacing must be a finite number over 0"), "{m}");
+    let m = refusal(&vtk("o.vtk", "ORIGIN 0 0 inf"), &opts());
+    assert!(m.contains("ORIGIN (0, 0, inf) is not a finite point"), "{m}");
+    let p = dir.join("s.vti");
+    std::fs::write(&p, nested_vti(0).replace("WholeExtent=", "Spacing=\"1 1e400 1\" WholeExtent="))
+        .unwrap();
+    let m = refusal(&p, &opts());
+    assert!(m.contains("Spacing (1, inf, 1): axis y spacing inf; a spacing must be"), "{m}");
+}
+
+#[test]
+fn legacy_vtk_ascii_names_the_bad_token() {
+    let dir = scratch("rel-vtk-ascii");
+    let vtk = |name: &str, data: &str| {
+        let p = dir.join(name);
+        let text = format!(
+            "# vtk DataFile Version 3.0\nt\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 2 2\n\
+             POINT_DATA 8\nSCALARS s float\nLOOKUP_TABLE default\n{data}\n"
+        );
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    // Both were "truncated data: the ASCII data holds 3 of the 8 values".
+    let m = refusal(&vtk("abc.vtk", "0 1 2 abc 4 5 6 7"), &opts());
+    assert!(m.contains("ASCII value 3 is not a number: \"abc\""), "{m}");
+    let v = formats::read(&vtk("nan.vtk", "0 1 2 nan 4 5 6 7"), Format::Vtk, &opts()).unwrap();
+    assert!(v.values[3].is_nan() && v.values[7] == 7.0, "{:?}", v.values);
+    // Real truncation and a following array are still told apart.
+    let m = refusal(&vtk("short.vtk", "0 1 2"), &opts());
+    assert!(m.contains("holds 3 of the 8 values"), "{m}");
+    let v = formats::read(
+        &vtk("next.vtk", "0 1 2 3 4 5 6 7\nSCALARS t float\nLOOKUP_TABLE default\n9 9 9 9 9 9 9 9"),
+        Format::Vtk,
+        &opts(),
+    )
+    .unwrap();
+    assert_eq!(v.values[7], 7.0);
+}
+
+#[test]
+fn residency_defaults_to_auto() {
+    let dir = scratch("rel-auto");
+    std::fs::write(dir.join("v.raw"), vec![0u8; 4 * 16 * 16 * 17]).unwrap();
+    let text =
+        "[field]\nsource = \"raw\"\npath = \"v.raw\"\ndims = [16, 16, 17]\ndtype = \"f32\"\n";
+    // A 16 KiB cap: the grid (17 KiB) is over it. With "whole" the default, the scene was
+    // refused until the user set "auto"; now it loads and renders from the brick pool.
+    let cap = GridLimits { max_bytes: 16 << 10 };
+    let s = scene::from_str_with(text, "t.toml", &dir, &[], &cap).unwrap();
+    assert_eq!(s.field.residency, Residency::Auto);
+    assert!(MappedGrid::for_residency(&s.field, &cap).unwrap().is_some());
+    // A command that needs it whole (slice, probe, stats) says so, and which ones do not.
+    let e = s.field.sample_with(0.0, &cap).unwrap_err().to_string();
+    assert!(
+        e.contains("over the cap of 16 KiB")
+            && e.ends_with(
+                "; this command needs the whole grid (the ray methods of `render` and `extract` \
+                 read one over the cap in parts)"
+            ),
+        "{e}"
+    );
+    // Under the cap it is read whole, as before.
+    assert!(MappedGrid::for_residency(&s.field, &GridLimits::default()).unwrap().is_none());
+    // Asking for "whole" keeps today's refusal, with the hint.
+    let whole = format!("{text}residency = \"whole\"\n");
+    let e = scene::from_str_with(&whole, "t.toml", &dir, &[], &cap).unwrap_err().to_string();
+    assert!(e.contains("over the cap") && e.contains("field.residency = \"auto\""), "{e}");
+}
+
+#[test]
+fn a_grid_over_the_device_extent_names_its_key() {
+    use glam::DVec3;
+    use isoview::field::FieldSpec;
+    use isoview::vocab::{Bounds, SdfShape};
+    let unit = Bounds { min: DVec3::ZERO, max: DVec3::ONE };
+    let sphere = |res| FieldSpec::sdf(SdfShape::Sphere { radius: 1.0 }, DVec3::ZERO, res, unit);
+    assert_eq!(
+        sphere([2, 4097, 2]).check_image_extent(4096).unwrap_err().to_string(),
+        "field.resolution [2, 4097, 2]: 4097 points along y are over this device's limit of 4096 \
+         per axis (its largest 3D image; `isoview info` shows it)"
+    );
+    assert!(sphere([4096, 4096, 2]).check_image_extent(4096).is_ok());
+}
+
+/// The render verb: exit 2 naming the key (it was exit 3, "a grid of ... points", from the
+/// device's image limit).
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn render_over_the_device_extent_exits_2_naming_the_key() {
+    let max = gpu().info.max_image_dimension_3d;
+    let dir = scratch("rel-extent");
+    let scene = write(
+        &dir,
+        "wide.toml",
+        &format!(
+            "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 0.5\n\
+             resolution = [{}, 2, 2]\n[image]\nwidth = 8\nheight = 8\n",
+            max + 1
+        ),
+    );
+    let out = dir.join("wide.exr").display().to_string();
+    let o = isoview(&["render", &scene, "-o", &out], &[]);
+    let limit = format!("limit of {max} per axis");
+    assert_fails(&o, 2, &["field.resolution [", &limit]);
+    assert!(!Path::new(&out).exists());
+}
+
+#[test]
+fn a_mesh_render_of_a_grid_over_the_cap_says_which_paths_read_it() {
+    let dir = scratch("rel-auto-mesh");
+    std::fs::write(dir.join("v.raw"), vec![0u8; 4 * 16 * 16 * 17]).unwrap();
+    let text =
+        "[field]\nsource = \"raw\"\npath = \"v.raw\"\ndims = [16, 16, 17]\ndtype = \"f32\"\n\
+                [render]\nmethod = \"mesh\"\n";
+    let cap = GridLimits { max_bytes: 16 << 10 };
+    let s = scene::from_str_with(text, "t.toml", &dir, &[], &cap).unwrap();
+    let e = isoview::render::pool::mapped_for(&s, &cap).err().unwrap().to_string();
+    assert!(
+        e.contains("over the cap of 16 KiB") && e.contains("a ray method or `isoview extract`"),
+        "{e}"
+    );
+    assert!(!e.contains("\"active\""), "the user set no residency: {e}");
+}
+
+/// VTI and legacy VTK are read whole (their header is text before binary data): the declared
+/// dims are checked against the cap from the file's first bytes, before the rest is read or
+/// parsed (here the rest is malformed, which used to be the error).
+#[test]
+fn whole_file_readers_check_the_declared_dims_first() {
+    let dir = scratch("rel-peek");
+    let small = ReadOptions { limits: GridLimits { max_bytes: 1 << 20 }, spacing: None };
+    let p = dir.join("big.vti");
+    let text = "<VTKFile type=\"ImageData\"><ImageData WholeExtent=\"0 999 0 999 0 999\">\
+                <Piece><PointData><DataArray <<< not xml";
+    std::fs::write(&p, text).unwrap();
+    let m = refusal(&p, &small);
+    assert!(m.contains("a grid of 1000x1000x1000 points needs 3815 MiB"), "{m}");
+    let p = dir.join("big.vtk");
+    let text = "# vtk DataFile Version 3.0\nt\nBINARY\nDATASET STRUCTURED_POINTS\n\
+                DIMENSIONS 1000 1000 1000\nPOINT_DATA lots\n";
+    std::fs::write(&p, text).unwrap();
+    let m = refusal(&p, &small);
+    assert!(m.contains("a grid of 1000x1000x1000 points needs 3815 MiB"), "{m}");
+}
+
+/// Under MPI each rank reads its block of a raw/npy file: the default residency ("auto") must
+/// not turn a grid over the cap into the single-process brick pool, which MPI refuses (it did
+/// once "auto" became the default: "field.residency = \"active\" is not available under MPI").
+#[test]
+#[cfg_attr(not(feature = "mpi"), ignore = "MPI test: build with --features mpi")]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn mpi_renders_a_grid_over_the_cap_by_blocks_under_the_default_residency() {
+    let dir = scratch("rel-mpi-auto");
+    // 72^3 f32 samples: 1.4 MiB, over a 1 MiB cap.
+    let n = 72usize;
+    let values: Vec<u8> = (0..n * n * n)
+        .flat_map(|i| {
+            let p = [i % n, (i / n) % n, i / (n * n)].map(|c| c as f32 - 35.5);
+            ((p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt() - 20.0).to_le_bytes()
+        })
+        .collect();
+    std::fs::write(dir.join("ball.raw"), values).unwrap();
+    let scene = write(
+        &dir,
+        "ball.toml",
+        "[image]\nwidth = 24\nheight = 24\n[camera]\neye = [150, 120, 100]\ntarget = [35.5, 35.5, 35.5]\n\
+         [field]\nsource = \"raw\"\npath = \"ball.raw\"\ndims = [72, 72, 72]\ndtype = \"f32\"\n",
+    );
+    let out = dir.join("ball.exr").display().to_string();
+    let o = std::process::Command::new("mpirun")
+        .args(["-np", "2", "--oversubscribe"])
+        .arg(env!("CARGO_BIN_EXE_isoview"))
+        .args(["render", &scene, "-o", &out])
+        .env("ISOVIEW_MAX_GRID_MIB", "1")
+        .env_remove("ISOVIEW_DEVICE")
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .output()
+        .expect("mpirun (apt-get install openmpi-bin) must be on PATH for the MPI tests");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(Path::new(&out).exists());
+}
+
+/// `extract --device gpu` on a grid over the device's 3D image extent: extracted on the CPU
+/// with a note naming the key and the limit (it was exit 3, "a grid of ... points does not fit
+/// the device's 3D images").
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn extract_over_the_device_extent_falls_back_to_the_cpu() {
+    let max = gpu().info.max_image_dimension_3d;
+    let dir = scratch("rel-extract-extent");
+    let scene = write(
+        &dir,
+        "wide.toml",
+        &format!(
+            "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 0.5\nresolution = [{}, 2, 2]\n",
+            max + 1
+        ),
+    );
+    let out = dir.join("wide.ply").display().to_string();
+    let o = isoview(&["extract", &scene, "-o", &out, "--device", "gpu"], &[]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("note: extracted on the CPU (field.resolution ["), "{err}");
+    assert!(err.contains(&format!("limit of {max} per axis")), "{err}");
+    assert!(Path::new(&out).exists());
+}
+
+/// NRRD ASCII data is read a block at a time (the text may be many times the samples' size):
+/// words cut by the 64 KiB block boundaries read whole, and the errors are the same.
+#[test]
+fn nrrd_ascii_data_streams_across_blocks() {
+    let dir = scratch("rel-ascii-stream");
+    let n = 40usize;
+    let words: Vec<String> = (0..n * n * n).map(|i| format!("{}.25", i as f32 - 7.0)).collect();
+    let head =
+        format!("NRRD0004\ntype: float\ndimension: 3\nsizes: {n} {n} {n}\nencoding: ascii\n\n");
+    let body = words.join(" \n,\t");
+    assert!(body.len() > 4 * (1 << 16));
+    let p = dir.join("a.nrrd");
+    std::fs::write(&p, format!("{head}{body}\n")).unwrap();
+    let v = formats::read(&p, Format::Nrrd, &opts()).unwrap();
+    let want: Vec<f32> = words.iter().map(|w| w.parse::<f64>().unwrap() as f32).collect();
+    assert_eq!(v.values, want);
+    let bad = body.replacen("100.25", "1o0.25", 1);
+    std::fs::write(&p, format!("{head}{bad}")).unwrap();
+    assert!(refusal(&p, &opts()).contains("ASCII value 107 is not a number: \"1o0.25\""));
+    std::fs::write(&p, format!("{head}{body} 1")).unwrap();
+    assert!(refusal(&p, &opts()).contains("holds more than the 64000 values"));
+}

@@ -27,6 +27,7 @@ mod mesh_render;
 mod methods;
 mod modules;
 mod normals;
+mod one_copy;
 mod output;
 mod physical;
 mod placement;

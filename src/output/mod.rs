@@ -63,13 +63,6 @@ pub enum OutputError {
         #[source]
         source: ::exr::error::Error,
     },
-    /// The PNG encoder failed.
-    #[error("{}: cannot encode PNG: {source}", path.display())]
-    Png {
-        path: PathBuf,
-        #[source]
-        source: ::image::ImageError,
-    },
     /// The data to write, or the file read, is not what it should be (the reason says how).
     #[error("{}: {reason}", path.display())]
     Invalid { path: PathBuf, reason: String },

@@ -1,8 +1,8 @@
 //! `compare` band by band: the same report and output files, byte for byte, as the whole-image
-//! comparison (kept as the reference: `compare::compare`, `write_diff_exr`,
-//! `write_heat_map_png`) for any band height, any EXR layout the reader takes, and every
-//! threshold option; and its peak memory, measured on the child process, does not grow with
-//! the image.
+//! comparison (`compare::compare`, `write_diff_exr`, `write_heat_map_png`: the same code with
+//! one band, whose outputs `one_copy` pins) for any band height, any EXR layout the reader
+//! takes, and every threshold option; and its peak memory, measured on the child process, does
+//! not grow with the image.
 
 use std::path::Path;
 

@@ -86,11 +86,6 @@ impl MeshAlgorithm {
             _ => true,
         }
     }
-
-    /// Whether it reads Hermite data (crossings with normals) and the [`SharpSettings`].
-    pub fn is_sharp(self) -> bool {
-        matches!(self, MeshAlgorithm::DualContouringQef | MeshAlgorithm::ExtendedMc)
-    }
 }
 
 /// `render.hermite`: where the sharp-feature meshes take each crossed edge's crossing and

@@ -107,14 +107,8 @@ impl CompareArgs {
     }
 }
 
-/// Runs the command, printing to the process's stdout and stderr; returns the exit status.
-pub fn run(args: &CompareArgs) -> Result<i32, anyhow::Error> {
-    let stdout = std::io::stdout();
-    let stderr = std::io::stderr();
-    Ok(run_with(args, &mut stdout.lock(), &mut stderr.lock()))
-}
-
-/// [`run`] with its output streams given (for tests).
+/// Runs the command, printing to `out` (the report) and `err` (a refusal); returns the exit
+/// status.
 pub fn run_with(args: &CompareArgs, out: &mut dyn Write, err: &mut dyn Write) -> i32 {
     let fail = |err: &mut dyn Write, e: &dyn std::fmt::Display| {
         // Nothing better to do when stderr itself is gone.

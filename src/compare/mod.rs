@@ -60,8 +60,8 @@ mod rows;
 mod select;
 mod stream;
 
-pub use flip::{flip_beauty, FlipStats, PIXELS_PER_DEGREE};
-pub use output::{heat_map_rgba8, write_diff_exr, write_heat_map_png};
+pub use flip::{FlipStats, PIXELS_PER_DEGREE};
+pub use output::{write_diff_exr, write_heat_map_png};
 pub use stream::{band_rows, compare_files, compare_files_in_bands, flip_halo, Outputs};
 
 use std::fmt;
@@ -295,8 +295,8 @@ pub struct Report {
     /// Why FLIP was not computed, when it was asked for and could not be.
     pub flip_note: Option<String>,
     pub verdict: Verdict,
-    /// The per-pixel results, from the whole-image [`compare`]; `None` from the band-by-band
-    /// [`compare_files`], which writes its outputs as the bands go by instead of keeping them.
+    /// The per-pixel results, from the whole-image [`compare`] (one band); `None` from the
+    /// band-by-band [`compare_files`], which writes its outputs as the bands go by instead.
     pub maps: Option<PixelMaps>,
 }
 
@@ -487,17 +487,8 @@ fn tolerance(a: f32, b: f32, abs: f64, rel: f64) -> f64 {
 }
 
 /// The channels to compare (names present in both: all of A's when the sets are equal), and
-/// the channels only B has when [`Thresholds::new_channels`] accepts them.
-fn select_channels(
-    a: &ExrImage,
-    b: &ExrImage,
-    t: &Thresholds,
-) -> Result<(Vec<String>, Vec<String>), CompareError> {
-    let names = |img: &ExrImage| img.channel_names().map(str::to_string).collect::<Vec<_>>();
-    select_names((&a.path, &names(a)), (&b.path, &names(b)), t)
-}
-
-/// [`select_channels`] from each image's path and channel names (in file order).
+/// the channels only B has when [`Thresholds::new_channels`] accepts them, from each image's
+/// path and channel names (in file order).
 fn select_names(
     a: (&Path, &[String]),
     b: (&Path, &[String]),
@@ -535,259 +526,11 @@ fn select_names(
     }
 }
 
-/// One compared channel: data of both images and its thresholds.
-struct Plane<'a> {
-    a: &'a [f32],
-    b: &'a [f32],
-    fail: f64,
-    warn: f64,
-}
-
-/// Compares `a` (reference) with `b` (under test); see the module docs.
+/// Compares `a` (reference) with `b` (under test), both in memory; see the module docs. The
+/// band-by-band code of [`compare_files`] run with one band, keeping the per-pixel maps
+/// ([`Report::maps`]) for [`write_diff_exr`] and [`write_heat_map_png`].
 pub fn compare(a: &ExrImage, b: &ExrImage, t: &Thresholds) -> Result<Report, CompareError> {
-    if (a.width, a.height) != (b.width, b.height) {
-        return Err(CompareError::SizeMismatch {
-            a: a.path.clone(),
-            a_size: (a.width, a.height),
-            b: b.path.clone(),
-            b_size: (b.width, b.height),
-        });
-    }
-    let (names, new_channels) = select_channels(a, b, t)?;
-    let (w, h) = (a.width, a.height);
-    let n = w * h;
-    let rel = t.fail_relative;
-
-    let mut planes = Vec::with_capacity(names.len());
-    let mut stats = Vec::with_capacity(names.len());
-    let mut ratio = vec![0f32; n];
-    let mut over_fail = vec![false; n];
-    let mut over_warn = vec![false; n];
-    let mut differs = vec![false; n];
-    let mut hard = vec![false; n];
-    let mut rel_errors: Vec<f64> = Vec::with_capacity(n);
-    for name in &names {
-        let (Some(ca), Some(cb)) = (a.channel(name), b.channel(name)) else {
-            continue; // select_channels checked both have it
-        };
-        let class = ChannelClass::of(name, ca.kind);
-        let plane = Plane {
-            a: &ca.values,
-            b: &cb.values,
-            fail: t.fail_for(class),
-            warn: t.warn_for(class),
-        };
-        let mut s = ChannelStats {
-            name: name.clone(),
-            class,
-            fail: plane.fail,
-            max_abs: 0.0,
-            max_at: None,
-            mean_abs: 0.0,
-            rmse: 0.0,
-            rel_p99: 0.0,
-            over_fail: 0,
-            nonfinite: 0,
-            identical: true,
-        };
-        let (mut sum, mut sum_sq, mut finite) = (0f64, 0f64, 0usize);
-        rel_errors.clear();
-        for i in 0..n {
-            let (x, y) = (plane.a[i], plane.b[i]);
-            let d = difference(x, y);
-            let (over, over_w, r) = match d {
-                None => {
-                    s.nonfinite += 1;
-                    (true, true, f32::INFINITY)
-                }
-                Some(d) => {
-                    let tol = tolerance(x, y, plane.fail, rel);
-                    let tol_w = tolerance(x, y, plane.warn, rel);
-                    let r = if d == 0.0 {
-                        0.0
-                    } else if tol > 0.0 {
-                        (d / tol) as f32
-                    } else {
-                        f32::INFINITY
-                    };
-                    (d > tol, d > tol_w, r)
-                }
-            };
-            if let Some(d) = d {
-                if x.is_finite() {
-                    finite += 1;
-                    sum += d;
-                    sum_sq += d * d;
-                    if d > s.max_abs || s.max_at.is_none() {
-                        s.max_abs = d;
-                        s.max_at = Some((i % w, i / w));
-                    }
-                    let m = f64::from(x.abs().max(y.abs()));
-                    rel_errors.push(if m > 0.0 { d / m } else { 0.0 });
-                }
-            }
-            let different = d != Some(0.0);
-            s.identical &= !different;
-            differs[i] |= different;
-            if over {
-                s.over_fail += 1;
-                over_fail[i] = true;
-            }
-            over_warn[i] |= over_w;
-            ratio[i] = ratio[i].max(r);
-            if let Some(limit) = t.hard_fail {
-                hard[i] |= d.map_or(true, |d| d > limit);
-            }
-        }
-        if finite > 0 {
-            s.mean_abs = sum / finite as f64;
-            s.rmse = (sum_sq / finite as f64).sqrt();
-            s.rel_p99 = percentile(&mut rel_errors, 0.99);
-        }
-        stats.push(s);
-        planes.push(plane);
-    }
-
-    let coverage = coverage_masks(a, b);
-    let mut pixels = vec![PixelState::Same; n];
-    let (mut failing, mut forgiven, mut warning, mut hard_failing) = (0, 0, 0, 0);
-    for i in 0..n {
-        let state = if over_fail[i] {
-            if t.shift && shift_forgives(i, w, h, &planes, rel, coverage.as_ref()) {
-                PixelState::Forgiven
-            } else {
-                PixelState::Fail
-            }
-        } else if over_warn[i] {
-            PixelState::Warn
-        } else if differs[i] {
-            PixelState::Close
-        } else {
-            PixelState::Same
-        };
-        match state {
-            PixelState::Fail => failing += 1,
-            PixelState::Forgiven => forgiven += 1,
-            _ => {}
-        }
-        if matches!(state, PixelState::Fail | PixelState::Forgiven | PixelState::Warn) {
-            warning += 1;
-        }
-        if hard[i] && state != PixelState::Forgiven {
-            hard_failing += 1;
-        }
-        pixels[i] = state;
-    }
-
-    let coverage_counts = coverage.as_ref().map(|(channel, ca, cb)| Coverage {
-        channel: channel.clone(),
-        only_a: ca.iter().zip(cb).filter(|(x, y)| **x && !**y).count(),
-        only_b: ca.iter().zip(cb).filter(|(x, y)| !**x && **y).count(),
-    });
-
-    let want_flip = t.flip || t.flip_fail.is_some();
-    let (flip, flip_map, flip_note) = if want_flip {
-        match flip_beauty(a, b) {
-            Ok((stats, map)) => (Some(stats), Some(map), None),
-            Err(note) => (None, None, Some(note)),
-        }
-    } else {
-        (None, None, None)
-    };
-
-    let percent = |k: usize| 100.0 * k as f64 / n.max(1) as f64;
-    let flip_over = match (t.flip_fail, &flip) {
-        (Some(limit), Some(f)) => f64::from(f.mean) > limit,
-        // Asked to gate on FLIP but it could not be computed: that is a failure to check.
-        (Some(_), None) => true,
-        _ => false,
-    };
-    let verdict = if percent(failing) > t.fail_percent || hard_failing > 0 || flip_over {
-        Verdict::Fail
-    } else if percent(warning) > t.warn_percent {
-        Verdict::Warn
-    } else if stats.iter().all(|s| s.identical) {
-        Verdict::Identical
-    } else {
-        Verdict::Pass
-    };
-
-    Ok(Report {
-        a: a.path.clone(),
-        b: b.path.clone(),
-        width: w,
-        height: h,
-        thresholds: t.clone(),
-        channels: stats,
-        new_channels,
-        coverage: coverage_counts,
-        failing_pixels: failing,
-        forgiven_pixels: forgiven,
-        warning_pixels: warning,
-        hard_failing_pixels: hard_failing,
-        flip,
-        flip_note,
-        verdict,
-        maps: Some(PixelMaps { pixels, ratio, flip: flip_map }),
-    })
-}
-
-/// Nearest-rank percentile `p` in [0, 1] of `values` (reorders them); 0 when empty.
-fn percentile(values: &mut [f64], p: f64) -> f64 {
-    if values.is_empty() {
-        return 0.0;
-    }
-    let rank = ((p * values.len() as f64).ceil() as usize).clamp(1, values.len()) - 1;
-    let (_, v, _) = values.select_nth_unstable_by(rank, |x, y| x.total_cmp(y));
-    *v
-}
-
-/// Per-pixel coverage of A and B and the channel it came from: finite `Z` where both have
-/// `Z`, else `A > 0` where both have `A`.
-fn coverage_masks(a: &ExrImage, b: &ExrImage) -> Option<(String, Vec<bool>, Vec<bool>)> {
-    let pick = |name: &str, hit: fn(f32) -> bool| {
-        let (ca, cb) = (a.channel(name)?, b.channel(name)?);
-        Some((
-            name.to_string(),
-            ca.values.iter().map(|&v| hit(v)).collect(),
-            cb.values.iter().map(|&v| hit(v)).collect(),
-        ))
-    };
-    pick(Channel::Z.name(), f32::is_finite).or_else(|| pick(Channel::A.name(), |v| v > 0.0))
-}
-
-/// The shift-window rule of the module docs for failing pixel `i`.
-fn shift_forgives(
-    i: usize,
-    w: usize,
-    h: usize,
-    planes: &[Plane<'_>],
-    rel: f64,
-    coverage: Option<&(String, Vec<bool>, Vec<bool>)>,
-) -> bool {
-    let (x, y) = ((i % w) as i64, (i / w) as i64);
-    let window = || {
-        (-1i64..=1)
-            .flat_map(move |dy| (-1i64..=1).map(move |dx| (x + dx, y + dy)))
-            .filter(|&(u, v)| u >= 0 && v >= 0 && u < w as i64 && v < h as i64)
-            .map(|(u, v)| v as usize * w + u as usize)
-    };
-    // (a) A silhouette that moved: coverage differs here, and both images have a hit and a
-    // miss in the window.
-    if let Some((_, ca, cb)) = coverage {
-        let edge = |c: &Vec<bool>| window().any(|j| c[j]) && window().any(|j| !c[j]);
-        if ca[i] != cb[i] && edge(ca) && edge(cb) {
-            return true;
-        }
-    }
-    // (b) Each image's pixel is found in the other's window.
-    let matches = |from_a: bool, j: usize| {
-        planes.iter().all(|p| {
-            let (v, u) = if from_a { (p.a[i], p.b[j]) } else { (p.b[i], p.a[j]) };
-            within(v, u, p.fail, rel)
-        })
-    };
-    window().any(|j| matches(true, j)) && window().any(|j| matches(false, j))
+    stream::compare_images(a, b, t)
 }
 
 #[cfg(test)]
@@ -853,14 +596,5 @@ mod tests {
         assert_eq!(list_or_none(&names[..2]), "c0, c1");
         assert!(list_or_none(&names).ends_with("c11 and 3 more"));
         assert_eq!(list_or_none(&[]), "(none)");
-    }
-
-    #[test]
-    fn percentile_nearest_rank() {
-        let mut v: Vec<f64> = (1..=100).map(f64::from).collect();
-        assert_eq!(percentile(&mut v, 0.99), 99.0);
-        assert_eq!(percentile(&mut v, 1.0), 100.0);
-        assert_eq!(percentile(&mut [], 0.5), 0.0);
-        assert_eq!(percentile(&mut [3.0], 0.99), 3.0);
     }
 }

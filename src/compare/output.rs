@@ -20,9 +20,9 @@
 
 use std::path::Path;
 
+use super::stream::{diff_plane, Outputs, Writers};
 use super::{PixelMaps, PixelState, Report};
-use crate::output::exr::{write_channels, ExrImage};
-use crate::output::png::write_rgba8;
+use crate::output::exr::ExrImage;
 use crate::output::OutputError;
 
 /// B − A under the NaN/inf equality rules.
@@ -33,7 +33,8 @@ pub(super) fn signed_difference(a: f32, b: f32) -> f32 {
     }
 }
 
-/// Writes the difference EXR described in the module docs.
+/// Writes the difference EXR described in the module docs from a whole-image report, through
+/// the band-by-band comparison's writers (all its rows at once).
 pub fn write_diff_exr(
     path: &Path,
     a: &ExrImage,
@@ -41,7 +42,7 @@ pub fn write_diff_exr(
     report: &Report,
 ) -> Result<(), OutputError> {
     let maps = report_maps(path, report)?;
-    let mut channels = Vec::new();
+    let mut diffs = Vec::new();
     for s in &report.channels {
         let (Some(ca), Some(cb)) = (a.channel(&s.name), b.channel(&s.name)) else {
             return Err(OutputError::invalid(
@@ -49,21 +50,21 @@ pub fn write_diff_exr(
                 format!("channel {:?} is not in both images of the report", s.name),
             ));
         };
-        let d = ca.values.iter().zip(&cb.values).map(|(&x, &y)| signed_difference(x, y)).collect();
-        channels.push((format!("diff.{}", s.name), d));
+        diffs.push(diff_plane(&ca.values, &cb.values));
     }
-    let mask = |want: PixelState| {
-        maps.pixels.iter().map(|&p| if p == want { 1.0 } else { 0.0 }).collect::<Vec<f32>>()
-    };
-    channels.push(("fail".to_string(), mask(PixelState::Fail)));
-    if report.thresholds.shift {
-        channels.push(("forgiven".to_string(), mask(PixelState::Forgiven)));
-    }
-    channels.push(("ratio".to_string(), maps.ratio.clone()));
-    if let Some(flip) = &maps.flip {
-        channels.push(("flip".to_string(), flip.clone()));
-    }
-    write_channels(path, report.width, report.height, channels, &diff_attributes(report))
+    write_maps(report, maps, Outputs { diff: Some(path), png: None }, diffs)
+}
+
+/// Writes `outputs` from a whole-image report's maps (one band).
+fn write_maps(
+    report: &Report,
+    maps: &PixelMaps,
+    outputs: Outputs<'_>,
+    diffs: Vec<Vec<f32>>,
+) -> Result<(), OutputError> {
+    let mut writers = Writers::create(report, outputs);
+    writers.push(|| diffs, &maps.pixels, &maps.ratio, maps.flip.as_deref());
+    writers.finish().map_or(Ok(()), Err)
 }
 
 /// The header attributes of the difference EXR.
@@ -87,13 +88,6 @@ fn report_maps<'r>(path: &Path, report: &'r Report) -> Result<&'r PixelMaps, Out
     })
 }
 
-/// The heat map described in the module docs, as RGBA8 pixels (`None` for a band-by-band
-/// report, which keeps no per-pixel maps).
-pub fn heat_map_rgba8(report: &Report) -> Option<Vec<u8>> {
-    let maps = report.maps.as_ref()?;
-    Some(maps.pixels.iter().zip(&maps.ratio).flat_map(|(&s, &r)| heat_rgba8(s, r)).collect())
-}
-
 /// The heat-map colour of one pixel from its state and ratio.
 pub(super) fn heat_rgba8(state: PixelState, ratio: f32) -> [u8; 4] {
     match state {
@@ -115,13 +109,9 @@ pub(super) fn heat_rgba8(state: PixelState, ratio: f32) -> [u8; 4] {
     }
 }
 
-/// Writes the heat map PNG, atomically.
+/// Writes the heat map PNG of a whole-image report, atomically, through the band-by-band
+/// comparison's writers (all its rows at once).
 pub fn write_heat_map_png(path: &Path, report: &Report) -> Result<(), OutputError> {
-    let (w, h) = (
-        u32::try_from(report.width).map_err(|_| OutputError::invalid(path, "image too wide"))?,
-        u32::try_from(report.height).map_err(|_| OutputError::invalid(path, "image too tall"))?,
-    );
-    report_maps(path, report)?;
-    let rgba = heat_map_rgba8(report).unwrap_or_default();
-    write_rgba8(path, w, h, &rgba)
+    let maps = report_maps(path, report)?;
+    write_maps(report, maps, Outputs { diff: None, png: Some(path) }, Vec::new())
 }

@@ -1,6 +1,8 @@
-//! The comparison of two EXR files band by band ([`compare_files`], what `isoview compare`
-//! runs), so that memory does not grow with the image: the same [`Report`] as the
-//! whole-image [`super::compare`] and the same output files, byte for byte.
+//! The comparison of two EXR images band by band ([`compare_files`], what `isoview compare`
+//! runs), so that memory does not grow with the image. It is the only comparison: the
+//! whole-image [`super::compare`] of two images in memory is this code run with one band
+//! ([`compare_images`]), keeping the per-pixel maps, and [`super::write_diff_exr`] and
+//! [`super::write_heat_map_png`] write those maps through the same [`Writers`].
 //!
 //! ```text
 //!   pass 1      bands of rows of A and B (+ a halo) -> per-channel sums, max, counts, pixel
@@ -39,9 +41,10 @@ use super::rows::ExrRows;
 use super::select::{key32, key64, Select};
 use super::{
     difference, select_names, tolerance, within, ChannelClass, ChannelStats, CompareError,
-    Coverage, FlipStats, PixelState, Report, Thresholds, Verdict,
+    Coverage, FlipStats, PixelMaps, PixelState, Report, Thresholds, Verdict,
 };
 use crate::frame::Channel;
+use crate::output::exr::{ExrImage, SampleKind};
 use crate::output::exr_planes::PlaneStream;
 use crate::output::png::{to_srgb8, Rgba8Stream};
 use crate::output::OutputError;
@@ -78,6 +81,80 @@ pub fn flip_halo(ppd: f32) -> usize {
     spatial.max(feature)
 }
 
+/// The rows of an image's channels as the bands need them: read from a file a band at a time
+/// ([`ExrRows`]), or an image already in memory ([`Whole`]).
+pub(super) trait Source {
+    fn path(&self) -> &Path;
+    fn width(&self) -> usize;
+    fn height(&self) -> usize;
+    /// Every channel's full name and sample type, in file order.
+    fn channels(&self) -> Vec<(String, SampleKind)>;
+    /// The index of the channel named `name`.
+    fn index(&self, name: &str) -> Option<usize>;
+    /// Loads only these channels from now on, and starts again at row 0.
+    fn keep(&mut self, channels: &[usize]);
+    /// Holds rows `lo .. hi` (clamped to the image); rows are asked for top to bottom.
+    fn load(&mut self, lo: usize, hi: usize) -> Result<(), CompareError>;
+    /// Rows `y0 .. y1` of channel `c`, row-major; they must be loaded.
+    fn rows(&self, c: usize, y0: usize, y1: usize) -> &[f32];
+}
+
+impl Source for ExrRows {
+    fn path(&self) -> &Path {
+        &self.path
+    }
+    fn width(&self) -> usize {
+        self.width
+    }
+    fn height(&self) -> usize {
+        self.height
+    }
+    fn channels(&self) -> Vec<(String, SampleKind)> {
+        self.channels.clone()
+    }
+    fn index(&self, name: &str) -> Option<usize> {
+        ExrRows::index(self, name)
+    }
+    fn keep(&mut self, channels: &[usize]) {
+        ExrRows::keep(self, channels)
+    }
+    fn load(&mut self, lo: usize, hi: usize) -> Result<(), CompareError> {
+        Ok(ExrRows::load(self, lo, hi)?)
+    }
+    fn rows(&self, c: usize, y0: usize, y1: usize) -> &[f32] {
+        ExrRows::rows(self, c, y0, y1)
+    }
+}
+
+/// An image in memory: every row is always there.
+pub(super) struct Whole<'i>(pub &'i ExrImage);
+
+impl Source for Whole<'_> {
+    fn path(&self) -> &Path {
+        &self.0.path
+    }
+    fn width(&self) -> usize {
+        self.0.width
+    }
+    fn height(&self) -> usize {
+        self.0.height
+    }
+    fn channels(&self) -> Vec<(String, SampleKind)> {
+        self.0.channels.iter().map(|c| (c.name.clone(), c.kind)).collect()
+    }
+    fn index(&self, name: &str) -> Option<usize> {
+        self.0.channels.iter().position(|c| c.name == name)
+    }
+    fn keep(&mut self, _: &[usize]) {}
+    fn load(&mut self, _: usize, _: usize) -> Result<(), CompareError> {
+        Ok(())
+    }
+    fn rows(&self, c: usize, y0: usize, y1: usize) -> &[f32] {
+        let w = self.0.width;
+        &self.0.channels[c].values[y0 * w..y1 * w]
+    }
+}
+
 /// One compared channel: where it is in each file, its class and thresholds.
 struct Plan {
     name: String,
@@ -103,9 +180,9 @@ type CoverageSource = (String, usize, usize, fn(f32) -> bool);
 type RgbPair = ([usize; 3], [usize; 3]);
 
 /// The whole comparison's state.
-struct Run<'t> {
-    a: ExrRows,
-    b: ExrRows,
+struct Run<'t, S: Source> {
+    a: S,
+    b: S,
     t: &'t Thresholds,
     w: usize,
     h: usize,
@@ -119,6 +196,8 @@ struct Run<'t> {
     band_rows: usize,
     /// FLIP's map from pass 1, for the later passes.
     spill: Spill,
+    /// Keep the per-pixel maps in the report ([`Report::maps`]; only for one band in memory).
+    keep_maps: bool,
 }
 
 /// Everything one band gives, in the band's row-major order.
@@ -174,30 +253,41 @@ pub fn compare_files_in_bands(
     run.compare(outputs)
 }
 
-impl<'t> Run<'t> {
-    fn plan(
-        a: ExrRows,
-        b: ExrRows,
-        t: &'t Thresholds,
-        band_rows: usize,
-    ) -> Result<Run<'t>, CompareError> {
-        if (a.width, a.height) != (b.width, b.height) {
+/// The whole-image comparison of two images in memory ([`super::compare`]): one band, the
+/// per-pixel maps kept in the report for [`super::write_diff_exr`] and
+/// [`super::write_heat_map_png`].
+pub(super) fn compare_images(
+    a: &ExrImage,
+    b: &ExrImage,
+    t: &Thresholds,
+) -> Result<Report, CompareError> {
+    let mut run = Run::plan(Whole(a), Whole(b), t, a.height.max(1))?;
+    run.keep_maps = true;
+    let (report, _) = run.compare(Outputs::default())?;
+    Ok(report)
+}
+
+impl<'t, S: Source> Run<'t, S> {
+    fn plan(a: S, b: S, t: &'t Thresholds, band_rows: usize) -> Result<Run<'t, S>, CompareError> {
+        if (a.width(), a.height()) != (b.width(), b.height()) {
             return Err(CompareError::SizeMismatch {
-                a: a.path.clone(),
-                a_size: (a.width, a.height),
-                b: b.path.clone(),
-                b_size: (b.width, b.height),
+                a: a.path().to_path_buf(),
+                a_size: (a.width(), a.height()),
+                b: b.path().to_path_buf(),
+                b_size: (b.width(), b.height()),
             });
         }
-        let names = |r: &ExrRows| r.channels.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+        let (ca, cb) = (a.channels(), b.channels());
+        let names =
+            |c: &[(String, SampleKind)]| c.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
         let (selected, new_channels) =
-            select_names((&a.path, &names(&a)), (&b.path, &names(&b)), t)?;
+            select_names((a.path(), &names(&ca)), (b.path(), &names(&cb)), t)?;
         let mut plans = Vec::new();
         for name in selected {
             let (Some(ia), Some(ib)) = (a.index(&name), b.index(&name)) else {
                 continue; // select_names checked both have it
             };
-            let class = ChannelClass::of(&name, a.channels[ia].1);
+            let class = ChannelClass::of(&name, ca[ia].1);
             plans.push(Plan {
                 name,
                 class,
@@ -219,7 +309,7 @@ impl<'t> Run<'t> {
         let flip = (t.flip || t.flip_fail.is_some()).then(|| flip_channels(&a, &b));
         let shift_halo = usize::from(t.shift);
         let flip_rows = if matches!(flip, Some(Ok(_))) { flip_halo(PIXELS_PER_DEGREE) } else { 0 };
-        let (w, h) = (a.width, a.height);
+        let (w, h) = (a.width(), a.height());
         Ok(Run {
             a,
             b,
@@ -233,6 +323,7 @@ impl<'t> Run<'t> {
             halo: shift_halo.max(flip_rows),
             band_rows,
             spill: Spill::default(),
+            keep_maps: false,
         })
     }
 
@@ -275,6 +366,11 @@ impl<'t> Run<'t> {
 
         // Pass 1: statistics, states, FLIP sum; first digits of the percentiles.
         let mut totals = Totals::default();
+        let mut maps = self.keep_maps.then(|| PixelMaps {
+            pixels: Vec::new(),
+            ratio: Vec::new(),
+            flip: flip_ok.then(Vec::new),
+        });
         {
             let pass = Pass {
                 acc: Some(&mut acc),
@@ -286,6 +382,13 @@ impl<'t> Run<'t> {
             };
             self.pass(pass, |_, _, _, band| {
                 totals.add(band);
+                if let Some(m) = &mut maps {
+                    m.pixels.extend_from_slice(&band.states);
+                    m.ratio.extend_from_slice(&band.ratio);
+                    if let (Some(f), Some(bf)) = (&mut m.flip, &band.flip) {
+                        f.extend_from_slice(bf);
+                    }
+                }
                 Ok(())
             })?;
         }
@@ -301,6 +404,7 @@ impl<'t> Run<'t> {
 
         let flip_mean = flip_ok.then(|| (flip_sum / n as f64) as f32);
         let mut report = self.report(&acc, &totals, flip_mean);
+        report.maps = maps;
 
         // Pass 2: the outputs, and more digits of the percentiles; then until all are found.
         let mut writers = Writers::create(&report, outputs);
@@ -322,7 +426,13 @@ impl<'t> Run<'t> {
             };
             self.pass(pass, |run, y0, y1, band| {
                 if write {
-                    writers.push(run, y0, y1, band);
+                    let diffs = || {
+                        run.plans
+                            .iter()
+                            .map(|p| diff_plane(run.a.rows(p.a, y0, y1), run.b.rows(p.b, y0, y1)))
+                            .collect()
+                    };
+                    writers.push(diffs, &band.states, &band.ratio, band.flip.as_deref());
                 }
                 Ok(())
             })?;
@@ -356,18 +466,18 @@ fn end_pass(rel: &mut [Option<Select>], flip: &mut [Select]) -> Result<(), Compa
     Ok(())
 }
 
-/// R, G, B of both images, or the note the whole-image FLIP gives when it cannot run.
-fn flip_channels(a: &ExrRows, b: &ExrRows) -> Result<RgbPair, String> {
-    if a.width == 0 || a.height == 0 {
+/// R, G, B of both images, or why FLIP cannot run.
+fn flip_channels<S: Source>(a: &S, b: &S) -> Result<RgbPair, String> {
+    if a.width() == 0 || a.height() == 0 {
         return Err("not computed: the images differ in size".into());
     }
-    u32::try_from(a.width).map_err(|_| "image too wide")?;
-    u32::try_from(a.height).map_err(|_| "image too tall")?;
-    let rgb = |img: &ExrRows| -> Result<[usize; 3], String> {
+    u32::try_from(a.width()).map_err(|_| "image too wide")?;
+    u32::try_from(a.height()).map_err(|_| "image too tall")?;
+    let rgb = |img: &S| -> Result<[usize; 3], String> {
         let mut out = [0; 3];
         for (slot, name) in out.iter_mut().zip(["R", "G", "B"]) {
             *slot = img.index(name).ok_or_else(|| {
-                format!("not computed: {} has no {name} channel", img.path.display())
+                format!("not computed: {} has no {name} channel", img.path().display())
             })?;
         }
         Ok(out)
@@ -429,12 +539,12 @@ impl Totals {
     }
 }
 
-impl Run<'_> {
+impl<S: Source> Run<'_, S> {
     /// One pass over the bands, top to bottom; `on_band` sees each band's results.
     fn pass(
         &mut self,
         mut pass: Pass<'_>,
-        mut on_band: impl FnMut(&Run<'_>, usize, usize, &Band) -> Result<(), CompareError>,
+        mut on_band: impl FnMut(&Self, usize, usize, &Band) -> Result<(), CompareError>,
     ) -> Result<(), CompareError> {
         // FLIP is computed in pass 1 only (R, G, B read then); later passes read its spill.
         let first = pass.flip_sum.is_some();
@@ -474,7 +584,7 @@ impl Run<'_> {
     }
 
     /// Rows `y0 .. y1`: per-channel differences, pixel states, coverage and FLIP, as the pass
-    /// needs them (the whole-image [`super::compare`]'s rules, pixel by pixel).
+    /// needs them (the rules of the module docs of [`super`], pixel by pixel).
     fn band(&self, y0: usize, y1: usize, pass: &mut Pass<'_>) -> Band {
         let (w, t, rel) = (self.w, self.t, self.t.fail_relative);
         let len = (y1 - y0) * w;
@@ -573,7 +683,7 @@ impl Run<'_> {
             .filter(|&(u, v)| u >= 0 && v >= 0 && u < w && v < h)
             .map(|(u, v)| (u as usize, v as usize))
             .collect();
-        let at = |img: &ExrRows, c: usize, (u, v): (usize, usize)| img.rows(c, v, v + 1)[u];
+        let at = |img: &S, c: usize, (u, v): (usize, usize)| img.rows(c, v, v + 1)[u];
         if let Some((_, ia, ib, hit)) = &self.coverage {
             let ca = |q| hit(at(&self.a, *ia, q));
             let cb = |q| hit(at(&self.b, *ib, q));
@@ -606,7 +716,7 @@ impl Run<'_> {
         let w = self.w;
         let halo = flip_halo(PIXELS_PER_DEGREE);
         let (fy0, fy1) = (y0.saturating_sub(halo), (y1 + halo).min(self.h));
-        let srgb = |img: &ExrRows, c: &[usize; 3]| -> Vec<u8> {
+        let srgb = |img: &S, c: &[usize; 3]| -> Vec<u8> {
             let (r, g, b) =
                 (img.rows(c[0], fy0, fy1), img.rows(c[1], fy0, fy1), img.rows(c[2], fy0, fy1));
             (0..r.len())
@@ -668,8 +778,8 @@ impl Run<'_> {
                 Verdict::Pass
             };
         Report {
-            a: self.a.path.clone(),
-            b: self.b.path.clone(),
+            a: self.a.path().to_path_buf(),
+            b: self.b.path().to_path_buf(),
             width: self.w,
             height: self.h,
             thresholds: t.clone(),
@@ -692,8 +802,14 @@ impl Run<'_> {
     }
 }
 
-/// The output files being written (pass 2), and the first error writing them.
-struct Writers {
+/// B − A of one channel, pixel by pixel (the `diff.<name>` plane of the difference EXR).
+pub(super) fn diff_plane(a: &[f32], b: &[f32]) -> Vec<f32> {
+    a.iter().zip(b).map(|(&x, &y)| signed_difference(x, y)).collect()
+}
+
+/// The output files being written (pass 2, or at once from a whole-image report's maps), and
+/// the first error writing them.
+pub(super) struct Writers {
     diff: Option<PlaneStream>,
     png: Option<Rgba8Stream>,
     error: Option<OutputError>,
@@ -702,7 +818,7 @@ struct Writers {
 
 impl Writers {
     /// Starts the outputs; a `--diff` that cannot be started means no `--png` either.
-    fn create(report: &Report, outputs: Outputs<'_>) -> Writers {
+    pub(super) fn create(report: &Report, outputs: Outputs<'_>) -> Writers {
         let mut writers =
             Writers { diff: None, png: None, error: None, shift: report.thresholds.shift };
         if let Some(path) = outputs.diff {
@@ -747,27 +863,27 @@ impl Writers {
         self.diff.is_some() || self.png.is_some()
     }
 
-    /// Rows `y0 .. y1` of each output.
-    fn push(&mut self, run: &Run<'_>, y0: usize, y1: usize, band: &Band) {
+    /// The next rows of each output: each compared channel's B − A (`diffs`, asked for only
+    /// when a difference EXR is written), the pixels' states and ratios, and FLIP's map.
+    pub(super) fn push(
+        &mut self,
+        diffs: impl FnOnce() -> Vec<Vec<f32>>,
+        states: &[PixelState],
+        ratio: &[f32],
+        flip: Option<&[f32]>,
+    ) {
         if let Some(diff) = &mut self.diff {
-            let mut planes: Vec<Vec<f32>> = run
-                .plans
-                .iter()
-                .map(|p| {
-                    let (a, b) = (run.a.rows(p.a, y0, y1), run.b.rows(p.b, y0, y1));
-                    a.iter().zip(b).map(|(&x, &y)| signed_difference(x, y)).collect()
-                })
-                .collect();
+            let mut planes = diffs();
             let mask = |want: PixelState| {
-                band.states.iter().map(|&p| if p == want { 1.0 } else { 0.0 }).collect()
+                states.iter().map(|&p| if p == want { 1.0 } else { 0.0 }).collect()
             };
             planes.push(mask(PixelState::Fail));
             if self.shift {
                 planes.push(mask(PixelState::Forgiven));
             }
-            planes.push(band.ratio.clone());
-            if let Some(flip) = &band.flip {
-                planes.push(flip.clone());
+            planes.push(ratio.to_vec());
+            if let Some(flip) = flip {
+                planes.push(flip.to_vec());
             }
             let refs: Vec<&[f32]> = planes.iter().map(Vec::as_slice).collect();
             if let Err(e) = diff.push_rows(&refs) {
@@ -779,7 +895,7 @@ impl Writers {
         }
         if let Some(png) = &mut self.png {
             let rgba: Vec<u8> =
-                band.states.iter().zip(&band.ratio).flat_map(|(&s, &r)| heat_rgba8(s, r)).collect();
+                states.iter().zip(ratio).flat_map(|(&s, &r)| heat_rgba8(s, r)).collect();
             if let Err(e) = png.push_rows(&rgba) {
                 self.error = Some(e);
                 self.png = None;
@@ -788,7 +904,7 @@ impl Writers {
     }
 
     /// Moves the files into place; the first error, if any.
-    fn finish(mut self) -> Option<OutputError> {
+    pub(super) fn finish(mut self) -> Option<OutputError> {
         if let Some(diff) = self.diff.take() {
             if let Err(e) = diff.finish() {
                 return Some(e);

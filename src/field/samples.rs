@@ -69,11 +69,6 @@ impl SampleType {
             SampleType::F64 => "f64",
         }
     }
-
-    /// Parses a scene-file `dtype` name.
-    pub fn from_name(name: &str) -> Option<SampleType> {
-        Self::ALL.into_iter().find(|t| t.name() == name)
-    }
 }
 
 /// Byte order of multi-byte samples.

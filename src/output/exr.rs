@@ -38,10 +38,12 @@
 //! ## Deterministic bytes
 //!
 //! The `exr` crate keeps custom attributes in a `HashMap`, so their order in the header
-//! changes from process to process. After encoding into memory, [`write_frame`] therefore
-//! sorts the header's attributes by name (the order OpenEXR's own library writes them in).
+//! changes from process to process. After encoding the header, the writer
+//! ([`super::exr_blocks`], behind [`write_frame`], [`encode_frame`] and [`write_channels`])
+//! therefore sorts its attributes by name (the order OpenEXR's own library writes them in).
 //! Reordering keeps the header's length, so the chunk offset table after it stays valid. With
-//! scan lines in increasing order and no parallel compression, equal frames give equal bytes.
+//! scan lines in increasing order and one block compressed at a time, equal frames give equal
+//! bytes.
 //!
 //! # Reading ([`read`])
 //!
@@ -66,7 +68,7 @@ use exr::prelude::traits::*;
 use exr::prelude::SmallVec;
 use glam::DVec3;
 
-use super::{atomic, OutputError};
+use super::OutputError;
 use crate::frame::{Channel, Frame, FrameInfo, Pixel, Written};
 
 /// Names of the header attributes isoview writes.
@@ -118,21 +120,20 @@ fn check_size(path: &Path, frame: &Frame) -> Result<(), OutputError> {
     Ok(())
 }
 
-/// The bytes [`write_frame`] writes (`path` only names the file in errors).
+/// The bytes [`write_frame`] writes (`path` only names the file in errors): the same
+/// streaming writer, into memory.
 pub fn encode_frame(path: &Path, frame: &Frame) -> Result<Vec<u8>, OutputError> {
     check_size(path, frame)?;
-    let (w, h) = (frame.width as usize, frame.height as usize);
-
-    // One planar channel per row of the channel table that this frame writes.
-    let channels: Vec<AnyChannel<FlatSamples>> = written_channels(frame)
-        .into_iter()
-        .map(|c| {
-            let plane: Vec<f32> = frame.pixels.iter().map(|p| c.get(p)).collect();
-            AnyChannel::new(c.name(), FlatSamples::F32(plane))
-        })
-        .collect();
-    let attributes = layer_attributes(path, &frame.info, w, h)?;
-    encode(path, w, h, channels, attributes)
+    let channels = written_channels(frame);
+    let mut stream = super::exr_stream::ExrStream::in_memory(
+        path,
+        frame.width,
+        frame.height,
+        &channels,
+        &frame.info,
+    )?;
+    stream.push_rows(&frame.pixels)?;
+    stream.finish_bytes()
 }
 
 /// The channels [`write_frame`] writes for `frame`, in table order: every [`Written::Always`]
@@ -151,7 +152,8 @@ pub fn written_channels(frame: &Frame) -> Vec<Channel> {
 
 /// Writes arbitrary 32-bit float channels (each `width * height` values, row 0 at the top)
 /// with text attributes, atomically, encoded like [`write_frame`] (one part, ZIP, sorted
-/// header). Used for `compare --diff` and by other modules that need an EXR.
+/// header): the streaming writer of named planes ([`super::exr_planes::PlaneStream`]) given
+/// every row at once. Used by modules that need an EXR of their own channels.
 pub fn write_channels(
     path: &Path,
     width: usize,
@@ -168,20 +170,20 @@ pub fn write_channels(
             ),
         ));
     }
-    let mut list = Vec::with_capacity(channels.len());
-    for (name, values) in channels {
+    for (name, values) in &channels {
         if values.len() != width * height {
             return Err(OutputError::invalid(
                 path,
                 format!("channel {name:?} has {} values, expected {width}x{height}", values.len()),
             ));
         }
-        check_name(path, &name)?;
-        list.push(AnyChannel::new(text(&name), FlatSamples::F32(values)));
     }
-    let attributes = text_layer_attributes(path, text_attributes)?;
-    let bytes = encode(path, width, height, list, attributes)?;
-    atomic::write_bytes(path, &bytes)
+    let names: Vec<String> = channels.iter().map(|(name, _)| name.clone()).collect();
+    let mut stream =
+        super::exr_planes::PlaneStream::create(path, width, height, &names, text_attributes)?;
+    let planes: Vec<&[f32]> = channels.iter().map(|(_, values)| values.as_slice()).collect();
+    stream.push_rows(&planes)?;
+    stream.finish()
 }
 
 /// The layer attributes of [`write_channels`]: `software` and the text attributes.
@@ -236,25 +238,9 @@ fn check_name(path: &Path, name: &str) -> Result<(), OutputError> {
     Ok(())
 }
 
-/// One part, ZIP16 scan lines in increasing order, Rec.709 chromaticities, header sorted.
-fn encode(
-    path: &Path,
-    width: usize,
-    height: usize,
-    channels: Vec<AnyChannel<FlatSamples>>,
-    attributes: LayerAttributes,
-) -> Result<Vec<u8>, OutputError> {
-    let image = layer_image(path, width, height, channels, attributes)?;
-    let mut bytes = Vec::new();
-    image.write().non_parallel().to_buffered(Cursor::new(&mut bytes)).map_err(|source| {
-        OutputError::Exr { path: path.to_path_buf(), action: "cannot encode EXR", source }
-    })?;
-    sort_header_attributes(&mut bytes)
-        .map_err(|reason| OutputError::invalid(path, format!("internal: {reason}")))?;
-    Ok(bytes)
-}
-
-/// The `exr` crate's description of the file [`encode`] writes (the channels sorted by name).
+/// The `exr` crate's description of the files isoview writes (one part, ZIP16 scan lines in
+/// increasing order, Rec.709 chromaticities; the channels sorted by name): the header the
+/// streaming writers ([`super::exr_blocks`]) encode.
 fn layer_image(
     path: &Path,
     width: usize,

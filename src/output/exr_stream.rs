@@ -56,6 +56,29 @@ impl ExrStream {
         channels: &[Channel],
         info: &FrameInfo,
     ) -> Result<Self, OutputError> {
+        Self::start(path, width, height, channels, info, false)
+    }
+
+    /// [`ExrStream::create`] into memory (`path` only names the file in messages): the bytes
+    /// come from [`ExrStream::finish_bytes`].
+    pub fn in_memory(
+        path: &Path,
+        width: u32,
+        height: u32,
+        channels: &[Channel],
+        info: &FrameInfo,
+    ) -> Result<Self, OutputError> {
+        Self::start(path, width, height, channels, info, true)
+    }
+
+    fn start(
+        path: &Path,
+        width: u32,
+        height: u32,
+        channels: &[Channel],
+        info: &FrameInfo,
+        memory: bool,
+    ) -> Result<Self, OutputError> {
         let (w, h) = (width as usize, height as usize);
         let headers = channel_image_headers(path, w, h, channels, info)?;
         let header = headers.first().ok_or_else(|| OutputError::invalid(path, "no header"))?;
@@ -70,7 +93,11 @@ impl ExrStream {
                 })
             })
             .collect::<Result<Vec<_>, _>>()?;
-        let file = BlockFile::create(path, headers, h)?;
+        let file = if memory {
+            BlockFile::in_memory(path, headers, h)?
+        } else {
+            BlockFile::create(path, headers, h)?
+        };
         let declared = |c: &Channel| channels.contains(c);
         let counted_channels =
             Channel::ALL.into_iter().filter(|c| c.written() == Written::WhereCounted);
@@ -111,6 +138,11 @@ impl ExrStream {
     /// Writes the offset table and moves the file into place; every row must have arrived.
     pub fn finish(self) -> Result<(), OutputError> {
         self.file.finish(self.rows_in)
+    }
+
+    /// The file's bytes, from [`ExrStream::in_memory`]; every row must have arrived.
+    pub fn finish_bytes(self) -> Result<Vec<u8>, OutputError> {
+        self.file.finish_bytes(self.rows_in)
     }
 
     /// Compresses rows `y0 .. y0 + rows` (all pending) into one chunk and writes it.

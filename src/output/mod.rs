@@ -5,10 +5,10 @@
 //! - [`exr`]: a [`Frame`](crate::frame::Frame) as a one-part, 32-bit float, ZIP-compressed
 //!   OpenEXR file with the channels and header attributes of the interface contract, written
 //!   byte-deterministically; and a general reader ([`exr::read`]) for EXRs from any writer.
-//! - [`exr_stream`]: the same file written band by band as a render draws it (memory: one
-//!   block of scan lines), byte for byte what [`exr`] writes from a whole frame.
-//! - [`exr_planes`]: named float channels written row by row (`compare --diff`), byte for
-//!   byte what [`exr::write_channels`] writes.
+//! - [`exr_stream`]: that file written band by band as a render draws it (memory: one block
+//!   of scan lines); [`exr::write_frame`] and [`exr::encode_frame`] are it given every row.
+//! - [`exr_planes`]: named float channels written row by row (`compare --diff`);
+//!   [`exr::write_channels`] is it given every row.
 //! - [`png`]: an 8-bit sRGB preview of the beauty (RGBA).
 //! - [`guard`]: the one rule for which paths a verb may write (never one of its inputs, never
 //!   a device, FIFO or socket), checked before writing.
@@ -65,13 +65,6 @@ pub enum OutputError {
         action: &'static str,
         #[source]
         source: ::exr::error::Error,
-    },
-    /// The PNG encoder failed.
-    #[error("{}: cannot encode PNG: {source}", path.display())]
-    Png {
-        path: PathBuf,
-        #[source]
-        source: ::image::ImageError,
     },
     /// The data to write, or the file read, is not what it should be (the reason says how).
     #[error("{}: {reason}", path.display())]

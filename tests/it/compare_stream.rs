@@ -1,8 +1,8 @@
 //! `compare` band by band: the same report and output files, byte for byte, as the whole-image
-//! comparison (kept as the reference: `compare::compare`, `write_diff_exr`,
-//! `write_heat_map_png`) for any band height, any EXR layout the reader takes, and every
-//! threshold option; and its peak memory, measured on the child process, does not grow with
-//! the image.
+//! comparison (`compare::compare`, `write_diff_exr`, `write_heat_map_png`: the same code with
+//! one band, whose outputs `one_copy` pins) for any band height, any EXR layout the reader
+//! takes, and every threshold option; and its peak memory, measured on the child process, does
+//! not grow with the image.
 
 use std::path::Path;
 
@@ -18,7 +18,7 @@ use crate::common::{assert_fails, isoview, scratch};
 
 /// How a test image is stored.
 #[derive(Clone, Copy, Debug)]
-enum Layout {
+pub(crate) enum Layout {
     /// isoview's own: f32, ZIP, 16-line blocks.
     Isoview,
     /// half floats, PIZ, 8 x 8 tiles.
@@ -43,7 +43,7 @@ fn noise(i: usize, seed: u32) -> f32 {
 /// A render-like picture: a disc (hit: finite Z, A = 1) on a miss background (Z = inf), with
 /// colour, a normal channel with NaNs and an integer `steps`. `b` is the image under test:
 /// the disc moved by a pixel, small noise in R, a few large errors, NaN and inf mismatches.
-fn picture(w: usize, h: usize, b: bool) -> Vec<(String, Vec<f32>)> {
+pub(crate) fn picture(w: usize, h: usize, b: bool) -> Vec<(String, Vec<f32>)> {
     let n = w * h;
     let (cx, cy, r) =
         (w as f32 * 0.5 + if b { 1.0 } else { 0.0 }, h as f32 * 0.45, w.min(h) as f32 * 0.35);
@@ -91,7 +91,13 @@ fn picture(w: usize, h: usize, b: bool) -> Vec<(String, Vec<f32>)> {
 }
 
 /// Writes `channels` (each `w * h`) to `path` in `layout`.
-fn write(path: &Path, w: usize, h: usize, channels: &[(String, Vec<f32>)], layout: Layout) {
+pub(crate) fn write(
+    path: &Path,
+    w: usize,
+    h: usize,
+    channels: &[(String, Vec<f32>)],
+    layout: Layout,
+) {
     if let Layout::Isoview = layout {
         out_exr::write_channels(path, w, h, channels.to_vec(), &[]).unwrap();
         return;

@@ -28,6 +28,7 @@ mod methods;
 mod modules;
 mod nan;
 mod normals;
+mod one_copy;
 mod output;
 mod physical;
 mod placement;

@@ -131,7 +131,9 @@ fn check_syntax(text: &str) -> Result<(), String> {
             prev = value(prev, at, "a variable")?;
             i += close + 1;
         } else if c.is_ascii_digit() || c == '.' {
-            // A number, with an optional exponent (`1.5e-3`).
+            // A number. exmex reads no exponent (`1.5e-3` would be 1.5, the constant e, minus
+            // 3): say so rather than let it fail on the pieces.
+            let start = i;
             while i < chars.len() && (chars[i].is_ascii_digit() || chars[i] == '.') {
                 i += 1;
             }
@@ -141,10 +143,11 @@ fn check_syntax(text: &str) -> Result<(), String> {
                     j += 1;
                 }
                 if j < chars.len() && chars[j].is_ascii_digit() {
-                    i = j;
-                    while i < chars.len() && chars[i].is_ascii_digit() {
-                        i += 1;
-                    }
+                    let mantissa: String = chars[start..i].iter().collect();
+                    return Err(format!(
+                        "cannot parse: the number at character {at} has an exponent, which \
+                         expressions do not read; write {mantissa} * 10^..."
+                    ));
                 }
             }
             prev = value(prev, at, "a number")?;
@@ -274,6 +277,7 @@ mod tests {
             ("sin(x", "\"(\" at character 4 is never closed"),
             ("x)", "\")\" at character 2 has no matching \"(\""),
             ("x + * y", "a value is missing before \"*\" at character 5"),
+            ("x +* y", "a value is missing before \"*\" at character 4"),
             ("x +", "ends where a value is expected"),
             ("2 x", "\"x\" at character 3 follows a value"),
             ("2 (y)", "\"(\" at character 3 follows a value"),
@@ -284,12 +288,18 @@ mod tests {
             ("x sin(y)", "function \"sin\" at character 3"),
             ("min(x, )", "a value is missing before \")\" at character 8"),
             ("{x", "\"{\" at character 1 is never closed"),
+            ("x + 1.5e-3", "the number at character 5 has an exponent"),
         ] {
             let e = ExprSource::parse(text).unwrap_err().to_string();
             assert!(e.contains(want), "{text}: {e}");
-            assert!(!e.contains("0x") && !e.contains("Op(") && !e.contains('\n'), "{text}: {e}");
+            assert!(
+                !e.contains("0x") && !e.contains("Operator") && !e.contains('\n'),
+                "{text}: {e}"
+            );
         }
-        for ok in ["-x", "x * -y", "2^-x", "-(x + 1)", "sin(-x)", "1.5e-3 * x", "max(-x, +y)"] {
+        for ok in
+            ["-x", "x * -y", "2^-x", "-(x + 1)", "sin(-x)", "1.5 * 10^-3 * x", "max(-x, +y)", "2*e"]
+        {
             assert!(ExprSource::parse(ok).is_ok(), "{ok}");
         }
     }

@@ -10,6 +10,7 @@
 
 use std::path::Path;
 
+use crate::field::DataAccess;
 use glam::DVec3;
 
 use super::error::{SceneError, SceneErrorKind};
@@ -17,9 +18,7 @@ use super::read::{self, choice, integer, number_where, points3, string, vec3, Re
 use super::tree::{Origin, Source};
 use super::validate::show_vec;
 use super::Bounds;
-use crate::field::{
-    DataAccess, FieldError, FieldSpec, GridLimits, Need, Params, Residency, Rule, SourceKind,
-};
+use crate::field::{FieldError, FieldSpec, GridLimits, Need, Params, Residency, Rule, SourceKind};
 use crate::vocab::Placement;
 
 const COMMON: [&str; 2] = ["source", "bounds"];

@@ -71,7 +71,7 @@ struct Parking {
 
 impl Parking {
     fn lock(&self) -> MutexGuard<'_, Vec<Parked>> {
-        // Every change is a push or a retain: a panic leaves a consistent list.
+        // Every change is one push or one swap_remove: a panic leaves a consistent list.
         self.parked.lock().unwrap_or_else(|e| e.into_inner())
     }
 }

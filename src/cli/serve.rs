@@ -1,5 +1,5 @@
-//! `isoview serve SCENE.toml [--port P] [--bind ADDR] [--set K=V]... [--time T]`: the
-//! interactive page (`crate::serve`).
+//! `isoview serve SCENE.toml [--port P] [--bind ADDR] [--set K=V]... [--time T]
+//! [--allow-dir DIR]... [--max-pixels N]`: the interactive page (`crate::serve`).
 
 use std::net::IpAddr;
 use std::path::PathBuf;
@@ -24,19 +24,29 @@ pub struct ServeArgs {
     /// Time of the field in seconds (`t` in expr fields) to start at.
     #[arg(long, default_value_t = 0.0)]
     pub time: f64,
+    /// A folder whose files the page may point the field at, besides the scene's folder and
+    /// the scene's own data files (repeatable).
+    #[arg(long = "allow-dir", value_name = "DIR")]
+    pub allow_dirs: Vec<PathBuf>,
+    /// Largest image, in pixels (width x height), the page may ask for.
+    #[arg(long, value_name = "N", default_value_t = serve::state::DEFAULT_MAX_PIXELS,
+          value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_pixels: u64,
 }
 
 pub fn run(cli: &Cli, args: &ServeArgs) -> Result<i32, Failure> {
-    // Bad input is reported before the GPU is touched.
-    crate::scene::load(&args.scene, &args.sets).map_err(Failure::input)?;
-    let ctx = cli.gpu()?;
     let options = Options {
         scene: args.scene.clone(),
         sets: args.sets.clone(),
         time: args.time,
         bind: args.bind,
         port: args.port,
+        allow_dirs: args.allow_dirs.clone(),
+        max_pixels: args.max_pixels,
     };
+    // Bad input is reported before the GPU is touched.
+    serve::prepare(&options).map_err(|e| Failure::input(e.to_string()))?;
+    let ctx = cli.gpu()?;
     match serve::run(&options, ctx, &mut std::io::stdout()) {
         Ok(()) => Ok(0),
         Err(ServeError::Input(m)) => Err(Failure::input(m)),

@@ -9,7 +9,6 @@ use exmex::prelude::*;
 use exmex::{FloatOpsFactory, MakeOperators};
 use glam::DVec3;
 
-use super::error::one_line;
 use super::FieldError;
 
 /// The variables an expression may use, in the order [`ExprSource::eval`] fills them.
@@ -39,9 +38,13 @@ impl ExprSource {
         if text.trim().is_empty() {
             return Err(err("the expression is empty".into()));
         }
-        check_functions(text).map_err(err)?;
-        let expr = exmex::parse::<f64>(text)
-            .map_err(|e| err(format!("cannot parse: {}", one_line(&e.to_string()))))?;
+        check_syntax(text).map_err(err)?;
+        // exmex's message is not shown (see check_syntax).
+        let expr = exmex::parse::<f64>(text).map_err(|_| {
+            err("cannot parse: not an expression of numbers, x, y, z, t, constants, \
+                 functions and the operators + - * / ^"
+                .into())
+        })?;
         let mut slots = Vec::new();
         for name in expr.var_names() {
             match VARIABLES.iter().position(|v| v == name) {
@@ -84,22 +87,53 @@ fn function_names() -> Vec<&'static str> {
         .collect()
 }
 
-/// Fails on the first identifier called like a function that exmex does not know
-/// (exmex's own message for `foo(x)` does not name the function).
-fn check_functions(text: &str) -> Result<(), String> {
+/// What the last token was, for [`check_syntax`]: what may follow it.
+#[derive(Clone, Copy, PartialEq)]
+enum Prev {
+    /// The start, `(`, `,` or an operator: a value must come next.
+    NeedValue,
+    /// A function name: its argument must come next.
+    Function,
+    /// A number, variable, constant or `)`: an operator, `)` or `,` must come next.
+    Value,
+}
+
+/// Checks the expression's shape before exmex sees it, and names the first mistake by its
+/// character position (1-based). exmex's own messages print its tokens with Rust's `Debug`
+/// (function addresses included), so none of them reaches a user: whatever this check lets
+/// through that exmex still refuses gets a fixed sentence in [`ExprSource::parse`].
+fn check_syntax(text: &str) -> Result<(), String> {
     let known = function_names();
     let chars: Vec<char> = text.chars().collect();
+    let mut open: Vec<usize> = Vec::new();
+    let mut prev = Prev::NeedValue;
     let mut i = 0;
+    // A value at character `at` (1-based) where `prev` allows one.
+    let value = |prev: Prev, at: usize, what: &str| -> Result<Prev, String> {
+        match prev {
+            Prev::Value => Err(format!(
+                "cannot parse: {what} at character {at} follows a value without an operator \
+                 between them"
+            )),
+            _ => Ok(Prev::Value),
+        }
+    };
     while i < chars.len() {
         let c = chars[i];
-        if c == '{' {
-            // `{any name}` is one variable.
-            while i < chars.len() && chars[i] != '}' {
-                i += 1;
-            }
+        let at = i + 1;
+        if c.is_whitespace() {
             i += 1;
+        } else if c == '{' {
+            // `{any name}` is one variable.
+            let Some(close) = chars[i..].iter().position(|&c| c == '}') else {
+                return Err(format!("cannot parse: \"{{\" at character {at} is never closed"));
+            };
+            prev = value(prev, at, "a variable")?;
+            i += close + 1;
         } else if c.is_ascii_digit() || c == '.' {
-            // A number, with an optional exponent (`1.5e-3`).
+            // A number. exmex reads no exponent (`1.5e-3` would be 1.5, the constant e, minus
+            // 3): say so rather than let it fail on the pieces.
+            let start = i;
             while i < chars.len() && (chars[i].is_ascii_digit() || chars[i] == '.') {
                 i += 1;
             }
@@ -109,12 +143,14 @@ fn check_functions(text: &str) -> Result<(), String> {
                     j += 1;
                 }
                 if j < chars.len() && chars[j].is_ascii_digit() {
-                    i = j;
-                    while i < chars.len() && chars[i].is_ascii_digit() {
-                        i += 1;
-                    }
+                    let mantissa: String = chars[start..i].iter().collect();
+                    return Err(format!(
+                        "cannot parse: the number at character {at} has an exponent, which \
+                         expressions do not read; write {mantissa} * 10^..."
+                    ));
                 }
             }
+            prev = value(prev, at, "a number")?;
         } else if c.is_alphabetic() || c == '_' {
             let start = i;
             while i < chars.len() && (chars[i].is_alphanumeric() || chars[i] == '_') {
@@ -125,17 +161,84 @@ fn check_functions(text: &str) -> Result<(), String> {
             while j < chars.len() && chars[j].is_whitespace() {
                 j += 1;
             }
-            if j < chars.len() && chars[j] == '(' && !known.contains(&name.as_str()) {
+            let called = j < chars.len() && chars[j] == '(';
+            if known.contains(&name.as_str()) {
+                if prev == Prev::Value {
+                    return Err(format!(
+                        "cannot parse: function \"{name}\" at character {at} follows a value \
+                         without an operator between them"
+                    ));
+                }
+                prev = Prev::Function;
+            } else if called {
                 return Err(format!(
                     "unknown function \"{name}\" (functions: {})",
                     known.join(", ")
                 ));
+            } else {
+                prev = value(prev, at, &format!("\"{name}\""))?;
             }
-        } else {
+        } else if c == '(' {
+            if prev == Prev::Value {
+                return Err(format!(
+                    "cannot parse: \"(\" at character {at} follows a value without an operator \
+                     between them"
+                ));
+            }
+            open.push(at);
+            prev = Prev::NeedValue;
             i += 1;
+        } else if c == ')' || c == ',' {
+            if open.is_empty() {
+                return Err(match c {
+                    ')' => format!("cannot parse: \")\" at character {at} has no matching \"(\""),
+                    _ => format!(
+                        "cannot parse: \",\" at character {at} is outside a function's parentheses"
+                    ),
+                });
+            }
+            if prev != Prev::Value {
+                return Err(format!(
+                    "cannot parse: a value is missing before \"{c}\" at character {at}"
+                ));
+            }
+            if c == ')' {
+                open.pop();
+                prev = Prev::Value;
+            } else {
+                prev = Prev::NeedValue;
+            }
+            i += 1;
+        } else if "+-*/^".contains(c) {
+            // `+` and `-` may also be signs, where a value is expected.
+            let sign = c == '+' || c == '-';
+            if prev != Prev::Value && !sign {
+                return Err(format!(
+                    "cannot parse: a value is missing before \"{c}\" at character {at}"
+                ));
+            }
+            prev = Prev::NeedValue;
+            i += 1;
+        } else {
+            return Err(format!(
+                "cannot parse: unexpected character \"{}\" at character {at} (operators are \
+                 + - * / ^)",
+                c.escape_default()
+            ));
         }
     }
-    Ok(())
+    if let Some(at) = open.last() {
+        return Err(format!("cannot parse: \"(\" at character {at} is never closed"));
+    }
+    match prev {
+        Prev::Value => Ok(()),
+        Prev::Function => {
+            Err("cannot parse: the expression ends with a function and no argument".into())
+        }
+        Prev::NeedValue => {
+            Err("cannot parse: the expression ends where a value is expected".into())
+        }
+    }
 }
 
 #[cfg(test)]
@@ -165,5 +268,39 @@ mod tests {
         let e = ExprSource::parse("sin(x").unwrap_err().to_string();
         assert!(e.contains("cannot parse"), "{e}");
         assert!(ExprSource::parse("atan2(x, y) + max(x, z) + abs (t)").is_ok());
+    }
+
+    /// exmex's messages carry its tokens' `Debug` output (function addresses): none may show.
+    #[test]
+    fn syntax_errors_are_one_clean_line_naming_the_place() {
+        for (text, want) in [
+            ("sin(x", "\"(\" at character 4 is never closed"),
+            ("x)", "\")\" at character 2 has no matching \"(\""),
+            ("x + * y", "a value is missing before \"*\" at character 5"),
+            ("x +* y", "a value is missing before \"*\" at character 4"),
+            ("x +", "ends where a value is expected"),
+            ("2 x", "\"x\" at character 3 follows a value"),
+            ("2 (y)", "\"(\" at character 3 follows a value"),
+            ("()", "a value is missing before \")\" at character 2"),
+            ("x, y", "\",\" at character 2 is outside"),
+            ("x $ y", "unexpected character \"$\" at character 3"),
+            ("sin", "ends with a function"),
+            ("x sin(y)", "function \"sin\" at character 3"),
+            ("min(x, )", "a value is missing before \")\" at character 8"),
+            ("{x", "\"{\" at character 1 is never closed"),
+            ("x + 1.5e-3", "the number at character 5 has an exponent"),
+        ] {
+            let e = ExprSource::parse(text).unwrap_err().to_string();
+            assert!(e.contains(want), "{text}: {e}");
+            assert!(
+                !e.contains("0x") && !e.contains("Operator") && !e.contains('\n'),
+                "{text}: {e}"
+            );
+        }
+        for ok in
+            ["-x", "x * -y", "2^-x", "-(x + 1)", "sin(-x)", "1.5 * 10^-3 * x", "max(-x, +y)", "2*e"]
+        {
+            assert!(ExprSource::parse(ok).is_ok(), "{ok}");
+        }
     }
 }

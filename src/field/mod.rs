@@ -34,6 +34,7 @@
 //!   1024 MiB, `ISOVIEW_MAX_GRID_MIB` overrides) is refused before anything is allocated or any
 //!   sample is read.
 
+mod access;
 mod error;
 mod expr;
 pub mod formats;
@@ -49,6 +50,7 @@ mod spec;
 pub mod stats;
 pub mod trilinear;
 
+pub use access::DataAccess;
 pub use error::FieldError;
 pub use expr::ExprSource;
 pub use grid::Grid;

@@ -317,6 +317,14 @@ impl Renderer {
         &self.ctx
     }
 
+    /// Destroys the ray passes' pipelines (rebuilt on their next use), and with them what the
+    /// driver keeps per pipeline: lavapipe (Mesa 22) compiles a variant of the shader for the
+    /// push constants of each dispatch and frees the variants only with the pipeline (about
+    /// 1 MiB each). A long-running caller (`serve`) calls this every few dispatches.
+    pub fn release_ray_pipelines(&mut self) {
+        self.ray_pipelines.clear();
+    }
+
     /// Renders `scene` over `grid` (sampled at `time`).
     pub fn render(&mut self, scene: &Scene, grid: &Grid, time: f64) -> Result<Frame, RenderError> {
         let gpu_grid = GpuGrid::upload(&self.ctx, grid)?;

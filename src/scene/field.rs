@@ -10,6 +10,7 @@
 
 use std::path::Path;
 
+use crate::field::DataAccess;
 use glam::DVec3;
 
 use super::error::{SceneError, SceneErrorKind};
@@ -37,8 +38,13 @@ fn all_keys() -> Vec<&'static str> {
 }
 
 /// Reads and checks `[field]`.
-pub(crate) fn field(root: &View, base_dir: &Path, limits: &GridLimits) -> Result<FieldSpec> {
-    field_named(root, "field", base_dir, limits)
+pub(crate) fn field(
+    root: &View,
+    base_dir: &Path,
+    limits: &GridLimits,
+    access: &DataAccess,
+) -> Result<FieldSpec> {
+    field_named(root, "field", base_dir, limits, access)
 }
 
 /// `[field2]`, the second scalar field `[color] by = "field2"` samples: the keys of `[field]`.
@@ -46,14 +52,21 @@ pub(crate) fn field2(
     root: &View,
     base_dir: &Path,
     limits: &GridLimits,
+    access: &DataAccess,
 ) -> Result<Option<FieldSpec>> {
     match root.get("field2") {
         None => Ok(None),
-        Some(_) => field_named(root, "field2", base_dir, limits).map(Some),
+        Some(_) => field_named(root, "field2", base_dir, limits, access).map(Some),
     }
 }
 
-fn field_named(root: &View, name: &str, base_dir: &Path, limits: &GridLimits) -> Result<FieldSpec> {
+fn field_named(
+    root: &View,
+    name: &str,
+    base_dir: &Path,
+    limits: &GridLimits,
+    access: &DataAccess,
+) -> Result<FieldSpec> {
     let t = root.table(name)?;
     let names: Vec<String> = SourceKind::ALL.iter().map(|k| format!("\"{}\"", k.name())).collect();
     if t.table.is_none() {
@@ -108,7 +121,7 @@ fn field_named(root: &View, name: &str, base_dir: &Path, limits: &GridLimits) ->
     };
     let unlimited = GridLimits { max_bytes: u64::MAX };
     let limits = if residency == Residency::Whole { limits } else { &unlimited };
-    let parsed = kind.parse(&FieldParams { t: &t, base_dir, limits })?;
+    let parsed = kind.parse(&FieldParams { t: &t, base_dir, limits, access })?;
     // A `bounds` key wins over a file header's box and orientation (kinds that set their own
     // box refuse the key above); without either, the grid's index space.
     let (bounds, placement) = match (t.get("bounds"), parsed.bounds) {
@@ -131,6 +144,7 @@ struct FieldParams<'v, 'a> {
     t: &'v View<'a>,
     base_dir: &'v Path,
     limits: &'v GridLimits,
+    access: &'v DataAccess,
 }
 
 impl FieldParams<'_, '_> {
@@ -156,6 +170,10 @@ impl Params for FieldParams<'_, '_> {
 
     fn limits(&self) -> &GridLimits {
         self.limits
+    }
+
+    fn access(&self) -> &DataAccess {
+        self.access
     }
 
     fn number(&self, key: &str, need: Need<f64>, rule: Option<Rule<f64>>) -> Result<f64> {

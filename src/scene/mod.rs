@@ -34,7 +34,7 @@ pub use tree::MAX_SCENE_BYTES;
 pub use types::*;
 pub use validate::{MAX_IMAGE_SIDE, MAX_NEWTON_STEPS, MAX_SLICE_DEPTH, MAX_STEPS};
 
-use crate::field::{GridLimits, GRID_CAP_ENV};
+use crate::field::{DataAccess, GridLimits, GRID_CAP_ENV};
 use tree::Source;
 
 /// Loads the scene file at `path`, applies `overrides` (`KEY=VALUE`, VALUE in TOML syntax or a
@@ -49,10 +49,29 @@ pub fn load_with(
     overrides: &[String],
     limits: &GridLimits,
 ) -> Result<Scene, SceneError> {
+    load_from(path, overrides, limits, &DataAccess::Any)
+}
+
+/// [`load`], reading only the data files `access` admits (a refused `path` key is a
+/// [`SceneErrorKind::Value`] error at that key).
+pub fn load_confined(
+    path: &Path,
+    overrides: &[String],
+    access: &DataAccess,
+) -> Result<Scene, SceneError> {
+    load_from(path, overrides, &env_limits()?, access)
+}
+
+fn load_from(
+    path: &Path,
+    overrides: &[String],
+    limits: &GridLimits,
+    access: &DataAccess,
+) -> Result<Scene, SceneError> {
     let name = path.display().to_string();
     let text = tree::read_scene(path, &name)?;
     let base_dir = path.parent().unwrap_or(Path::new(""));
-    let mut scene = from_str_with(&text, &name, base_dir, overrides, limits)?;
+    let mut scene = from_str_confined(&text, &name, base_dir, overrides, limits, access)?;
     scene.path = Some(path.to_path_buf());
     Ok(scene)
 }
@@ -76,12 +95,23 @@ pub fn from_str_with(
     overrides: &[String],
     limits: &GridLimits,
 ) -> Result<Scene, SceneError> {
+    from_str_confined(text, origin, base_dir, overrides, limits, &DataAccess::Any)
+}
+
+fn from_str_confined(
+    text: &str,
+    origin: &str,
+    base_dir: &Path,
+    overrides: &[String],
+    limits: &GridLimits,
+    access: &DataAccess,
+) -> Result<Scene, SceneError> {
     let src = Source::new(origin, text, overrides);
     let mut root = src.parse()?;
     for i in 0..overrides.len() {
         src.apply_override(&mut root, i)?;
     }
-    validate::scene(&src, &root, base_dir, limits)
+    validate::scene(&src, &root, base_dir, limits, access)
 }
 
 /// The memory cap from the environment, as a scene error if the variable is malformed:

@@ -12,7 +12,7 @@ use super::{
     SharpSettings, SliceSettings, SurfaceSettings, COLORMAPS, MAX_SURFACES,
 };
 use crate::field::stats::{self, Stats};
-use crate::field::{FieldSpec, GridLimits, SourceKind};
+use crate::field::{DataAccess, FieldSpec, GridLimits, SourceKind};
 use crate::vocab::Clip;
 use glam::DVec3;
 
@@ -30,12 +30,14 @@ pub const MAX_SLICE_DEPTH: i64 = 10;
 const TABLES: [&str; 9] =
     ["image", "camera", "field", "surface", "render", "slice", "clip", "color", "field2"];
 
-/// Validates the whole tree into a scene. `base_dir` resolves relative data paths.
+/// Validates the whole tree into a scene. `base_dir` resolves relative data paths, `access`
+/// says which of them may be read.
 pub(crate) fn scene(
     src: &Source,
     root: &Node,
     base_dir: &Path,
     limits: &GridLimits,
+    access: &DataAccess,
 ) -> Result<Scene> {
     let Value::Table(t) = &root.value else {
         return Err(src.err(SceneErrorKind::Type, root.at, "", "the scene must be a TOML table"));
@@ -43,7 +45,7 @@ pub(crate) fn scene(
     let root = View { src, path: String::new(), table: Some(t), at: root.at };
     root.check_keys(&TABLES)?;
     // [field] first: a scene without a field is the most basic mistake.
-    let field = super::field::field(&root, base_dir, limits)?;
+    let field = super::field::field(&root, base_dir, limits, access)?;
     let slice = slice(&root.table("slice")?, &field)?;
     let image = image(&root.table("image")?)?;
     let camera = camera(&root.table("camera")?, &field, &image)?;
@@ -62,7 +64,7 @@ pub(crate) fn scene(
             "must be 1 with several isovalues (the nearest crossing of any surface is shown)",
         ));
     }
-    let field2 = super::field::field2(&root, base_dir, limits)?;
+    let field2 = super::field::field2(&root, base_dir, limits, access)?;
     let color = color(&root.table("color")?, field2.is_some())?;
     if field2.is_some() && color.by != ColorBy::Field2 {
         return Err(root.src.err(

@@ -9,10 +9,10 @@ use std::time::Duration;
 use serde_json::{json, Value};
 
 use super::access;
-use super::http::{self, Reply, Target};
+use super::http::{Body, Head, Reply, Target, Wire};
 use super::mailbox::Mailbox;
 use super::progressive::{Board, Failed, Level, Published, Rendered, Task};
-use super::state::{self, ViewState};
+use super::state::{self, Policy, ViewState};
 use crate::field::Grid;
 use crate::frame::Channel;
 use crate::output;
@@ -33,9 +33,55 @@ pub struct App {
     pub scene_path: PathBuf,
     pub token: String,
     pub device: String,
+    /// What the page's states may ask for.
+    pub policy: Policy,
     pub mailbox: Arc<Mailbox<ViewState>>,
     pub board: Arc<Board>,
     pub tasks: Mutex<Sender<Task>>,
+}
+
+/// What becomes of a request: a reply now, or a wait on the board that holds no thread
+/// (`server` parks it).
+pub enum Outcome {
+    Reply(Reply),
+    Park(Wait),
+}
+
+/// What a parked `GET /api/frame` waits for.
+pub enum Wait {
+    /// `?after=G&level=L`: anything newer than (G, L); 204 after [`LONG_POLL`].
+    Newer(u64, Level),
+    /// No `after`: the full frame (or failure) of generation G or later; 503 after [`WAIT`].
+    Full(u64),
+}
+
+impl Wait {
+    pub fn timeout(&self) -> Duration {
+        match self {
+            Wait::Newer(..) => LONG_POLL,
+            Wait::Full(_) => WAIT,
+        }
+    }
+
+    /// The reply, once the board has it.
+    pub fn pick(&self, b: &Published) -> Option<Reply> {
+        let found = match *self {
+            Wait::Newer(after, have) => newer(b, (after, have)),
+            Wait::Full(target) => full_of(b, target),
+        };
+        found.map(|f| match f {
+            Ok(r) => frame_reply(&r),
+            Err(f) => failed_reply(&f),
+        })
+    }
+
+    /// The reply when the wait is over without one.
+    pub fn timed_out(&self) -> Reply {
+        match self {
+            Wait::Newer(..) => Reply::bytes("text/plain", Vec::new()).with_status(204),
+            Wait::Full(_) => Reply::error(503, "the frame is not ready yet; ask again"),
+        }
+    }
 }
 
 impl App {
@@ -43,64 +89,61 @@ impl App {
         self.scene_path.display().to_string()
     }
 
-    /// Answers one request.
-    pub fn handle(&self, mut request: tiny_http::Request) {
-        let reply = self.route(&mut request);
-        reply.send(request);
-    }
-
-    fn route(&self, request: &mut tiny_http::Request) -> Reply {
-        let host = http::header(request, "Host").unwrap_or_default();
-        if !access::host_allowed(&host) {
-            return Reply::error(
+    /// Answers one request whose head was read; the body is read only past the Host and
+    /// token checks, by the routes that take one.
+    pub fn route<W: Wire>(&self, head: &Head, body: &mut Body<'_, W>) -> Outcome {
+        let host = head.header("Host").unwrap_or_default();
+        if !access::host_allowed(host) {
+            // The header is the client's: shown escaped and cut short.
+            let shown: String = host.escape_default().take(100).collect();
+            return Outcome::Reply(Reply::error(
                 403,
-                format!("Host \"{host}\" is not this machine (localhost or an IP address)"),
-            );
+                format!("Host \"{shown}\" is not this machine (localhost or an IP address)"),
+            ));
         }
-        let target = Target::parse(request.url());
-        let method = request.method().as_str().to_ascii_uppercase();
+        let target = Target::parse(&head.url);
+        let method = head.method.to_ascii_uppercase();
         match (method.as_str(), target.path.as_str()) {
-            ("GET", "/app.js") => return Reply::text("text/javascript; charset=utf-8", APP_JS),
-            ("GET", "/style.css") => return Reply::text("text/css; charset=utf-8", STYLE_CSS),
+            ("GET", "/app.js") => {
+                return Outcome::Reply(Reply::text("text/javascript; charset=utf-8", APP_JS))
+            }
+            ("GET", "/style.css") => {
+                return Outcome::Reply(Reply::text("text/css; charset=utf-8", STYLE_CSS))
+            }
             _ => {}
         }
-        let given = target
-            .get("token")
-            .map(str::to_string)
-            .or_else(|| http::header(request, "X-Isoview-Token"))
-            .unwrap_or_default();
-        if !access::token_matches(&self.token, &given) {
-            return Reply::error(
+        let given = target.get("token").or_else(|| head.header("X-Isoview-Token")).unwrap_or("");
+        if !access::token_matches(&self.token, given) {
+            return Outcome::Reply(Reply::error(
                 403,
                 "wrong or missing token: open the URL that `isoview serve` printed (it ends in ?token=...)",
-            );
+            ));
+        }
+        if let ("GET", "/api/frame") = (method.as_str(), target.path.as_str()) {
+            return match self.frame(&target) {
+                Ok(outcome) => outcome,
+                Err(reply) => Outcome::Reply(reply),
+            };
         }
         let result = match (method.as_str(), target.path.as_str()) {
             ("GET", "/") | ("GET", "/index.html") => {
                 Ok(Reply::text("text/html; charset=utf-8", INDEX_HTML))
             }
             ("GET", "/api/state") => self.get_state(),
-            ("POST", "/api/state") => match http::body(request) {
-                Ok(body) => self.post_state(&body),
-                Err(e) => Err(Reply::error(400, e)),
-            },
-            ("GET", "/api/frame") => self.frame(&target),
+            ("POST", "/api/state") => body.read().and_then(|b| self.post_state(&b)),
             ("GET", "/api/aov") => self.aov(&target),
             ("GET", "/api/probe") => self.probe(&target),
             ("GET", "/api/slice") => self.slice(&target),
             ("GET", "/api/exr") => self.exr(),
-            ("POST", "/api/tev") => match http::body(request) {
-                Ok(body) => self.tev(&body),
-                Err(e) => Err(Reply::error(400, e)),
-            },
+            ("POST", "/api/tev") => body.read().and_then(|b| self.tev(&b)),
             ("GET", "/api/scene.toml") => self.scene_toml(),
             ("GET", "/api/stats") => Ok(Reply::json(&json!(self.board.stats()))),
             (_, path) if path == "/" || path.starts_with("/api/") => {
-                Err(Reply::error(405, format!("{method} {path}: not supported")))
+                Err(Reply::error(405, format!("{} {path}: not supported", shorten(&method))))
             }
-            (_, path) => Err(Reply::error(404, format!("{path}: no such page"))),
+            (_, path) => Err(Reply::error(404, format!("{}: no such page", shorten(path)))),
         };
-        result.unwrap_or_else(|e| e)
+        Outcome::Reply(result.unwrap_or_else(|e| e))
     }
 
     /// The latest state, its generation, and the field sampled for it (from the board when
@@ -117,9 +160,9 @@ impl App {
         });
         let grid = match drawn {
             Some(g) => g,
-            None => {
-                Arc::new(state.scene.field.sample(state.time).map_err(|e| Reply::error(400, e))?)
-            }
+            None => Arc::new(state.scene.field.sample(state.time).map_err(|e| {
+                Reply::error(400, format!("isoview: {}", state::field_error_for_page(&e)))
+            })?),
         };
         Ok((generation, state, grid))
     }
@@ -132,8 +175,8 @@ impl App {
     }
 
     fn post_state(&self, body: &[u8]) -> Result<Reply, Reply> {
-        let state = ViewState::from_request(&self.scene_path, body)
-            .map_err(|message| Reply::error(400, format!("isoview: {message}")))?;
+        let state = ViewState::from_request(&self.scene_path, body, &self.policy)
+            .map_err(|e| Reply::error(400, format!("isoview: {}", e.for_page())))?;
         let generation = self.mailbox.post(state);
         if let Ok(tasks) = self.tasks.lock() {
             let _ = tasks.send(Task::Wake);
@@ -141,19 +184,12 @@ impl App {
         Ok(Reply::json(&json!({ "generation": generation })))
     }
 
-    /// Waits for the full frame of the latest state (or its failure).
+    /// Waits for the full frame of the latest state (or its failure). This holds the
+    /// request's worker (the channels, EXR and tev need work on the frame after the wait);
+    /// the page asks for them once the frame is shown, so the wait is short.
     fn full_frame(&self) -> Result<Arc<Rendered>, Reply> {
         let target = self.mailbox.generation();
-        let found = self.board.wait(WAIT, |b| {
-            let failed = b.failed.as_ref().filter(|f| f.generation >= target);
-            let full = b.full.as_ref().filter(|f| f.generation >= target);
-            match (full, failed) {
-                (Some(r), Some(f)) if f.generation > r.generation => Some(Err(f.clone())),
-                (Some(r), _) => Some(Ok(r.clone())),
-                (None, Some(f)) => Some(Err(f.clone())),
-                (None, None) => None,
-            }
-        });
+        let found = self.board.wait(WAIT, |b| full_of(b, target));
         match found {
             Some(Ok(r)) => Ok(r),
             Some(Err(f)) => Err(failed_reply(&f)),
@@ -162,28 +198,28 @@ impl App {
     }
 
     /// `GET /api/frame`: the full frame of the latest state; with `after=G` (and `level=`
-    /// what the client has of G, default full), whatever is newer than that, or 204.
-    fn frame(&self, target: &Target) -> Result<Reply, Reply> {
-        let rendered = match target.get("after") {
-            None => self.full_frame()?,
+    /// what the client has of G, default full), whatever is newer than that, or 204. Answered
+    /// at once when the board has it, else parked ([`Wait`]).
+    fn frame(&self, target: &Target) -> Result<Outcome, Reply> {
+        let wait = match target.get("after") {
+            None => Wait::Full(self.mailbox.generation()),
             Some(after) => {
                 let after: u64 = after.parse().map_err(|_| {
-                    Reply::error(400, format!("after={after}: not a generation number"))
+                    Reply::error(400, format!("after={}: not a generation number", shorten(after)))
                 })?;
                 let have = match target.get("level") {
                     None => Level::Full,
                     Some(l) => Level::parse(l).ok_or_else(|| {
-                        Reply::error(400, format!("level={l}: expected coarse or full"))
+                        Reply::error(400, format!("level={}: expected coarse or full", shorten(l)))
                     })?,
                 };
-                match self.board.wait(LONG_POLL, |b| newer(b, (after, have))) {
-                    None => return Ok(Reply::bytes("text/plain", Vec::new()).with_status(204)),
-                    Some(Err(f)) => return Err(failed_reply(&f)),
-                    Some(Ok(r)) => r,
-                }
+                Wait::Newer(after, have)
             }
         };
-        Ok(frame_reply(&rendered))
+        Ok(match self.board.look(|b| wait.pick(b)) {
+            Some(reply) => Outcome::Reply(reply),
+            None => Outcome::Park(wait),
+        })
     }
 
     /// `GET /api/aov?ch=Z[,N.X,...]`: the channels of the full frame as little-endian f32
@@ -197,7 +233,7 @@ impl App {
                     let all: Vec<&str> = Channel::ALL.iter().map(|c| c.name()).collect();
                     Reply::error(
                         400,
-                        format!("ch={n}: no such channel (one of {})", all.join(", ")),
+                        format!("ch={}: no such channel (one of {})", shorten(n), all.join(", ")),
                     )
                 })
             })
@@ -237,11 +273,11 @@ impl App {
     fn slice(&self, target: &Target) -> Result<Reply, Reply> {
         let axis_arg = target.get("axis").unwrap_or("");
         let axis = Axis::parse(axis_arg).ok_or_else(|| {
-            Reply::error(400, format!("isoview: --axis {axis_arg}: expected x, y or z"))
+            Reply::error(400, format!("isoview: --axis {}: expected x, y or z", shorten(axis_arg)))
         })?;
         let at_arg = target.get("at").unwrap_or("");
         let at: f64 = at_arg.parse().ok().filter(|a: &f64| a.is_finite()).ok_or_else(|| {
-            Reply::error(400, format!("isoview: --at {at_arg}: must be a finite number"))
+            Reply::error(400, format!("isoview: --at {}: must be a finite number", shorten(at_arg)))
         })?;
         let (_, state, grid) = self.current()?;
         let scene = &state.scene;
@@ -288,9 +324,10 @@ impl App {
                     .map_err(|e| Reply::error(500, e))?;
                 Ok(Reply::bytes("image/png", png))
             }
-            other => {
-                Err(Reply::error(400, format!("format={other}: expected png, json, svg or cells")))
-            }
+            other => Err(Reply::error(
+                400,
+                format!("format={}: expected png, json, svg or cells", shorten(other)),
+            )),
         }
     }
 
@@ -333,6 +370,27 @@ impl App {
             .map_err(|e| Reply::error(500, format!("isoview: {e}")))?;
         Ok(Reply::text("application/toml; charset=utf-8", text)
             .header("Content-Disposition", "attachment; filename=\"scene.toml\""))
+    }
+}
+
+/// The full frame of generation `target` or later, or a later failure.
+fn full_of(b: &Published, target: u64) -> Option<Result<Arc<Rendered>, Arc<Failed>>> {
+    let failed = b.failed.as_ref().filter(|f| f.generation >= target);
+    let full = b.full.as_ref().filter(|f| f.generation >= target);
+    match (full, failed) {
+        (Some(r), Some(f)) if f.generation > r.generation => Some(Err(f.clone())),
+        (Some(r), _) => Some(Ok(r.clone())),
+        (None, Some(f)) => Some(Err(f.clone())),
+        (None, None) => None,
+    }
+}
+
+/// Text from a request, for a message: escaped, cut at 100 characters.
+fn shorten(s: &str) -> String {
+    let escaped: String = s.escape_default().collect();
+    match escaped.char_indices().nth(100) {
+        Some((end, _)) => format!("{}...", &escaped[..end]),
+        None => escaped,
     }
 }
 

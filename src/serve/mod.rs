@@ -1,9 +1,10 @@
 //! `isoview serve`: a local web page over a live render (README "isoview serve").
 //!
 //! ```text
-//!   request threads (tiny_http) ── access (token, Host) ── api (routes)
-//!        │ POST /api/state: load + validate like --set ──> mailbox (latest state wins)
-//!        │ GET /api/frame, /aov, /exr, /tev: wait on the board
+//!   server (acceptor, WORKERS threads, parked long-polls) ── http (bounded requests)
+//!        │   ── access (Host, token) ── api (routes)
+//!        │ POST /api/state: load + validate like --set, data files confined ──> mailbox
+//!        │ GET /api/frame (parked), /aov, /exr, /tev: wait on the board
 //!        ▼
 //!   render thread (progressive): owns the Renderer, the slice renderer and the uploaded grid;
 //!   coarse frame while the page drags, full frame after a pause, stale frames abandoned
@@ -17,10 +18,11 @@ pub mod api;
 pub mod http;
 pub mod mailbox;
 pub mod progressive;
+pub mod server;
 pub mod state;
 
 use std::io::Write;
-use std::net::IpAddr;
+use std::net::{IpAddr, TcpListener};
 use std::path::PathBuf;
 use std::sync::{mpsc, Arc, Mutex};
 
@@ -28,10 +30,7 @@ use crate::gpu::Context;
 use api::App;
 use mailbox::Mailbox;
 use progressive::{Board, RenderThread};
-use state::ViewState;
-
-/// Request threads (each long-poll holds one while it waits).
-pub const REQUEST_THREADS: usize = 8;
+use state::{Policy, ViewState};
 
 /// What `isoview serve` was asked for.
 pub struct Options {
@@ -41,6 +40,10 @@ pub struct Options {
     pub bind: IpAddr,
     /// 0: any free port.
     pub port: u16,
+    /// Folders besides the scene's whose files the page may name (`--allow-dir`).
+    pub allow_dirs: Vec<PathBuf>,
+    /// Largest image (width x height) a state may ask for (`--max-pixels`).
+    pub max_pixels: u64,
 }
 
 /// Why the server could not start: bad input (exit 2) or the GPU (exit 3).
@@ -60,11 +63,22 @@ pub fn url(bind: IpAddr, port: u16, token: &str) -> String {
     }
 }
 
+/// The command line's state and what the page's states may ask for: every input mistake
+/// `serve` can find before it touches the GPU.
+pub fn prepare(options: &Options) -> Result<(ViewState, Policy), ServeError> {
+    let own = Policy::command_line(options.max_pixels);
+    let first = ViewState::load(&options.scene, options.sets.clone(), options.time, false, &own)
+        .map_err(|e| ServeError::Input(e.to_string()))?;
+    let policy =
+        Policy::page(&options.scene, &options.allow_dirs, &first.scene, options.max_pixels)
+            .map_err(ServeError::Input)?;
+    Ok((first, policy))
+}
+
 /// Loads the scene, starts the render thread on `ctx`, listens, writes the URL as the first
 /// line of `out` (flushed), then serves until the process ends.
 pub fn run(options: &Options, ctx: Arc<Context>, out: &mut dyn Write) -> Result<(), ServeError> {
-    let first = ViewState::load(&options.scene, options.sets.clone(), options.time, false)
-        .map_err(ServeError::Input)?;
+    let (first, policy) = prepare(options)?;
     let token = access::new_token().map_err(ServeError::Input)?;
     let device = ctx.info.name.clone();
 
@@ -94,17 +108,18 @@ pub fn run(options: &Options, ctx: Arc<Context>, out: &mut dyn Write) -> Result<
         .map_err(|_| ServeError::Gpu("the render thread stopped while starting".into()))?
         .map_err(ServeError::Gpu)?;
 
-    let server = tiny_http::Server::http((options.bind, options.port)).map_err(|e| {
+    let listener = TcpListener::bind((options.bind, options.port)).map_err(|e| {
         ServeError::Input(format!(
             "--bind {} --port {}: cannot listen: {e}",
             options.bind, options.port
         ))
     })?;
-    let port = server.server_addr().to_ip().map(|a| a.port()).unwrap_or(options.port);
+    let port = listener.local_addr().map(|a| a.port()).unwrap_or(options.port);
     let app = Arc::new(App {
         scene_path: options.scene.clone(),
         token: token.clone(),
         device: device.clone(),
+        policy,
         mailbox,
         board,
         tasks: Mutex::new(tasks),
@@ -112,26 +127,14 @@ pub fn run(options: &Options, ctx: Arc<Context>, out: &mut dyn Write) -> Result<
     writeln!(out, "{}", url(options.bind, port, &token))
         .and_then(|_| out.flush())
         .map_err(|e| ServeError::Input(format!("cannot write the URL: {e}")))?;
-    eprintln!(
+    // A closed stderr must not stop the server (eprintln! would panic): the line is a note.
+    let _ = writeln!(
+        std::io::stderr(),
         "isoview: serving {} on {} (open the URL above; Ctrl-C stops)",
         options.scene.display(),
         device
     );
 
-    let server = Arc::new(server);
-    let workers: Vec<_> = (0..REQUEST_THREADS)
-        .map(|i| {
-            let (server, app) = (server.clone(), app.clone());
-            std::thread::Builder::new().name(format!("isoview-http-{i}")).spawn(move || {
-                while let Ok(request) = server.recv() {
-                    app.handle(request);
-                }
-            })
-        })
-        .collect::<Result<_, _>>()
-        .map_err(|e| ServeError::Input(format!("cannot start the request threads: {e}")))?;
-    for w in workers {
-        let _ = w.join();
-    }
-    Ok(())
+    server::run(listener, app)
+        .map_err(|e| ServeError::Input(format!("cannot start the request threads: {e}")))
 }

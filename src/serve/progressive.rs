@@ -19,7 +19,7 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use super::mailbox::Mailbox;
-use super::state::ViewState;
+use super::state::{field_error_for_page, ViewState};
 use crate::field::Grid;
 use crate::frame::Frame;
 use crate::gpu::Context;
@@ -33,6 +33,13 @@ pub const REFINE_AFTER: Duration = Duration::from_millis(150);
 pub const COARSE_STRIDE: u32 = 4;
 /// Rows per band of the full frame: how often the thread checks for a newer state.
 pub const FULL_BAND_ROWS: u32 = 32;
+/// Dispatches (bands and slice pictures) after which the thread releases its pipelines
+/// ([`Renderer::release_ray_pipelines`], the slice renderer): lavapipe keeps a compiled variant
+/// per dispatch until its pipeline goes (about 1 MiB each), so a server that never released
+/// them grew by ~1 MiB per band, for good (measured: +4.3 MiB per 128x128 state, now +0.27:
+/// the driver still keeps ~70 KiB per dispatch that no release returns). A rebuild costs one
+/// pipeline build per shader used next, a fraction of what the variants cost anyway.
+pub const RENEW_AFTER_DISPATCHES: u64 = 16;
 
 /// How much of the image a frame holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -95,6 +102,8 @@ pub struct Published {
     pub full: Option<Arc<Rendered>>,
     pub failed: Option<Arc<Failed>>,
     pub stats: Stats,
+    /// Counts the updates (and pokes), for [`Board::wait_change`].
+    version: u64,
 }
 
 /// The render thread's results, for the request threads to wait on.
@@ -110,8 +119,31 @@ impl Board {
     }
 
     fn update(&self, f: impl FnOnce(&mut Published)) {
-        f(&mut self.lock());
+        let mut board = self.lock();
+        f(&mut board);
+        board.version += 1;
         self.changed.notify_all();
+    }
+
+    /// Wakes every waiter as an update would, changing nothing (a new waiter arrived).
+    pub fn poke(&self) {
+        self.update(|_| {});
+    }
+
+    /// Runs `f` on the board as it is now.
+    pub fn look<T>(&self, f: impl FnOnce(&Published) -> T) -> T {
+        f(&self.lock())
+    }
+
+    /// Waits up to `timeout` for an update after version `seen`; returns the version then.
+    pub fn wait_change(&self, seen: u64, timeout: Duration) -> u64 {
+        let deadline = Instant::now() + timeout;
+        let mut board = self.lock();
+        while board.version == seen {
+            let Some(left) = deadline.checked_duration_since(Instant::now()) else { break };
+            board = self.changed.wait_timeout(board, left).unwrap_or_else(|e| e.into_inner()).0;
+        }
+        board.version
     }
 
     /// Waits up to `timeout` until `pick` finds something on the board.
@@ -153,6 +185,8 @@ pub struct RenderThread {
     ctx: Arc<Context>,
     renderer: Renderer,
     slicer: Option<SliceRenderer>,
+    /// Dispatches since `renderer` and `slicer` were built ([`RENEW_AFTER_DISPATCHES`]).
+    dispatches: u64,
     /// The last sampled grid, its key ([`grid_key`]) and its upload.
     grid: Option<(String, Arc<Grid>, GpuGrid)>,
     mailbox: Arc<Mailbox<ViewState>>,
@@ -167,9 +201,11 @@ fn grid_key(state: &ViewState) -> String {
     format!("{} {:?} t={time:?}", f.describe(), f.placement)
 }
 
+/// A render error as the page may see it, and whether it is the GPU's.
 fn failure(e: RenderError) -> (String, bool) {
     match e {
         RenderError::Gpu(g) => (g.to_string(), true),
+        RenderError::Field2(f) => (format!("[field2]: {}", field_error_for_page(&f)), false),
         other => (other.to_string(), false),
     }
 }
@@ -182,7 +218,25 @@ impl RenderThread {
         tasks: Receiver<Task>,
     ) -> Result<Self, RenderError> {
         let renderer = Renderer::new(&ctx)?;
-        Ok(RenderThread { ctx, renderer, slicer: None, grid: None, mailbox, board, tasks })
+        Ok(RenderThread {
+            ctx,
+            renderer,
+            slicer: None,
+            dispatches: 0,
+            grid: None,
+            mailbox,
+            board,
+            tasks,
+        })
+    }
+
+    /// Releases the pipelines once they have run [`RENEW_AFTER_DISPATCHES`] dispatches.
+    fn renew_if_worn(&mut self) {
+        if self.dispatches >= RENEW_AFTER_DISPATCHES {
+            self.slicer = None;
+            self.renderer.release_ray_pipelines();
+            self.dispatches = 0;
+        }
     }
 
     /// Runs until every task sender is gone.
@@ -223,7 +277,11 @@ impl RenderThread {
             _ => {
                 self.grid = None;
                 let grid = Arc::new(
-                    state.scene.field.sample(state.time).map_err(|e| (e.to_string(), false))?,
+                    state
+                        .scene
+                        .field
+                        .sample(state.time)
+                        .map_err(|e| (field_error_for_page(&e), false))?,
                 );
                 let gpu = GpuGrid::upload(&self.ctx, &grid).map_err(|e| (e.to_string(), true))?;
                 self.grid = Some((key, grid.clone(), gpu));
@@ -233,6 +291,8 @@ impl RenderThread {
     }
 
     fn slice(&mut self, state: &ViewState, planned: &Planned) -> Result<SliceImage, String> {
+        self.renew_if_worn();
+        self.dispatches += 1;
         if self.slicer.is_none() {
             self.slicer = Some(SliceRenderer::new(&self.ctx).map_err(|e| e.to_string())?);
         }
@@ -292,10 +352,14 @@ impl RenderThread {
         level: Level,
     ) -> Result<(), Option<(String, bool)>> {
         let started = Instant::now();
+        self.renew_if_worn();
         let grid = self.grid_for(state).map_err(Some)?;
         let mailbox = self.mailbox.clone();
-        let mut still_latest =
-            |_: crate::passes::Band, _: &[crate::frame::Pixel]| mailbox.generation() == generation;
+        let mut bands = 0;
+        let mut still_latest = |_: crate::passes::Band, _: &[crate::frame::Pixel]| {
+            bands += 1;
+            mailbox.generation() == generation
+        };
         let how = match level {
             Level::Coarse => Progressive {
                 stride: COARSE_STRIDE,
@@ -310,12 +374,13 @@ impl RenderThread {
         let Some((_, _, gpu)) = self.grid.as_ref() else {
             return Err(Some(("no grid".into(), false)));
         };
-        let frame =
-            match self.renderer.render_progressive(&state.scene, &grid, gpu, state.time, how) {
-                Ok(f) => f,
-                Err(RenderError::Cancelled) => return Err(None),
-                Err(e) => return Err(Some(failure(e))),
-            };
+        let drawn = self.renderer.render_progressive(&state.scene, &grid, gpu, state.time, how);
+        self.dispatches += bands;
+        let frame = match drawn {
+            Ok(f) => f,
+            Err(RenderError::Cancelled) => return Err(None),
+            Err(e) => return Err(Some(failure(e))),
+        };
         let render_ms = started.elapsed().as_secs_f64() * 1e3;
         let gpu_ms = self.renderer.last_gpu_ms;
         let png = output::png::encode_preview(std::path::Path::new("frame.png"), &frame)

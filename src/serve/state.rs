@@ -7,8 +7,147 @@ use std::time::Instant;
 
 use serde_json::{json, Value};
 
-use crate::field::{FieldSource, Grid};
-use crate::scene::{self, Scene};
+use crate::field::{DataAccess, FieldError, FieldSource, FieldSpec, Grid};
+use crate::scene::{self, Scene, SceneError};
+
+/// The default of `--max-pixels`: a 4096 x 4096 image (each pixel's record takes 80 bytes,
+/// and the server keeps a frame's records for the EXR, tev and the channels the page reads).
+pub const DEFAULT_MAX_PIXELS: u64 = 4096 * 4096;
+
+/// What a state may ask for: which data files it may name, how large an image.
+#[derive(Clone, Debug)]
+pub struct Policy {
+    pub access: DataAccess,
+    pub max_pixels: u64,
+}
+
+impl Policy {
+    /// The command line's own state: any file (the user named them), the image cap.
+    pub fn command_line(max_pixels: u64) -> Policy {
+        Policy { access: DataAccess::Any, max_pixels }
+    }
+
+    /// The page's states: files within the scene's folder, each of `allow_dirs`, and the data
+    /// files `first` (the command line's state) reads.
+    pub fn page(
+        scene_path: &Path,
+        allow_dirs: &[std::path::PathBuf],
+        first: &Scene,
+        max_pixels: u64,
+    ) -> Result<Policy, String> {
+        let folder = match scene_path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => std::path::PathBuf::from("."),
+        };
+        let own = [Some(&first.field), first.field2.as_ref()]
+            .into_iter()
+            .flatten()
+            .filter_map(|spec: &FieldSpec| spec.source.data_path())
+            .map(Path::to_path_buf);
+        let roots = std::iter::once(folder).chain(allow_dirs.iter().cloned()).chain(own);
+        let access = DataAccess::within(roots).map_err(|e| format!("--allow-dir {e}"))?;
+        Ok(Policy { access, max_pixels })
+    }
+}
+
+/// Why a state was refused: the command line's one-line message in full (`Display`), or as
+/// the page may see it ([`StateError::for_page`]).
+#[derive(Debug)]
+pub enum StateError {
+    Scene(SceneError),
+    Other(String),
+}
+
+impl std::fmt::Display for StateError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StateError::Scene(e) => e.fmt(f),
+            StateError::Other(m) => f.write_str(m),
+        }
+    }
+}
+
+impl StateError {
+    /// The message for the page (see [`scene_error_for_page`]).
+    pub fn for_page(&self) -> String {
+        match self {
+            StateError::Scene(e) => scene_error_for_page(e),
+            StateError::Other(m) => m.clone(),
+        }
+    }
+}
+
+impl From<String> for StateError {
+    fn from(m: String) -> Self {
+        StateError::Other(m)
+    }
+}
+
+impl From<&str> for StateError {
+    fn from(m: &str) -> Self {
+        StateError::Other(m.to_string())
+    }
+}
+
+/// A data error as the page may see it: errors that quote what a file holds (a reader's
+/// complaint about a header line, a dtype string, a mesh line) only name the file and say it
+/// could not be read; the whole message goes to the server's terminal. Sizes, I/O errors,
+/// caps and expressions (the page's own text) pass unchanged.
+pub fn field_error_for_page(e: &FieldError) -> String {
+    match redacted(e) {
+        Some(short) => {
+            server_note(&e);
+            short
+        }
+        None => e.to_string(),
+    }
+}
+
+/// A scene error as the page may see it (see [`field_error_for_page`]).
+pub fn scene_error_for_page(e: &SceneError) -> String {
+    match e.field_error.as_deref().and_then(redacted) {
+        Some(short) => {
+            server_note(&e);
+            let key = e.key.as_ref().map(|k| format!("{k}: ")).unwrap_or_default();
+            format!("{}: {key}{short}", e.location)
+        }
+        None => e.to_string(),
+    }
+}
+
+/// The whole message on the server's stderr, ignoring a closed stderr (eprintln! would panic
+/// the request's thread).
+fn server_note(e: &dyn std::fmt::Display) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "isoview: {e}");
+}
+
+/// The short form of an error that quotes a file's contents; None for the others.
+fn redacted(e: &FieldError) -> Option<String> {
+    let (path, what) = match e {
+        FieldError::NotNpy { path, .. } => (path, "a .npy file"),
+        FieldError::UnsupportedDtype { path, .. } => (path, "a .npy file of a supported dtype"),
+        FieldError::BadShape { path, .. } => (path, "a 3-D grid"),
+        FieldError::BadMesh { path, .. } => (path, "a mesh"),
+        FieldError::Format { path, format, .. } => (path, *format),
+        FieldError::Io { .. }
+        | FieldError::Truncated { .. }
+        | FieldError::SizeMismatch { .. }
+        | FieldError::TooLarge { .. }
+        | FieldError::PoolTooLarge { .. }
+        | FieldError::TablesTooLarge { .. }
+        | FieldError::NonFinite { .. }
+        | FieldError::OverDevice { .. }
+        | FieldError::Shrank { .. }
+        | FieldError::Expr { .. }
+        | FieldError::BadLimit { .. } => return None,
+    };
+    Some(format!(
+        "{}: cannot be read as {what} (the reason is printed where isoview serve runs; the \
+         page is not shown what files hold)",
+        path.display()
+    ))
+}
 
 /// One state of the view, validated.
 #[derive(Clone, Debug)]
@@ -26,26 +165,44 @@ pub struct ViewState {
 }
 
 impl ViewState {
-    /// Loads `path` with `sets`; the error is the command line's one-line message.
-    pub fn load(path: &Path, sets: Vec<String>, time: f64, preview: bool) -> Result<Self, String> {
+    /// Loads `path` with `sets` under `policy`; the error is the command line's one-line
+    /// message.
+    pub fn load(
+        path: &Path,
+        sets: Vec<String>,
+        time: f64,
+        preview: bool,
+        policy: &Policy,
+    ) -> Result<Self, StateError> {
         if !time.is_finite() {
-            return Err(format!("--time {time}: must be a finite number"));
+            return Err(format!("--time {time}: must be a finite number").into());
         }
-        let scene = scene::load(path, &sets).map_err(|e| e.to_string())?;
+        let scene = scene::load_confined(path, &sets, &policy.access).map_err(StateError::Scene)?;
+        let (w, h) = (scene.image.width as u64, scene.image.height as u64);
+        if w * h > policy.max_pixels {
+            return Err(format!(
+                "image.width x image.height: {w}x{h} = {} pixels, over isoview serve's cap of {} \
+                 pixels; raise it with --max-pixels",
+                w * h,
+                policy.max_pixels
+            )
+            .into());
+        }
         Ok(ViewState { sets, time, preview, scene, posted: Instant::now() })
     }
 
     /// The state a `POST /api/state` body asks for:
     /// `{"set": ["KEY=VALUE", ...], "time": T, "preview": true|false}` (`time` and `preview`
     /// optional: 0 and false).
-    pub fn from_request(path: &Path, body: &[u8]) -> Result<Self, String> {
+    pub fn from_request(path: &Path, body: &[u8], policy: &Policy) -> Result<Self, StateError> {
         let v: Value = serde_json::from_slice(body)
             .map_err(|e| format!("the request body is not JSON: {e}"))?;
         let Some(obj) = v.as_object() else {
             return Err("the request body must be a JSON object {\"set\": [...]}".into());
         };
         if let Some(k) = obj.keys().find(|k| !["set", "time", "preview"].contains(&k.as_str())) {
-            return Err(format!("unknown key \"{k}\" in the request (set, time, preview)"));
+            let k: String = k.escape_default().take(100).collect();
+            return Err(format!("unknown key \"{k}\" in the request (set, time, preview)").into());
         }
         let sets = match obj.get("set") {
             None => Vec::new(),
@@ -64,7 +221,7 @@ impl ViewState {
             None => false,
             Some(p) => p.as_bool().ok_or("\"preview\" must be true or false")?,
         };
-        Self::load(path, sets, time, preview)
+        Self::load(path, sets, time, preview, policy)
     }
 }
 

@@ -39,6 +39,7 @@ mod render;
 mod residency;
 mod scene;
 mod serve;
+mod serve_attacks;
 mod sharp;
 mod slice;
 mod sources;

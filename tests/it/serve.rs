@@ -14,16 +14,16 @@ use std::time::Duration;
 
 use crate::common::{isoview, scratch, stderr};
 
-fn scene(name: &str) -> String {
+pub(crate) fn scene(name: &str) -> String {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name).display().to_string()
 }
 
 /// A running `isoview serve`, killed when dropped.
-struct Server {
-    child: Child,
+pub(crate) struct Server {
+    pub(crate) child: Child,
     /// `127.0.0.1:PORT`
-    addr: String,
-    token: String,
+    pub(crate) addr: String,
+    pub(crate) token: String,
 }
 
 impl Drop for Server {
@@ -34,26 +34,26 @@ impl Drop for Server {
 }
 
 /// An HTTP answer.
-struct Answer {
-    status: u16,
+pub(crate) struct Answer {
+    pub(crate) status: u16,
     headers: HashMap<String, String>,
-    body: Vec<u8>,
+    pub(crate) body: Vec<u8>,
 }
 
 impl Answer {
-    fn header(&self, name: &str) -> &str {
+    pub(crate) fn header(&self, name: &str) -> &str {
         self.headers.get(&name.to_ascii_lowercase()).map_or("", String::as_str)
     }
-    fn text(&self) -> String {
+    pub(crate) fn text(&self) -> String {
         String::from_utf8_lossy(&self.body).into_owned()
     }
-    fn json(&self) -> serde_json::Value {
+    pub(crate) fn json(&self) -> serde_json::Value {
         serde_json::from_slice(&self.body).unwrap_or_else(|e| panic!("{e}: {}", self.text()))
     }
 }
 
 impl Server {
-    fn start(scene_file: &str, args: &[&str]) -> Server {
+    pub(crate) fn start(scene_file: &str, args: &[&str]) -> Server {
         let mut child = Command::new(env!("CARGO_BIN_EXE_isoview"))
             .args(["serve", scene_file, "--port", "0"])
             .args(args)
@@ -89,7 +89,13 @@ impl Server {
     }
 
     /// Sends one request (HTTP/1.0: one answer, then the server closes).
-    fn raw(&self, method: &str, path: &str, headers: &[(&str, &str)], body: &[u8]) -> Answer {
+    pub(crate) fn raw(
+        &self,
+        method: &str,
+        path: &str,
+        headers: &[(&str, &str)],
+        body: &[u8],
+    ) -> Answer {
         let mut s = TcpStream::connect(&self.addr).unwrap();
         s.set_read_timeout(Some(Duration::from_secs(180))).unwrap();
         let mut req = format!("{method} {path} HTTP/1.0\r\nContent-Length: {}\r\n", body.len());
@@ -115,18 +121,18 @@ impl Server {
         Answer { status, headers, body: all[split + 4..].to_vec() }
     }
 
-    fn get(&self, path: &str) -> Answer {
+    pub(crate) fn get(&self, path: &str) -> Answer {
         let sep = if path.contains('?') { '&' } else { '?' };
         self.raw("GET", &format!("{path}{sep}token={}", self.token), &[], b"")
     }
 
-    fn post(&self, path: &str, body: &serde_json::Value) -> Answer {
+    pub(crate) fn post(&self, path: &str, body: &serde_json::Value) -> Answer {
         let token = self.token.clone();
         self.raw("POST", path, &[("X-Isoview-Token", &token)], body.to_string().as_bytes())
     }
 
     /// Posts `sets` and returns the new generation.
-    fn set(&self, sets: &[&str]) -> u64 {
+    pub(crate) fn set(&self, sets: &[&str]) -> u64 {
         let a = self.post("/api/state", &serde_json::json!({ "set": sets }));
         assert_eq!(a.status, 200, "{}", a.text());
         a.json()["generation"].as_u64().unwrap()

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
-use crate::field::{FieldError, GridLimits};
+use crate::field::{DataAccess, FieldError, GridLimits};
 
 /// Whether a key must be present, and its default if not.
 #[derive(Clone, Copy, Debug)]
@@ -35,6 +35,8 @@ pub trait Params {
     fn base_dir(&self) -> &Path;
     /// The grid memory cap.
     fn limits(&self) -> &GridLimits;
+    /// Which files `path` keys may name.
+    fn access(&self) -> &DataAccess;
 
     fn number(
         &self,
@@ -88,11 +90,12 @@ pub(super) fn resolution<P: Params>(p: &P) -> Result<[usize; 3], P::Error> {
     Ok(res)
 }
 
-/// `path`, required, not empty, resolved against the scene file's folder.
+/// `path`, required, not empty, resolved against the scene file's folder and admitted by
+/// [`Params::access`] (every data path passes here, so this is where `serve` confines them).
 pub(super) fn data_path<P: Params>(p: &P) -> Result<PathBuf, P::Error> {
     let path = p.string("path", Need::Required("the data file, relative to the scene file"))?;
     if path.is_empty() {
         return Err(p.value_error("path", "must not be empty".into()));
     }
-    Ok(p.base_dir().join(path))
+    p.access().admit(&p.base_dir().join(path)).map_err(|m| p.value_error("path", m))
 }

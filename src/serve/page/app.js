@@ -105,6 +105,11 @@ async function pollFrames() {
       continue;
     }
     if (r.status === 204) continue;
+    if (r.status === 503) {
+      // The server is busy (too many tabs waiting): ask again in a moment.
+      await new Promise((ok) => setTimeout(ok, Number(r.headers.get('Retry-After') || 1) * 1000));
+      continue;
+    }
     const gen = Number(r.headers.get('X-Isoview-Generation') || view.shown.gen);
     if (!r.ok) {
       showError(await errorText(r));

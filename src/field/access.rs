@@ -1,0 +1,105 @@
+//! [`DataAccess`]: which data files a scene may name. The command line reads whatever the
+//! scene names (the user wrote it); `isoview serve` lets its page change the scene, but not
+//! which files the server reads, so there a data path must resolve into the scene's folder, a
+//! folder given with `--allow-dir`, or be one of the files the scene itself names.
+
+use std::path::{Path, PathBuf};
+
+/// Where a data path (`path` keys of `[field]`, `[field2]`) may point.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum DataAccess {
+    /// Any file (the command line).
+    #[default]
+    Any,
+    /// Only files at or under these canonical paths (folders, or single files).
+    Within(Vec<PathBuf>),
+}
+
+impl DataAccess {
+    /// Access to `roots` (folders or files), each resolved to its canonical path; the error
+    /// names the root that does not exist.
+    pub fn within<I: IntoIterator<Item = PathBuf>>(roots: I) -> Result<DataAccess, String> {
+        let roots = roots
+            .into_iter()
+            .map(|r| {
+                std::fs::canonicalize(&r).map_err(|e| super::FieldError::io(&r, &e).to_string())
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(DataAccess::Within(roots))
+    }
+
+    /// The path to open for `path`: `path` itself under [`DataAccess::Any`]; under
+    /// [`DataAccess::Within`], its canonical form (links and `..` resolved, so nothing escapes
+    /// between this check and the read) when that lies within a root, else the refusal.
+    ///
+    /// A file that does not exist is judged by its canonical folder, and a path whose folder
+    /// cannot be resolved is refused with the same words as one outside the roots, so the
+    /// answer does not tell which files exist outside them.
+    pub fn admit(&self, path: &Path) -> Result<PathBuf, String> {
+        let DataAccess::Within(roots) = self else {
+            return Ok(path.to_path_buf());
+        };
+        let refused = || {
+            format!(
+                "{}: outside the folders isoview serve may read (the scene's folder and each \
+                 --allow-dir); start the server with --allow-dir FOLDER to allow it",
+                path.display()
+            )
+        };
+        let resolved = match std::fs::canonicalize(path) {
+            Ok(p) => p,
+            Err(_) => {
+                let (Some(parent), Some(name)) = (path.parent(), path.file_name()) else {
+                    return Err(refused());
+                };
+                let parent = if parent.as_os_str().is_empty() { Path::new(".") } else { parent };
+                std::fs::canonicalize(parent).map_err(|_| refused())?.join(name)
+            }
+        };
+        if roots.iter().any(|root| resolved.starts_with(root)) {
+            Ok(resolved)
+        } else {
+            Err(refused())
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paths_resolve_into_the_roots_or_are_refused() {
+        let dir = std::env::temp_dir().join(format!("isoview-access-{}", std::process::id()));
+        let inside = dir.join("in");
+        std::fs::create_dir_all(inside.join("sub")).unwrap();
+        std::fs::write(inside.join("sub/a.raw"), b"x").unwrap();
+        std::fs::write(dir.join("secret.raw"), b"x").unwrap();
+        let access = DataAccess::within([inside.clone()]).unwrap();
+        let canon = std::fs::canonicalize(&inside).unwrap();
+        assert_eq!(access.admit(&inside.join("sub/a.raw")).unwrap(), canon.join("sub/a.raw"));
+        // A missing file in an allowed folder passes (the reader then says it is missing).
+        assert_eq!(access.admit(&inside.join("nope.raw")).unwrap(), canon.join("nope.raw"));
+        for bad in [
+            dir.join("secret.raw"),
+            inside.join("../secret.raw"),
+            inside.join("sub/../../secret.raw"),
+            inside.join("../missing.raw"),
+            inside.join("nodir/../../secret.raw"),
+            PathBuf::from("/etc/passwd"),
+        ] {
+            let e = access.admit(&bad).unwrap_err();
+            assert!(e.contains("--allow-dir"), "{e}");
+        }
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(dir.join("secret.raw"), inside.join("link.raw")).unwrap();
+            assert!(access.admit(&inside.join("link.raw")).is_err(), "a link out is refused");
+        }
+        assert_eq!(
+            DataAccess::Any.admit(Path::new("/etc/passwd")).unwrap(),
+            Path::new("/etc/passwd")
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

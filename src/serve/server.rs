@@ -1,0 +1,207 @@
+//! The connections: one acceptor thread, a fixed pool of [`WORKERS`] threads that read, route
+//! and answer requests, and one thread that answers the parked long-polls.
+//!
+//! ```text
+//!   accept ── over MAX_CONNECTIONS open: 503, closed ──> (nothing queued)
+//!     │
+//!     ▼ Job::Serve                      Job::Answer (a parked request's reply)
+//!   queue ─────────> WORKERS threads <──────────────────────── parker thread
+//!                      │ read head (bounded, deadline), route         ▲
+//!                      │ a long-poll with nothing new yet: park ──────┘ (MAX_PARKED; over
+//!                      ▼                                               it: 503 at once)
+//!                    reply, close
+//! ```
+//!
+//! A parked request holds no thread: the parker waits on the board (or the earliest
+//! deadline) and hands each ready reply back to the queue, so a slow client's socket never
+//! stalls the others. Every open connection (queued, being served or parked) holds one of the
+//! [`MAX_CONNECTIONS`] slots, so memory and threads stay bounded whatever clients do.
+
+use std::io::Write;
+use std::net::{TcpListener, TcpStream};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+use super::api::{App, Outcome, Wait};
+use super::http::{self, Reply};
+use super::progressive::Board;
+
+/// Threads that read and answer requests.
+pub const WORKERS: usize = 8;
+/// Connections open at once (queued, being answered or parked); more are answered 503.
+pub const MAX_CONNECTIONS: usize = 64;
+/// Long-polls parked at once; more are answered 503 with `Retry-After: 1`.
+pub const MAX_PARKED: usize = 32;
+
+/// An accepted connection and its slot among [`MAX_CONNECTIONS`] (freed when dropped).
+pub struct Conn {
+    pub stream: TcpStream,
+    _slot: Slot,
+}
+
+struct Slot(Arc<AtomicUsize>);
+
+impl Drop for Slot {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::AcqRel);
+    }
+}
+
+enum Job {
+    /// Read a request from the connection and answer it.
+    Serve(Conn),
+    /// Send a parked request's reply.
+    Answer(Conn, Reply),
+}
+
+/// A long-poll waiting for the board.
+struct Parked {
+    conn: Conn,
+    wait: Wait,
+    deadline: Instant,
+}
+
+/// The parked requests.
+#[derive(Default)]
+struct Parking {
+    parked: Mutex<Vec<Parked>>,
+}
+
+impl Parking {
+    fn lock(&self) -> MutexGuard<'_, Vec<Parked>> {
+        // Every change is one push or one swap_remove: a panic leaves a consistent list.
+        self.parked.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// Serves `listener` with `app` until the process ends.
+pub fn run(listener: TcpListener, app: Arc<App>) -> std::io::Result<()> {
+    // Each connection is queued at most once at a time, so the queue never fills.
+    let (jobs, queue) = sync_channel::<Job>(MAX_CONNECTIONS);
+    let queue = Arc::new(Mutex::new(queue));
+    let parking = Arc::new(Parking::default());
+    for i in 0..WORKERS {
+        let (queue, app, parking) = (queue.clone(), app.clone(), parking.clone());
+        std::thread::Builder::new()
+            .name(format!("isoview-http-{i}"))
+            .spawn(move || work(&queue, &app, &parking))?;
+    }
+    {
+        let (board, parking, jobs) = (app.board.clone(), parking.clone(), jobs.clone());
+        std::thread::Builder::new()
+            .name("isoview-longpoll".into())
+            .spawn(move || answer_parked(&board, &parking, &jobs))?;
+    }
+    let open = Arc::new(AtomicUsize::new(0));
+    for stream in listener.incoming() {
+        let Ok(mut stream) = stream else {
+            // Out of file descriptors or a connection reset before accept: try again shortly.
+            std::thread::sleep(Duration::from_millis(10));
+            continue;
+        };
+        if open.fetch_add(1, Ordering::AcqRel) >= MAX_CONNECTIONS {
+            open.fetch_sub(1, Ordering::AcqRel);
+            // The answer fits in the socket's buffer: this write does not wait for the client.
+            let _ = stream.set_write_timeout(Some(Duration::from_millis(100)));
+            let busy =
+                Reply::error(503, format!("over {MAX_CONNECTIONS} open connections; try again"))
+                    .header("Retry-After", 1);
+            let _ = stream.write_all(&busy.encode());
+            continue;
+        }
+        let conn = Conn { stream, _slot: Slot(open.clone()) };
+        // Cannot fail while the workers live (see the queue's size); if it does, the
+        // connection is dropped, which the client sees as a closed connection.
+        let _ = jobs.try_send(Job::Serve(conn));
+    }
+    Ok(())
+}
+
+fn work(queue: &Mutex<Receiver<Job>>, app: &App, parking: &Parking) {
+    loop {
+        let job = match queue.lock().unwrap_or_else(|e| e.into_inner()).recv() {
+            Ok(job) => job,
+            Err(_) => return,
+        };
+        match job {
+            Job::Answer(conn, reply) => reply.send(conn.stream, 0),
+            Job::Serve(mut conn) => match app.serve(&mut conn.stream) {
+                None => {}
+                Some((Outcome::Reply(reply), unread)) => reply.send(conn.stream, unread),
+                Some((Outcome::Park(wait), _)) => park(app, parking, conn, wait),
+            },
+        }
+    }
+}
+
+/// Parks a long-poll, or answers 503 when [`MAX_PARKED`] are parked already.
+fn park(app: &App, parking: &Parking, conn: Conn, wait: Wait) {
+    let deadline = Instant::now() + wait.timeout();
+    {
+        let mut parked = parking.lock();
+        if parked.len() >= MAX_PARKED {
+            drop(parked);
+            Reply::error(503, format!("over {MAX_PARKED} long-polls waiting; ask again"))
+                .header("Retry-After", 1)
+                .send(conn.stream, 0);
+            return;
+        }
+        parked.push(Parked { conn, wait, deadline });
+    }
+    // The frame may have been pinned between the route's look at the board and now: wake
+    // the parker so that it looks again.
+    app.board.poke();
+}
+
+/// The parker: answers each parked request once the board has what it waits for, or its
+/// deadline passed.
+fn answer_parked(board: &Board, parking: &Parking, jobs: &SyncSender<Job>) {
+    let mut seen = 0;
+    loop {
+        let timeout = {
+            let mut parked = parking.lock();
+            let now = Instant::now();
+            let mut ready = Vec::new();
+            board.look(|b| {
+                let mut i = 0;
+                while i < parked.len() {
+                    let p = &parked[i];
+                    let reply = match p.wait.pick(b) {
+                        Some(reply) => Some(reply),
+                        None if p.deadline <= now => Some(p.wait.timed_out()),
+                        None => None,
+                    };
+                    match reply {
+                        Some(reply) => ready.push((parked.swap_remove(i).conn, reply)),
+                        None => i += 1,
+                    }
+                }
+            });
+            for (conn, reply) in ready {
+                // Cannot fail (see `run`); if it did, the connection would close unanswered.
+                let _ = jobs.try_send(Job::Answer(conn, reply));
+            }
+            let earliest = parked.iter().map(|p| p.deadline).min();
+            earliest.map_or(Duration::from_secs(3600), |d| d.saturating_duration_since(now))
+        };
+        seen = board.wait_change(seen, timeout);
+    }
+}
+
+impl App {
+    /// Reads one request from `stream` and routes it: `None` when the client sent nothing;
+    /// else what to do and how many announced body bytes were left unread.
+    fn serve(&self, stream: &mut TcpStream) -> Option<(Outcome, u64)> {
+        let head = match http::read_head(stream) {
+            Ok(Some(head)) => head,
+            Ok(None) => return None,
+            Err(reply) => return Some((Outcome::Reply(reply), 0)),
+        };
+        let mut body = http::Body::new(stream, &head);
+        let outcome = self.route(&head, &mut body);
+        let unread = body.unread();
+        Some((outcome, unread))
+    }
+}

@@ -250,7 +250,7 @@ macro_rules! channel_table {
         $variant:ident = $name:literal, $class:ident, $miss:expr, $written:ident,
             $member:ident $([$i:literal])?;
     )+) => {
-        /// One output channel of a render (the rows of the EXR table in the README).
+        /// One output channel of a render (the rows of the EXR table in docs/formats.md).
         #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
         pub enum Channel {
             $($(#[doc = $doc])* $variant,)+

@@ -1,6 +1,6 @@
 //! The shared vocabulary of the pipeline: plain types that the scene, the field sources, the
 //! mesh extractors and the passes all speak. It depends on nothing else in the crate, so every
-//! module may use it without creating a cycle (README "Layout"); `scene` re-exports it.
+//! module may use it without creating a cycle (docs/contributing.md "Layout"); `scene` re-exports it.
 
 use glam::DVec3;
 
@@ -182,7 +182,7 @@ pub enum SdfShape {
 /// header (NIfTI sform/qform, NRRD `space directions`, MetaImage `TransformMatrix`) gives the
 /// axes; spacing stays in the box, so `axes` is orthonormal and distances, angles and hence
 /// depths, shading and step counts are the same in both frames: only positions and normals
-/// move (README "Physical space"). Sheared axes are refused where a reader builds the
+/// move (docs/formats.md "Physical space"). Sheared axes are refused where a reader builds the
 /// placement ([`Placement::from_axes`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Placement {

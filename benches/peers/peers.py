@@ -79,7 +79,7 @@ inside = "below"
 
 
 def pixel_rays(eye, w, h):
-    """Pixel-centre rays of README "Conventions" (camera), row 0 at the top: origins, unit dirs."""
+    """Pixel-centre rays of docs/methods.md "Conventions" (camera), row 0 at the top: origins, unit dirs."""
     eye = np.array(eye, dtype=np.float64)
     fwd = -eye / np.linalg.norm(eye)  # target is the origin
     right = np.cross(fwd, [0.0, 1.0, 0.0])
@@ -184,7 +184,7 @@ def mitsuba_trace(vol, eye):
 
 def agreement(za, zb):
     """Hit agreement "same / pixels (percent)", and |depth difference| / diagonal on the pixels
-    both hit: 99th percentile, max, and how many exceed 1e-5 (README's tolerance for analytic)."""
+    both hit: 99th percentile, max, and how many exceed 1e-5 (docs/methods.md's tolerance for analytic)."""
     ha, hb = np.isfinite(za), np.isfinite(zb)
     same = int((ha == hb).sum())
     dz = np.abs(za[ha & hb] - zb[ha & hb]) / DIAGONAL

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Progressive-rendering figures of `isoview serve` (README "isoview serve"): for each shipped
+"""Progressive-rendering figures of `isoview serve` (docs/serve.md): for each shipped
 scene at 512x512, the time from posting a changed isovalue to the coarse frame and to the full
 frame arriving over HTTP, and the render thread's own times (the X-Isoview-Render-Ms and
 X-Isoview-Gpu-Ms headers). Benchmark figures, not a test.

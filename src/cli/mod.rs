@@ -1,4 +1,4 @@
-//! The `isoview` command line (the contract in README "Command line"). `main.rs` only calls
+//! The `isoview` command line (the contract in README.md "Command line"). `main.rs` only calls
 //! [`main`]; each subcommand parses its arguments here and returns an exit code:
 //! 0 success, 1 `compare` found a difference, 2 bad input, 3 no usable Vulkan device or a GPU
 //! failure. Errors are one line on stderr, never a panic.

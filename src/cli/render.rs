@@ -289,7 +289,7 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         bar.finish();
     }
     match tev_failed {
-        // README: nobody listening is one line naming the address, exit 2, after the files
+        // docs/serve.md "Push to tev": nobody listening is one line naming the address, exit 2, after the files
         // are written (the files are what the render is for; tev only shows them).
         Some(e) => Err(Failure::input(format!("{e}; the render's files were written"))),
         None => Ok(0),

@@ -1,5 +1,5 @@
 //! Grids larger than memory: a `raw` or `npy` file read box by box with positioned reads
-//! (`field.residency = "active"`, README "Large data").
+//! (`field.residency = "active"`, docs/large-data.md).
 //!
 //! Nothing is read when the grid is opened; each [`MappedGrid::read_box`] decodes the points it
 //! asks for (any dtype and byte order the in-memory readers take, either storage order) into

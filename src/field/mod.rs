@@ -6,7 +6,7 @@
 //! `file`: one module each under `source/`, registered in `source/mod.rs`) produces a `Grid`;
 //! the renderer, the CPU references and the mesh extractors only ever see a `Grid`.
 //!
-//! Conventions (the contract in `README.md`):
+//! Conventions (the contract in `docs/methods.md` "Conventions"):
 //!
 //! ```text
 //!   point (i, j, k) = min + (i, j, k) * (max - min) / (dims - 1)      world space

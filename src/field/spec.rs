@@ -26,7 +26,7 @@ pub struct FieldSpec {
 
 /// `field.nan`: what a non-finite sample (NaN or ±inf) means. With `Empty` it is missing data:
 /// a cell whose interpolation stencil holds one holds no surface, for every method (the rule:
-/// [`crate::field::trilinear::cell_missing`]; README "Missing data").
+/// [`crate::field::trilinear::cell_missing`]; docs/scene.md "Missing data").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum NanPolicy {
     /// The grid is refused at load time, naming the first such sample.
@@ -42,7 +42,7 @@ impl NanPolicy {
 }
 
 /// `field.residency`: whether a render reads the whole grid or only the bricks its isovalues
-/// need from the file (README "Large data"). The default is `Auto`: a grid under the cap is
+/// need from the file (docs/large-data.md). The default is `Auto`: a grid under the cap is
 /// read whole as before, a larger one goes to the paths that can read it in parts (the ray
 /// methods' brick pool, `extract`'s streaming) and the others refuse it with the cap.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

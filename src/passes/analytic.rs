@@ -32,7 +32,7 @@ pub fn pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, GpuEr
 
 /// What the analytic shader is specialized for: its specialization constants, folded in by the
 /// driver, so that the walk's loop carries no code for what a render does not use (llvmpipe pays
-/// for code in a loop body whether it runs or not: README "How the walk is laid out for speed").
+/// for code in a loop body whether it runs or not: docs/methods.md "How the walk is laid out for speed").
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Walk {
     /// `BRICK_LEVELS`: the levels of the min/max grid the walk jumps with, 1 (bricks) or 2 (and
@@ -83,7 +83,7 @@ pub const BUFFER_BINDINGS: [vk::DescriptorType; 5] = [
 
 /// The `GRID_BUFFER` variant, the default for a whole grid: the grid's points in a storage
 /// buffer (a device copy of its image), which llvmpipe reads with far fewer instructions than
-/// a texelFetch (README "Benchmarks").
+/// a texelFetch (docs/benchmarks.md).
 pub fn buffer_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, GpuError> {
     build(ctx, "analytic", shaders::ANALYTIC_BUFFER, &BUFFER_BINDINGS, walk)
 }

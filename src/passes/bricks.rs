@@ -224,7 +224,7 @@ pub fn build(
 /// surfaces' thresholds as the shader gets them), given the superbricks' ranges: 2 when at least
 /// one superbrick in [`SPARSE`] is empty (the shader's `range_is_empty`, same f32 arithmetic),
 /// else 1. Only a matter of speed, never of the image: the superbrick jump costs llvmpipe about
-/// 15% on grids with no empty superbrick (its code in the walk's loop, even unused: README
+/// 15% on grids with no empty superbrick (its code in the walk's loop, even unused: docs/methods.md
 /// "Exact ray tracing"), and saves up to 40% where most are empty.
 pub fn levels_for(supers: &[[f32; 2]], thresholds: &[f32]) -> u32 {
     let empty = supers.iter().filter(|mm| range_is_empty(**mm, thresholds)).count();
@@ -235,7 +235,7 @@ pub fn levels_for(supers: &[[f32; 2]], thresholds: &[f32]) -> u32 {
     }
 }
 
-/// One superbrick in this many empty makes the second level worth its cost (README).
+/// One superbrick in this many empty makes the second level worth its cost (docs/methods.md "Exact ray tracing").
 pub const SPARSE: usize = 8;
 
 /// The analytic walk's skipping margin (`SKIP_MARGIN` in `shaders/analytic.comp`, which says

@@ -95,7 +95,7 @@ pub struct GpuGrid {
     supers: std::cell::OnceCell<Vec<[f32; 2]>>,
     /// The image's points in a storage buffer, copied on the device by the first analytic
     /// render of a whole grid (its `GRID_BUFFER` variant): a second copy of the grid on the
-    /// device, read by llvmpipe far faster than the image (README "Exact ray tracing").
+    /// device, read by llvmpipe far faster than the image (docs/methods.md "Exact ray tracing").
     points: std::cell::OnceCell<Buffer>,
     /// The block of a larger grid the image holds (None: the whole grid).
     block: Option<block::Block>,

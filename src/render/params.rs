@@ -92,7 +92,7 @@ pub fn normals_code(n: Normals) -> u32 {
 /// `RenderParams.surface.x`, what the ray passes compare samples with: the exact f32 inside
 /// threshold `t` (`passes::extract::inside_threshold`, the one place it is computed), so
 /// that `v < t` (inside = below) or `v > t` (above) equals the f64 comparison of every f32
-/// `v` with the isovalue, as in extraction and the f64 references (README "Conventions").
+/// `v` with the isovalue, as in extraction and the f64 references (docs/methods.md "Conventions").
 /// Where the isovalue is an f32 (every shipped scene) it is the isovalue itself.
 pub fn surface_threshold(isovalue: f64, inside: Inside) -> f32 {
     crate::passes::extract::inside_threshold(isovalue, inside == Inside::Below)

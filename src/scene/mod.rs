@@ -1,7 +1,7 @@
 //! Scene files: TOML → parsed → `--set` overrides applied → validated → an immutable
 //! [`Scene`].
 //!
-//! The keys, their defaults and their meaning are the interface contract (`README.md`,
+//! The keys, their defaults and their meaning are the interface contract (`docs/scene.md`,
 //! "Scene format"; the defaults live in the `Default` impls in `types.rs`). The pipeline:
 //!
 //! ```text

@@ -1,4 +1,4 @@
-//! The routes: the page and its assets, and the JSON/binary API (README "isoview serve").
+//! The routes: the page and its assets, and the JSON/binary API (docs/serve.md).
 //! Every route but the assets needs the token; every route needs an allowed `Host`.
 
 use std::path::{Path, PathBuf};

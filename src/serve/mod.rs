@@ -1,4 +1,4 @@
-//! `isoview serve`: a local web page over a live render (README "isoview serve").
+//! `isoview serve`: a local web page over a live render (docs/serve.md).
 //!
 //! ```text
 //!   server (acceptor, WORKERS threads, parked long-polls) ── http (bounded requests)

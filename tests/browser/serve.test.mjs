@@ -1,7 +1,7 @@
-// The browser test of `isoview serve` (README "isoview serve"): Debian's chromium, headless,
+// The browser test of `isoview serve` (docs/serve.md): Debian's chromium, headless,
 // driven by playwright-core. Moves the isovalue slider and checks that the image changes;
 // clicks a pixel and checks that the probe panel shows its cells; saves the page as
-// a screenshot (docs/serve.png in the README: SCREENSHOT=docs/serve.png tests/browser/run).
+// a screenshot (docs/serve.png in docs/serve.md: SCREENSHOT=docs/serve.png tests/browser/run).
 //
 //   ISOVIEW_BIN=target/debug/isoview node tests/browser/serve.test.mjs
 //   (defaults: CHROMIUM=/usr/bin/chromium, SCREENSHOT=target/browser/serve.png; tests/browser/run

@@ -333,7 +333,7 @@ fn big_exr(path: &Path, w: usize, h: usize, seed: u32) {
 }
 
 /// 4096 x 2048 against 64 x 32: the whole-image comparison held both images (5 channels), the
-/// per-pixel maps and FLIP's working images of the whole picture (README "Large data": over
+/// per-pixel maps and FLIP's working images of the whole picture (docs/large-data.md: over
 /// 1 GiB here); band by band, memory grows by a few bands' worth.
 #[test]
 fn a_large_compare_stays_in_bounded_memory() {

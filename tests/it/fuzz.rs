@@ -1,7 +1,7 @@
 //! Property-based fuzzing (proptest) of what reads user input: scene parsing (arbitrary text,
 //! mutated shipped scenes, arbitrary `--set` overrides) and the npy/raw loaders (arbitrary and
 //! mutated files). Every input must give a scene or one line of error: never a panic, never a
-//! multi-line message. `PROPTEST_CASES=N` runs longer (the README gives the count run once).
+//! multi-line message. `PROPTEST_CASES=N` runs longer (docs/contributing.md gives the count run once).
 
 use std::path::{Path, PathBuf};
 

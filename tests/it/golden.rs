@@ -9,7 +9,7 @@
 //!   golden, actual and diff side by side, failures first.
 //! - Goldens record the device and driver they were made on; a mismatch is printed loudly.
 //! - Tolerances: [`golden_thresholds`], set from the noise measured by the ignored test
-//!   `golden::calibrate` (see README "Visual regression").
+//!   `golden::calibrate` (see docs/compare.md "Visual regression").
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -131,7 +131,7 @@ pub fn render(g: &Golden, out: &Path, sets: &[String], env: &[(&str, &str)]) {
 
 /// The golden comparison's thresholds, by the rule "10x the largest difference measured by
 /// [`calibrate`], and never below a floor of 1e-6 absolute and 1e-6 relative (a few f32 ulps at
-/// the scale of these scenes)". Measured (README "Visual regression"): no difference at all:
+/// the scale of these scenes)". Measured (docs/compare.md "Visual regression"): no difference at all:
 /// renders are bit-identical across LP_NUM_THREADS 1 and 2 and with
 /// GALLIUM_OVERRIDE_CPU_CAPS=sse4.1 (no AVX/FMA codegen), so the floor applies. Integer
 /// channels are exact and no pixel may fail.

@@ -1,4 +1,4 @@
-//! The module rule (README "Layout"): the `crate::` paths between the top-level modules of
+//! The module rule (docs/contributing.md "Layout"): the `crate::` paths between the top-level modules of
 //! `src/` form no cycle. Read from the source text (what a newcomer reads), unit-test modules
 //! excluded: tests may use anything.
 
@@ -82,7 +82,7 @@ fn top_level_modules_form_no_cycle() {
     let g = graph(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"));
     assert!(g.contains_key("scene") && g.contains_key("vocab"), "modules not found: {g:?}");
     if let Some(c) = cycle(&g) {
-        panic!("module cycle {c} (README \"Layout\": dependencies run one way)");
+        panic!("module cycle {c} (docs/contributing.md \"Layout\": dependencies run one way)");
     }
     // The vocabulary depends on nothing; the scene and the field sources on no GPU code.
     assert!(g["vocab"].is_empty(), "vocab uses {:?}", g["vocab"]);

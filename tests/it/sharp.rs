@@ -721,15 +721,15 @@ fn extract_cli_runs_the_sharp_meshes() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-// ---- README figures ------------------------------------------------------------------------------
+// ---- docs figures --------------------------------------------------------------------------------
 
-/// The README's table and picture for the sharp-feature section (not a check): triangle counts,
+/// docs/meshes.md's table and picture for the sharp-feature section (not a check): triangle counts,
 /// Hausdorff distances and single-thread times of each method on the box of `scenes/box.toml`
 /// and the CSG shape of `docs/sharp/csg.toml` (Hermite data from the source), and
 /// `docs/sharp.png` rendered by isoview itself (`render.method = "mesh"`, normal shading).
 /// `cargo test --test it sharp::readme_figures -- --ignored --nocapture`.
 #[test]
-#[ignore = "writes docs/sharp.png and prints the README's table"]
+#[ignore = "writes docs/sharp.png and prints docs/meshes.md's table"]
 fn readme_figures() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scenes = ["scenes/box.toml", "docs/sharp/csg.toml"];

@@ -20,12 +20,9 @@ use glam::DVec3;
 use crate::scene::{CameraSettings, ImageSettings, Projection, Scene};
 use crate::vocab::Placement;
 
-/// The largest size a coordinate of `camera.eye`, `camera.target` or `camera.up` may have
-/// (the scene refuses more, naming the key). The GPU traces in f32 (largest 3.4e38), and
-/// `target - eye` and its length must stay finite in f64 (the length of `[1e308, ...]`
-/// overflows to inf, which once read as "eye and target are the same point"); 1e30 leaves
-/// room for both.
-pub const MAX_COORDINATE: f64 = 1e30;
+/// The largest size a camera coordinate may have: the scene's rule, re-exported here beside
+/// the rays it protects.
+pub use crate::scene::MAX_COORDINATE;
 
 /// A camera ready to generate rays for one image size.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -374,7 +374,7 @@ pub fn echo(value: &str) -> String {
 pub const ECHO_CHARS: usize = 60;
 
 /// What a file that is not a regular file is, for messages ("a FIFO (named pipe)", "a
-/// directory"); None for a regular file. Outputs ([`crate::output::guard`]) and scene files
+/// directory"); None for a regular file. Outputs (`output::guard`) and scene files
 /// must be regular files.
 pub fn special_file(meta: &std::fs::Metadata) -> Option<&'static str> {
     let t = meta.file_type();

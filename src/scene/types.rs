@@ -71,6 +71,13 @@ impl Default for ImageSettings {
     }
 }
 
+/// The largest size a coordinate of `camera.eye`, `camera.target` or `camera.up` may have
+/// (the scene refuses more, naming the key). The GPU traces in f32 (largest 3.4e38), and
+/// `target - eye` and its length must stay finite in f64 (the length of `[1e308, ...]`
+/// overflows to inf, which once read as "eye and target are the same point"); 1e30 leaves
+/// room for both.
+pub const MAX_COORDINATE: f64 = 1e30;
+
 /// The camera, world space: a pinhole (the contract's) or an orthographic view.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraSettings {

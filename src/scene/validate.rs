@@ -190,7 +190,7 @@ fn camera(t: &View, field: &FieldSpec, image: &ImageSettings) -> Result<CameraSe
         projection: t.or("projection", d.projection, |s, k, n| choice(s, k, n, &projections))?,
         ortho_height: 0.0, // resolved below, once the view is known
     };
-    let limit = crate::camera::MAX_COORDINATE;
+    let limit = super::MAX_COORDINATE;
     for (key, v) in [("eye", c.eye), ("target", c.target), ("up", c.up)] {
         if v.abs().max_element() > limit {
             return Err(t.err(

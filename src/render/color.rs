@@ -9,6 +9,10 @@
 //! the scene's shading lights `render.color` (`lambert`: ambient 0.15 plus the headlight;
 //! `solid`: unlit). Other shadings (normal, depth, steps, cells) keep their colours; `v` goes
 //! to the `color.value` channel in every case. Misses are untouched (`color.value` NaN).
+//!
+//! Also the colormaps as linear RGBA tables ([`linear_colormap`]), which the shaders read
+//! (the `steps` heat map, [`colormap`]; the slice's diverging map) and the colouring above
+//! uses.
 
 use glam::DVec3;
 
@@ -17,6 +21,22 @@ use crate::field::{FieldError, Grid};
 use crate::frame::{Legend, Pixel};
 use crate::scene::{ColorBy, Scene, Shading, COLORMAPS};
 use crate::vocab::Placement;
+
+/// 256 linear RGBA entries of a colorous gradient (its sRGB colours decoded), for shaders.
+pub fn linear_colormap(gradient: colorous::Gradient) -> Vec<[f32; 4]> {
+    let linear = |u: u8| crate::scene::srgb_to_linear(u as f32 / 255.0);
+    (0..256)
+        .map(|i| {
+            let c = gradient.eval_continuous(i as f64 / 255.0);
+            [linear(c.r), linear(c.g), linear(c.b), 1.0]
+        })
+        .collect()
+}
+
+/// The `steps` heat map: colorous's inferno.
+pub fn colormap() -> Vec<[f32; 4]> {
+    linear_colormap(colorous::INFERNO)
+}
 
 /// The headlight's ambient term (as `shaders/include/shade.glsl` and `reference::shade`).
 const AMBIENT: f64 = 0.15;
@@ -49,12 +69,7 @@ impl Colorer {
             None => default_range(c.by, &isovalues, grid, &scene.field.placement, &field2),
         };
         let (name, gradient) = COLORMAPS[c.colormap];
-        let lut = (0..256)
-            .map(|i| {
-                let k = gradient.eval_continuous(i as f64 / 255.0);
-                [k.r, k.g, k.b].map(|u| crate::scene::srgb_to_linear(u as f32 / 255.0))
-            })
-            .collect();
+        let lut = linear_colormap(gradient).into_iter().map(|[r, g, b, _]| [r, g, b]).collect();
         Ok(Some(Colorer {
             by: c.by,
             shading: scene.render.shading,

@@ -5,7 +5,8 @@
 use ash::vk;
 
 use super::params::RenderParams;
-use super::{placed_band, Collect, FrameSink, GpuGrid, RenderError, Renderer};
+use super::sink::placed_band;
+use super::{Collect, FrameSink, GpuGrid, RenderError, Renderer};
 use crate::field::Grid;
 use crate::frame::{Frame, Pixel};
 use crate::gpu::Buffer;

@@ -125,3 +125,18 @@ impl<S: FrameSink> FrameSink for Colored<'_, S> {
         }
     }
 }
+
+/// Hands a band to `sink` as the frame holds it: placed in world space.
+pub(super) fn placed_band(
+    sink: &mut dyn FrameSink,
+    placement: &crate::vocab::Placement,
+    band: crate::passes::Band,
+    records: &[Pixel],
+) -> Result<(), RenderError> {
+    if placement.is_identity() {
+        return sink.band(band, records);
+    }
+    let mut placed = records.to_vec();
+    crate::frame::place_pixels(&mut placed, placement);
+    sink.band(band, &placed)
+}

@@ -1,8 +1,8 @@
-//! What every streamed scan-line EXR shares ([`super::exr_stream`]: a render's records;
-//! [`super::exr_planes`]: named float planes): the header of the in-memory writer's `exr`
+//! What every streamed scan-line EXR shares ([`super::stream`]: a render's records;
+//! [`super::planes`]: named float planes): the header of the in-memory writer's `exr`
 //! description with its attributes sorted, a zeroed offset table, each block of scan lines
 //! compressed and written as soon as its rows are in (increasing y), the offset table filled
-//! in at the end, and the temporary file renamed over the destination ([`super::atomic`]).
+//! in at the end, and the temporary file renamed over the destination ([`crate::output::atomic`]).
 //! The writers differ only in how a block's lines are filled from the rows they hold.
 //!
 //! The same blocks can go to memory instead of a file ([`BlockFile::in_memory`]): the bytes
@@ -19,9 +19,9 @@ use exr::math::Vec2;
 use exr::meta::header::Header;
 use exr::meta::{magic_number, Headers, MetaData};
 
-use super::atomic::TempFile;
-use super::exr::sort_header_attributes;
-use super::OutputError;
+use super::header::sort_header_attributes;
+use crate::output::atomic::TempFile;
+use crate::output::OutputError;
 
 /// Where the blocks go: a temporary file renamed into place at the end, or memory.
 enum Sink {

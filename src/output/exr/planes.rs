@@ -1,16 +1,16 @@
 //! Streaming EXR writer for arbitrary named float channels: the file of
-//! [`super::exr::write_channels`], byte for byte, written a few rows at a time (for
+//! [`super::write_channels`], byte for byte, written a few rows at a time (for
 //! `compare --diff` on images of any size). Memory: one block of scan lines.
 //!
-//! The file is written by [`super::exr_blocks::BlockFile`], as [`super::exr_stream`]'s (a
+//! The file is written by [`super::blocks::BlockFile`], as [`super::stream`]'s (a
 //! render's [`crate::frame::Pixel`]s by the channel table); this writer fills each block's
 //! lines from the planes it holds.
 
 use std::path::Path;
 
-use super::exr::named_channel_headers;
-use super::exr_blocks::BlockFile;
-use super::OutputError;
+use super::blocks::BlockFile;
+use super::header::named_channel_headers;
+use crate::output::OutputError;
 
 /// An EXR of named float channels being written row by row (see the module docs).
 pub struct PlaneStream {
@@ -25,7 +25,7 @@ pub struct PlaneStream {
 
 impl PlaneStream {
     /// Starts `path` (a temporary file beside it): `width` × `height`, the channels `names`
-    /// (each once), the text attributes as [`super::exr::write_channels`] writes them.
+    /// (each once), the text attributes as [`super::write_channels`] writes them.
     pub fn create(
         path: &Path,
         width: usize,

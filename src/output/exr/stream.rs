@@ -1,4 +1,4 @@
-//! Streaming EXR writer: the file of [`super::exr::write_frame`], byte for byte, written band
+//! Streaming EXR writer: the file of [`super::write_frame`], byte for byte, written band
 //! by band as a render draws it, so memory stays at one block of scan lines whatever the
 //! image's size.
 //!
@@ -11,7 +11,7 @@
 //! The header comes from the same `exr::Image` description as the in-memory writer (its
 //! `infer_meta_data`), written with the `exr` crate's own steps (`MetaData::validate`,
 //! `magic_number::write`, `Requirements::write`, `Header::write_all`: what its block writer
-//! does) and then sorted by [`super::exr`]'s attribute sort. Each block of
+//! does) and then sorted by [`super::header`]'s attribute sort. Each block of
 //! `header.max_block_pixel_size().y` scan lines (16 for ZIP) is compressed with
 //! `UncompressedBlock::compress_to_chunk` as soon as its rows have arrived, and its chunk
 //! written at once; the offset table is filled in at the end, as the `exr` crate does. Blocks
@@ -27,10 +27,10 @@
 
 use std::path::Path;
 
-use super::exr::channel_image_headers;
-use super::exr_blocks::BlockFile;
-use super::OutputError;
+use super::blocks::BlockFile;
+use super::header::channel_image_headers;
 use crate::frame::{Channel, FrameInfo, Pixel, Written};
+use crate::output::OutputError;
 
 /// An EXR being written band by band (see the module docs).
 pub struct ExrStream {

@@ -1,0 +1,133 @@
+//! A grid on the device ([`GpuGrid`]): every point as a 3D image (the whole grid, or one
+//! process's block of a larger one, [`super::block`]), or the bricks an isovalue needs in a
+//! brick pool ([`super::pool`]); with the brick min/max grid the analytic walk skips empty
+//! space with, and (for the analytic method over a whole grid) a copy of the points in a
+//! storage buffer.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::{block, pool, RenderError};
+use crate::field::Grid;
+use crate::gpu::{Buffer, Context, GpuError, Image3d};
+use crate::passes::bricks;
+
+/// A grid uploaded to the device: the whole grid, one process's block of it, or the bricks
+/// of it an isovalue needs ([`pool`]).
+pub struct GpuGrid {
+    pub(super) storage: Storage,
+    /// Points per axis of the uploaded image (of the whole grid, for a pool).
+    pub dims: [usize; 3],
+    /// The brick min/max grid ([`bricks`]), built by the first analytic render (given, for a
+    /// pool or a block).
+    pub(super) bricks: std::cell::OnceCell<Buffer>,
+    /// A host copy of its superbricks' ranges, set with `bricks` (the choice of levels).
+    pub(super) supers: std::cell::OnceCell<Vec<[f32; 2]>>,
+    /// The image's points in a storage buffer, copied on the device by the first analytic
+    /// render of a whole grid (its `GRID_BUFFER` variant): a second copy of the grid on the
+    /// device, read by llvmpipe far faster than the image (docs/methods.md "Exact ray tracing").
+    pub(super) points: std::cell::OnceCell<Buffer>,
+    /// The block of a larger grid the image holds (None: the whole grid).
+    pub(super) block: Option<block::Block>,
+}
+
+/// How the grid's points are on the device.
+pub(super) enum Storage {
+    /// Every point (of the grid or the block), as a 3D image.
+    Image(Image3d),
+    /// The resident bricks' slots and the page table.
+    Pool(Box<pool::Pool>),
+}
+
+impl GpuGrid {
+    pub fn upload(ctx: &Arc<Context>, grid: &Grid) -> Result<Self, GpuError> {
+        let extent = grid.dims.map(|d| d as u32);
+        Ok(GpuGrid {
+            storage: Storage::Image(Image3d::upload(ctx, "grid", extent, &grid.values)?),
+            dims: grid.dims,
+            bricks: std::cell::OnceCell::new(),
+            supers: std::cell::OnceCell::new(),
+            points: std::cell::OnceCell::new(),
+            block: None,
+        })
+    }
+
+    /// Uploads one process's `block` of a larger grid of `dims` points (`values`: the block's
+    /// points, x fastest) with the whole grid's brick min/max grid (`bricks`, combined over
+    /// every block; its superbricks are added here), for the analytic method, which then traces
+    /// only the block's cells.
+    pub fn upload_block(
+        ctx: &Arc<Context>,
+        dims: [usize; 3],
+        block: block::Block,
+        values: &[f32],
+        bricks: &[[f32; 2]],
+    ) -> Result<Self, GpuError> {
+        let extent = block.extent.map(|d| d as u32);
+        let grid = GpuGrid {
+            storage: Storage::Image(Image3d::upload(ctx, "grid block", extent, values)?),
+            dims: block.extent,
+            bricks: std::cell::OnceCell::new(),
+            supers: std::cell::OnceCell::new(),
+            points: std::cell::OnceCell::new(),
+            block: Some(block),
+        };
+        grid.set_bricks(ctx, bricks::levels(dims, bricks))?;
+        Ok(grid)
+    }
+
+    /// Uploads the bricks of a grid read from its file (`field.residency`) that `residency` names into a brick pool
+    /// ([`pool`]), with the grid's brick min/max grid (`ranges`, from
+    /// [`MappedGrid::brick_ranges`](crate::field::mapped::MappedGrid::brick_ranges); its
+    /// superbricks are added here).
+    pub fn upload_pool(
+        ctx: &Arc<Context>,
+        grid: &crate::field::mapped::MappedGrid,
+        ranges: &[[f32; 2]],
+        residency: pool::Residency,
+    ) -> Result<Self, pool::PoolError> {
+        let pool = pool::Pool::upload(ctx, grid, residency)?;
+        let gpu = GpuGrid {
+            storage: Storage::Pool(Box::new(pool)),
+            dims: grid.dims,
+            bricks: std::cell::OnceCell::new(),
+            supers: std::cell::OnceCell::new(),
+            points: std::cell::OnceCell::new(),
+            block: None,
+        };
+        gpu.set_bricks(ctx, bricks::levels(grid.dims, ranges))?;
+        Ok(gpu)
+    }
+
+    /// Uploads the min/max grid computed on the CPU (`levels`: [`bricks::levels`]' layout).
+    fn set_bricks(&self, ctx: &Arc<Context>, levels: Vec<[f32; 2]>) -> Result<(), GpuError> {
+        let buffer = Buffer::upload(ctx, "bricks", &levels, vk::BufferUsageFlags::STORAGE_BUFFER)?;
+        let n_bricks = bricks::brick_counts(self.dims).iter().product::<usize>();
+        let _ = self.supers.set(levels[n_bricks..].to_vec());
+        let _ = self.bricks.set(buffer);
+        Ok(())
+    }
+
+    /// The 3D image of every point; an error for a brick pool, which only the ray methods read.
+    pub fn image(&self, what: &'static str) -> Result<&Image3d, RenderError> {
+        match &self.storage {
+            Storage::Image(image) => Ok(image),
+            Storage::Pool(_) => Err(RenderError::Unsupported(what)),
+        }
+    }
+
+    /// Which bricks are on the device, for a brick pool.
+    pub fn residency(&self) -> Option<&pool::Residency> {
+        match &self.storage {
+            Storage::Image(_) => None,
+            Storage::Pool(p) => Some(&p.residency),
+        }
+    }
+
+    /// The brick min/max grid with its superbricks, once an analytic render has built it
+    /// (layout: [`bricks`]).
+    pub fn bricks(&self) -> Option<&Buffer> {
+        self.bricks.get()
+    }
+}

@@ -1,0 +1,168 @@
+//! The ray methods (`fixed-step`, `analytic`): the shader for the method and for how the grid
+//! is on the device ([`RayShader`], each built on its first use), the analytic walk's brick
+//! levels, then the ray pass over bands of rows, each band placed in world space and handed to
+//! the sink.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::grid::Storage;
+use super::params::RenderParams;
+use super::sink::{placed_band, FrameSink};
+use super::{GpuGrid, Progressive, RenderError, Renderer};
+use crate::field::Grid;
+use crate::frame::Pixel;
+use crate::gpu::{Buffer, ComputePipeline, Context, GpuError};
+use crate::passes::raymarch::{GridInput, RayInputs, RayPass};
+use crate::passes::{analytic, bricks, raymarch, Bands};
+use crate::scene::{Method, Scene};
+
+/// The ray passes' shaders: method and how the grid is on the device; the analytic builds
+/// carry what they are specialized for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(super) enum RayShader {
+    FixedStep,
+    FixedStepPool,
+    /// The grid image (an MPI rank's block, or a grid over the device's storage buffer range).
+    Analytic(analytic::Walk),
+    /// The whole grid in a storage buffer: the default.
+    AnalyticBuffer(analytic::Walk),
+    AnalyticPool(analytic::Walk),
+}
+
+impl RayShader {
+    fn pipeline(self, ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
+        match self {
+            RayShader::FixedStep => raymarch::pipeline(ctx),
+            RayShader::FixedStepPool => raymarch::pool_pipeline(ctx),
+            RayShader::Analytic(walk) => analytic::pipeline(ctx, walk),
+            RayShader::AnalyticBuffer(walk) => analytic::buffer_pipeline(ctx, walk),
+            RayShader::AnalyticPool(walk) => analytic::pool_pipeline(ctx, walk),
+        }
+    }
+}
+
+impl Renderer {
+    /// The ray methods (fixed-step, analytic): every `stride`-th pixel, bands of at most
+    /// `band_rows` rows, each band placed in world space and handed to `sink`.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn draw_rays(
+        &mut self,
+        scene: &Scene,
+        grid: &Grid,
+        gpu_grid: &GpuGrid,
+        time: f64,
+        stride: u32,
+        band_rows: u32,
+        sink: &mut dyn FrameSink,
+    ) -> Result<(), RenderError> {
+        let mut params = RenderParams::new(scene, grid);
+        self.last_bricks_ms = None;
+        self.last_brick_levels = None;
+        if scene.render.method == Method::Analytic && gpu_grid.bricks.get().is_none() {
+            let image = gpu_grid.image("the brick min/max grid of a brick pool")?;
+            let built = bricks::build(&self.ctx, &self.bricks, image, gpu_grid.dims)?;
+            let _ = gpu_grid.supers.set(built.supers);
+            let _ = gpu_grid.bricks.set(built.buffer);
+            self.last_bricks_ms = built.ms;
+        }
+        let mut walk = || {
+            let surfaces = params.view[3];
+            let thresholds = params.surface_thresholds();
+            let supers = gpu_grid.supers.get().map_or(&[][..], |s| &s[..]);
+            let chosen =
+                self.brick_levels.unwrap_or_else(|| bricks::levels_for(supers, &thresholds));
+            let levels = if scene.render.skip { chosen.clamp(1, 2) } else { 1 };
+            self.last_brick_levels = Some(levels);
+            analytic::Walk { levels, surfaces }
+        };
+        let shader = match (scene.render.method, &gpu_grid.storage) {
+            (Method::Mesh, _) => return Err(RenderError::Unsupported("mesh (as a ray pass)")),
+            (Method::FixedStep, Storage::Pool(_)) => RayShader::FixedStepPool,
+            (Method::FixedStep, Storage::Image(_)) => RayShader::FixedStep,
+            (Method::Analytic, Storage::Pool(_)) => RayShader::AnalyticPool(walk()),
+            (Method::Analytic, Storage::Image(image)) => {
+                let bytes = image.extent.iter().map(|&e| e as u64).product::<u64>() * 4;
+                if gpu_grid.block.is_none() && bytes <= self.ctx.info.max_storage_buffer_range {
+                    if gpu_grid.points.get().is_none() {
+                        let _ = gpu_grid.points.set(image.copy_to_buffer("grid points")?);
+                    }
+                    RayShader::AnalyticBuffer(walk())
+                } else {
+                    RayShader::Analytic(walk())
+                }
+            }
+        };
+        if !self.ray_pipelines.contains_key(&shader) {
+            self.ray_pipelines.insert(shader, shader.pipeline(&self.ctx)?);
+        }
+        let pipeline = &self.ray_pipelines[&shader];
+        let ctx = &self.ctx;
+        let (width, height) =
+            Progressive::picture_size(stride, scene.image.width, scene.image.height);
+        params.image[2] = stride;
+        params.image[3] = width;
+        if let Some(b) = &gpu_grid.block {
+            if scene.render.method != Method::Analytic {
+                return Err(RenderError::Unsupported("fixed-step (on a block of the grid)"));
+            }
+            let i = |v: [usize; 3]| [v[0] as i32, v[1] as i32, v[2] as i32, 0];
+            (params.block_lo, params.block_hi) = (i(b.cells_lo), i(b.cells_hi));
+            params.block_origin = i(b.origin);
+        }
+        let params_buf = Buffer::upload(
+            ctx,
+            "params",
+            std::slice::from_ref(&params),
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+        )?;
+        let bands = Bands::<Pixel>::with_max_rows(ctx, "pixels", width, height, band_rows)?;
+        let bricks = match scene.render.method {
+            Method::Analytic => gpu_grid.bricks.get(),
+            _ => None,
+        };
+        let grid_input = match (&gpu_grid.storage, shader) {
+            (Storage::Image(_), RayShader::AnalyticBuffer(_)) => GridInput::Points(
+                gpu_grid
+                    .points
+                    .get()
+                    .ok_or_else(|| GpuError::Bug("grid points not copied".into()))?,
+            ),
+            (Storage::Image(image), _) => GridInput::Image(image),
+            (Storage::Pool(p), _) => GridInput::Pool {
+                pool: &p.pool,
+                pages: &p.pages,
+                bricks: gpu_grid.bricks.get().ok_or_else(|| {
+                    GpuError::Bug("a brick pool was uploaded without its brick grid".into())
+                })?,
+            },
+        };
+        let pass = RayPass::new(
+            pipeline,
+            RayInputs {
+                params: &params_buf,
+                grid: grid_input,
+                pixels: &bands.out,
+                colormap: &self.colormap,
+                bricks,
+            },
+        )?;
+        let mut info = self.frame_info(scene, grid, time);
+        if stride > 1 {
+            info.extra.push(("stride".into(), stride.to_string()));
+        }
+        sink.begin(width, height, &info)?;
+        let placement = scene.field.placement;
+        let gpu_ms = bands.for_each_band(
+            pass.name(),
+            |band, records| placed_band(sink, &placement, band, records),
+            |rec, band| {
+                pass.record(rec, width, band);
+                Ok(())
+            },
+        )?;
+        self.last_gpu_ms = gpu_ms;
+        Ok(())
+    }
+}

@@ -113,11 +113,18 @@ fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
 
 /// `ISOVIEW_SKIP_GPU_TESTS=1` sets the cfg `isoview_skip_gpu`, under which the GPU tests are
 /// declared `#[ignore]`d: libtest reports them as ignored (with the reason), not as passed.
+/// `ISOVIEW_NO_FLOAT64_TESTS=1` sets `isoview_no_float64`, which does the same for the tests
+/// that need `shaderFloat64` (on a device without it they fail otherwise).
 fn gpu_test_cfg() {
-    println!("cargo::rustc-check-cfg=cfg(isoview_skip_gpu)");
-    println!("cargo::rerun-if-env-changed=ISOVIEW_SKIP_GPU_TESTS");
-    if std::env::var("ISOVIEW_SKIP_GPU_TESTS").as_deref() == Ok("1") {
-        println!("cargo::rustc-cfg=isoview_skip_gpu");
+    for (var, cfg) in [
+        ("ISOVIEW_SKIP_GPU_TESTS", "isoview_skip_gpu"),
+        ("ISOVIEW_NO_FLOAT64_TESTS", "isoview_no_float64"),
+    ] {
+        println!("cargo::rustc-check-cfg=cfg({cfg})");
+        println!("cargo::rerun-if-env-changed={var}");
+        if std::env::var(var).as_deref() == Ok("1") {
+            println!("cargo::rustc-cfg={cfg}");
+        }
     }
 }
 

@@ -49,6 +49,19 @@ pub fn gpu() -> Arc<Context> {
     }
 }
 
+/// Fails the test, saying why, when the device lacks `shaderFloat64` (64-bit floats in
+/// shaders: the mc33 passes). A test that calls it is declared
+/// `#[cfg_attr(isoview_no_float64, ignore = ...)]` as well: built with
+/// `ISOVIEW_NO_FLOAT64_TESTS=1` (a device without it) libtest lists it as ignored instead.
+pub fn need_float64(ctx: &Context) {
+    assert!(
+        ctx.info.float64,
+        "this test needs shaderFloat64, which {} lacks; build and run the tests with \
+         ISOVIEW_NO_FLOAT64_TESTS=1 to have such tests reported as ignored",
+        ctx.info.name
+    );
+}
+
 /// A grid of random values in [-1, 1] over a random box.
 pub fn random_grid(rng: &mut Rng, dims: [usize; 3]) -> Grid {
     let min = DVec3::new(rng.range(-1.5, -0.5), rng.range(-1.5, -0.5), rng.range(-1.5, -0.5));

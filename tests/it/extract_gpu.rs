@@ -316,11 +316,13 @@ fn mc33_support_bad_input_and_tiny_bindings() {
 /// vertices included.
 #[test]
 #[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[cfg_attr(
+    all(isoview_no_float64, not(isoview_skip_gpu)),
+    ignore = "needs shaderFloat64: ISOVIEW_NO_FLOAT64_TESTS=1"
+)]
 fn mc33_every_cell_configuration_matches_the_reference() {
     let mut gpu = Gpu::new();
-    if !gpu.ctx.info.float64 {
-        return;
-    }
+    need_float64(&gpu.ctx);
     let mut rng = Rng::new(33);
     let (na, nb, nc) = (16, 16, 16); // 4096 case cells: 256 masks x 16 variants
     let dims = [2 * na, 2 * nb, 2 * nc];

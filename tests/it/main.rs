@@ -19,6 +19,7 @@ mod formats;
 mod fuzz;
 mod golden;
 mod gpu_errors;
+mod gpu_skips;
 mod layout;
 mod mesh;
 mod mesh_field;

@@ -296,8 +296,7 @@ fn smooth_grid(rng: &mut Rng, n: usize) -> Grid {
     })
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn analytic_matches_reference_on_random_grids_and_cameras() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -338,8 +337,7 @@ fn single_cell(values: [f64; 8]) -> Grid {
     }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn every_single_cell_sign_configuration() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -364,8 +362,7 @@ fn every_single_cell_sign_configuration() {
     assert!(total.hits > total.rays / 10, "{total:?}");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn ambiguous_faces_and_tunnels() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -414,8 +411,7 @@ fn dyadic_grid_with_zeros(rng: &mut Rng, n: usize) -> Grid {
     Grid { dims: [n; 3], min: DVec3::ZERO, max, values }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn rays_along_grid_planes_lines_and_diagonals() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -478,8 +474,7 @@ fn rays_along_grid_planes_lines_and_diagonals() {
     assert!(centre_hits > 6, "centre rays that hit: {centre_hits}");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn corner_equal_to_the_isovalue() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -524,8 +519,7 @@ fn corner_equal_to_the_isovalue() {
     assert!(total.exact_zero_rays > 1000, "{total:?}");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn grazing_rays() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -551,8 +545,7 @@ fn grazing_rays() {
     assert!(total.grazing > 0, "the views must contain grazing rays: {total:?}");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn sphere_sdf_grid_renders_a_sphere() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -599,8 +592,7 @@ fn same_but_steps(a: &Pixel, b: &Pixel) -> bool {
     bytemuck::bytes_of(&a) == bytemuck::bytes_of(&b)
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn skipping_leaves_images_bit_identical() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -689,8 +681,7 @@ fn skipping_leaves_images_bit_identical() {
 /// sparse grids where most superbricks are empty, random and tie-making views (diagonals
 /// through brick corners of a unit-spaced grid), every crossing counted, the k-th crossing,
 /// several surfaces, an MPI-style block upload.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn superbricks_leave_images_bit_identical() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -801,8 +792,7 @@ fn superbricks_are_chosen_where_enough_are_empty() {
 /// The analytic shader's builds read the grid from a storage buffer (a whole grid, the default)
 /// or from the grid image (an MPI rank's block; here a "block" that is the whole grid): same
 /// bits in every channel, skipping on and off, smooth normals, several surfaces.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn grid_buffer_and_grid_image_builds_agree_bit_for_bit() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -842,8 +832,7 @@ fn grid_buffer_and_grid_image_builds_agree_bit_for_bit() {
     assert!(hits > 2_000, "{hits}");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn brick_grid_holds_each_bricks_min_and_max() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -875,8 +864,7 @@ fn brick_grid_holds_each_bricks_min_and_max() {
     }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn kth_crossing_matches_reference() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -920,8 +908,7 @@ fn kth_crossing_matches_reference() {
 /// The default (`render.count_crossings = false`) stops the walk at the shown crossing: every
 /// channel but `crossings` is bit-identical to the counting walk (`steps` too: it counts passes
 /// up to the hit), `crossings` is -1 everywhere, and the reference agrees.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn stopping_at_the_hit_changes_only_crossings() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();

@@ -27,8 +27,7 @@ method = "fixed-step"
 steps = 48
 "#;
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn render_writes_every_channel_and_a_preview() {
     let dir = scratch("cli-render");
     let scene = write(&dir, "sphere.toml", SPHERE);
@@ -56,8 +55,7 @@ fn render_writes_every_channel_and_a_preview() {
     assert_eq!((preview.width(), preview.height()), (32, 24));
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn set_overrides_change_the_render() {
     let dir = scratch("cli-set");
     let scene = write(&dir, "sphere.toml", SPHERE);
@@ -116,8 +114,7 @@ fn failed_runs_leave_existing_outputs_untouched() {
     assert_eq!(leftovers, 2, "no temporary files left behind");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn missing_output_folder_is_bad_input() {
     let dir = scratch("cli-nodir");
     let good = write(&dir, "good.toml", SPHERE);
@@ -125,8 +122,7 @@ fn missing_output_folder_is_bad_input() {
     assert_fails(&isoview(&["render", &good, "-o", &out], &[]), 2, &["no/such/dir"]);
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn frames_render_a_time_varying_field() {
     let dir = scratch("cli-frames");
     let scene = write(
@@ -150,8 +146,7 @@ fn frames_render_a_time_varying_field() {
     assert!(format!("{:?}", t.attributes).contains('2'), "time recorded");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn info_names_the_device() {
     let o = isoview(&["info"], &[]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -183,8 +178,7 @@ values = [0.699999988079071044921875, 1.0, 0.699999988079071044921875, 1.0,
 isovalue = 0.7
 "#;
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn ray_passes_use_the_exact_inside_threshold() {
     let dir = scratch("cli-threshold");
     let scene = write(&dir, "just-below.toml", JUST_BELOW);

@@ -16,8 +16,7 @@ use crate::common::*;
 /// plane, the far half's inner wall shows through the cut, and every pixel whose unclipped hit
 /// was already kept finds the same hit (the analytic walk then starts at the plane, so it
 /// visits fewer cells and its root's last bits may differ).
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn a_clip_plane_cuts_the_surface_open_exactly() {
     let ctx = gpu();
     let grid = grid_from([17, 17, 17], DVec3::splat(-1.0), DVec3::ONE, |p| p.length() - 0.7);
@@ -51,8 +50,7 @@ fn a_clip_plane_cuts_the_surface_open_exactly() {
 }
 
 /// GPU = reference under random planes and boxes, on unplaced and placed grids.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn clipped_gpu_equals_reference() {
     let ctx = gpu();
     let mut rng = Rng::new(61);

@@ -60,9 +60,8 @@ fn same_under_mpi(dir: &Path, scene: &str, sets: &[String], n: usize, tag: &str)
     let _ = (std::fs::remove_file(&single), std::fs::remove_file(&split));
 }
 
-#[test]
+#[gpu_test]
 #[cfg_attr(not(feature = "mpi"), ignore = "MPI test: build with --features mpi")]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn every_shipped_scene_renders_the_same_on_1_to_4_ranks() {
     let dir = scratch("mpi-scenes");
     let mut scenes: Vec<_> = std::fs::read_dir("scenes")
@@ -86,9 +85,8 @@ fn every_shipped_scene_renders_the_same_on_1_to_4_ranks() {
     }
 }
 
-#[test]
+#[gpu_test]
 #[cfg_attr(not(feature = "mpi"), ignore = "MPI test: build with --features mpi")]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn random_grids_render_the_same_on_1_to_4_ranks() {
     let dir = scratch("mpi-random");
     let mut rng = Rng::new(0x5ca1e);

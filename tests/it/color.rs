@@ -36,8 +36,7 @@ fn expected_rgb(scene: &Scene, p: &Pixel, px: u32, py: u32, v: f64, lo: f64, hi:
 
 /// Every method coloured by z: `color.value` is the hit's own P.Z, the colour the colormap's
 /// entry over the box's world z range, lit; misses untouched (value NaN).
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn colour_by_z_maps_each_hits_height() {
     let ctx = gpu();
     let dir = scratch("color-z");
@@ -67,8 +66,7 @@ fn colour_by_z_maps_each_hits_height() {
 
 /// `[field2]` on its own grid: a linear field is interpolated exactly, so `color.value` is
 /// the field's own value at the hit; the default range is field2's sample range.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn colour_by_field2_samples_the_second_field_at_the_hit() {
     let ctx = gpu();
     let dir = scratch("color-field2");
@@ -93,8 +91,7 @@ fn colour_by_field2_samples_the_second_field_at_the_hit() {
 }
 
 /// With several isovalues, `by = "value"` colours each surface by its isovalue through the map.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn colour_by_value_gives_each_surface_its_isovalue() {
     let ctx = gpu();
     let dir = scratch("color-value");
@@ -114,8 +111,7 @@ fn colour_by_value_gives_each_surface_its_isovalue() {
 
 /// Through the CLI: the EXR has `color.value` and the header says how it was coloured; the
 /// PNG preview is taller by the colour bar; a render without `[color]` has neither.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn the_exr_records_the_value_and_the_png_shows_the_bar() {
     let dir = scratch("color-cli");
     let with = write(&dir, "with.toml", &format!("{BASE}[color]\nby = \"y\"\n"));

@@ -37,8 +37,7 @@ impl Rng {
 
 /// The GPU context for a test. Panics (fails the test) when no Vulkan device is found.
 ///
-/// Every test that calls it is declared
-/// `#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]`: with
+/// Every test that calls it is declared `#[gpu_test]` (crates/test-macros): with
 /// `ISOVIEW_SKIP_GPU_TESTS=1` at build time (build.rs sets the cfg) libtest lists it as ignored;
 /// without it, it runs and fails without a device. `ISOVIEW_VALIDATION=1` enables validation.
 pub fn gpu() -> Arc<Context> {
@@ -50,9 +49,8 @@ pub fn gpu() -> Arc<Context> {
 }
 
 /// Fails the test, saying why, when the device lacks `shaderFloat64` (64-bit floats in
-/// shaders: the mc33 passes). A test that calls it is declared
-/// `#[cfg_attr(isoview_no_float64, ignore = ...)]` as well: built with
-/// `ISOVIEW_NO_FLOAT64_TESTS=1` (a device without it) libtest lists it as ignored instead.
+/// shaders: the mc33 passes). A test that calls it is declared `#[gpu_test(float64)]`: built
+/// with `ISOVIEW_NO_FLOAT64_TESTS=1` (a device without it) libtest lists it as ignored instead.
 pub fn need_float64(ctx: &Context) {
     assert!(
         ctx.info.float64,

@@ -175,8 +175,7 @@ fn empty_meshes_are_written_with_a_note() {
     assert_eq!(std::fs::read(&out).unwrap().len(), 84, "an STL header with 0 triangles");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn render_method_mesh_writes_every_channel_and_says_how_it_was_made() {
     let dir = scratch("extract-render");
     let scene_path = write(&dir, "sphere.toml", SPHERE);

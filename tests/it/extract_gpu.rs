@@ -87,8 +87,7 @@ fn assert_vertices_match(c: &Case, gpu: &Mesh, cpu: &Mesh, what: &str) -> (f64, 
     (worst_p, worst_n)
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn gpu_equals_cpu_on_random_grids() {
     let mut gpu = Gpu::new();
     let mut rng = Rng::new(41);
@@ -123,8 +122,7 @@ fn gpu_equals_cpu_on_random_grids() {
 
 /// With the shorter-diagonal split the GPU compares f32 diagonals: a quad may split the other way
 /// only where the two diagonals tie to f32 precision.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn shorter_split_differs_only_at_ties() {
     let mut gpu = Gpu::new();
     let mut rng = Rng::new(7);
@@ -162,8 +160,7 @@ fn shorter_split_differs_only_at_ties() {
 
 /// Slabs of 1, 2 and 3 cell layers give the same mesh, bit for bit, as one slab (with either
 /// quad split), and it equals the reference.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn slabs_join_without_seams() {
     let mut gpu = Gpu::new();
     let mut rng = Rng::new(3);
@@ -195,8 +192,7 @@ fn slabs_join_without_seams() {
 
 /// A binding limit of 16 KiB: slabs are sized from it, and a slab whose output would not fit
 /// is halved and redone; the mesh still equals the reference.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn small_binding_limit_splits_and_retries() {
     let mut gpu = Gpu::new();
     let mut rng = Rng::new(11);
@@ -217,8 +213,7 @@ fn small_binding_limit_splits_and_retries() {
     }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn no_crossing_gives_an_empty_mesh() {
     let mut gpu = Gpu::new();
     let mut rng = Rng::new(5);
@@ -239,8 +234,7 @@ fn no_crossing_gives_an_empty_mesh() {
 }
 
 /// A sphere in the middle of a tall grid cut into slabs: the slabs above and below it are empty.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn empty_slabs_around_a_surface() {
     let mut gpu = Gpu::new();
     let grid = grid_from([9, 9, 30], DVec3::splat(-1.0), DVec3::new(1.0, 1.0, 6.0), |p| {
@@ -262,8 +256,7 @@ fn empty_slabs_around_a_surface() {
     }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn runs_are_deterministic() {
     let mut gpu = Gpu::new();
     let mut rng = Rng::new(9);
@@ -281,8 +274,7 @@ fn runs_are_deterministic() {
 
 /// mc33 needs `shaderFloat64` (lavapipe has it): with it the GPU extracts, without it the
 /// extraction says so. Tiny bindings and NaN isovalues are errors.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn mc33_support_bad_input_and_tiny_bindings() {
     let mut gpu = Gpu::new();
     let mut rng = Rng::new(1);
@@ -314,12 +306,7 @@ fn mc33_support_bad_input_and_tiny_bindings() {
 /// even coordinates of one grid (the cells between them mix two configurations), extracted
 /// whole and in slabs of 2 layers; the GPU mesh equals the CPU reference, tunnels and added
 /// vertices included.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
-#[cfg_attr(
-    all(isoview_no_float64, not(isoview_skip_gpu)),
-    ignore = "needs shaderFloat64: ISOVIEW_NO_FLOAT64_TESTS=1"
-)]
+#[gpu_test(float64)]
 fn mc33_every_cell_configuration_matches_the_reference() {
     let mut gpu = Gpu::new();
     need_float64(&gpu.ctx);
@@ -377,8 +364,7 @@ fn mc33_every_cell_configuration_matches_the_reference() {
 }
 
 /// The multi-level scan on lengths around its block size and over three levels.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn scan_is_an_exclusive_prefix_sum() {
     use isoview::gpu::{vk, Buffer, MemoryLocation, Tracker};
     use isoview::passes::extract::{ExtractPasses, Scan};
@@ -421,8 +407,7 @@ fn scan_is_an_exclusive_prefix_sum() {
 /// algorithm lies on the plane and every normal is the plane's (the trilinear interpolant is
 /// the plane itself); for a sphere's distance field the vertices lie within a fraction of a cell
 /// of the sphere and the normals point radially.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn closed_form_plane_and_sphere() {
     let ctx = gpu();
     let a = DVec3::new(0.3, -0.5, 0.8);
@@ -471,8 +456,7 @@ fn closed_form_plane_and_sphere() {
 /// and the vertex moves along the dropped direction by up to the cell (clamped): random noise
 /// fields, with their many nearly flat corner configurations, have such cells. Those vertices
 /// are allowed up to one cell, and must be under [`QEF_STRADDLE_SHARE`] of all.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn dual_contouring_qef_gpu_equals_cpu_within_the_qef_tolerance() {
     use isoview::mesh::extract_with;
     use isoview::scene::SharpSettings;

@@ -166,8 +166,7 @@ fn a_mapped_grid_s_mesh_past_the_cap_is_refused() {
     assert_fails(&o, 2, &["mapped.toml: the mesh passed ", "over the cap of 1 MiB"]);
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn render_mesh_past_the_cap_is_refused() {
     let dir = scratch("extract-memory-render");
     let extra = "[image]\nwidth = 16\nheight = 16\n[render]\nmethod = \"mesh\"\n";
@@ -191,8 +190,7 @@ fn render_mesh_past_the_cap_is_refused() {
 }
 
 /// The GPU extraction is counted on the device's counts, before the mesh is read back.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn gpu_extraction_past_the_cap_is_refused() {
     let dir = scratch("extract-memory-gpu");
     let scene_path = write(&dir, "crate.toml", &egg_crate(64, ISO, ""));

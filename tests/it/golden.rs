@@ -207,8 +207,7 @@ fn bless_from(actual: &Path, golden: &Path) {
     isoview::output::atomic::write_bytes(golden, &std::fs::read(actual).unwrap()).unwrap();
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn goldens_match() {
     let bless = std::env::var("ISOVIEW_BLESS").as_deref() == Ok("1");
     let out_dir = target_dir().join("golden-out");
@@ -374,14 +373,12 @@ fn torus_verdict(name: &str, sets: &[String]) -> Verdict {
     compare::compare(&golden, &actual, &golden_thresholds()).unwrap().verdict
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn goldens_pass_an_unchanged_render() {
     assert_eq!(torus_verdict("golden-same", &[]), Verdict::Identical);
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn goldens_catch_small_changes() {
     // The torus SDF spans about [-0.25, 0.9] on its grid: 1% of that range.
     assert_eq!(torus_verdict("golden-iso", &["surface.isovalue=0.0115".into()]), Verdict::Fail);

@@ -14,8 +14,7 @@ fn validated() -> std::sync::Arc<Context> {
         .expect("Vulkan with VK_LAYER_KHRONOS_validation (apt-get install vulkan-validationlayers)")
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn failed_constructors_name_their_cause_and_leak_nothing() {
     let ctx = validated();
     let before = validation_messages();
@@ -84,8 +83,7 @@ fn failed_constructors_name_their_cause_and_leak_nothing() {
     assert_eq!(validation_messages(), before, "validation messages or leaks (printed above)");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn a_device_that_is_not_there_leaves_no_instance_behind() {
     let before = validation_messages();
     let options = ContextOptions { device: Some("no such device".into()), validation: true };

@@ -2,7 +2,8 @@
 //! docs/contributing.md "Testing"): no test returns early after looking at the device (a
 //! missing feature such as `shaderFloat64`, or no device at all). Such a test declares what it
 //! needs (`common::need_float64` panics without it) and is ignored only through a build-time
-//! opt-out (`ISOVIEW_SKIP_GPU_TESTS=1`, `ISOVIEW_NO_FLOAT64_TESTS=1`), which libtest reports.
+//! opt-out (`ISOVIEW_SKIP_GPU_TESTS=1`, `ISOVIEW_NO_FLOAT64_TESTS=1`), which libtest reports;
+//! the rules of that opt-out are written once, in `#[gpu_test]` (crates/test-macros).
 //!
 //! Read from the source text: every file of `tests/` and the unit tests of `src/` and
 //! `crates/`.
@@ -142,8 +143,7 @@ fn tests_that_need_float64_can_be_opted_out() {
                 continue;
             }
             let attrs = attributes_of_enclosing_fn(&lines, i);
-            let declared = attrs.iter().any(|a| !a.trim_start().starts_with("///"))
-                && attrs.iter().any(|a| a.contains("isoview_no_float64"));
+            let declared = attrs.iter().any(|a| a.trim() == "#[gpu_test(float64)]");
             if !declared {
                 found.push(format!("{}:{}", path.display(), i + 1));
             }
@@ -151,8 +151,28 @@ fn tests_that_need_float64_can_be_opted_out() {
     }
     assert!(
         found.is_empty(),
-        "these tests call need_float64 but are not ignored under ISOVIEW_NO_FLOAT64_TESTS=1 \
-         (isoview_no_float64):\n{}",
+        "these tests call need_float64 but are not declared #[gpu_test(float64)] (so not \
+         ignored under ISOVIEW_NO_FLOAT64_TESTS=1):\n{}",
+        found.join("\n")
+    );
+}
+
+/// The ignore rules of GPU tests live in `#[gpu_test]` (crates/test-macros) alone: a test that
+/// spells out its own `cfg_attr` is a copy that can drift (a wrong reason, a missing cfg).
+#[test]
+fn gpu_tests_are_declared_with_the_attribute() {
+    let mut found = Vec::new();
+    for (path, text) in test_sources() {
+        for (i, l) in text.lines().enumerate() {
+            let code = l.split("//").next().unwrap_or("");
+            if code.contains("isoview_skip_gpu") || code.contains("isoview_no_float64") {
+                found.push(format!("{}:{}: {}", path.display(), i + 1, l.trim()));
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "declare GPU tests #[gpu_test] or #[gpu_test(float64)] instead of these cfgs:\n{}",
         found.join("\n")
     );
 }

@@ -14,8 +14,7 @@ use crate::common::gpu;
 
 const SENTINEL: u32 = 0xDEAD_BEEF;
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn shared_structs_have_the_same_layout_on_the_gpu() {
     let ctx = gpu();
     let mut params = RenderParams::default();

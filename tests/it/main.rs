@@ -1,7 +1,12 @@
 //! isoview's integration tests: one binary, topics as modules. GPU tests run on whatever Vulkan
 //! device isoview picks (lavapipe in CI) and fail when none is found. Built with
 //! `ISOVIEW_SKIP_GPU_TESTS=1` (a machine without Vulkan; CI never sets it), they are reported as
-//! ignored: each is declared `#[cfg_attr(isoview_skip_gpu, ignore = ...)]` (see `common::gpu`).
+//! ignored: each is declared `#[gpu_test]` (crates/test-macros; see `common::gpu`), and
+//! `#[gpu_test(float64)]` for the tests that need `shaderFloat64`, ignored likewise under
+//! `ISOVIEW_NO_FLOAT64_TESTS=1` (see `common::need_float64`).
+
+#[macro_use]
+extern crate isoview_test_macros;
 
 mod analytic;
 mod cli;

@@ -106,8 +106,7 @@ fn sdf_of_an_extracted_sphere_is_the_sphere_s_distance() {
     assert!(worst < 3e-3, "largest |sdf - (|p| - 0.6)| = {worst}");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn sdf_of_an_extracted_sphere_renders_as_a_sphere() {
     let grid = extracted_sphere_sdf("sphere-render");
     let ctx = gpu();

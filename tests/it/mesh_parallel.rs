@@ -172,8 +172,7 @@ mesh = "marching-cubes"
 /// (lavapipe) it extracts on the CPU and says so, writing the very file `--device cpu` writes
 /// (the reference's mesh); on a GPU it extracts on the GPU and says so. `--device auto` is the
 /// same as no `--device`; `--device gpu` still runs the GPU passes.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn extract_auto_picks_the_cpu_on_a_cpu_vulkan_device() {
     let ctx = gpu();
     let on_cpu_device = ctx.info.device_type.starts_with("CPU");

@@ -96,8 +96,7 @@ fn render_mesh(renderer: &mut Renderer, scene: &Scene, grid: &Grid, mesh: &Mesh)
     renderer.render_mesh(scene, grid, &gpu_grid, &buffers, 0.0).unwrap().pixels
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn mesh_render_matches_reference_on_random_meshes_and_cameras() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -140,8 +139,7 @@ fn mesh_render_matches_reference_on_random_meshes_and_cameras() {
     assert!(steps_off * 100 < rays, "too many tested counts off: {steps_off} of {rays}");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn random_triangle_soup_and_a_camera_among_the_triangles_match_the_reference() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -187,8 +185,7 @@ fn sphere_grid() -> Grid {
 const SPHERE_GAP_TOL: [(MeshAlgorithm, f64); 2] =
     [(MeshAlgorithm::Mc33, 3e-4), (MeshAlgorithm::SurfaceNets, 1e-3)];
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn fine_sphere_mesh_render_agrees_with_fixed_step_and_analytic_within_the_stated_tolerance() {
     let ctx = gpu();
     let grid = sphere_grid();
@@ -236,8 +233,7 @@ fn fine_sphere_mesh_render_agrees_with_fixed_step_and_analytic_within_the_stated
     }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn tall_images_render_the_mesh_in_bands_identically() {
     let ctx = gpu();
     let grid = grid_from([9, 9, 9], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.7);

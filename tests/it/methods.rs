@@ -12,8 +12,7 @@ use crate::common::*;
 
 /// A render under the validation layer reports nothing, and leaves nothing alive when its
 /// context goes (the layer reports objects still alive at `vkDestroyDevice`).
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn validation_layer_reports_nothing_for_a_render() {
     for method in Method::ALL {
         let ctx = Context::new(&ContextOptions { device: None, validation: true }).expect(
@@ -40,8 +39,7 @@ fn validation_layer_reports_nothing_for_a_render() {
 /// f = x + 2y - z: the surface f = 0.1 is a plane with normal (1, 2, -1)/sqrt(6), which every
 /// method draws exactly (the mesh too: every algorithm's mesh of f = 0.1 lies in the plane, dual
 /// methods inside the grid, marching cubes exactly).
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn linear_field_renders_an_exact_plane() {
     let ctx = gpu();
     let grid =

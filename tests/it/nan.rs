@@ -352,8 +352,7 @@ fn check_pixels(grid: &Grid, gpu: &[Pixel], reference: &[Pixel], what: &str) -> 
     (hits, differ)
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn gpu_ray_methods_match_the_references_with_missing_samples() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -383,8 +382,7 @@ fn gpu_ray_methods_match_the_references_with_missing_samples() {
     }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn gpu_brick_ranges_leave_missing_samples_out() {
     use isoview::gpu::{copy_buffer, vk, Buffer, MemoryLocation};
     use isoview::passes::bricks;
@@ -428,8 +426,7 @@ fn gpu_brick_ranges_leave_missing_samples_out() {
     }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn gpu_extraction_equals_cpu_with_missing_samples() {
     use isoview::gpu::Image3d;
     use isoview::passes::extract::{Extractor, GpuExtractOptions};
@@ -541,8 +538,7 @@ fn probe_says_why_a_cell_has_no_surface() {
     assert!(text.contains("holds a non-finite sample: no surface"), "{text}");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn gpu_slice_shows_no_data_where_the_reference_does() {
     use isoview::render::GpuGrid;
     use isoview::scene::Ambiguity;
@@ -624,8 +620,7 @@ fn colour_by_a_field2_with_missing_samples_keeps_a_finite_range() {
     assert!(c.value(g.point(3, 3, 3), 0).is_finite());
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn brick_pool_renders_equal_whole_grid_renders_with_missing_samples() {
     use isoview::field::SampleType;
     use isoview::field::{Endian, FieldSource, FieldSpec, GridLimits, RawSource, Residency};

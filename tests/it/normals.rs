@@ -52,8 +52,7 @@ fn smooth_gradient_is_continuous_across_cell_faces() {
 
 /// GPU = reference with smooth normals, every method; the same hits and depths as with
 /// trilinear normals (only normals and colours change).
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn smooth_normals_gpu_equals_reference() {
     let ctx = gpu();
     let mut rng = Rng::new(23);
@@ -98,8 +97,7 @@ fn smooth_normals_gpu_equals_reference() {
 /// A sphere on a coarse grid: neighbouring pixels whose hits lie in different cells turn their
 /// normals about as much as neighbours within one cell with smooth normals, but much more with
 /// the exact trilinear ones (whose gradient jumps across the face: the faceting).
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn smooth_normals_soften_the_cell_faces_of_a_coarse_sphere() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();

@@ -82,8 +82,7 @@ fn on_surface(g: &Geometry, grid: &Grid, p: DVec3, tol: f64, what: &str) {
     assert!((f - ISO).abs() < tol, "{what}: {p} (indices {u}) has value {f}, not {ISO}");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn an_oblique_file_renders_extracts_slices_and_probes_in_its_own_space() {
     let dir = scratch("physical");
     let g = geometry("unu_gzip_oblique.nrrd");

@@ -32,8 +32,7 @@ fn placed(scene: &Scene, p: Placement) -> Scene {
 
 /// A placed grid seen by the camera moved with it gives the unplaced picture, moved: the
 /// placement is the world picture, not an approximation of it.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn a_placed_grid_seen_by_the_moved_camera_is_the_unplaced_picture_moved() {
     let ctx = gpu();
     let mut rng = Rng::new(77);
@@ -81,8 +80,7 @@ fn a_placed_grid_seen_by_the_moved_camera_is_the_unplaced_picture_moved() {
 /// The sphere |w - c| = r sampled on a grid whose frame is rotated and mirrored: every method
 /// draws it around `c` in world space, normals pointing away from `c`. Without the
 /// placement the hits would be elsewhere.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn a_sphere_sampled_in_an_oblique_mirrored_frame_is_drawn_where_it_is() {
     let ctx = gpu();
     let (min, max) = (DVec3::new(2.0, 1.0, -3.0), DVec3::new(4.0, 3.2, -1.0));
@@ -122,8 +120,7 @@ fn a_sphere_sampled_in_an_oblique_mirrored_frame_is_drawn_where_it_is() {
 
 /// The GPU's picture of a placed grid equals the method's f64 reference (which places its
 /// pixels through the same rule), at the tolerances of the unplaced comparisons.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn gpu_equals_reference_on_placed_grids() {
     let ctx = gpu();
     let mut rng = Rng::new(5);

@@ -21,8 +21,7 @@ fn orthographic(mut scene: Scene, height: f64) -> Scene {
 /// The plane f = z viewed straight down z: every ray is parallel, so the plane's depth is the
 /// same in every pixel and each hit lies under its pixel's centre on the image plane. A
 /// perspective camera fails both.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn orthographic_rays_are_parallel_in_every_method() {
     let ctx = gpu();
     let grid = grid_from([5, 6, 7], DVec3::splat(-1.0), DVec3::ONE, |p| p.z);
@@ -55,8 +54,7 @@ fn orthographic_rays_are_parallel_in_every_method() {
 
 /// GPU = reference for orthographic views of random smooth fields, every method, from outside
 /// and from inside the box (the image plane then cuts through the surface).
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn orthographic_gpu_equals_reference() {
     let ctx = gpu();
     let mut rng = Rng::new(41);

@@ -312,8 +312,7 @@ fn a_grid_over_the_device_extent_names_its_key() {
 
 /// The render verb: exit 2 naming the key (it was exit 3, "a grid of ... points", from the
 /// device's image limit).
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn render_over_the_device_extent_exits_2_naming_the_key() {
     let max = gpu().info.max_image_dimension_3d;
     let dir = scratch("rel-extent");
@@ -374,9 +373,8 @@ fn whole_file_readers_check_the_declared_dims_first() {
 /// Under MPI each rank reads its block of a raw/npy file: the default residency ("auto") must
 /// not turn a grid over the cap into the single-process brick pool, which MPI refuses (it did
 /// once "auto" became the default: "field.residency = \"active\" is not available under MPI").
-#[test]
+#[gpu_test]
 #[cfg_attr(not(feature = "mpi"), ignore = "MPI test: build with --features mpi")]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn mpi_renders_a_grid_over_the_cap_by_blocks_under_the_default_residency() {
     let dir = scratch("rel-mpi-auto");
     // 72^3 f32 samples: 1.4 MiB, over a 1 MiB cap.
@@ -412,8 +410,7 @@ fn mpi_renders_a_grid_over_the_cap_by_blocks_under_the_default_residency() {
 /// `extract --device gpu` on a grid over the device's 3D image extent: extracted on the CPU
 /// with a note naming the key and the limit (it was exit 3, "a grid of ... points does not fit
 /// the device's 3D images").
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn extract_over_the_device_extent_falls_back_to_the_cpu() {
     let max = gpu().info.max_image_dimension_3d;
     let dir = scratch("rel-extract-extent");

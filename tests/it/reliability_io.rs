@@ -95,8 +95,7 @@ fn stdout_closed_early_stops_quietly_with_exit_0() {
     assert_fails(&o, 2, &["cannot write to stdout: No space left on device"]);
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn info_with_stdout_closed_early_stops_quietly() {
     let o = run(&["info"], reader_gone(), Stdio::piped());
     no_panic(&o);
@@ -124,8 +123,7 @@ fn a_closed_stderr_changes_no_exit_status() {
     assert_eq!(o.status.code(), Some(0));
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn render_with_stderr_closed_succeeds_and_writes_its_file() {
     let dir = scratch("rio-stderr-render");
     let scene = write(&dir, "s.toml", SPHERE);
@@ -232,8 +230,7 @@ fn fifos_and_devices_are_refused_as_outputs() {
     assert_fails(&o, 2, &["f0003.exr: is a directory"]);
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn each_frame_is_checked_before_it_is_drawn() {
     let dir = scratch("rio-frame-check");
     let scene = write(&dir, "s.toml", SPHERE);
@@ -344,8 +341,7 @@ fn peak_rss_kib(args: &[&str]) -> i64 {
     usage.ru_maxrss
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn memory_stays_flat_over_the_frames() {
     let dir = scratch("rio-frames-memory");
     let scene = write(&dir, "s.toml", &SPHERE.replace("\"fixed-step\"", "\"analytic\""));
@@ -400,8 +396,7 @@ fn echoed_values_are_cut_and_escaped() {
     assert!(stderr(&o).len() < 500);
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn tev_with_nobody_listening_still_writes_the_files_then_exits_2() {
     let dir = scratch("rio-tev");
     let scene = write(&dir, "s.toml", SPHERE);

@@ -91,8 +91,7 @@ fn compare_with_reference(scene: &Scene, grid: &Grid, gpu: &[Pixel]) -> Agreemen
     agreement
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn fixed_step_matches_reference_on_random_grids_and_cameras() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -122,8 +121,7 @@ fn fixed_step_matches_reference_on_random_grids_and_cameras() {
     assert!(excused * 1000 < rays, "too many ties: {excused} of {rays}");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn sphere_sdf_grid_renders_a_sphere() {
     let ctx = gpu();
     let grid = grid_from([33, 33, 33], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.6);
@@ -152,8 +150,7 @@ fn sphere_sdf_grid_renders_a_sphere() {
     }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn tall_images_render_in_bands_identically() {
     let ctx = gpu();
     let grid = grid_from([9, 9, 9], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.7);
@@ -177,8 +174,7 @@ fn tall_images_render_in_bands_identically() {
     }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn grids_larger_than_one_staging_slab_upload_in_pieces() {
     let ctx = gpu();
     // 300^3 f32 = 103 MiB: two 64 MiB staging slabs, and more than lavapipe's 128 MiB storage

@@ -78,8 +78,7 @@ fn same_bits(a: &[Pixel], b: &[Pixel]) -> Option<usize> {
 /// Analytic and fixed-step, with and without skipping, counting crossings or not, the second
 /// crossing, smooth normals, several isovalues, inside above: every pixel of the pool render has
 /// the whole grid's bits, and each case leaves bricks out of the pool.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn pool_renders_equal_whole_grid_renders_bit_for_bit() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
@@ -247,8 +246,7 @@ fn residency_keeps_active_bricks_and_fixed_step_neighbours() {
 
 /// Over the cap: one line naming what the pool would need; the mesh method is refused; both from
 /// the command line, exit 2.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn pool_errors_are_one_line() {
     let dir = scratch("residency-cli");
     let mut rng = Rng::new(3);

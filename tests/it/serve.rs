@@ -161,8 +161,7 @@ fn decode_png(bytes: &[u8]) -> image::RgbaImage {
     image::load_from_memory_with_format(bytes, image::ImageFormat::Png).unwrap().to_rgba8()
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn frames_exrs_and_probes_equal_the_command_lines() {
     let dir = scratch("serve-equal");
     let file = scene("cell-tunnel.toml");
@@ -227,8 +226,7 @@ fn frames_exrs_and_probes_equal_the_command_lines() {
     assert_eq!(outside.json()["error"], "isoview: --pixel 96,0: outside the 96x80 image");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn bad_overrides_get_the_cli_message_and_the_server_keeps_serving() {
     let file = scene("cell-tunnel.toml");
     let server = Server::start(&file, &["--set", "image.width=32", "--set", "image.height=32"]);
@@ -254,8 +252,7 @@ fn bad_overrides_get_the_cli_message_and_the_server_keeps_serving() {
     assert_eq!(server.set(&["image.width=32", "image.height=32", "surface.isovalue=0.1"]), 2);
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn a_wrong_token_or_a_foreign_host_is_refused() {
     let server = Server::start(
         &scene("cell-tunnel.toml"),
@@ -293,8 +290,7 @@ fn a_wrong_token_or_a_foreign_host_is_refused() {
     }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn stale_states_are_dropped_and_previews_refine() {
     let file = scene("cell-tunnel.toml");
     let server = Server::start(&file, &[]);
@@ -469,8 +465,7 @@ fn assert_same_as_exr(
     }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn render_and_serve_push_every_channel_to_tev() {
     let dir = scratch("serve-tev");
     let file = scene("cell-tunnel.toml");
@@ -524,8 +519,7 @@ fn render_and_serve_push_every_channel_to_tev() {
     assert_eq!(a.status, 502, "{}", a.text());
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn slices_and_saved_scenes_match_the_command_line() {
     let dir = scratch("serve-slice");
     let file = scene("cell-tunnel.toml");
@@ -579,8 +573,7 @@ fn slices_and_saved_scenes_match_the_command_line() {
     assert_eq!(from_file, served);
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn coarse_pixels_are_the_full_images_and_stale_renders_stop_between_bands() {
     use isoview::render::{GpuGrid, Progressive, RenderError, Renderer};
     use isoview::scene::Method;
@@ -624,8 +617,7 @@ fn coarse_pixels_are_the_full_images_and_stale_renders_stop_between_bands() {
 /// `render --tev` sends each band as the renderer finishes it: the UpdateImage packets follow
 /// the render's bands (chunks of at most 64 rows within each band), not a split of the
 /// finished image, and together they are the EXR bit for bit.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn render_tev_streams_each_band_as_it_is_drawn() {
     let (w, h) = (1200u32, 900u32);
     let ctx = crate::common::gpu();

@@ -53,8 +53,7 @@ fn alive(server: &Server) {
     assert_eq!(a.status, 200, "the server still answers: {}", a.text());
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn oversized_requests_are_refused_before_they_are_read() {
     let server = Server::start(
         &scene("cell-tunnel.toml"),
@@ -113,8 +112,7 @@ fn oversized_requests_are_refused_before_they_are_read() {
     alive(&server);
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn many_connections_take_no_more_threads_and_the_excess_is_told_to_wait() {
     let server = Server::start(
         &scene("cell-tunnel.toml"),
@@ -147,8 +145,7 @@ fn many_connections_take_no_more_threads_and_the_excess_is_told_to_wait() {
     assert!(ok, "the server serves again once the idle connections are gone");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn parked_long_polls_leave_the_workers_free() {
     let server = Server::start(
         &scene("cell-tunnel.toml"),
@@ -219,8 +216,7 @@ fn raw_field(path: &str) -> String {
     format!("field = {{source = \"raw\", path = \"{path}\", dims = [2, 2, 2], dtype = \"u8\"}}")
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn the_page_reads_only_the_scenes_files_and_allowed_folders() {
     let (dir, file) = path_fixture("serve-paths");
     let allowed = dir.join("allowed");
@@ -287,8 +283,7 @@ fn the_page_reads_only_the_scenes_files_and_allowed_folders() {
     alive(&server);
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn a_missing_allow_dir_is_refused_at_start() {
     let (dir, file) = path_fixture("serve-paths-missing");
     let missing = dir.join("no-such-folder");
@@ -330,8 +325,7 @@ fn expression_errors_are_one_clean_line() {
     }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn serve_expression_errors_are_one_clean_line() {
     let server = Server::start(
         &scene("expr-waves.toml"),
@@ -343,8 +337,7 @@ fn serve_expression_errors_are_one_clean_line() {
     assert!(e.contains("character 4") && !e.contains("0x") && !e.contains("Operator"), "{e}");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn images_over_the_pixel_cap_are_refused() {
     let file = scene("cell-tunnel.toml");
     let server = Server::start(&file, &["--set", "image.width=16", "--set", "image.height=16"]);
@@ -386,8 +379,7 @@ fn images_over_the_pixel_cap_are_refused() {
 /// Each state renders 4 bands of 32 rows; lavapipe used to keep ~1 MiB per band for good
 /// (+4.3 MiB per state here). Now the pipelines are released every 16 dispatches: the server
 /// grows by well under 1 MiB per state (the driver keeps ~70 KiB per dispatch).
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn memory_per_state_stays_flat() {
     let server = Server::start(
         &scene("cell-tunnel.toml"),

@@ -416,8 +416,7 @@ fn style(plane: &PlaneGrid, width: u32, height: u32, isovalue: f64, inside: Insi
     }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn gpu_value_matches_the_reference_on_random_grids() {
     let ctx = gpu();
     let renderer = SliceRenderer::new(&ctx).unwrap();
@@ -455,8 +454,7 @@ fn gpu_value_matches_the_reference_on_random_grids() {
     eprintln!("worst relative value error {worst:.2e}");
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn gpu_picture_colours_inside_red_and_draws_the_contour() {
     let ctx = gpu();
     let scene = load_file("torus.toml", &[]);
@@ -487,8 +485,7 @@ fn every_shipped_scene_slices_on_every_axis() {
     shipped_scene_slices(None);
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn every_shipped_scene_slices_on_every_axis_on_the_gpu() {
     shipped_scene_slices(Some(gpu()));
 }
@@ -657,8 +654,7 @@ fn slice_command_input_errors_write_nothing() {
     assert!(!Path::new(&exr_path).exists());
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn slice_command_writes_exr_png_json_and_svg() {
     let dir = scratch("slice-cli");
     let scene = root().join("scenes/torus.toml").display().to_string();

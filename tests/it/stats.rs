@@ -88,8 +88,7 @@ fn stats_prints_what_the_field_holds() {
 
 /// The EXR says how its isovalue was picked: the number in `isoview/isovalue`, the rule in
 /// `isoview/extra/isovalue_rule`.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn the_exr_header_records_the_rule() {
     use isoview::output::exr::{self, attr};
     let dir = crate::common::scratch("stats-exr");

@@ -135,8 +135,7 @@ impl FrameSink for Tee {
     }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn streamed_renders_equal_in_memory_exrs_for_every_method() {
     let dir = scratch("stream-render");
     let ctx = gpu();
@@ -198,8 +197,7 @@ fn streamed_renders_equal_in_memory_exrs_for_every_method() {
     }
 }
 
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn frames_are_streamed_one_by_one() {
     let dir = scratch("stream-frames");
     let ctx = gpu();
@@ -256,8 +254,7 @@ pub(crate) fn peak_rss_mib(args: &[&str]) -> (i32, f64) {
 /// 4096 x 2048 pixels of one cell against 64 x 32: holding the frame and its channel planes (as
 /// the writer did before streaming) grew memory by about 130 bytes a pixel, 1 GiB here;
 /// streamed, it grows by a few bands (3 x 64 MiB at this width).
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn a_large_render_stays_in_bounded_memory() {
     let dir = scratch("stream-peak");
     let run = |w: u32, h: u32| {

@@ -43,8 +43,7 @@ fn winner(layers: &[Vec<Pixel>], i: usize) -> Option<usize> {
 /// the nearest of the one-surface renders (each in its surface's colour), with `iso_index`
 /// naming it, `steps` the winner's (a miss: the whole ray's, as every layer), `crossings` the
 /// sum. Skipping off, so that `steps` counts the same cells as one surface's walk.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn several_surfaces_are_the_nearest_of_each_alone_on_the_gpu() {
     let ctx = gpu();
     let mut rng = Rng::new(71);
@@ -95,8 +94,7 @@ fn several_surfaces_are_the_nearest_of_each_alone_on_the_gpu() {
 
 /// Every method with several isovalues against its f64 reference (the references compose the
 /// one-surface references by the same rule), at the tolerances of the one-surface tests.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn several_surfaces_gpu_equals_reference() {
     let ctx = gpu();
     let mut rng = Rng::new(73);
@@ -210,8 +208,7 @@ fn split_ply(bytes: &[u8]) -> (String, &[u8]) {
 
 /// `probe` with several isovalues reports each surface alone and the one shown: the render's
 /// `iso_index` at that pixel.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn probe_names_the_surface_the_render_shows() {
     let dir = scratch("surfaces-probe");
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/blobs-layers.toml");
@@ -241,8 +238,7 @@ fn probe_names_the_surface_the_render_shows() {
 
 /// `slice` with several isovalues: the JSON holds one contour set per surface, each the
 /// one-surface slice's; the picture draws them all.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn slice_writes_one_contour_set_per_surface() {
     let dir = scratch("surfaces-slice");
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/blobs-layers.toml");

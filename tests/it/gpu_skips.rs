@@ -1,5 +1,5 @@
 //! A GPU test that cannot run shows up as ignored, never as passed (issue #24 item 5,
-//! docs/contributing.md "Testing"): no test returns early after looking at the device (a
+//! docs/contributing.md "Tests"): no test returns early after looking at the device (a
 //! missing feature such as `shaderFloat64`, or no device at all). Such a test declares what it
 //! needs (`common::need_float64` panics without it) and is ignored only through a build-time
 //! opt-out (`ISOVIEW_SKIP_GPU_TESTS=1`, `ISOVIEW_NO_FLOAT64_TESTS=1`), which libtest reports;

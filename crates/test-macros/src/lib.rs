@@ -1,5 +1,5 @@
 //! `#[gpu_test]`: the one declaration of a test that needs a Vulkan device (docs/contributing.md
-//! "Testing"). It stands for
+//! "Tests"). It stands for
 //!
 //! ```text
 //! #[test]

@@ -7,10 +7,9 @@ use std::time::Instant;
 use super::console::note;
 use super::{Cli, Failure};
 use crate::cluster::{BlockError, Ranks};
-use crate::frame::{Channel, FrameInfo, Pixel};
 use crate::output;
-use crate::passes::Band;
-use crate::render::{FrameSink, GpuGrid, RenderError, Renderer};
+use crate::output::frame_files::FrameFiles;
+use crate::render::{GpuGrid, Renderer};
 use crate::scene::Scene;
 use crate::vocab::echo;
 
@@ -181,30 +180,21 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
             cached = Some((grid, uploaded));
         }
         let (grid, gpu_grid) = cached.as_ref().expect("sampled above");
+        // Each band goes to the EXR, the PNG and tev as it is drawn; none is kept.
+        let channels = crate::render::scene_channels(&scene);
+        let mut outputs = FrameFiles::new(&exr, png.as_deref(), channels);
+        // How the isovalue was picked, beside `isoview/isovalue` in the header.
+        if let Some(how) = scene.surface.rule.describe(scene.surface.isovalue) {
+            outputs = outputs.with_header("isovalue_rule", &how);
+        }
         // With --tev, tev shows each band as it finishes (CreateImage first). Once tev has
         // failed it is not tried again; the failure is reported after the last frame.
-        let tev = match (&args.tev, &tev_failed) {
-            (Some(address), None) => match open_tev(address, &exr, &scene) {
-                Ok(image) => Some(image),
-                Err(e) => {
-                    tev_failed = Some(e);
-                    None
-                }
-            },
-            _ => None,
-        };
-        // Each band goes to the EXR, the PNG and tev as it is drawn; none is kept.
-        let mut outputs = Outputs {
-            channels: crate::render::scene_channels(&scene),
-            exr_path: &exr,
-            png_path: png.as_deref(),
-            rule: scene.surface.rule.describe(scene.surface.isovalue),
-            exr: None,
-            png: None,
-            tev,
-            tev_error: None,
-            size: (0, 0),
-        };
+        if let (Some(address), None) = (&args.tev, &tev_failed) {
+            let (width, height) = (scene.image.width, scene.image.height);
+            if let Err(e) = outputs.show_in_tev(address, width, height) {
+                tev_failed = Some(e);
+            }
+        }
         let drawn = ranks.render_to(&mut renderer, &scene, (grid, gpu_grid), time, &mut outputs);
         // Under MPI the other ranks wait in a collective: a rank's failure ends them all.
         let drawn = drawn.map_err(|e| super::failed_alone(&ranks, render_failure(e)));
@@ -217,12 +207,12 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
             ),
             _ => String::new(),
         };
-        if let Some(e) = outputs.tev_error.take() {
+        if let Some(e) = outputs.take_tev_error() {
             tev_failed.get_or_insert(e);
         }
         drawn?;
-        let (width, height) = outputs.size;
-        outputs.finish()?;
+        let (width, height) = outputs.size();
+        outputs.finish().map_err(Failure::input)?;
         // Memory stays bounded over any number of frames (see `release_pipelines`): every
         // RELEASE_EVERY frames, so that rebuilding the pipelines (tens of ms on lavapipe) costs
         // little per frame.
@@ -328,87 +318,6 @@ fn render_failure(e: crate::render::RenderError) -> Failure {
         crate::render::RenderError::Gpu(g) => Failure::gpu(g),
         other => Failure::input(other),
     }
-}
-
-/// Where `render` sends each band: the EXR and the PNG preview, both streamed into temporary
-/// files that are moved into place when the frame is whole (a failed render leaves neither),
-/// and tev.
-struct Outputs<'a> {
-    channels: Vec<Channel>,
-    exr_path: &'a Path,
-    png_path: Option<&'a Path>,
-    /// How the isovalue was picked, beside `isoview/isovalue` in the header.
-    rule: Option<String>,
-    exr: Option<output::exr_stream::ExrStream>,
-    png: Option<output::png::PngStream>,
-    tev: Option<output::tev::TevImage>,
-    tev_error: Option<output::tev::TevError>,
-    size: (u32, u32),
-}
-
-impl Outputs<'_> {
-    /// Moves the finished EXR and PNG into place.
-    fn finish(self) -> Result<(), Failure> {
-        if let Some(exr) = self.exr {
-            exr.finish().map_err(Failure::input)?;
-        }
-        if let Some(png) = self.png {
-            png.finish().map_err(Failure::input)?;
-        }
-        Ok(())
-    }
-}
-
-impl FrameSink for Outputs<'_> {
-    fn begin(&mut self, width: u32, height: u32, info: &FrameInfo) -> Result<(), RenderError> {
-        let mut info = info.clone();
-        if let Some(how) = &self.rule {
-            info.extra.push(("isovalue_rule".into(), how.clone()));
-        }
-        self.size = (width, height);
-        self.exr = Some(output::exr_stream::ExrStream::create(
-            self.exr_path,
-            width,
-            height,
-            &self.channels,
-            &info,
-        )?);
-        if let Some(png) = self.png_path {
-            self.png =
-                Some(output::png::PngStream::create(png, width, height, info.legend.as_ref())?);
-        }
-        Ok(())
-    }
-
-    fn band(&mut self, band: Band, pixels: &[Pixel]) -> Result<(), RenderError> {
-        if let Some(exr) = &mut self.exr {
-            exr.push_rows(pixels)?;
-        }
-        if let Some(png) = &mut self.png {
-            png.push_rows(pixels)?;
-        }
-        if let Some(image) = &mut self.tev {
-            if let Err(e) = image.send_rows(band.row_offset, pixels) {
-                // tev is only a view: the render goes on and its files are written; `run`
-                // reports the failure after the last frame (exit 2).
-                self.tev_error = Some(e);
-                self.tev = None;
-            }
-        }
-        Ok(())
-    }
-}
-
-/// Opens the tev image of the render to `exr`: named as the file, with the channels the EXR
-/// will have.
-fn open_tev(
-    address: &str,
-    exr: &Path,
-    scene: &Scene,
-) -> Result<output::tev::TevImage, output::tev::TevError> {
-    let channels = crate::render::scene_channels(scene);
-    let name = exr.display().to_string();
-    output::tev::TevImage::open(address, &name, scene.image.width, scene.image.height, channels)
 }
 
 #[cfg(test)]

@@ -10,6 +10,8 @@
 //! - [`exr_planes`]: named float channels written row by row (`compare --diff`);
 //!   [`exr::write_channels`] is it given every row.
 //! - [`png`]: an 8-bit sRGB preview of the beauty (RGBA).
+//! - [`frame_files`]: a rendered frame's EXR, PNG preview and tev view, each band written as it
+//!   is drawn (what `isoview render` writes for each frame).
 //! - [`guard`]: the one rule for which paths a verb may write (never one of its inputs, never
 //!   a device, FIFO or socket), checked before writing.
 //! - [`tev`]: a frame sent to the tev HDR viewer over TCP (its remote-control protocol).
@@ -19,6 +21,7 @@ pub mod exr;
 mod exr_blocks;
 pub mod exr_planes;
 pub mod exr_stream;
+pub mod frame_files;
 pub mod guard;
 pub mod legend;
 pub mod png;

@@ -13,11 +13,11 @@
 //!   gpu = the isoview-gpu crate (Vulkan: device, buffers, images, pipelines; no isosurfaces)
 //!   reference (f64 CPU versions of every method, for tests)
 //!   output (Frame -> EXR / PNG, atomic writes)     compare (EXR vs EXR)
+//!   cluster (the processes of a run: one, or MPI ranks; render and extract across them)
 //! ```
 
 pub mod camera;
 pub mod cli;
-#[cfg(feature = "mpi")]
 pub mod cluster;
 pub mod compare;
 pub mod field;

@@ -24,7 +24,7 @@
 //! until it is written, under the cap of `ISOVIEW_MAX_MESH_MIB` ([`MeshLimits`], 1024 MiB by
 //! default), counted as the mesh grows and refused past it in one line (exit 2).
 //!
-//! Under an MPI launcher with more than one rank (`--features mpi`, `cluster::mesh`), the
+//! Under an MPI launcher with more than one rank (`--features mpi`, `cluster::Ranks`), the
 //! CPU extraction is split: each rank meshes a range of cell layers and rank 0 joins them
 //! and writes the file, which is byte for byte the one process's `--device cpu` file. The
 //! GPU extraction and the methods that are not cut into slabs are refused there in one line.
@@ -35,6 +35,7 @@ use std::time::Instant;
 
 use super::console::{note, say};
 use super::{Cli, Failure};
+use crate::cluster::{Extracted, Points, Ranks};
 use crate::field::mapped::MappedGrid;
 use crate::field::Grid;
 use crate::mesh::export::{self, Format};
@@ -107,26 +108,16 @@ pub fn resolve_device(
     }
 }
 
-/// The MPI ranks of this run (`cluster::World`); uninhabited without the feature.
-#[cfg(feature = "mpi")]
-type Ranks = crate::cluster::World;
-#[cfg(not(feature = "mpi"))]
-type Ranks = std::convert::Infallible;
-
 pub fn run(cli: &Cli, args: &ExtractArgs) -> Result<i32, Failure> {
-    #[cfg(feature = "mpi")]
-    if let Some(w) = crate::cluster::world() {
-        // Every rank reads the same input and so meets the same failures; rank 0 says it.
-        return match run_on(cli, args, Some(&w)) {
-            Err(f) if w.rank() != 0 => Ok(f.code),
-            other => other,
-        };
+    let ranks = Ranks::from_launcher();
+    // Every rank reads the same input and so meets the same failures; rank 0 says it.
+    match run_on(cli, args, &ranks) {
+        Err(f) if !ranks.is_root() => Ok(f.code),
+        other => other,
     }
-    run_on(cli, args, None)
 }
 
-#[cfg_attr(not(feature = "mpi"), allow(unused_variables))]
-fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, Failure> {
+fn run_on(cli: &Cli, args: &ExtractArgs, ranks: &Ranks) -> Result<i32, Failure> {
     let format = Format::from_path(&args.output).ok_or_else(|| {
         Failure::input(format!(
             "-o {}: the file name must end in .ply, .obj or .stl",
@@ -141,11 +132,8 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
         resolve_device(cli.device.as_deref(), cli.device_from_command_line, env.as_deref());
     let scene = super::load_scene(&args.scene, &args.sets)?;
     super::check_output("-o", &args.output, &scene)?;
-    #[cfg(feature = "mpi")]
-    if let Some(w) = ranks {
-        if let Some(why) = w.refuses_extract(&scene, backend == Backend::Gpu) {
-            return Ok(super::refuse_on_ranks(w, why));
-        }
+    if let Some(why) = ranks.refuses_extract(&scene, backend == Backend::Gpu) {
+        return super::refuse_on_ranks(ranks, Failure::input(why));
     }
 
     let started = Instant::now();
@@ -155,15 +143,14 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     let budget = Arc::new(MeshBudget::new(MeshLimits::from_env().map_err(Failure::input)?));
     // Under MPI a raw or npy file is mapped and each rank reads only its layers; other
     // sources are sampled whole by every rank.
-    #[cfg(feature = "mpi")]
-    if let Some(w) = ranks {
+    if !ranks.is_single() {
         let time = args.time;
         let how = Split { args, format, scene: &scene, opts, started, budget: &budget };
         return match MappedGrid::open(&scene.field).map_err(Failure::input)? {
-            Some(m) => extract_ranks(w, crate::cluster::Points::Mapped(&m), how),
+            Some(m) => extract_ranks(ranks, Points::Mapped(&m), how),
             None => {
                 let grid = scene.field.sample(time).map_err(Failure::input)?;
-                extract_ranks(w, crate::cluster::Points::Sampled(&grid), how)
+                extract_ranks(ranks, Points::Sampled(&grid), how)
             }
         };
     }
@@ -410,7 +397,6 @@ fn extract_mapped(
 }
 
 /// What an extraction under MPI writes, and how.
-#[cfg(feature = "mpi")]
 struct Split<'a> {
     args: &'a ExtractArgs,
     format: Format,
@@ -422,8 +408,7 @@ struct Split<'a> {
 
 /// Under MPI: every rank meshes its share of every surface from the point layers it reads
 /// (`cluster::mesh`), rank 0 joins the shares and writes the file.
-#[cfg(feature = "mpi")]
-fn extract_ranks(w: &Ranks, grid: crate::cluster::Points, how: Split) -> Result<i32, Failure> {
+fn extract_ranks(w: &Ranks, grid: Points, how: Split) -> Result<i32, Failure> {
     let Split { args, format, scene, opts, started, budget } = how;
     let read = started.elapsed();
     let source = crate::field::PointField::from_spec(&scene.field, args.time);
@@ -435,7 +420,7 @@ fn extract_ranks(w: &Ranks, grid: crate::cluster::Points, how: Split) -> Result<
             .extract(grid, &x, budget)
             .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
         match done {
-            crate::cluster::Extracted::Whole(mesh, own, joined) => {
+            Extracted::Whole(mesh, own, joined) => {
                 let mut mesh = *mesh;
                 mesh.place(&scene.field.placement);
                 if scene.clip.count > 0 {
@@ -445,17 +430,17 @@ fn extract_ranks(w: &Ranks, grid: crate::cluster::Points, how: Split) -> Result<
                 own_share += own;
                 gathered += joined;
             }
-            crate::cluster::Extracted::Sent => {}
-            crate::cluster::Extracted::FailedElsewhere => return Ok(super::EXIT_INPUT),
+            Extracted::Sent => {}
+            Extracted::FailedElsewhere => return Ok(super::EXIT_INPUT),
         }
     }
-    if w.rank() != 0 {
+    if !w.is_root() {
         return Ok(0); // rank 0 writes
     }
     let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
     let reading = match grid {
-        crate::cluster::Points::Mapped(_) => "each rank reads its layers of the mapped file",
-        crate::cluster::Points::Sampled(_) => "each rank samples the whole field",
+        Points::Mapped(_) => "each rank reads its layers of the mapped file",
+        Points::Sampled(_) => "each rank samples the whole field",
     };
     let why = format!(
         "; mpi: {} ranks, {reading}; rank 0 read or sampled in {:.0} ms, meshed its share in \

@@ -145,16 +145,28 @@ pub fn main() -> i32 {
     }
 }
 
-/// Under MPI, a run that every rank refuses alike (a scene's setting: the same on every rank):
-/// rank 0 reports the failure once, then every rank waits for it before returning the exit
-/// code. Without the wait a rank exiting first makes mpirun end the job, which can cut rank 0
-/// before its line is out.
-#[cfg(feature = "mpi")]
-fn refuse_on_ranks(w: &crate::cluster::World, why: String) -> i32 {
-    let f = Failure::input(why);
-    let code = if w.rank() == 0 { f.report() } else { f.code };
-    w.barrier();
-    code
+/// A failure that every rank meets alike (a scene's setting, an output name: the same on every
+/// rank). One process: the failure, returned as usual. Under MPI rank 0 reports it once, then
+/// every rank waits for it before returning the exit code: without the wait a rank exiting
+/// first makes mpirun end the job, which can cut rank 0 before its line is out.
+fn refuse_on_ranks(ranks: &crate::cluster::Ranks, f: Failure) -> Result<i32, Failure> {
+    if ranks.is_single() {
+        return Err(f);
+    }
+    let code = if ranks.is_root() { f.report() } else { f.code };
+    ranks.barrier();
+    Ok(code)
+}
+
+/// A failure that this rank meets alone (its block of the file, its part of the render) while
+/// the other ranks wait in a collective: under MPI this rank says it, with its number, and
+/// ends every rank with its code. One process: the failure, to return as usual.
+fn failed_alone(ranks: &crate::cluster::Ranks, f: Failure) -> Failure {
+    if !ranks.is_single() {
+        note!("rank {}: {}", ranks.rank(), f.message);
+        ranks.abort(f.code);
+    }
+    f
 }
 
 /// Loads a scene for a verb; an isovalue picked from the data (`isovalue_sigma`,

@@ -6,10 +6,10 @@ use std::time::Instant;
 
 use super::console::note;
 use super::{Cli, Failure};
-use crate::frame::{Channel, FrameInfo, Pixel};
+use crate::cluster::{BlockError, Ranks};
 use crate::output;
-use crate::passes::Band;
-use crate::render::{FrameSink, GpuGrid, RenderError, Renderer};
+use crate::output::frame_files::FrameFiles;
+use crate::render::{GpuGrid, Renderer};
 use crate::scene::Scene;
 use crate::vocab::echo;
 
@@ -96,33 +96,21 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
     let frames = Frames { args, range };
 
     // Under mpirun with more than one rank: the grid is split (`cluster`), rank 0 writes.
-    #[cfg(feature = "mpi")]
-    let world = crate::cluster::world();
-    #[cfg(feature = "mpi")]
-    if let Some(w) = &world {
-        let tev = args.tev.as_ref().map(|_| "--tev is not available under MPI".to_string());
-        if let Some(why) = w.refuses(&scene).or(tev) {
-            return Ok(super::refuse_on_ranks(w, why));
-        }
+    let ranks = Ranks::from_launcher();
+    let tev = (args.tev.is_some() && !ranks.is_single())
+        .then(|| "--tev is not available under MPI".to_string());
+    if let Some(why) = ranks.refuses(&scene).or(tev) {
+        return super::refuse_on_ranks(&ranks, Failure::input(why));
     }
     // An output that may not be written (an input, a special file): under MPI every rank
     // meets it alike and rank 0 says it.
-    let refused = |f: Failure| -> Result<i32, Failure> {
-        #[cfg(feature = "mpi")]
-        if let Some(w) = &world {
-            return Ok(super::refuse_on_ranks(w, f.message));
-        }
-        Err(f)
-    };
+    let refused = |f: Failure| super::refuse_on_ranks(&ranks, f);
     // The first frame's names are checked before the device opens, so that a bad pattern or
     // a refused output fails at once.
     if let Err(f) = frames.job(*frames.numbers().start()).and_then(|job| job.check(&scene)) {
         return refused(f);
     }
-    #[cfg(feature = "mpi")]
-    let rank0 = world.as_ref().map_or(true, |w| w.rank() == 0);
-    #[cfg(not(feature = "mpi"))]
-    let rank0 = true;
+    let rank0 = ranks.is_root();
 
     let ctx = cli.gpu()?;
     let mut renderer = Renderer::new(&ctx).map_err(Failure::gpu)?;
@@ -141,14 +129,12 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
     let mapped = crate::render::pool::mapped_for(&scene, &limits).map_err(pool_failure)?;
     // Under MPI each rank reads its block of the file (below): the default "auto" leaves the
     // brick pool to a single process; "active", asked for, is refused.
-    #[cfg(feature = "mpi")]
-    let mapped = match (&world, scene.field.residency) {
-        (Some(_), crate::field::Residency::Auto) => None,
+    let mapped = match (ranks.is_single(), scene.field.residency) {
+        (false, crate::field::Residency::Auto) => None,
         _ => mapped,
     };
     if let Some(mapped) = mapped {
-        #[cfg(feature = "mpi")]
-        if world.is_some() {
+        if !ranks.is_single() {
             return Err(Failure::input(
                 "field.residency = \"active\" is not available under MPI (each rank uploads its \
                  block of the whole grid instead)",
@@ -163,10 +149,7 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
     }
     // A grid uploaded whole is one 3D image: over the device's extent it is the input's size
     // that is wrong (exit 2, the key named), not the GPU. Under MPI each rank holds a block.
-    #[cfg(feature = "mpi")]
-    let whole = cached.is_none() && world.is_none();
-    #[cfg(not(feature = "mpi"))]
-    let whole = cached.is_none();
+    let whole = cached.is_none() && ranks.is_single();
     if whole {
         let max = ctx.info.max_image_dimension_3d;
         scene.field.check_image_extent(max).map_err(Failure::input)?;
@@ -181,86 +164,55 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         let Job { time, exr, png } = job;
         let started = Instant::now();
         // Under MPI a raw or npy file is mapped and each rank reads only its block.
-        #[cfg(feature = "mpi")]
-        if let (Some(w), None) = (&world, &cached) {
-            if let Some(m) =
-                crate::field::mapped::MappedGrid::open(&scene.field).map_err(Failure::input)?
-            {
-                let block = w.block(m.dims);
-                let values = match m.read_finite(block.origin, block.extent) {
-                    Ok(values) => values,
-                    Err(e) => {
-                        note!("rank {}: {e}", w.rank());
-                        w.abort(super::EXIT_INPUT);
-                    }
-                };
-                cached = Some((m.shape(), w.upload_block(&ctx, m.dims, block, values)?));
-            }
+        if cached.is_none() {
+            cached = match ranks.upload_mapped_block(&ctx, &scene.field) {
+                Ok(block) => block,
+                Err(BlockError::Open(e)) => return Err(Failure::input(e)),
+                Err(BlockError::Read(e)) => {
+                    return Err(super::failed_alone(&ranks, Failure::input(e)))
+                }
+                Err(BlockError::Gpu(e)) => return Err(Failure::gpu(e)),
+            };
         }
         if cached.is_none() || scene.field.is_time_varying() {
             let grid = scene.field.sample(time).map_err(Failure::input)?;
-            #[cfg(feature = "mpi")]
-            let uploaded = match &world {
-                Some(w) => w.upload(&ctx, &grid)?,
-                None => GpuGrid::upload(&ctx, &grid)?,
-            };
-            #[cfg(not(feature = "mpi"))]
-            let uploaded = GpuGrid::upload(&ctx, &grid)?;
+            let uploaded = ranks.upload(&ctx, &grid)?;
             cached = Some((grid, uploaded));
         }
         let (grid, gpu_grid) = cached.as_ref().expect("sampled above");
+        // Each band goes to the EXR, the PNG and tev as it is drawn; none is kept.
+        let channels = crate::render::scene_channels(&scene);
+        let mut outputs = FrameFiles::new(&exr, png.as_deref(), channels);
+        // How the isovalue was picked, beside `isoview/isovalue` in the header.
+        if let Some(how) = scene.surface.rule.describe(scene.surface.isovalue) {
+            outputs = outputs.with_header("isovalue_rule", &how);
+        }
         // With --tev, tev shows each band as it finishes (CreateImage first). Once tev has
         // failed it is not tried again; the failure is reported after the last frame.
-        let tev = match (&args.tev, &tev_failed) {
-            (Some(address), None) => match open_tev(address, &exr, &scene) {
-                Ok(image) => Some(image),
-                Err(e) => {
-                    tev_failed = Some(e);
-                    None
-                }
-            },
-            _ => None,
-        };
-        // Each band goes to the EXR, the PNG and tev as it is drawn; none is kept.
-        let mut outputs = Outputs {
-            channels: crate::render::scene_channels(&scene),
-            exr_path: &exr,
-            png_path: png.as_deref(),
-            rule: scene.surface.rule.describe(scene.surface.isovalue),
-            exr: None,
-            png: None,
-            tev,
-            tev_error: None,
-            size: (0, 0),
-        };
-        // Under MPI: the ranks, and rank 0's time gathering and compositing.
-        #[cfg_attr(not(feature = "mpi"), allow(unused_mut))]
-        let mut split = String::new();
-        #[cfg(feature = "mpi")]
-        let drawn = match &world {
-            Some(w) => {
-                let mut sink = crate::cluster::Composite::new(w, rank0.then_some(&mut outputs));
-                let drawn = renderer.render_to(&scene, grid, gpu_grid, time, &mut sink);
-                if let Err(e) = drawn {
-                    // The other ranks wait in a collective: end them all.
-                    let f = render_failure(e);
-                    note!("rank {}: {}", w.rank(), f.message);
-                    w.abort(f.code);
-                }
-                let ms = sink.compositing.as_secs_f64() * 1e3;
-                split = format!(", {} MPI ranks, compositing {ms:.0} ms", w.size());
-                Ok(())
+        if let (Some(address), None) = (&args.tev, &tev_failed) {
+            let (width, height) = (scene.image.width, scene.image.height);
+            if let Err(e) = outputs.show_in_tev(address, width, height) {
+                tev_failed = Some(e);
             }
-            None => renderer.render_to(&scene, grid, gpu_grid, time, &mut outputs),
+        }
+        let drawn = ranks.render_to(&mut renderer, &scene, (grid, gpu_grid), time, &mut outputs);
+        // Under MPI the other ranks wait in a collective: a rank's failure ends them all.
+        let drawn = drawn.map_err(|e| super::failed_alone(&ranks, render_failure(e)));
+        // Under MPI: the ranks, and rank 0's time gathering and compositing.
+        let split = match &drawn {
+            Ok(Some(compositing)) => format!(
+                ", {} MPI ranks, compositing {:.0} ms",
+                ranks.size(),
+                compositing.as_secs_f64() * 1e3
+            ),
+            _ => String::new(),
         };
-        #[cfg(not(feature = "mpi"))]
-        let drawn = renderer.render_to(&scene, grid, gpu_grid, time, &mut outputs);
-        if let Some(e) = outputs.tev_error.take() {
+        if let Some(e) = outputs.take_tev_error() {
             tev_failed.get_or_insert(e);
         }
-        drawn.map_err(render_failure)?;
-        let (width, height) = outputs.size;
-        outputs.finish()?;
+        drawn?;
+        let (width, height) = outputs.size();
+        outputs.finish().map_err(Failure::input)?;
         // Memory stays bounded over any number of frames (see `release_pipelines`): every
         // RELEASE_EVERY frames, so that rebuilding the pipelines (tens of ms on lavapipe) costs
         // little per frame.
@@ -366,87 +318,6 @@ fn render_failure(e: crate::render::RenderError) -> Failure {
         crate::render::RenderError::Gpu(g) => Failure::gpu(g),
         other => Failure::input(other),
     }
-}
-
-/// Where `render` sends each band: the EXR and the PNG preview, both streamed into temporary
-/// files that are moved into place when the frame is whole (a failed render leaves neither),
-/// and tev.
-struct Outputs<'a> {
-    channels: Vec<Channel>,
-    exr_path: &'a Path,
-    png_path: Option<&'a Path>,
-    /// How the isovalue was picked, beside `isoview/isovalue` in the header.
-    rule: Option<String>,
-    exr: Option<output::exr_stream::ExrStream>,
-    png: Option<output::png::PngStream>,
-    tev: Option<output::tev::TevImage>,
-    tev_error: Option<output::tev::TevError>,
-    size: (u32, u32),
-}
-
-impl Outputs<'_> {
-    /// Moves the finished EXR and PNG into place.
-    fn finish(self) -> Result<(), Failure> {
-        if let Some(exr) = self.exr {
-            exr.finish().map_err(Failure::input)?;
-        }
-        if let Some(png) = self.png {
-            png.finish().map_err(Failure::input)?;
-        }
-        Ok(())
-    }
-}
-
-impl FrameSink for Outputs<'_> {
-    fn begin(&mut self, width: u32, height: u32, info: &FrameInfo) -> Result<(), RenderError> {
-        let mut info = info.clone();
-        if let Some(how) = &self.rule {
-            info.extra.push(("isovalue_rule".into(), how.clone()));
-        }
-        self.size = (width, height);
-        self.exr = Some(output::exr_stream::ExrStream::create(
-            self.exr_path,
-            width,
-            height,
-            &self.channels,
-            &info,
-        )?);
-        if let Some(png) = self.png_path {
-            self.png =
-                Some(output::png::PngStream::create(png, width, height, info.legend.as_ref())?);
-        }
-        Ok(())
-    }
-
-    fn band(&mut self, band: Band, pixels: &[Pixel]) -> Result<(), RenderError> {
-        if let Some(exr) = &mut self.exr {
-            exr.push_rows(pixels)?;
-        }
-        if let Some(png) = &mut self.png {
-            png.push_rows(pixels)?;
-        }
-        if let Some(image) = &mut self.tev {
-            if let Err(e) = image.send_rows(band.row_offset, pixels) {
-                // tev is only a view: the render goes on and its files are written; `run`
-                // reports the failure after the last frame (exit 2).
-                self.tev_error = Some(e);
-                self.tev = None;
-            }
-        }
-        Ok(())
-    }
-}
-
-/// Opens the tev image of the render to `exr`: named as the file, with the channels the EXR
-/// will have.
-fn open_tev(
-    address: &str,
-    exr: &Path,
-    scene: &Scene,
-) -> Result<output::tev::TevImage, output::tev::TevError> {
-    let channels = crate::render::scene_channels(scene);
-    let name = exr.display().to_string();
-    output::tev::TevImage::open(address, &name, scene.image.width, scene.image.height, channels)
 }
 
 #[cfg(test)]

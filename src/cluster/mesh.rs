@@ -7,31 +7,21 @@
 //! ```text
 //!   rank r:  read point_layers(share r) (from the mapped raw/npy file, or cut from the
 //!            sampled field) -> extract_window -> SlabMesh
-//!            -> [status, words] --send--> rank 0
+//!            -> [status, words] --send--> rank 0                           (mpi/mesh.rs)
 //!   rank 0:  its own SlabMesh, then rank 1's, 2's, ... pushed into a Joiner (prefix-summed
 //!            offsets, MC33 placeholders) -> Mesh -> written by the CLI as one process does
 //! ```
 //!
-//! A rank that fails sends its message instead of its mesh; rank 0 receives from every rank,
-//! then tells every rank whether the whole succeeded (a broadcast), so that all ranks stop
-//! together and only rank 0 reports the first failure, in one line.
+//! One process ([`Ranks::Single`]) is the case of one rank: its share is every cell layer.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use mpi::collective::Root;
-use mpi::point_to_point::{Destination, Source};
-use mpi::topology::Communicator;
-
-use super::World;
+use super::Ranks;
 use crate::field::mapped::MappedGrid;
 use crate::field::Grid;
 use crate::mesh::window::{self, Extraction, Joiner, Lattice, SlabMesh};
 use crate::mesh::{Mesh, MeshBudget};
-use crate::scene::Scene;
-
-/// Words per message: MPI counts are `int`, and a bounded message keeps buffers modest.
-const CHUNK: usize = 1 << 26;
 
 /// How a rank's share of an extraction ended.
 pub enum Extracted {
@@ -44,7 +34,7 @@ pub enum Extracted {
     FailedElsewhere,
 }
 
-impl World {
+impl Ranks {
     /// Extracts this rank's share of `grid`'s cell layers and joins the shares on rank 0,
     /// which adds the ranges to `budget` as it joins them and refuses a mesh past its cap
     /// ([`crate::mesh::MeshError::OverCap`]).
@@ -55,79 +45,21 @@ impl World {
         x: &Extraction,
         budget: &Arc<MeshBudget>,
     ) -> Result<Extracted, String> {
-        let (n, rank) = (self.size(), self.rank());
-        let layers = window::cell_layers(x.algo, grid.lattice().dims);
-        let cells = window::share(layers, n, rank);
-        let started = Instant::now();
-        let mine = extract_share(grid, x, cells);
-        let own = started.elapsed();
-        if rank != 0 {
-            let root = self.comm.process_at_rank(0);
-            let failed = mine.is_err();
-            let (status, words) = match mine {
-                Ok(part) => (1, part.to_words()),
-                Err(e) => (0, e.bytes().map(u32::from).collect()),
-            };
-            send(&root, status, &words);
-            let mut whole_ok = 0u32;
-            root.broadcast_into(&mut whole_ok);
-            return Ok(match (failed, whole_ok) {
-                (false, 1) => Extracted::Sent,
-                _ => Extracted::FailedElsewhere,
-            });
-        }
-        let started = Instant::now();
-        let mut first_error = None;
-        let mut join = Joiner::with_budget(budget.clone());
-        let mut take = |r: usize, part: Result<SlabMesh, String>| match part {
-            Ok(p) if first_error.is_none() => {
-                if let Err(e) = join.push(p) {
-                    first_error = Some(e.to_string());
-                }
+        match self {
+            Ranks::Single => {
+                let cells = window::share(window::cell_layers(x.algo, grid.lattice().dims), 1, 0);
+                let started = Instant::now();
+                let mine = extract_share(grid, x, cells)?;
+                let own = started.elapsed();
+                let started = Instant::now();
+                let mut join = Joiner::with_budget(budget.clone());
+                join.push(mine).map_err(|e| e.to_string())?;
+                let mesh = join.finish(x.keeps_quads()).map_err(|e| e.to_string())?;
+                Ok(Extracted::Whole(Box::new(mesh), own, started.elapsed()))
             }
-            Ok(_) => {}
-            Err(e) => {
-                first_error.get_or_insert(if r == 0 { e } else { format!("rank {r}: {e}") });
-            }
-        };
-        take(0, mine);
-        for r in 1..n {
-            let (status, words) = receive(&self.comm.process_at_rank(r as i32));
-            let part = match status {
-                1 => SlabMesh::from_words(&words)
-                    .ok_or_else(|| "a malformed mesh part arrived".to_string()),
-                _ => Err(String::from_utf8_lossy(
-                    &words.iter().map(|&b| b as u8).collect::<Vec<_>>(),
-                )
-                .into_owned()),
-            };
-            take(r, part);
+            #[cfg(feature = "mpi")]
+            Ranks::Mpi(w) => w.extract(grid, x, budget),
         }
-        let mesh = match first_error {
-            Some(e) => Err(e),
-            None => join.finish(x.keeps_quads()).map_err(|e| e.to_string()),
-        };
-        let mut whole_ok = u32::from(mesh.is_ok());
-        self.comm.process_at_rank(0).broadcast_into(&mut whole_ok);
-        Ok(Extracted::Whole(Box::new(mesh?), own, started.elapsed()))
-    }
-
-    /// What `extract` cannot split across ranks in `scene` (None: it can); `gpu`: the GPU
-    /// extraction was asked for.
-    pub fn refuses_extract(&self, scene: &Scene, gpu: bool) -> Option<String> {
-        let n = self.size();
-        let (algo, sharp) = (scene.render.mesh, &scene.render.sharp);
-        if let Some(why) = window::not_in_slabs(algo, sharp) {
-            return Some(format!(
-                "render.mesh = \"{}\" is not split across MPI ranks ({n} ranks): {why}; run it without mpirun",
-                algo.name()
-            ));
-        }
-        gpu.then(|| {
-            format!(
-                "--device: the GPU extraction is not split across MPI ranks ({n} ranks); extract under MPI runs on the CPU: use --device cpu or auto"
-            )
-        })
     }
 }
 
@@ -167,7 +99,7 @@ impl Points<'_> {
 /// The mesh of cell layers `cells` of the grid, extracted from only the point layers they
 /// need: a mapped file's read from the map (so a rank holds its window only), a sampled
 /// grid's copied out of it.
-fn extract_share(
+pub(super) fn extract_share(
     grid: Points,
     x: &Extraction,
     cells: std::ops::Range<usize>,
@@ -178,25 +110,4 @@ fn extract_share(
     let dims = [lattice.dims[0], lattice.dims[1], need.len()];
     let held = Grid { dims, min: lattice.min, max: lattice.max, values };
     window::extract_window(&held, need.start, &lattice, x, cells).map_err(|e| e.to_string())
-}
-
-/// Sends `[status, length]` and then `words` in chunks of at most [`CHUNK`].
-fn send(to: &impl Destination, status: u32, words: &[u32]) {
-    let len = words.len() as u64;
-    to.send(&[status, len as u32, (len >> 32) as u32][..]);
-    for c in words.chunks(CHUNK) {
-        to.send(c);
-    }
-}
-
-/// Receives what [`send`] sent.
-fn receive(from: &impl Source) -> (u32, Vec<u32>) {
-    let (head, _) = from.receive_vec::<u32>();
-    let (status, len) = (head[0], (head[1] as usize) | ((head[2] as usize) << 32));
-    let mut words = Vec::with_capacity(len);
-    while words.len() < len {
-        let (c, _) = from.receive_vec::<u32>();
-        words.extend_from_slice(&c);
-    }
-    (status, words)
 }

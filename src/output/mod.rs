@@ -10,12 +10,15 @@
 //!   `compare --diff`); [`exr::write_frame`], [`exr::encode_frame`] and
 //!   [`exr::write_channels`] are those streams given every row.
 //! - [`png`]: an 8-bit sRGB preview of the beauty (RGBA).
+//! - [`frame_files`]: a rendered frame's EXR, PNG preview and tev view, each band written as it
+//!   is drawn (what `isoview render` writes for each frame).
 //! - [`guard`]: the one rule for which paths a verb may write (never one of its inputs, never
 //!   a device, FIFO or socket), checked before writing.
 //! - [`tev`]: a frame sent to the tev HDR viewer over TCP (its remote-control protocol).
 
 pub mod atomic;
 pub mod exr;
+pub mod frame_files;
 pub mod guard;
 pub mod legend;
 pub mod png;

@@ -19,6 +19,18 @@ pub trait FrameSink {
     fn band(&mut self, band: Band, pixels: &[Pixel]) -> Result<(), RenderError>;
 }
 
+/// A frame's EXR, PNG preview and tev view, each band written as it arrives (`output` knows no
+/// renderer, so the sink is implemented here).
+impl FrameSink for crate::output::frame_files::FrameFiles {
+    fn begin(&mut self, width: u32, height: u32, info: &FrameInfo) -> Result<(), RenderError> {
+        Ok(crate::output::frame_files::FrameFiles::begin(self, width, height, info)?)
+    }
+
+    fn band(&mut self, band: Band, pixels: &[Pixel]) -> Result<(), RenderError> {
+        Ok(crate::output::frame_files::FrameFiles::band(self, band.row_offset, pixels)?)
+    }
+}
+
 impl<S: FrameSink + ?Sized> FrameSink for &mut S {
     fn begin(&mut self, width: u32, height: u32, info: &FrameInfo) -> Result<(), RenderError> {
         (**self).begin(width, height, info)

@@ -39,6 +39,7 @@ mod output;
 mod physical;
 mod placement;
 mod projection;
+mod ranks;
 mod reliability_formats;
 mod reliability_io;
 mod render;

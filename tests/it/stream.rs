@@ -109,6 +109,38 @@ fn png_stream_equals_the_whole_image_encoder() {
     assert!(!short.exists());
 }
 
+/// `output::frame_files::FrameFiles`, the per-frame sink of `isoview render` (and of a future
+/// binding), handed bands through `FrameSink`: its EXR is the in-memory writer's file of the
+/// frame with its extra header pair, its PNG the whole-image preview, and neither name exists
+/// before `finish`.
+#[test]
+fn frame_files_write_the_in_memory_files_band_by_band() {
+    use isoview::output::frame_files::FrameFiles;
+    let dir = scratch("stream-frame-files");
+    let frame = test_frame(21, 17);
+    let (exr, png_path) = (dir.join("f.exr"), dir.join("f.png"));
+    let channels = out_exr::written_channels(&frame);
+    let mut files =
+        FrameFiles::new(&exr, Some(&png_path), channels).with_header("isovalue_rule", "sigma 1");
+    let sink: &mut dyn FrameSink = &mut files;
+    sink.begin(21, 17, &frame.info).unwrap();
+    for (k, rows) in frame.pixels.chunks(21 * 4).enumerate() {
+        let band = Band { row_offset: 4 * k as u32, rows: (rows.len() / 21) as u32 };
+        sink.band(band, rows).unwrap();
+    }
+    assert_eq!(files.size(), (21, 17));
+    assert!(files.take_tev_error().is_none());
+    assert!(!exr.exists() && !png_path.exists(), "a file was in place before finish");
+    files.finish().unwrap();
+
+    let mut expected = frame.clone();
+    expected.info.extra.push(("isovalue_rule".into(), "sigma 1".into()));
+    let expected_exr = out_exr::encode_frame(&exr, &expected).unwrap();
+    assert!(std::fs::read(&exr).unwrap() == expected_exr, "the EXRs differ");
+    let expected_png = png::encode_preview(&png_path, &frame).unwrap();
+    assert!(std::fs::read(&png_path).unwrap() == expected_png, "the PNGs differ");
+}
+
 /// A sink that keeps the frame and streams it at once, cutting each band the renderer sends
 /// into pieces of `cut` rows (bands smaller than any real device's).
 struct Tee {

@@ -116,12 +116,12 @@ pub fn run_with(args: &CompareArgs, out: &mut dyn Write, err: &mut dyn Write) ->
         2
     };
     let inputs = [("A", args.a.as_path()), ("B", args.b.as_path())];
-    for (p, flag) in [(&args.diff, "--diff"), (&args.png, "--png")] {
-        if let Some(p) = p {
-            if let Err(e) = crate::output::guard::check(flag, p, &inputs) {
-                return fail(err, &e);
-            }
-        }
+    let outputs: Vec<(&str, &std::path::Path)> = [("--diff", &args.diff), ("--png", &args.png)]
+        .into_iter()
+        .filter_map(|(flag, p)| Some((flag, p.as_deref()?)))
+        .collect();
+    if let Err(e) = crate::output::guard::check(&outputs, &inputs) {
+        return fail(err, &e);
     }
     let outputs = Outputs { diff: args.diff.as_deref(), png: args.png.as_deref() };
     let (report, output_error) = match compare_files(&args.a, &args.b, &args.thresholds(), outputs)

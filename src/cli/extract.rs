@@ -140,7 +140,7 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
     let (backend, vulkan_device) =
         resolve_device(cli.device.as_deref(), cli.device_from_command_line, env.as_deref());
     let scene = super::load_scene(&args.scene, &args.sets)?;
-    super::check_output("-o", &args.output, &scene)?;
+    super::check_outputs(&[("-o", &args.output)], &scene)?;
     #[cfg(feature = "mpi")]
     if let Some(w) = ranks {
         if let Some(why) = w.refuses_extract(&scene, backend == Backend::Gpu) {

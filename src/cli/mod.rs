@@ -168,7 +168,7 @@ pub fn load_scene(path: &std::path::Path, sets: &[String]) -> Result<crate::scen
 }
 
 /// The files a run over `scene` reads, with what each is: the scene file and its data files.
-/// No output may be one of them ([`check_output`]).
+/// No output may be one of them ([`check_outputs`]).
 pub fn scene_inputs(scene: &crate::scene::Scene) -> Vec<(&'static str, &std::path::Path)> {
     let mut inputs = Vec::new();
     if let Some(p) = &scene.path {
@@ -183,14 +183,14 @@ pub fn scene_inputs(scene: &crate::scene::Scene) -> Vec<(&'static str, &std::pat
     inputs
 }
 
-/// Refuses to write `path` (given as `flag`) when it is one of `scene`'s inputs or not a
-/// regular file (the rule: [`crate::output::guard`]).
-pub fn check_output(
-    flag: &str,
-    path: &std::path::Path,
+/// Refuses to write a run's `outputs` (each given as its flag and path) when one is one of
+/// `scene`'s inputs, two are one file, or one is not a regular file (the rule:
+/// [`crate::output::guard`]). A verb passes all of its outputs at once.
+pub fn check_outputs(
+    outputs: &[(&str, &std::path::Path)],
     scene: &crate::scene::Scene,
 ) -> Result<(), Failure> {
-    crate::output::guard::check(flag, path, &scene_inputs(scene)).map_err(Failure::input)
+    crate::output::guard::check(outputs, &scene_inputs(scene)).map_err(Failure::input)
 }
 
 fn info(cli: &Cli) -> Result<i32, Failure> {

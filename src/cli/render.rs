@@ -344,13 +344,13 @@ impl Frames<'_> {
 }
 
 impl Job {
-    /// Refuses outputs that are the scene's inputs or special files.
+    /// Refuses outputs that are the scene's inputs, one file twice, or special files.
     fn check(&self, scene: &Scene) -> Result<(), Failure> {
-        super::check_output("-o", &self.exr, scene)?;
-        match &self.png {
-            Some(png) => super::check_output("--png", png, scene),
-            None => Ok(()),
+        let mut outputs = vec![("-o", self.exr.as_path())];
+        if let Some(png) = &self.png {
+            outputs.push(("--png", png.as_path()));
         }
+        super::check_outputs(&outputs, scene)
     }
 }
 

@@ -73,12 +73,13 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
         return Err(Failure::input(format!("--time {}: must be a finite number", args.time)));
     }
     let scene = super::load_scene(&args.scene, &args.sets)?;
-    super::check_output("-o", &args.output, &scene)?;
+    let mut outputs = vec![("-o", args.output.as_path())];
     for (p, flag) in [(&args.png, "--png"), (&args.json, "--json"), (&args.svg, "--svg")] {
         if let Some(p) = p {
-            super::check_output(flag, p, &scene)?;
+            outputs.push((flag, p.as_path()));
         }
     }
+    super::check_outputs(&outputs, &scene)?;
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let slice::Planned { plane, mut set, style } =
         slice::plan(&scene, &grid, args.axis, args.at, args.time).map_err(Failure::input)?;

@@ -163,6 +163,50 @@ fn compare_never_writes_over_its_inputs() {
 }
 
 #[test]
+fn two_outputs_of_one_run_are_never_one_file() {
+    let dir = scratch("rio-two-outputs");
+    let (a, b) = (dir.join("a.exr"), dir.join("b.exr"));
+    isoview::output::exr::write_frame(&a, &crate::output::test_frame(9, 7)).unwrap();
+    isoview::output::exr::write_frame(&b, &crate::output::test_frame(9, 7)).unwrap();
+    let (sa, sb) = (a.display().to_string(), b.display().to_string());
+    // The same name twice: the PNG would replace the EXR (and the run say both were written).
+    let d = dir.join("d.exr");
+    std::fs::write(&d, b"previous").unwrap();
+    let sd = d.display().to_string();
+    let o = isoview_output(&["compare", &sa, &sb, "--diff", &sd, "--png", &sd]);
+    assert_fails(&o, 2, &["--png ", "d.exr: is also the output of --diff (", "its own file"]);
+    // Another spelling of it, and a name that does not exist yet.
+    let dotted = dir.join("sub").join("..").join("d.exr");
+    std::fs::create_dir(dir.join("sub")).unwrap();
+    let o = isoview_output(&[
+        "compare",
+        &sa,
+        &sb,
+        "--diff",
+        &sd,
+        "--png",
+        &dotted.display().to_string(),
+    ]);
+    assert_fails(&o, 2, &["is also the output of --diff"]);
+    let new = dir.join("new.exr").display().to_string();
+    // Named in the order the verb writes them (--diff, then --png).
+    let o = isoview_output(&["compare", &sa, &sb, "--png", &new, "--diff", &new]);
+    assert_fails(&o, 2, &["--png ", "new.exr: is also the output of --diff"]);
+    assert_eq!(std::fs::read(&d).unwrap(), b"previous");
+    assert!(!Path::new(&new).exists());
+    // The verbs whose outputs differ by extension: the same file through a link.
+    let scene = write(&dir, "s.toml", SPHERE);
+    let link = dir.join("preview.png");
+    std::os::unix::fs::symlink(&d, &link).unwrap();
+    let sl = link.display().to_string();
+    let o = isoview_output(&["render", &scene, "-o", &sd, "--png", &sl]);
+    assert_fails(&o, 2, &["--png ", "preview.png: is also the output of -o ("]);
+    let args = ["slice", &scene, "-o", &sd, "--axis", "z", "--at", "0", "--png", &sl];
+    assert_fails(&isoview_output(&args), 2, &["--png ", "is also the output of -o"]);
+    assert_eq!(std::fs::read(&d).unwrap(), b"previous");
+}
+
+#[test]
 fn extract_never_writes_over_the_scenes_mesh_source() {
     let dir = scratch("rio-extract-input");
     let sphere = write(&dir, "s.toml", SPHERE);

@@ -42,6 +42,7 @@ use crate::mesh::stats;
 use crate::mesh::{self, ExtractOptions, Mesh, MeshBudget, MeshLimits};
 use crate::output::atomic;
 use crate::scene::Scene;
+use crate::vocab::echo_number;
 
 #[derive(clap::Args, Debug)]
 pub struct ExtractArgs {
@@ -134,7 +135,10 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: Option<&Ranks>) -> Result<i32, F
         ))
     })?;
     if !args.time.is_finite() {
-        return Err(Failure::input(format!("--time {}: must be a finite number", args.time)));
+        return Err(Failure::input(format!(
+            "--time {}: must be a finite number",
+            echo_number(args.time)
+        )));
     }
     let env = std::env::var("ISOVIEW_DEVICE").ok();
     let (backend, vulkan_device) =

@@ -11,7 +11,7 @@ use crate::output;
 use crate::passes::Band;
 use crate::render::{FrameSink, GpuGrid, RenderError, Renderer};
 use crate::scene::Scene;
-use crate::vocab::echo;
+use crate::vocab::{echo, echo_number};
 
 #[derive(clap::Args, Debug)]
 pub struct RenderArgs {
@@ -86,10 +86,16 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         check_extension(png, "png", "--png")?;
     }
     if !(args.fps.is_finite() && args.fps > 0.0) {
-        return Err(Failure::input(format!("--fps {}: must be a positive number", args.fps)));
+        return Err(Failure::input(format!(
+            "--fps {}: must be a positive number",
+            echo_number(args.fps)
+        )));
     }
     if !args.time.is_finite() {
-        return Err(Failure::input(format!("--time {}: must be a finite number", args.time)));
+        return Err(Failure::input(format!(
+            "--time {}: must be a finite number",
+            echo_number(args.time)
+        )));
     }
     let range = args.frames.as_deref().map(parse_frames).transpose().map_err(Failure::input)?;
     let scene = super::load_scene(&args.scene, &args.sets)?;

@@ -445,6 +445,27 @@ fn echoed_values_are_cut_and_escaped() {
 }
 
 #[test]
+fn numbers_are_echoed_short() {
+    let dir = scratch("rio-numbers");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let out = dir.join("o.exr").display().to_string();
+    // Rust writes 1e308 as 309 digits and 1e-300 as 302 characters; the messages keep the
+    // short form the user typed.
+    let o = isoview_output(&["slice", &scene, "-o", &out, "--axis", "z", "--at", "1e308"]);
+    assert_fails(&o, 2, &["--at 1e308: the plane z = 1e308 misses the grid box (z from -1 to 1)"]);
+    assert!(stderr(&o).len() < 120, "{}", stderr(&o));
+    let o = isoview_output(&["probe", &scene, "--slice", "x=-1e300", "--segment", "0,0,1,1"]);
+    assert_fails(&o, 2, &["the plane x = -1e300 misses the grid box"]);
+    assert!(stderr(&o).len() < 120, "{}", stderr(&o));
+    for fps in ["-1e308", "-1e-300"] {
+        let fps_arg = format!("--fps={fps}");
+        let o = isoview_output(&["render", &scene, "-o", &out, "--frames", "0..1", &fps_arg]);
+        assert_fails(&o, 2, &[&format!("--fps {fps}: must be a positive number")]);
+    }
+    assert!(!Path::new(&out).exists());
+}
+
+#[test]
 #[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn tev_with_nobody_listening_still_writes_the_files_then_exits_2() {
     let dir = scratch("rio-tev");

@@ -50,7 +50,20 @@ pub fn parse_frames(s: &str) -> Result<(i64, i64), String> {
         .or_else(|| s.split_once(".."))
         .ok_or_else(|| bad("expected A..B, e.g. 1..48".into()))?;
     let int = |v: &str| {
-        v.trim().parse::<i64>().map_err(|_| bad(format!("`{}` is not an integer", echo(v))))
+        use std::num::IntErrorKind;
+        v.trim().parse::<i64>().map_err(|e| {
+            let v = echo(v.trim());
+            // An integer past i64 is a number the user meant: say which limit it passes.
+            bad(match e.kind() {
+                IntErrorKind::PosOverflow => {
+                    format!("`{v}` is too large: frame numbers go up to {}", i64::MAX)
+                }
+                IntErrorKind::NegOverflow => {
+                    format!("`{v}` is too small: frame numbers go down to {}", i64::MIN)
+                }
+                _ => format!("`{v}` is not an integer"),
+            })
+        })
     };
     let (a, b) = (int(a)?, int(b)?);
     if a > b {
@@ -464,7 +477,20 @@ mod tests {
         assert_eq!(parse_frames("1..48"), Ok((1, 48)));
         assert_eq!(parse_frames("3..=3"), Ok((3, 3)));
         assert!(parse_frames("5..2").is_err());
-        assert!(parse_frames("a..2").is_err());
+        assert!(parse_frames("a..2").unwrap_err().ends_with("`a` is not an integer"));
+        assert_eq!(
+            parse_frames("-9223372036854775808..9223372036854775807"),
+            Ok((i64::MIN, i64::MAX))
+        );
+        let e = parse_frames("0..9223372036854775808").unwrap_err();
+        assert!(
+            e.ends_with(
+                "`9223372036854775808` is too large: frame numbers go up to 9223372036854775807"
+            ),
+            "{e}"
+        );
+        let e = parse_frames("-9223372036854775809..0").unwrap_err();
+        assert!(e.contains("is too small: frame numbers go down to -9223372036854775808"), "{e}");
         assert_eq!(
             frame_path(Path::new("out.####.exr"), 7).unwrap(),
             PathBuf::from("out.0007.exr")

@@ -373,6 +373,35 @@ fn a_huge_frame_range_is_never_materialised() {
     assert_fails(&o, 2, &["f0000.exr: is a directory"]);
 }
 
+#[test]
+fn a_frame_number_past_the_integers_says_too_large() {
+    let dir = scratch("rio-frames-range");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let out = dir.join("f####.exr").display().to_string();
+    let o = isoview_output(&["render", &scene, "-o", &out, "--frames", "0..18446744073709551615"]);
+    assert_fails(
+        &o,
+        2,
+        &["--frames 0..18446744073709551615: `18446744073709551615` is too large: frame numbers \
+           go up to 9223372036854775807"],
+    );
+    let o = isoview_output(&["render", &scene, "-o", &out, "--frames=-99999999999999999999..0"]);
+    assert_fails(&o, 2, &["`-99999999999999999999` is too small", "-9223372036854775808"]);
+    // What is no integer at all still says so.
+    let o = isoview_output(&["render", &scene, "-o", &out, "--frames", "0..1.5"]);
+    assert_fails(&o, 2, &["`1.5` is not an integer"]);
+}
+
+#[test]
+fn a_pixel_index_past_the_integers_is_outside_the_image() {
+    let dir = scratch("rio-pixel-range");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let o = isoview_output(&["probe", &scene, "--pixel", "4294967296,0"]);
+    assert_fails(&o, 2, &["--pixel 4294967296,0: outside the 16x16 image"]);
+    let o = isoview_output(&["probe", &scene, "--pixel", "1,-1"]);
+    assert_fails(&o, 2, &["--pixel 1,-1: `-1` is not a pixel index"]);
+}
+
 /// The peak resident memory of `isoview args` in KiB (its own, from `wait4`); it must succeed.
 #[allow(clippy::zombie_processes)] // reaped by wait4, which also gives its rusage
 fn peak_rss_kib(args: &[&str]) -> i64 {

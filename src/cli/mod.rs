@@ -122,8 +122,16 @@ impl Cli {
 
 /// Runs the command line and returns the process exit status.
 pub fn main() -> i32 {
-    let matches = Cli::command().get_matches();
-    let mut cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    // clap's `get_matches` would print help and errors itself and exit, ignoring a failed
+    // write; console::print_clap prints them under the verbs' rules.
+    let matches = match Cli::command().try_get_matches() {
+        Ok(m) => m,
+        Err(e) => return console::print_clap(&e),
+    };
+    let mut cli = match Cli::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => return console::print_clap(&e),
+    };
     cli.device_from_command_line = matches.value_source("device") == Some(ValueSource::CommandLine);
     let result = match &cli.command {
         Command::Render(args) => render::run(&cli, args),

@@ -96,6 +96,34 @@ fn stdout_closed_early_stops_quietly_with_exit_0() {
 }
 
 #[test]
+fn help_and_version_follow_the_stdout_rules() {
+    let dir = scratch("rio-help");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let full = || Stdio::from(std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap());
+    // The rule every verb follows, `stats` here (`info` alike, with a device).
+    let verb = run(&["stats", &scene], full(), Stdio::piped());
+    assert_fails(&verb, 2, &["isoview: cannot write to stdout: No space left on device"]);
+    for args in
+        [&["--help"][..], &["-h"], &["--version"], &["render", "--help"], &["help", "slice"]]
+    {
+        // A full disk: the same line and status as the verb's, not a silent 0.
+        let o = run(args, full(), Stdio::piped());
+        assert_eq!((o.status.code(), stderr(&o)), (verb.status.code(), stderr(&verb)), "{args:?}");
+        // The reader gone: a quiet 0, as for the verbs.
+        let o = run(args, reader_gone(), Stdio::piped());
+        assert_eq!((o.status.code(), stderr(&o).as_str()), (Some(0), ""), "{args:?}");
+        // And written as before when someone reads it.
+        let o = run(args, Stdio::piped(), Stdio::piped());
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+        assert!(String::from_utf8_lossy(&o.stdout).contains("isoview"), "{args:?}");
+    }
+    // A usage error still goes to stderr with exit 2, stdout untouched.
+    let o = run(&["--no-such-flag"], full(), Stdio::piped());
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--no-such-flag"));
+}
+
+#[test]
 #[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn info_with_stdout_closed_early_stops_quietly() {
     let o = run(&["info"], reader_gone(), Stdio::piped());

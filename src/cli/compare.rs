@@ -13,6 +13,7 @@ use std::path::PathBuf;
 use crate::compare::{
     compare_files, ChannelClass, Outputs, Thresholds, DEFAULT_FAIL, DEFAULT_WARN,
 };
+use crate::vocab::echo;
 
 /// Arguments of `isoview compare`.
 #[derive(Clone, Debug, clap::Args)]
@@ -75,14 +76,18 @@ pub struct CompareArgs {
 fn non_negative(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v >= 0.0 => Ok(v),
-        _ => Err(format!("{s:?} is not a number ≥ 0")),
+        _ => Err(format!("\"{}\" is not a number ≥ 0", echo(s))),
     }
 }
 
 fn class_threshold(s: &str) -> Result<(ChannelClass, f64), String> {
-    let (class, value) = s.split_once('=').ok_or_else(|| format!("{s:?} is not CLASS=T"))?;
+    let (class, value) =
+        s.split_once('=').ok_or_else(|| format!("\"{}\" is not CLASS=T", echo(s)))?;
     let class = ChannelClass::parse(class.trim()).ok_or_else(|| {
-        format!("unknown channel class {class:?} (colour, depth, normal, position, integer, other)")
+        format!(
+            "unknown channel class \"{}\" (colour, depth, normal, position, integer, other)",
+            echo(class)
+        )
     })?;
     Ok((class, non_negative(value.trim())?))
 }

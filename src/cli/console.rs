@@ -44,9 +44,11 @@ fn stdout_written(written: std::io::Result<()>) -> Result<(), Failure> {
 /// Prints what clap stopped the command line with and returns the exit status. `--help` and
 /// `--version` go to stdout under [`say!`]'s rule (clap's own `exit` ignores every write
 /// error, so `isoview --help > /dev/full` exited 0 with nothing written); a usage error goes
-/// to stderr, whose write errors are ignored as [`note!`]'s are, with clap's status (2).
-pub fn print_clap(e: &clap::Error) -> i32 {
+/// to stderr, whose write errors are ignored as [`note!`]'s are, with clap's status (2),
+/// quoting what the user wrote through [`crate::vocab::echo`] as every message does.
+pub fn print_clap(mut e: clap::Error) -> i32 {
     if e.use_stderr() {
+        echo_clap_values(&mut e);
         let _ = e.print();
         return e.exit_code();
     }
@@ -64,6 +66,26 @@ pub fn print_clap(e: &clap::Error) -> i32 {
 pub fn note_line(args: fmt::Arguments) {
     let mut stderr = std::io::stderr().lock();
     let _ = writeln!(stderr, "isoview: {args}");
+}
+
+/// Replaces the user's words in a clap error (the refused value, the unknown argument or
+/// subcommand) with their [`crate::vocab::echo`]: clap quotes them whole, so a 100 kB
+/// `--at` value made a 100 kB message and a newline in it split the line. clap formats its
+/// message from these when it prints.
+fn echo_clap_values(e: &mut clap::Error) {
+    use crate::vocab::echo;
+    use clap::error::{ContextKind, ContextValue};
+    for kind in [ContextKind::InvalidValue, ContextKind::InvalidArg, ContextKind::InvalidSubcommand]
+    {
+        let echoed = match e.get(kind) {
+            Some(ContextValue::String(s)) => ContextValue::String(echo(s)),
+            Some(ContextValue::Strings(v)) => {
+                ContextValue::Strings(v.iter().map(|s| echo(s)).collect())
+            }
+            _ => continue,
+        };
+        e.insert(kind, echoed);
+    }
 }
 
 /// `say!("...", args)`: one line on stdout, `Result<(), Failure>` (`?` it: a reader that has

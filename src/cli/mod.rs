@@ -126,11 +126,11 @@ pub fn main() -> i32 {
     // write; console::print_clap prints them under the verbs' rules.
     let matches = match Cli::command().try_get_matches() {
         Ok(m) => m,
-        Err(e) => return console::print_clap(&e),
+        Err(e) => return console::print_clap(e),
     };
     let mut cli = match Cli::from_arg_matches(&matches) {
         Ok(cli) => cli,
-        Err(e) => return console::print_clap(&e),
+        Err(e) => return console::print_clap(e),
     };
     cli.device_from_command_line = matches.value_source("device") == Some(ValueSource::CommandLine);
     let result = match &cli.command {

@@ -523,6 +523,29 @@ fn numbers_are_echoed_short() {
 }
 
 #[test]
+fn values_clap_refuses_are_echoed_cut_and_escaped() {
+    // The command line's own parser (clap) quotes what it refuses; it too goes through echo.
+    let long = format!("{}x", "9".repeat(5000));
+    let lines = [
+        vec!["slice", "s.toml", "-o", "x.exr", "--axis", "z", "--at", &long],
+        vec!["compare", "a.exr", "b.exr", "--fail", &long],
+        vec!["render", "s.toml", "-o", "x.exr", "--fps", &long],
+        vec!["stats", "s.toml", &long],
+    ];
+    let unknown = format!("--{long}");
+    for args in lines.iter().map(Vec::as_slice).chain([&[unknown.as_str()][..], &[&long[..]]]) {
+        let o = isoview_output(args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.len() < 600 && err.contains("99999…"), "{} bytes: {err}", err.len());
+    }
+    let o =
+        isoview_output(&["slice", "s.toml", "-o", "x.exr", "--axis", "z", "--at", "1\n\u{1b}[2J"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("'1\\n\\u{1b}[2J'"), "{}", stderr(&o));
+}
+
+#[test]
 #[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
 fn tev_with_nobody_listening_still_writes_the_files_then_exits_2() {
     let dir = scratch("rio-tev");

@@ -30,14 +30,17 @@ pub struct PixelProbe {
 pub fn parse_pixel(s: &str, width: u32, height: u32) -> Result<(u32, u32), String> {
     let shown = crate::vocab::echo(s);
     let (x, y) = s.split_once(',').ok_or_else(|| format!("--pixel {shown}: expected X,Y"))?;
+    let outside = || format!("--pixel {shown}: outside the {width}x{height} image");
     let parse = |v: &str| {
-        v.trim().parse::<u32>().map_err(|_| {
-            format!("--pixel {shown}: `{}` is not a pixel index", crate::vocab::echo(v))
+        v.trim().parse::<u32>().map_err(|e| match e.kind() {
+            // A whole number past u32 is an index, past every image's edge.
+            std::num::IntErrorKind::PosOverflow => outside(),
+            _ => format!("--pixel {shown}: `{}` is not a pixel index", crate::vocab::echo(v)),
         })
     };
     let (x, y) = (parse(x)?, parse(y)?);
     if x >= width || y >= height {
-        return Err(format!("--pixel {shown}: outside the {width}x{height} image"));
+        return Err(outside());
     }
     Ok((x, y))
 }

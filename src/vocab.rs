@@ -373,6 +373,23 @@ pub fn echo(value: &str) -> String {
 /// How many characters of a user's value [`echo`] keeps.
 pub const ECHO_CHARS: usize = 60;
 
+/// How a message quotes a number the user gave (a flag such as `--at`, already parsed), the
+/// [`echo`] of numbers: Rust writes `1e308` as 309 digits and `1e-300` as 302 characters, so
+/// a long plain form becomes the shortest exponent form that reads back as the same number
+/// (`1e308`, `-1.5e-300`), usually what the user typed. Cutting the digits as [`echo`] cuts
+/// text would change the number.
+pub fn echo_number(value: f64) -> String {
+    let plain = value.to_string();
+    if plain.len() <= ECHO_NUMBER_CHARS {
+        plain
+    } else {
+        format!("{value:e}")
+    }
+}
+
+/// The longest plain form [`echo_number`] keeps (`0.30000000000000004` is 19 characters).
+const ECHO_NUMBER_CHARS: usize = 24;
+
 /// What a file that is not a regular file is, for messages ("a FIFO (named pipe)", "a
 /// directory"); None for a regular file. Outputs (`output::guard`) and scene files
 /// must be regular files.
@@ -415,5 +432,25 @@ mod echo_tests {
         let e = echo(&long);
         assert_eq!(e, format!("{}…", "x".repeat(ECHO_CHARS)));
         assert_eq!(echo(&"é".repeat(ECHO_CHARS)), "é".repeat(ECHO_CHARS));
+    }
+
+    #[test]
+    fn echo_number_keeps_numbers_short_and_exact() {
+        for (v, shown) in [
+            (1.5, "1.5"),
+            (-0.25, "-0.25"),
+            (0.1 + 0.2, "0.30000000000000004"),
+            (1e20, "100000000000000000000"),
+            (1e308, "1e308"),
+            (-1e-300, "-1e-300"),
+            (f64::MAX, "1.7976931348623157e308"),
+            (f64::INFINITY, "inf"),
+        ] {
+            assert_eq!(echo_number(v), shown);
+        }
+        for v in [1e308, -2.5e-300, f64::MIN_POSITIVE, 1e100 / 3.0] {
+            assert_eq!(echo_number(v).parse::<f64>(), Ok(v));
+        }
+        assert!(echo_number(f64::NAN) == "NaN");
     }
 }

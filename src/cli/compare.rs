@@ -13,6 +13,7 @@ use std::path::PathBuf;
 use crate::compare::{
     compare_files, ChannelClass, Outputs, Thresholds, DEFAULT_FAIL, DEFAULT_WARN,
 };
+use crate::vocab::echo;
 
 /// Arguments of `isoview compare`.
 #[derive(Clone, Debug, clap::Args)]
@@ -75,14 +76,18 @@ pub struct CompareArgs {
 fn non_negative(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v >= 0.0 => Ok(v),
-        _ => Err(format!("{s:?} is not a number ≥ 0")),
+        _ => Err(format!("\"{}\" is not a number ≥ 0", echo(s))),
     }
 }
 
 fn class_threshold(s: &str) -> Result<(ChannelClass, f64), String> {
-    let (class, value) = s.split_once('=').ok_or_else(|| format!("{s:?} is not CLASS=T"))?;
+    let (class, value) =
+        s.split_once('=').ok_or_else(|| format!("\"{}\" is not CLASS=T", echo(s)))?;
     let class = ChannelClass::parse(class.trim()).ok_or_else(|| {
-        format!("unknown channel class {class:?} (colour, depth, normal, position, integer, other)")
+        format!(
+            "unknown channel class \"{}\" (colour, depth, normal, position, integer, other)",
+            echo(class)
+        )
     })?;
     Ok((class, non_negative(value.trim())?))
 }
@@ -116,12 +121,12 @@ pub fn run_with(args: &CompareArgs, out: &mut dyn Write, err: &mut dyn Write) ->
         2
     };
     let inputs = [("A", args.a.as_path()), ("B", args.b.as_path())];
-    for (p, flag) in [(&args.diff, "--diff"), (&args.png, "--png")] {
-        if let Some(p) = p {
-            if let Err(e) = crate::output::guard::check(flag, p, &inputs) {
-                return fail(err, &e);
-            }
-        }
+    let outputs: Vec<(&str, &std::path::Path)> = [("--diff", &args.diff), ("--png", &args.png)]
+        .into_iter()
+        .filter_map(|(flag, p)| Some((flag, p.as_deref()?)))
+        .collect();
+    if let Err(e) = crate::output::guard::check(&outputs, &inputs) {
+        return fail(err, &e);
     }
     let outputs = Outputs { diff: args.diff.as_deref(), png: args.png.as_deref() };
     let (report, output_error) = match compare_files(&args.a, &args.b, &args.thresholds(), outputs)

@@ -10,6 +10,7 @@
 //!   (`head -1` ending a pipeline is a normal end, not a failure; a 141 would fail every
 //!   `set -o pipefail` script that pipes isoview into `head`), as ripgrep does. Any other
 //!   write error (a full disk behind `>`) is a failure: one line on stderr, exit 2.
+//!   `--help` and `--version`, which clap writes, follow the same rule ([`print_clap`]).
 //! - [`note!`] (stderr): the one-line `isoview: ...` notes and failures. Write errors are
 //!   ignored: what a verb does and its exit status never depend on whether anyone reads its
 //!   diagnostics, so a closed stderr never turns a success into a failure.
@@ -27,10 +28,36 @@ pub fn say_line(args: fmt::Arguments) -> Result<(), Failure> {
         .and_then(|()| stdout.write_all(b"\n"))
         // Surface the error on this line rather than at a later one (or never, at exit).
         .and_then(|()| stdout.flush());
+    stdout_written(written)
+}
+
+/// What a write to stdout that ended with `written` means for the verb: go on, stop quietly
+/// (the reader has gone) or fail (see the module docs).
+fn stdout_written(written: std::io::Result<()>) -> Result<(), Failure> {
     match written {
         Ok(()) => Ok(()),
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(Failure::stopped()),
         Err(e) => Err(Failure::input(format!("cannot write to stdout: {e}"))),
+    }
+}
+
+/// Prints what clap stopped the command line with and returns the exit status. `--help` and
+/// `--version` go to stdout under [`say!`]'s rule (clap's own `exit` ignores every write
+/// error, so `isoview --help > /dev/full` exited 0 with nothing written); a usage error goes
+/// to stderr, whose write errors are ignored as [`note!`]'s are, with clap's status (2),
+/// quoting what the user wrote through [`crate::vocab::echo`] as every message does.
+pub fn print_clap(mut e: clap::Error) -> i32 {
+    if e.use_stderr() {
+        echo_clap_values(&mut e);
+        let _ = e.print();
+        return e.exit_code();
+    }
+    // clap writes through stdout's line buffer: flush it, or the failure of the last line
+    // would surface only at exit, where it is ignored.
+    let written = e.print().and_then(|()| std::io::stdout().lock().flush());
+    match stdout_written(written) {
+        Ok(()) => e.exit_code(),
+        Err(f) => f.report(),
     }
 }
 
@@ -39,6 +66,26 @@ pub fn say_line(args: fmt::Arguments) -> Result<(), Failure> {
 pub fn note_line(args: fmt::Arguments) {
     let mut stderr = std::io::stderr().lock();
     let _ = writeln!(stderr, "isoview: {args}");
+}
+
+/// Replaces the user's words in a clap error (the refused value, the unknown argument or
+/// subcommand) with their [`crate::vocab::echo`]: clap quotes them whole, so a 100 kB
+/// `--at` value made a 100 kB message and a newline in it split the line. clap formats its
+/// message from these when it prints.
+fn echo_clap_values(e: &mut clap::Error) {
+    use crate::vocab::echo;
+    use clap::error::{ContextKind, ContextValue};
+    for kind in [ContextKind::InvalidValue, ContextKind::InvalidArg, ContextKind::InvalidSubcommand]
+    {
+        let echoed = match e.get(kind) {
+            Some(ContextValue::String(s)) => ContextValue::String(echo(s)),
+            Some(ContextValue::Strings(v)) => {
+                ContextValue::Strings(v.iter().map(|s| echo(s)).collect())
+            }
+            _ => continue,
+        };
+        e.insert(kind, echoed);
+    }
 }
 
 /// `say!("...", args)`: one line on stdout, `Result<(), Failure>` (`?` it: a reader that has

@@ -43,6 +43,7 @@ use crate::mesh::stats;
 use crate::mesh::{self, ExtractOptions, Mesh, MeshBudget, MeshLimits};
 use crate::output::atomic;
 use crate::scene::Scene;
+use crate::vocab::echo_number;
 
 #[derive(clap::Args, Debug)]
 pub struct ExtractArgs {
@@ -125,13 +126,16 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: &Ranks) -> Result<i32, Failure> 
         ))
     })?;
     if !args.time.is_finite() {
-        return Err(Failure::input(format!("--time {}: must be a finite number", args.time)));
+        return Err(Failure::input(format!(
+            "--time {}: must be a finite number",
+            echo_number(args.time)
+        )));
     }
     let env = std::env::var("ISOVIEW_DEVICE").ok();
     let (backend, vulkan_device) =
         resolve_device(cli.device.as_deref(), cli.device_from_command_line, env.as_deref());
     let scene = super::load_scene(&args.scene, &args.sets)?;
-    super::check_output("-o", &args.output, &scene)?;
+    super::check_outputs(&[("-o", &args.output)], &scene)?;
     if let Some(why) = ranks.refuses_extract(&scene, backend == Backend::Gpu) {
         return super::refuse_on_ranks(ranks, Failure::input(why));
     }

@@ -122,8 +122,16 @@ impl Cli {
 
 /// Runs the command line and returns the process exit status.
 pub fn main() -> i32 {
-    let matches = Cli::command().get_matches();
-    let mut cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    // clap's `get_matches` would print help and errors itself and exit, ignoring a failed
+    // write; console::print_clap prints them under the verbs' rules.
+    let matches = match Cli::command().try_get_matches() {
+        Ok(m) => m,
+        Err(e) => return console::print_clap(e),
+    };
+    let mut cli = match Cli::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => return console::print_clap(e),
+    };
     cli.device_from_command_line = matches.value_source("device") == Some(ValueSource::CommandLine);
     let result = match &cli.command {
         Command::Render(args) => render::run(&cli, args),
@@ -180,7 +188,7 @@ pub fn load_scene(path: &std::path::Path, sets: &[String]) -> Result<crate::scen
 }
 
 /// The files a run over `scene` reads, with what each is: the scene file and its data files.
-/// No output may be one of them ([`check_output`]).
+/// No output may be one of them ([`check_outputs`]).
 pub fn scene_inputs(scene: &crate::scene::Scene) -> Vec<(&'static str, &std::path::Path)> {
     let mut inputs = Vec::new();
     if let Some(p) = &scene.path {
@@ -195,14 +203,14 @@ pub fn scene_inputs(scene: &crate::scene::Scene) -> Vec<(&'static str, &std::pat
     inputs
 }
 
-/// Refuses to write `path` (given as `flag`) when it is one of `scene`'s inputs or not a
-/// regular file (the rule: [`crate::output::guard`]).
-pub fn check_output(
-    flag: &str,
-    path: &std::path::Path,
+/// Refuses to write a run's `outputs` (each given as its flag and path) when one is one of
+/// `scene`'s inputs, two are one file, or one is not a regular file (the rule:
+/// [`crate::output::guard`]). A verb passes all of its outputs at once.
+pub fn check_outputs(
+    outputs: &[(&str, &std::path::Path)],
     scene: &crate::scene::Scene,
 ) -> Result<(), Failure> {
-    crate::output::guard::check(flag, path, &scene_inputs(scene)).map_err(Failure::input)
+    crate::output::guard::check(outputs, &scene_inputs(scene)).map_err(Failure::input)
 }
 
 fn info(cli: &Cli) -> Result<i32, Failure> {

@@ -11,7 +11,7 @@ use crate::output;
 use crate::output::frame_files::FrameFiles;
 use crate::render::{GpuGrid, Renderer};
 use crate::scene::Scene;
-use crate::vocab::echo;
+use crate::vocab::{echo, echo_number};
 
 #[derive(clap::Args, Debug)]
 pub struct RenderArgs {
@@ -50,7 +50,20 @@ pub fn parse_frames(s: &str) -> Result<(i64, i64), String> {
         .or_else(|| s.split_once(".."))
         .ok_or_else(|| bad("expected A..B, e.g. 1..48".into()))?;
     let int = |v: &str| {
-        v.trim().parse::<i64>().map_err(|_| bad(format!("`{}` is not an integer", echo(v))))
+        use std::num::IntErrorKind;
+        v.trim().parse::<i64>().map_err(|e| {
+            let v = echo(v.trim());
+            // An integer past i64 is a number the user meant: say which limit it passes.
+            bad(match e.kind() {
+                IntErrorKind::PosOverflow => {
+                    format!("`{v}` is too large: frame numbers go up to {}", i64::MAX)
+                }
+                IntErrorKind::NegOverflow => {
+                    format!("`{v}` is too small: frame numbers go down to {}", i64::MIN)
+                }
+                _ => format!("`{v}` is not an integer"),
+            })
+        })
     };
     let (a, b) = (int(a)?, int(b)?);
     if a > b {
@@ -86,10 +99,16 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         check_extension(png, "png", "--png")?;
     }
     if !(args.fps.is_finite() && args.fps > 0.0) {
-        return Err(Failure::input(format!("--fps {}: must be a positive number", args.fps)));
+        return Err(Failure::input(format!(
+            "--fps {}: must be a positive number",
+            echo_number(args.fps)
+        )));
     }
     if !args.time.is_finite() {
-        return Err(Failure::input(format!("--time {}: must be a finite number", args.time)));
+        return Err(Failure::input(format!(
+            "--time {}: must be a finite number",
+            echo_number(args.time)
+        )));
     }
     let range = args.frames.as_deref().map(parse_frames).transpose().map_err(Failure::input)?;
     let scene = super::load_scene(&args.scene, &args.sets)?;
@@ -296,13 +315,13 @@ impl Frames<'_> {
 }
 
 impl Job {
-    /// Refuses outputs that are the scene's inputs or special files.
+    /// Refuses outputs that are the scene's inputs, one file twice, or special files.
     fn check(&self, scene: &Scene) -> Result<(), Failure> {
-        super::check_output("-o", &self.exr, scene)?;
-        match &self.png {
-            Some(png) => super::check_output("--png", png, scene),
-            None => Ok(()),
+        let mut outputs = vec![("-o", self.exr.as_path())];
+        if let Some(png) = &self.png {
+            outputs.push(("--png", png.as_path()));
         }
+        super::check_outputs(&outputs, scene)
     }
 }
 
@@ -329,7 +348,20 @@ mod tests {
         assert_eq!(parse_frames("1..48"), Ok((1, 48)));
         assert_eq!(parse_frames("3..=3"), Ok((3, 3)));
         assert!(parse_frames("5..2").is_err());
-        assert!(parse_frames("a..2").is_err());
+        assert!(parse_frames("a..2").unwrap_err().ends_with("`a` is not an integer"));
+        assert_eq!(
+            parse_frames("-9223372036854775808..9223372036854775807"),
+            Ok((i64::MIN, i64::MAX))
+        );
+        let e = parse_frames("0..9223372036854775808").unwrap_err();
+        assert!(
+            e.ends_with(
+                "`9223372036854775808` is too large: frame numbers go up to 9223372036854775807"
+            ),
+            "{e}"
+        );
+        let e = parse_frames("-9223372036854775809..0").unwrap_err();
+        assert!(e.contains("is too small: frame numbers go down to -9223372036854775808"), "{e}");
         assert_eq!(
             frame_path(Path::new("out.####.exr"), 7).unwrap(),
             PathBuf::from("out.0007.exr")

@@ -12,7 +12,7 @@ use super::{Cli, Failure};
 use crate::render::GpuGrid;
 use crate::scene;
 use crate::slice::{self, export, Axis, PlaneGrid, SliceRenderer};
-use crate::vocab::echo;
+use crate::vocab::{echo, echo_number};
 
 #[derive(clap::Args, Debug)]
 pub struct SliceArgs {
@@ -67,18 +67,25 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
         check_extension(p, "png", "--png")?;
     }
     if !args.at.is_finite() {
-        return Err(Failure::input(format!("--at {}: must be a finite number", args.at)));
+        return Err(Failure::input(format!(
+            "--at {}: must be a finite number",
+            echo_number(args.at)
+        )));
     }
     if !args.time.is_finite() {
-        return Err(Failure::input(format!("--time {}: must be a finite number", args.time)));
+        return Err(Failure::input(format!(
+            "--time {}: must be a finite number",
+            echo_number(args.time)
+        )));
     }
     let scene = super::load_scene(&args.scene, &args.sets)?;
-    super::check_output("-o", &args.output, &scene)?;
+    let mut outputs = vec![("-o", args.output.as_path())];
     for (p, flag) in [(&args.png, "--png"), (&args.json, "--json"), (&args.svg, "--svg")] {
         if let Some(p) = p {
-            super::check_output(flag, p, &scene)?;
+            outputs.push((flag, p.as_path()));
         }
     }
+    super::check_outputs(&outputs, &scene)?;
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let slice::Planned { plane, mut set, style } =
         slice::plan(&scene, &grid, args.axis, args.at, args.time).map_err(Failure::input)?;

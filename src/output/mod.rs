@@ -73,8 +73,8 @@ pub enum OutputError {
     /// The data to write, or the file read, is not what it should be (the reason says how).
     #[error("{}: {reason}", path.display())]
     Invalid { path: PathBuf, reason: String },
-    /// The output given as `flag` may not be written ([`guard::check`]: an input, or not a
-    /// regular file).
+    /// The output given as `flag` may not be written ([`guard::check`]: an input, another
+    /// output of the run, or not a regular file).
     #[error("{flag} {}: {reason}", path.display())]
     Refused { flag: String, path: PathBuf, reason: String },
 }

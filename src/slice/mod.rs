@@ -36,11 +36,15 @@ pub use plane::{picture_size, Axis, PlaneGrid};
 pub use roots::{probe_segment, RootKind, SegmentProbe};
 
 use crate::scene::Scene;
+use crate::vocab::echo_number;
 
 /// What can go wrong in a slice before the GPU or the output files are involved.
 #[derive(Debug, thiserror::Error)]
 pub enum SliceError {
-    #[error("--at {at}: the plane {axis} = {at} misses the grid box ({axis} from {min} to {max})")]
+    #[error(
+        "--at {}: the plane {axis} = {} misses the grid box ({axis} from {} to {})",
+        echo_number(*at), echo_number(*at), echo_number(*min), echo_number(*max)
+    )]
     OutsideBox { axis: &'static str, at: f64, min: f64, max: f64 },
     #[error("{0}")]
     Input(String),

@@ -154,6 +154,30 @@ fn a_tiff_stack_over_the_cap_is_refused_from_its_headers() {
 }
 
 #[test]
+fn a_tiff_stack_over_the_cap_is_refused_with_its_page_count() {
+    let dir = scratch("rel-tiff-count");
+    // The case from the attack: 3 pages of 16384^2 under the default 1024 MiB cap. One page
+    // fits exactly, two do not; the message must count all three, so that the cap it
+    // suggests is one the stack fits under.
+    let p = dir.join("stack.tif");
+    std::fs::write(&p, tiff_without_data(16384, 16384, 3)).unwrap();
+    let m = refusal(&p, &opts());
+    assert!(m.contains("a grid of 16384x16384x3 points needs 3072 MiB"), "{m}");
+    assert!(m.contains("ISOVIEW_MAX_GRID_MIB=3072 "), "{m}");
+    // A chain of pages longer than isoview counts says the count is a floor.
+    let many = formats::MAX_TIFF_PAGES_COUNTED as u32 + 5;
+    std::fs::write(&p, tiff_without_data(1024, 1024, many)).unwrap();
+    let capped = ReadOptions { limits: GridLimits { max_bytes: 10 << 20 }, spacing: None };
+    let m = refusal(&p, &capped);
+    let floor = format!("1024x1024x{} points", formats::MAX_TIFF_PAGES_COUNTED);
+    assert!(
+        m.contains(&floor)
+            && m.ends_with("has more pages than that (isoview stopped counting them)"),
+        "{m}"
+    );
+}
+
+#[test]
 fn header_geometry_must_be_finite_and_positive() {
     let dir = scratch("rel-geometry");
     let nrrd = |name: &str, field: &str| {

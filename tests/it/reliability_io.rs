@@ -95,6 +95,34 @@ fn stdout_closed_early_stops_quietly_with_exit_0() {
     assert_fails(&o, 2, &["cannot write to stdout: No space left on device"]);
 }
 
+#[test]
+fn help_and_version_follow_the_stdout_rules() {
+    let dir = scratch("rio-help");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let full = || Stdio::from(std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap());
+    // The rule every verb follows, `stats` here (`info` alike, with a device).
+    let verb = run(&["stats", &scene], full(), Stdio::piped());
+    assert_fails(&verb, 2, &["isoview: cannot write to stdout: No space left on device"]);
+    for args in
+        [&["--help"][..], &["-h"], &["--version"], &["render", "--help"], &["help", "slice"]]
+    {
+        // A full disk: the same line and status as the verb's, not a silent 0.
+        let o = run(args, full(), Stdio::piped());
+        assert_eq!((o.status.code(), stderr(&o)), (verb.status.code(), stderr(&verb)), "{args:?}");
+        // The reader gone: a quiet 0, as for the verbs.
+        let o = run(args, reader_gone(), Stdio::piped());
+        assert_eq!((o.status.code(), stderr(&o).as_str()), (Some(0), ""), "{args:?}");
+        // And written as before when someone reads it.
+        let o = run(args, Stdio::piped(), Stdio::piped());
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+        assert!(String::from_utf8_lossy(&o.stdout).contains("isoview"), "{args:?}");
+    }
+    // A usage error still goes to stderr with exit 2, stdout untouched.
+    let o = run(&["--no-such-flag"], full(), Stdio::piped());
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--no-such-flag"));
+}
+
 #[gpu_test]
 fn info_with_stdout_closed_early_stops_quietly() {
     let o = run(&["info"], reader_gone(), Stdio::piped());
@@ -158,6 +186,50 @@ fn compare_never_writes_over_its_inputs() {
     assert_fails(&o, 2, &["is A ("]);
     assert_eq!((std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap()), before);
     assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+}
+
+#[test]
+fn two_outputs_of_one_run_are_never_one_file() {
+    let dir = scratch("rio-two-outputs");
+    let (a, b) = (dir.join("a.exr"), dir.join("b.exr"));
+    isoview::output::exr::write_frame(&a, &crate::output::test_frame(9, 7)).unwrap();
+    isoview::output::exr::write_frame(&b, &crate::output::test_frame(9, 7)).unwrap();
+    let (sa, sb) = (a.display().to_string(), b.display().to_string());
+    // The same name twice: the PNG would replace the EXR (and the run say both were written).
+    let d = dir.join("d.exr");
+    std::fs::write(&d, b"previous").unwrap();
+    let sd = d.display().to_string();
+    let o = isoview_output(&["compare", &sa, &sb, "--diff", &sd, "--png", &sd]);
+    assert_fails(&o, 2, &["--png ", "d.exr: is also the output of --diff (", "its own file"]);
+    // Another spelling of it, and a name that does not exist yet.
+    let dotted = dir.join("sub").join("..").join("d.exr");
+    std::fs::create_dir(dir.join("sub")).unwrap();
+    let o = isoview_output(&[
+        "compare",
+        &sa,
+        &sb,
+        "--diff",
+        &sd,
+        "--png",
+        &dotted.display().to_string(),
+    ]);
+    assert_fails(&o, 2, &["is also the output of --diff"]);
+    let new = dir.join("new.exr").display().to_string();
+    // Named in the order the verb writes them (--diff, then --png).
+    let o = isoview_output(&["compare", &sa, &sb, "--png", &new, "--diff", &new]);
+    assert_fails(&o, 2, &["--png ", "new.exr: is also the output of --diff"]);
+    assert_eq!(std::fs::read(&d).unwrap(), b"previous");
+    assert!(!Path::new(&new).exists());
+    // The verbs whose outputs differ by extension: the same file through a link.
+    let scene = write(&dir, "s.toml", SPHERE);
+    let link = dir.join("preview.png");
+    std::os::unix::fs::symlink(&d, &link).unwrap();
+    let sl = link.display().to_string();
+    let o = isoview_output(&["render", &scene, "-o", &sd, "--png", &sl]);
+    assert_fails(&o, 2, &["--png ", "preview.png: is also the output of -o ("]);
+    let args = ["slice", &scene, "-o", &sd, "--axis", "z", "--at", "0", "--png", &sl];
+    assert_fails(&isoview_output(&args), 2, &["--png ", "is also the output of -o"]);
+    assert_eq!(std::fs::read(&d).unwrap(), b"previous");
 }
 
 #[test]
@@ -326,6 +398,35 @@ fn a_huge_frame_range_is_never_materialised() {
     assert_fails(&o, 2, &["f0000.exr: is a directory"]);
 }
 
+#[test]
+fn a_frame_number_past_the_integers_says_too_large() {
+    let dir = scratch("rio-frames-range");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let out = dir.join("f####.exr").display().to_string();
+    let o = isoview_output(&["render", &scene, "-o", &out, "--frames", "0..18446744073709551615"]);
+    assert_fails(
+        &o,
+        2,
+        &["--frames 0..18446744073709551615: `18446744073709551615` is too large: frame numbers \
+           go up to 9223372036854775807"],
+    );
+    let o = isoview_output(&["render", &scene, "-o", &out, "--frames=-99999999999999999999..0"]);
+    assert_fails(&o, 2, &["`-99999999999999999999` is too small", "-9223372036854775808"]);
+    // What is no integer at all still says so.
+    let o = isoview_output(&["render", &scene, "-o", &out, "--frames", "0..1.5"]);
+    assert_fails(&o, 2, &["`1.5` is not an integer"]);
+}
+
+#[test]
+fn a_pixel_index_past_the_integers_is_outside_the_image() {
+    let dir = scratch("rio-pixel-range");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let o = isoview_output(&["probe", &scene, "--pixel", "4294967296,0"]);
+    assert_fails(&o, 2, &["--pixel 4294967296,0: outside the 16x16 image"]);
+    let o = isoview_output(&["probe", &scene, "--pixel", "1,-1"]);
+    assert_fails(&o, 2, &["--pixel 1,-1: `-1` is not a pixel index"]);
+}
+
 /// The peak resident memory of `isoview args` in KiB (its own, from `wait4`); it must succeed.
 #[allow(clippy::zombie_processes)] // reaped by wait4, which also gives its rusage
 fn peak_rss_kib(args: &[&str]) -> i64 {
@@ -394,6 +495,50 @@ fn echoed_values_are_cut_and_escaped() {
     let o = isoview_output(&["probe", &scene, "--pixel", &format!("1,{}", "9".repeat(500))]);
     assert_fails(&o, 2, &["--pixel 1,999", "…"]);
     assert!(stderr(&o).len() < 500);
+}
+
+#[test]
+fn numbers_are_echoed_short() {
+    let dir = scratch("rio-numbers");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let out = dir.join("o.exr").display().to_string();
+    // Rust writes 1e308 as 309 digits and 1e-300 as 302 characters; the messages keep the
+    // short form the user typed.
+    let o = isoview_output(&["slice", &scene, "-o", &out, "--axis", "z", "--at", "1e308"]);
+    assert_fails(&o, 2, &["--at 1e308: the plane z = 1e308 misses the grid box (z from -1 to 1)"]);
+    assert!(stderr(&o).len() < 120, "{}", stderr(&o));
+    let o = isoview_output(&["probe", &scene, "--slice", "x=-1e300", "--segment", "0,0,1,1"]);
+    assert_fails(&o, 2, &["the plane x = -1e300 misses the grid box"]);
+    assert!(stderr(&o).len() < 120, "{}", stderr(&o));
+    for fps in ["-1e308", "-1e-300"] {
+        let fps_arg = format!("--fps={fps}");
+        let o = isoview_output(&["render", &scene, "-o", &out, "--frames", "0..1", &fps_arg]);
+        assert_fails(&o, 2, &[&format!("--fps {fps}: must be a positive number")]);
+    }
+    assert!(!Path::new(&out).exists());
+}
+
+#[test]
+fn values_clap_refuses_are_echoed_cut_and_escaped() {
+    // The command line's own parser (clap) quotes what it refuses; it too goes through echo.
+    let long = format!("{}x", "9".repeat(5000));
+    let lines = [
+        vec!["slice", "s.toml", "-o", "x.exr", "--axis", "z", "--at", &long],
+        vec!["compare", "a.exr", "b.exr", "--fail", &long],
+        vec!["render", "s.toml", "-o", "x.exr", "--fps", &long],
+        vec!["stats", "s.toml", &long],
+    ];
+    let unknown = format!("--{long}");
+    for args in lines.iter().map(Vec::as_slice).chain([&[unknown.as_str()][..], &[&long[..]]]) {
+        let o = isoview_output(args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.len() < 600 && err.contains("99999…"), "{} bytes: {err}", err.len());
+    }
+    let o =
+        isoview_output(&["slice", "s.toml", "-o", "x.exr", "--axis", "z", "--at", "1\n\u{1b}[2J"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("'1\\n\\u{1b}[2J'"), "{}", stderr(&o));
 }
 
 #[gpu_test]

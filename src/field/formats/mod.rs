@@ -31,6 +31,9 @@ use glam::DVec3;
 
 use super::{FieldError, GridLimits};
 
+/// How many pages of a TIFF stack over the cap are counted for its refusal.
+pub use tiff::MAX_PAGES_COUNTED as MAX_TIFF_PAGES_COUNTED;
+
 /// The formats `source = "file"` reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {

@@ -12,6 +12,14 @@ use tiff::ColorType;
 use super::{Located, ReadOptions, Volume};
 use crate::field::FieldError;
 
+/// How many pages the header walk counts at most once the stack is over the cap: enough for
+/// any real stack's count (and so the cap it needs), while a file of millions of tiny page
+/// headers stops early; the refusal then says the count is a floor.
+pub const MAX_PAGES_COUNTED: u64 = 1 << 16;
+
+/// Added to the refusal when the walk stopped at [`MAX_PAGES_COUNTED`].
+const MORE_PAGES: &str = "; the stack has more pages than that (isoview stopped counting them)";
+
 pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     let file = std::fs::File::open(err.path).map_err(|e| err.io(&e))?;
     let tiff_err = |e: tiff::TiffError| err.bad(crate::field::error::one_line(&e.to_string()));
@@ -25,11 +33,16 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         return Err(err.bad(format!("page 0 is {color:?}; isoview reads grayscale stacks")));
     }
     // First pass, over the page headers only: every page the same, and the whole stack under
-    // the cap (counted page by page, so a long or cyclic chain of pages stops at the cap)
-    // before any page is decoded.
+    // the cap before any page is decoded. Pages are checked against the cap as they are
+    // counted; once past it the walk goes on counting (headers only, at most
+    // MAX_PAGES_COUNTED pages; the tiff crate refuses a cyclic chain), so that the refusal
+    // states the stack's real size and the cap it would need, not the count where the cap was
+    // first passed.
     let mut pages = 1u64;
+    let mut over_cap = false;
+    let mut counted_all = true;
     loop {
-        err.limits_check(&opts.limits, [w as u64, h as u64, pages])?;
+        over_cap = over_cap || err.limits_check(&opts.limits, [w as u64, h as u64, pages]).is_err();
         if dec.dimensions().map_err(tiff_err)? != (w, h)
             || dec.colortype().map_err(tiff_err)? != color
         {
@@ -38,10 +51,21 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         if !dec.more_images() {
             break;
         }
+        if over_cap && pages >= MAX_PAGES_COUNTED {
+            counted_all = false;
+            break;
+        }
         dec.next_image().map_err(tiff_err)?;
         pages += 1;
     }
-    let dims = super::payload::grid(err, [w as u64, h as u64, pages], &opts.limits)?;
+    // Over the cap, this is the refusal, with every page counted (or the floor, said so).
+    let dims =
+        super::payload::grid(err, [w as u64, h as u64, pages], &opts.limits).map_err(|e| {
+            match counted_all {
+                true => e,
+                false => crate::field::limits::with_hint(e, MORE_PAGES),
+            }
+        })?;
     dec.seek_to_image(0).map_err(tiff_err)?;
     let mut values = Vec::with_capacity(dims.iter().product());
     for page in 0..pages {

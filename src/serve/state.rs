@@ -131,6 +131,7 @@ fn redacted(e: &FieldError) -> Option<String> {
         FieldError::BadMesh { path, .. } => (path, "a mesh"),
         FieldError::Format { path, format, .. } => (path, *format),
         FieldError::Io { .. }
+        | FieldError::Outside { .. }
         | FieldError::Truncated { .. }
         | FieldError::SizeMismatch { .. }
         | FieldError::TooLarge { .. }

@@ -6,7 +6,7 @@
 
 use std::io::{Read, Write};
 use std::net::TcpStream;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use serde_json::json;
 
@@ -466,4 +466,31 @@ fn detached_headers_read_only_inside_the_allowed_folders() {
     // The command line reads what its headers name, wherever it is.
     let o = isoview(&["stats", &file, "--set", &file_field("rel.mhd")], &[]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+/// Connections that open and send nothing do not hold the workers: a request beside 60 of
+/// them (the cap is 64) is answered at once. Each used to hold a worker for its whole head
+/// timeout (5 s, counted from when a worker took it), 8 at a time: 40 s for the 61st.
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn idle_connections_do_not_delay_a_request() {
+    let server = Server::start(
+        &scene("cell-tunnel.toml"),
+        &["--set", "image.width=16", "--set", "image.height=16"],
+    );
+    alive(&server);
+    let idle: Vec<TcpStream> = (0..60).map(|_| TcpStream::connect(&server.addr).unwrap()).collect();
+    // Let the server accept them and its workers take them up.
+    std::thread::sleep(Duration::from_millis(500));
+    let start = Instant::now();
+    let a = server.get("/api/stats");
+    let took = start.elapsed();
+    assert_eq!(a.status, 200, "{}", a.text());
+    assert!(took < Duration::from_secs(4), "a request beside 60 idle connections took {took:?}");
+    // The idle ones are answered 408 within 5 s of their connection, not of a worker's turn.
+    for mut s in idle.into_iter().take(8) {
+        s.set_read_timeout(Some(Duration::from_secs(60))).unwrap();
+        assert_eq!(read_answer(&mut s).0, 408);
+    }
+    assert!(start.elapsed() < Duration::from_secs(12), "408s came after {:?}", start.elapsed());
 }

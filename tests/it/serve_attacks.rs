@@ -494,3 +494,24 @@ fn idle_connections_do_not_delay_a_request() {
     }
     assert!(start.elapsed() < Duration::from_secs(12), "408s came after {:?}", start.elapsed());
 }
+
+/// `ch` repeated: each channel once, and no more names than there are channels.
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn aov_channels_are_bounded() {
+    let server = Server::start(
+        &scene("cell-tunnel.toml"),
+        &["--set", "image.width=16", "--set", "image.height=16"],
+    );
+    let a = server.get("/api/aov?ch=Z,Z,N.X,Z");
+    assert_eq!(a.status, 200, "{}", a.text());
+    assert_eq!(a.header("x-isoview-channels"), "Z,N.X");
+    assert_eq!(a.body.len(), 2 * 16 * 16 * 4);
+    // A query of 2,000 names (each a plane of the image) is refused before any work.
+    let many = vec!["Z"; 2000].join(",");
+    let a = server.get(&format!("/api/aov?ch={many}"));
+    assert_eq!(a.status, 400, "{} bytes", a.body.len());
+    let e = a.json()["error"].as_str().unwrap().to_string();
+    assert!(e.contains("2000 channel names") && e.contains("at most"), "{e}");
+    alive(&server);
+}

@@ -7,7 +7,8 @@
 //!
 //! ```text
 //!   too long a request line: 414   too large a head or too many headers: 431
-//!   malformed: 400   head not complete within HEAD_TIMEOUT: 408   body over MAX_BODY: 413
+//!   malformed, or Content-Length lines that disagree: 400   head not complete within
+//!   HEAD_TIMEOUT: 408   body over MAX_BODY: 413
 //!   a chunked body: 411 (send Content-Length)
 //! ```
 
@@ -202,18 +203,37 @@ impl Head {
     }
 
     /// The body's announced length: 0 without Content-Length; chunked bodies are refused.
+    /// (Content-Length itself was checked with the head: see [`content_length`].)
     pub fn body_len(&self) -> Result<u64, Reply> {
         if self.header("Transfer-Encoding").is_some() {
             return Err(Reply::error(411, "send the body with a Content-Length (not chunked)"));
         }
-        match self.header("Content-Length") {
-            None => Ok(0),
-            Some(v) => v
-                .trim()
-                .parse::<u64>()
-                .map_err(|_| Reply::error(400, "Content-Length: not a whole number of bytes")),
+        content_length(&self.headers).map(|n| n.unwrap_or(0))
+    }
+}
+
+/// The length the Content-Length headers give, None without one. Every line must be a whole
+/// number and all must agree: two different lengths frame the body two ways (how requests
+/// are smuggled past a proxy), so they are refused whatever the route; the same length
+/// repeated is one framing and is accepted (RFC 9110, 8.6).
+fn content_length(headers: &[(String, String)]) -> Result<Option<u64>, Reply> {
+    let mut length = None;
+    for (_, v) in headers.iter().filter(|(k, _)| k.eq_ignore_ascii_case("Content-Length")) {
+        let n = v
+            .trim()
+            .parse::<u64>()
+            .map_err(|_| Reply::error(400, "Content-Length: not a whole number of bytes"))?;
+        match length {
+            Some(m) if m != n => {
+                return Err(Reply::error(
+                    400,
+                    format!("Content-Length: {m} and {n} disagree; send one length"),
+                ))
+            }
+            _ => length = Some(n),
         }
     }
+    Ok(length)
 }
 
 /// What a turn of [`HeadReader::read`] gave.
@@ -285,16 +305,21 @@ fn parse_head(bytes: &[u8]) -> Result<Option<Head>, Reply> {
     let mut request = httparse::Request::new(&mut headers);
     match request.parse(bytes) {
         Ok(httparse::Status::Partial) => Ok(None),
-        Ok(httparse::Status::Complete(end)) => Ok(Some(Head {
-            method: request.method.unwrap_or("").to_string(),
-            url: request.path.unwrap_or("").to_string(),
-            headers: request
+        Ok(httparse::Status::Complete(end)) => {
+            let headers: Vec<(String, String)> = request
                 .headers
                 .iter()
                 .map(|h| (h.name.to_string(), String::from_utf8_lossy(h.value).into()))
-                .collect(),
-            rest: bytes[end..].to_vec(),
-        })),
+                .collect();
+            // The body's framing is checked before any route sees the request.
+            content_length(&headers)?;
+            Ok(Some(Head {
+                method: request.method.unwrap_or("").to_string(),
+                url: request.path.unwrap_or("").to_string(),
+                headers,
+                rest: bytes[end..].to_vec(),
+            }))
+        }
         Err(httparse::Error::TooManyHeaders) => {
             Err(Reply::error(431, format!("more than {MAX_HEADERS} header lines")))
         }
@@ -496,6 +521,10 @@ mod tests {
         assert_eq!(read_body(&mut Pieces::new(&[], true), &over).unwrap_err().status, 413);
         let chunked = head("POST / HTTP/1.1\r\nTransfer-Encoding: chunked\r\n\r\n");
         assert_eq!(read_body(&mut Pieces::new(&[], true), &chunked).unwrap_err().status, 411);
+        let twice = "POST / HTTP/1.1\r\nContent-Length: 2\r\nContent-Length: 3\r\n\r\nabc";
+        assert_eq!(status(read_head(&mut Pieces::new(&[twice.as_bytes()], true))), 400);
+        let same = head("POST / HTTP/1.1\r\nContent-Length: 3\r\ncontent-length: 3\r\n\r\nabc");
+        assert_eq!(read_body(&mut Pieces::new(&[], true), &same).unwrap(), b"abc");
         let short = head("POST / HTTP/1.1\r\nContent-Length: 9\r\n\r\nab");
         assert_eq!(read_body(&mut Pieces::new(&[], false), &short).unwrap_err().status, 400);
     }

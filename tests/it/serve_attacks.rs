@@ -515,3 +515,35 @@ fn aov_channels_are_bounded() {
     assert!(e.contains("2000 channel names") && e.contains("at most"), "{e}");
     alive(&server);
 }
+
+/// Two different Content-Lengths frame the body two ways (request smuggling): 400. The same
+/// length twice is one framing and is accepted.
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn conflicting_content_lengths_are_refused() {
+    let server = Server::start(
+        &scene("cell-tunnel.toml"),
+        &["--set", "image.width=16", "--set", "image.height=16"],
+    );
+    let body = r#"{"set": ["image.width=16", "image.height=16"]}"#;
+    let post = |lengths: &[usize]| {
+        let mut req =
+            format!("POST /api/state?token={} HTTP/1.1\r\nHost: {}\r\n", server.token, server.addr);
+        for n in lengths {
+            req += &format!("Content-Length: {n}\r\n");
+        }
+        exchange(&server, format!("{req}\r\n{body}").as_bytes())
+    };
+    let (status, text) = post(&[body.len(), 5]);
+    assert_eq!(status, 400, "{text}");
+    assert!(text.contains("Content-Length"), "{text}");
+    assert_eq!(post(&[5, body.len()]).0, 400);
+    assert_eq!(post(&[body.len(), body.len()]).0, 200);
+    // A GET that reads no body is refused too: the framing is wrong whatever the route.
+    let get = format!(
+        "GET /api/stats?token={} HTTP/1.1\r\nHost: {}\r\nContent-Length: 0\r\nContent-Length: 1\r\n\r\n",
+        server.token, server.addr
+    );
+    assert_eq!(exchange(&server, get.as_bytes()).0, 400);
+    alive(&server);
+}

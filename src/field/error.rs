@@ -47,6 +47,12 @@ pub enum FieldError {
     #[error("{}: {format}: {message}", path.display())]
     Format { path: PathBuf, format: &'static str, message: String },
 
+    /// A volume file over one of its reader's own limits (XML nesting, a file far larger
+    /// than any grid under the cap). Unlike [`FieldError::Format`] the message holds only
+    /// numbers and positions, never text from the file, so `serve` shows it to the page.
+    #[error("{}: {format}: {message}", path.display())]
+    ReaderLimit { path: PathBuf, format: &'static str, message: String },
+
     /// A detached header (NRRD `data file`, MetaImage `ElementDataFile`) names a data file
     /// outside the folders `serve` may read. `path`: the header; the data file's name is the
     /// header's text, so it is not repeated.

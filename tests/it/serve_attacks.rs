@@ -547,3 +547,28 @@ fn conflicting_content_lengths_are_refused() {
     assert_eq!(exchange(&server, get.as_bytes()).0, 400);
     alive(&server);
 }
+
+/// A `.vti` nested too deep: the page is told what the reader said (a nesting limit, with
+/// its place), not only that the file cannot be read.
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn the_page_sees_why_a_nested_vti_is_refused() {
+    let (dir, file) = path_fixture("serve-nested");
+    let depth = 5000;
+    let text = format!(
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"ImageData\">\n{}{}</VTKFile>\n",
+        "<SECRET-a>".repeat(depth),
+        "</SECRET-a>".repeat(depth)
+    );
+    std::fs::write(dir.join("scene/deep.vti"), text).unwrap();
+    let server = Server::start(&file, &[]);
+    let a = server.post(
+        "/api/state",
+        &json!({ "set": ["field = {source = \"file\", path = \"deep.vti\"}"] }),
+    );
+    assert_eq!(a.status, 400, "{}", a.text());
+    let e = a.json()["error"].as_str().unwrap().to_string();
+    assert!(e.contains("deep.vti") && e.contains("nests deeper than 64"), "{e}");
+    assert!(e.contains("line 3, column ") && !e.contains("SECRET"), "{e}");
+    alive(&server);
+}

@@ -283,6 +283,16 @@ impl Located<'_> {
         }
     }
 
+    /// `PATH: FORMAT: WHY` for a file over one of the reader's limits; `why` must not quote
+    /// the file (see [`FieldError::ReaderLimit`]).
+    pub fn over_limit(&self, why: String) -> FieldError {
+        FieldError::ReaderLimit {
+            path: self.path.to_path_buf(),
+            format: self.format.title(),
+            message: why,
+        }
+    }
+
     /// The memory cap for a grid of `dims`, named by this file.
     pub fn limits_check(&self, limits: &GridLimits, dims: [u64; 3]) -> Result<(), FieldError> {
         limits.check(dims, &self.path.display().to_string()).map(|_| ())

@@ -22,7 +22,7 @@
 //! or parked) holds one of the [`MAX_CONNECTIONS`] slots, so memory and threads stay bounded
 //! whatever clients do.
 
-use std::io::Write;
+use std::io::{ErrorKind, Write};
 use std::net::{TcpListener, TcpStream};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
@@ -39,6 +39,9 @@ pub const WORKERS: usize = 8;
 pub const MAX_CONNECTIONS: usize = 64;
 /// Long-polls parked at once; more are answered 503 with `Retry-After: 1`.
 pub const MAX_PARKED: usize = 32;
+/// How often the parker looks for parked clients that closed their connection (a tab
+/// closed or reloaded), to free their places before their timeout.
+pub const HANGUP_CHECK: Duration = Duration::from_secs(1);
 
 /// An accepted connection, its request head as read so far, and its slot among
 /// [`MAX_CONNECTIONS`] (freed when dropped).
@@ -78,7 +81,8 @@ struct Parking {
 
 impl Parking {
     fn lock(&self) -> MutexGuard<'_, Vec<Parked>> {
-        // Every change is one push or one swap_remove: a panic leaves a consistent list.
+        // Every change is one push, one swap_remove or a retain: a panic leaves a consistent
+        // list.
         self.parked.lock().unwrap_or_else(|e| e.into_inner())
     }
 }
@@ -179,13 +183,19 @@ fn park(app: &App, parking: &Parking, conn: Conn, wait: Wait) {
 }
 
 /// The parker: answers each parked request once the board has what it waits for, or its
-/// deadline passed.
+/// deadline passed; every [`HANGUP_CHECK`], drops those whose client has gone.
 fn answer_parked(board: &Board, parking: &Parking, jobs: &SyncSender<Job>) {
     let mut seen = 0;
+    let mut checked = Instant::now();
     loop {
         let timeout = {
             let mut parked = parking.lock();
             let now = Instant::now();
+            if now >= checked + HANGUP_CHECK {
+                // Dropping a request closes its connection and frees its slot and place.
+                parked.retain(|p| !hung_up(&p.conn.stream));
+                checked = now;
+            }
             let mut ready = Vec::new();
             board.look(|b| {
                 let mut i = 0;
@@ -207,8 +217,26 @@ fn answer_parked(board: &Board, parking: &Parking, jobs: &SyncSender<Job>) {
                 let _ = jobs.try_send(Job::Answer(conn, reply));
             }
             let earliest = parked.iter().map(|p| p.deadline).min();
-            earliest.map_or(Duration::from_secs(3600), |d| d.saturating_duration_since(now))
+            let next_check = (!parked.is_empty()).then_some(checked + HANGUP_CHECK);
+            let wake = earliest.into_iter().chain(next_check).min();
+            wake.map_or(Duration::from_secs(3600), |d| d.saturating_duration_since(now))
         };
         seen = board.wait_change(seen, timeout);
     }
+}
+
+/// Whether a parked request's client has closed its connection (or it broke): a look at the
+/// socket that does not wait finds its end. A client that sent more bytes is still there.
+fn hung_up(stream: &TcpStream) -> bool {
+    if stream.set_nonblocking(true).is_err() {
+        return false;
+    }
+    let mut byte = [0u8; 1];
+    let gone = match stream.peek(&mut byte) {
+        Ok(n) => n == 0,
+        Err(e) => !matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::Interrupted),
+    };
+    // The reply is written blocking (with its timeout).
+    let _ = stream.set_nonblocking(false);
+    gone
 }

@@ -572,3 +572,67 @@ fn the_page_sees_why_a_nested_vti_is_refused() {
     assert!(e.contains("line 3, column ") && !e.contains("SECRET"), "{e}");
     alive(&server);
 }
+
+/// Long-polls whose clients went away give back their places: with every parking place
+/// taken and then closed, a new long-poll parks within a few seconds (it used to be refused
+/// with 503 until the closed ones' 25 s ran out).
+#[test]
+#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+fn closed_long_polls_free_their_places() {
+    let server = Server::start(
+        &scene("cell-tunnel.toml"),
+        &["--set", "image.width=16", "--set", "image.height=16"],
+    );
+    assert_eq!(server.get("/api/frame").status, 200);
+    let generation = server.get("/api/state").json()["generation"].as_u64().unwrap();
+    let poll = format!(
+        "GET /api/frame?after={generation}&level=full&token={} HTTP/1.1\r\nHost: {}\r\n\r\n",
+        server.token, server.addr
+    );
+    let open_poll = || {
+        let mut s = TcpStream::connect(&server.addr).unwrap();
+        s.write_all(poll.as_bytes()).unwrap();
+        s
+    };
+    let polls: Vec<TcpStream> = (0..32).map(|_| open_poll()).collect();
+    // All 32 places are taken: one more is told to come back.
+    std::thread::sleep(Duration::from_millis(500));
+    let mut extra = open_poll();
+    extra.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+    assert_eq!(read_answer(&mut extra).0, 503);
+    drop(polls);
+    let start = Instant::now();
+    let parked = loop {
+        assert!(
+            start.elapsed() < Duration::from_secs(8),
+            "no place freed after {:?}",
+            start.elapsed()
+        );
+        std::thread::sleep(Duration::from_millis(250));
+        let mut s = open_poll();
+        // Parked: no answer until a newer frame. Refused: 503 at once.
+        s.set_read_timeout(Some(Duration::from_secs(2))).unwrap();
+        let mut buf = [0u8; 64];
+        match s.read(&mut buf) {
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
+                break s
+            }
+            Ok(n) => assert!(
+                String::from_utf8_lossy(&buf[..n]).contains(" 503 "),
+                "{:?}",
+                String::from_utf8_lossy(&buf[..n])
+            ),
+            Err(e) => panic!("{e}"),
+        }
+    };
+    // The parked poll is answered with the next frame.
+    server.set(&["image.width=16", "image.height=16", "surface.isovalue=0.1"]);
+    let mut parked = parked;
+    parked.set_read_timeout(Some(Duration::from_secs(60))).unwrap();
+    assert_eq!(read_answer(&mut parked).0, 200);
+}

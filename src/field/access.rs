@@ -1,9 +1,14 @@
 //! [`DataAccess`]: which data files a scene may name. The command line reads whatever the
 //! scene names (the user wrote it); `isoview serve` lets its page change the scene, but not
 //! which files the server reads, so there a data path must resolve into the scene's folder, a
-//! folder given with `--allow-dir`, or be one of the files the scene itself names.
+//! folder given with `--allow-dir`, or be one of the files the scene itself names. The same
+//! rule admits the data file a detached volume header names (`formats::Located::detached`).
 
 use std::path::{Path, PathBuf};
+
+/// Why a path was refused (after the path, or the header key that names it).
+pub const OUTSIDE: &str = "outside the folders isoview serve may read (the scene's folder and \
+                           each --allow-dir); start the server with --allow-dir FOLDER to allow it";
 
 /// Where a data path (`path` keys of `[field]`, `[field2]`) may point.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -39,13 +44,7 @@ impl DataAccess {
         let DataAccess::Within(roots) = self else {
             return Ok(path.to_path_buf());
         };
-        let refused = || {
-            format!(
-                "{}: outside the folders isoview serve may read (the scene's folder and each \
-                 --allow-dir); start the server with --allow-dir FOLDER to allow it",
-                path.display()
-            )
-        };
+        let refused = || format!("{}: {OUTSIDE}", path.display());
         let resolved = match std::fs::canonicalize(path) {
             Ok(p) => p,
             Err(_) => {

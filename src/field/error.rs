@@ -2,6 +2,7 @@
 
 use std::path::PathBuf;
 
+use super::access::OUTSIDE;
 use super::limits::GRID_CAP_ENV;
 
 /// Appended to [`FieldError::TooLarge`] for the sources `field.residency` can read in parts.
@@ -45,6 +46,18 @@ pub enum FieldError {
     /// `format` names the format as the user knows it (`NRRD`, `MRC`).
     #[error("{}: {format}: {message}", path.display())]
     Format { path: PathBuf, format: &'static str, message: String },
+
+    /// A volume file over one of its reader's own limits (XML nesting, a file far larger
+    /// than any grid under the cap). Unlike [`FieldError::Format`] the message holds only
+    /// numbers and positions, never text from the file, so `serve` shows it to the page.
+    #[error("{}: {format}: {message}", path.display())]
+    ReaderLimit { path: PathBuf, format: &'static str, message: String },
+
+    /// A detached header (NRRD `data file`, MetaImage `ElementDataFile`) names a data file
+    /// outside the folders `serve` may read. `path`: the header; the data file's name is the
+    /// header's text, so it is not repeated.
+    #[error("{}: {key}: the data file it names is {OUTSIDE}", path.display())]
+    Outside { path: PathBuf, key: &'static str },
 
     /// The file ends before all samples were read.
     #[error(

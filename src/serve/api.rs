@@ -223,21 +223,34 @@ impl App {
     }
 
     /// `GET /api/aov?ch=Z[,N.X,...]`: the channels of the full frame as little-endian f32
-    /// planes, one after the other, row 0 at the top.
+    /// planes, one after the other, row 0 at the top. Each channel is sent once (a name
+    /// repeated is dropped), and more names than there are channels are refused before any
+    /// work: each plane is the image's size.
     fn aov(&self, target: &Target) -> Result<Reply, Reply> {
-        let names = target.get("ch").unwrap_or("Z");
-        let channels = names
-            .split(',')
-            .map(|n| {
-                Channel::from_name(n.trim()).ok_or_else(|| {
-                    let all: Vec<&str> = Channel::ALL.iter().map(|c| c.name()).collect();
-                    Reply::error(
-                        400,
-                        format!("ch={}: no such channel (one of {})", shorten(n), all.join(", ")),
-                    )
-                })
-            })
-            .collect::<Result<Vec<_>, _>>()?;
+        let names: Vec<&str> = target.get("ch").unwrap_or("Z").split(',').collect();
+        if names.len() > Channel::ALL.len() {
+            return Err(Reply::error(
+                400,
+                format!(
+                    "ch: {} channel names; at most {}, each channel once",
+                    names.len(),
+                    Channel::ALL.len()
+                ),
+            ));
+        }
+        let mut channels = Vec::with_capacity(names.len());
+        for n in names {
+            let c = Channel::from_name(n.trim()).ok_or_else(|| {
+                let all: Vec<&str> = Channel::ALL.iter().map(|c| c.name()).collect();
+                Reply::error(
+                    400,
+                    format!("ch={}: no such channel (one of {})", shorten(n), all.join(", ")),
+                )
+            })?;
+            if !channels.contains(&c) {
+                channels.push(c);
+            }
+        }
         let r = self.full_frame()?;
         let mut body = Vec::with_capacity(channels.len() * r.frame.pixels.len() * 4);
         for c in &channels {

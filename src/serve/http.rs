@@ -1,11 +1,14 @@
 //! HTTP/1.1 on a `TcpStream`, bounded: the request head (request line and headers) is read
 //! into a buffer of at most [`MAX_HEAD`] bytes and parsed by `httparse`; a body is read only
 //! when a route asks for it (after the token check), at most [`MAX_BODY`] bytes. Every read
-//! has a deadline. One request per connection: each answer says `Connection: close`.
+//! has a deadline; a head's counts from the connection's accept and is read in turns of
+//! [`HEAD_TURN`] ([`HeadReader`]), so a client that sends nothing holds no thread. One request
+//! per connection: each answer says `Connection: close`.
 //!
 //! ```text
 //!   too long a request line: 414   too large a head or too many headers: 431
-//!   malformed: 400   head not complete within HEAD_TIMEOUT: 408   body over MAX_BODY: 413
+//!   malformed, or Content-Length lines that disagree: 400   head not complete within
+//!   HEAD_TIMEOUT: 408   body over MAX_BODY: 413
 //!   a chunked body: 411 (send Content-Length)
 //! ```
 
@@ -22,8 +25,11 @@ pub const MAX_HEAD: usize = 16 << 10;
 pub const MAX_HEADERS: usize = 64;
 /// Largest request body read (a state is a few hundred bytes).
 pub const MAX_BODY: u64 = 1 << 20;
-/// Time a client has to send the whole request head.
+/// Time a client has to send the whole request head, from the connection's accept.
 pub const HEAD_TIMEOUT: Duration = Duration::from_secs(5);
+/// Longest a worker waits on one connection's head before it puts the connection back in the
+/// queue and takes the next: idle connections then cost the others at most a turn each.
+pub const HEAD_TURN: Duration = Duration::from_millis(50);
 /// Time a client has to send a body.
 pub const BODY_TIMEOUT: Duration = Duration::from_secs(10);
 /// Time a client has to take each part of an answer (a client that stops reading is dropped).
@@ -154,26 +160,28 @@ impl Wire for TcpStream {
     }
 }
 
-/// Reads up to `buf.len()` bytes before `deadline`; Ok(0) at the end of the stream, the
-/// `reply` for a deadline that passed.
-fn read_before(
-    wire: &mut impl Wire,
-    buf: &mut [u8],
-    deadline: Instant,
-    late: impl Fn() -> Reply,
-) -> Result<usize, Reply> {
+/// Reads up to `buf.len()` bytes before `until`: `Some(n)` (0 at the end of the stream), or
+/// `None` when `until` passed first.
+fn read_until(wire: &mut impl Wire, buf: &mut [u8], until: Instant) -> io::Result<Option<usize>> {
     loop {
-        let left = deadline.checked_duration_since(Instant::now()).ok_or_else(&late)?;
-        wire.set_timeout(left).map_err(|_| late())?;
+        let Some(left) = until.checked_duration_since(Instant::now()).filter(|d| !d.is_zero())
+        else {
+            return Ok(None);
+        };
+        wire.set_timeout(left)?;
         match wire.read(buf) {
-            Ok(n) => return Ok(n),
+            Ok(n) => return Ok(Some(n)),
             Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
             Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut) => {
-                return Err(late())
+                return Ok(None)
             }
-            Err(_) => return Err(Reply::error(400, "the connection failed while reading")),
+            Err(e) => return Err(e),
         }
     }
+}
+
+fn broken() -> Reply {
+    Reply::error(400, "the connection failed while reading")
 }
 
 /// A request head, parsed; the body (if any) is still on the wire.
@@ -195,66 +203,138 @@ impl Head {
     }
 
     /// The body's announced length: 0 without Content-Length; chunked bodies are refused.
+    /// (Content-Length itself was checked with the head: see [`content_length`].)
     pub fn body_len(&self) -> Result<u64, Reply> {
         if self.header("Transfer-Encoding").is_some() {
             return Err(Reply::error(411, "send the body with a Content-Length (not chunked)"));
         }
-        match self.header("Content-Length") {
-            None => Ok(0),
-            Some(v) => v
-                .trim()
-                .parse::<u64>()
-                .map_err(|_| Reply::error(400, "Content-Length: not a whole number of bytes")),
+        content_length(&self.headers).map(|n| n.unwrap_or(0))
+    }
+}
+
+/// The length the Content-Length headers give, None without one. Every line must be a whole
+/// number and all must agree: two different lengths frame the body two ways (how requests
+/// are smuggled past a proxy), so they are refused whatever the route; the same length
+/// repeated is one framing and is accepted (RFC 9110, 8.6).
+fn content_length(headers: &[(String, String)]) -> Result<Option<u64>, Reply> {
+    let mut length = None;
+    for (_, v) in headers.iter().filter(|(k, _)| k.eq_ignore_ascii_case("Content-Length")) {
+        let n = v
+            .trim()
+            .parse::<u64>()
+            .map_err(|_| Reply::error(400, "Content-Length: not a whole number of bytes"))?;
+        match length {
+            Some(m) if m != n => {
+                return Err(Reply::error(
+                    400,
+                    format!("Content-Length: {m} and {n} disagree; send one length"),
+                ))
+            }
+            _ => length = Some(n),
+        }
+    }
+    Ok(length)
+}
+
+/// What a turn of [`HeadReader::read`] gave.
+#[derive(Debug)]
+pub enum HeadProgress {
+    /// The whole head.
+    Done(Head),
+    /// Not yet: the turn ended first (read on in another turn).
+    Pending,
+    /// The client closed the connection before sending anything.
+    Closed,
+}
+
+/// A request head being read, in one or more turns, at most [`MAX_HEAD`] bytes, within
+/// [`HEAD_TIMEOUT`] of the connection's accept.
+pub struct HeadReader {
+    buf: Vec<u8>,
+    len: usize,
+    deadline: Instant,
+}
+
+impl HeadReader {
+    /// For a connection accepted at `accepted`.
+    pub fn new(accepted: Instant) -> Self {
+        HeadReader { buf: Vec::new(), len: 0, deadline: accepted + HEAD_TIMEOUT }
+    }
+
+    /// Reads for at most `turn` (never past the deadline): the head, `Pending` when the turn
+    /// ended first, or the reply for a head that is too long, malformed or late.
+    pub fn read(&mut self, wire: &mut impl Wire, turn: Duration) -> Result<HeadProgress, Reply> {
+        let until = self.deadline.min(Instant::now() + turn);
+        if self.buf.is_empty() {
+            self.buf = vec![0u8; MAX_HEAD];
+        }
+        loop {
+            if self.len == self.buf.len() {
+                // Full without an end of head: say which part is too long.
+                return Err(if self.buf.contains(&b'\n') {
+                    Reply::error(431, format!("the request head is over {MAX_HEAD} bytes"))
+                } else {
+                    Reply::error(414, format!("the request line is over {MAX_HEAD} bytes"))
+                });
+            }
+            let n = match read_until(wire, &mut self.buf[self.len..], until) {
+                Ok(Some(n)) => n,
+                Ok(None) if until < self.deadline => return Ok(HeadProgress::Pending),
+                Ok(None) => {
+                    return Err(Reply::error(408, "the request head did not arrive in time"))
+                }
+                Err(_) => return Err(broken()),
+            };
+            if n == 0 {
+                return match self.len {
+                    0 => Ok(HeadProgress::Closed),
+                    _ => Err(Reply::error(400, "the request ended inside its head")),
+                };
+            }
+            self.len += n;
+            if let Some(head) = parse_head(&self.buf[..self.len])? {
+                return Ok(HeadProgress::Done(head));
+            }
         }
     }
 }
 
-/// Reads and parses one request head within [`HEAD_TIMEOUT`], at most [`MAX_HEAD`] bytes.
+/// The head at the start of `bytes`, None while it is incomplete.
+fn parse_head(bytes: &[u8]) -> Result<Option<Head>, Reply> {
+    let mut headers = [httparse::EMPTY_HEADER; MAX_HEADERS];
+    let mut request = httparse::Request::new(&mut headers);
+    match request.parse(bytes) {
+        Ok(httparse::Status::Partial) => Ok(None),
+        Ok(httparse::Status::Complete(end)) => {
+            let headers: Vec<(String, String)> = request
+                .headers
+                .iter()
+                .map(|h| (h.name.to_string(), String::from_utf8_lossy(h.value).into()))
+                .collect();
+            // The body's framing is checked before any route sees the request.
+            content_length(&headers)?;
+            Ok(Some(Head {
+                method: request.method.unwrap_or("").to_string(),
+                url: request.path.unwrap_or("").to_string(),
+                headers,
+                rest: bytes[end..].to_vec(),
+            }))
+        }
+        Err(httparse::Error::TooManyHeaders) => {
+            Err(Reply::error(431, format!("more than {MAX_HEADERS} header lines")))
+        }
+        Err(e) => Err(Reply::error(400, format!("not an HTTP request ({e})"))),
+    }
+}
+
+/// Reads and parses one request head within [`HEAD_TIMEOUT`] from now, in one turn.
 /// `Ok(None)`: the client closed the connection before sending anything.
 pub fn read_head(wire: &mut impl Wire) -> Result<Option<Head>, Reply> {
-    let deadline = Instant::now() + HEAD_TIMEOUT;
-    let mut buf = vec![0u8; MAX_HEAD];
-    let mut len = 0;
-    let late = || Reply::error(408, "the request head did not arrive in time");
-    loop {
-        if len == buf.len() {
-            // Full without an end of head: say which part is too long.
-            return Err(if buf.contains(&b'\n') {
-                Reply::error(431, format!("the request head is over {MAX_HEAD} bytes"))
-            } else {
-                Reply::error(414, format!("the request line is over {MAX_HEAD} bytes"))
-            });
-        }
-        let n = read_before(wire, &mut buf[len..], deadline, late)?;
-        if n == 0 {
-            return match len {
-                0 => Ok(None),
-                _ => Err(Reply::error(400, "the request ended inside its head")),
-            };
-        }
-        len += n;
-        let mut headers = [httparse::EMPTY_HEADER; MAX_HEADERS];
-        let mut request = httparse::Request::new(&mut headers);
-        match request.parse(&buf[..len]) {
-            Ok(httparse::Status::Partial) => continue,
-            Ok(httparse::Status::Complete(end)) => {
-                let head = Head {
-                    method: request.method.unwrap_or("").to_string(),
-                    url: request.path.unwrap_or("").to_string(),
-                    headers: request
-                        .headers
-                        .iter()
-                        .map(|h| (h.name.to_string(), String::from_utf8_lossy(h.value).into()))
-                        .collect(),
-                    rest: buf[end..len].to_vec(),
-                };
-                return Ok(Some(head));
-            }
-            Err(httparse::Error::TooManyHeaders) => {
-                return Err(Reply::error(431, format!("more than {MAX_HEADERS} header lines")))
-            }
-            Err(e) => return Err(Reply::error(400, format!("not an HTTP request ({e})"))),
-        }
+    match HeadReader::new(Instant::now()).read(wire, HEAD_TIMEOUT)? {
+        HeadProgress::Done(head) => Ok(Some(head)),
+        HeadProgress::Closed => Ok(None),
+        // A turn as long as the timeout ends at the deadline: not reached.
+        HeadProgress::Pending => Err(Reply::error(408, "the request head did not arrive in time")),
     }
 }
 
@@ -272,9 +352,9 @@ pub fn read_body(wire: &mut impl Wire, head: &Head) -> Result<Vec<u8>, Reply> {
     body.resize(len, 0);
     let mut at = start;
     while at < len {
-        let n = read_before(wire, &mut body[at..], deadline, || {
-            Reply::error(408, "the request body did not arrive in time")
-        })?;
+        let n = read_until(wire, &mut body[at..], deadline)
+            .map_err(|_| broken())?
+            .ok_or_else(|| Reply::error(408, "the request body did not arrive in time"))?;
         if n == 0 {
             return Err(Reply::error(400, "the request body is shorter than its Content-Length"));
         }
@@ -441,6 +521,10 @@ mod tests {
         assert_eq!(read_body(&mut Pieces::new(&[], true), &over).unwrap_err().status, 413);
         let chunked = head("POST / HTTP/1.1\r\nTransfer-Encoding: chunked\r\n\r\n");
         assert_eq!(read_body(&mut Pieces::new(&[], true), &chunked).unwrap_err().status, 411);
+        let twice = "POST / HTTP/1.1\r\nContent-Length: 2\r\nContent-Length: 3\r\n\r\nabc";
+        assert_eq!(status(read_head(&mut Pieces::new(&[twice.as_bytes()], true))), 400);
+        let same = head("POST / HTTP/1.1\r\nContent-Length: 3\r\ncontent-length: 3\r\n\r\nabc");
+        assert_eq!(read_body(&mut Pieces::new(&[], true), &same).unwrap(), b"abc");
         let short = head("POST / HTTP/1.1\r\nContent-Length: 9\r\n\r\nab");
         assert_eq!(read_body(&mut Pieces::new(&[], false), &short).unwrap_err().status, 400);
     }

@@ -6,18 +6,23 @@
 //!     │
 //!     ▼ Job::Serve                      Job::Answer (a parked request's reply)
 //!   queue ─────────> WORKERS threads <──────────────────────── parker thread
-//!                      │ read head (bounded, deadline), route         ▲
+//!     ▲                │ read the head for one HEAD_TURN              ▲
+//!     └── not yet ─────┤ (bounded; deadline from accept), route       │
 //!                      │ a long-poll with nothing new yet: park ──────┘ (MAX_PARKED; over
 //!                      ▼                                               it: 503 at once)
 //!                    reply, close
 //! ```
 //!
-//! A parked request holds no thread: the parker waits on the board (or the earliest
-//! deadline) and hands each ready reply back to the queue, so a slow client's socket never
-//! stalls the others. Every open connection (queued, being served or parked) holds one of the
-//! [`MAX_CONNECTIONS`] slots, so memory and threads stay bounded whatever clients do.
+//! A connection whose head has not all arrived after a turn goes to the back of the queue,
+//! so connections that send nothing (or a byte at a time) hold a worker one turn each and
+//! never for their whole timeout: a request beside 60 of them is answered at once. A parked
+//! request holds no thread: the parker waits on the board (or the earliest deadline, or its
+//! next look for clients that hung up) and hands each ready reply back to the queue, so a
+//! slow client's socket never stalls the others. Every open connection (queued, being served
+//! or parked) holds one of the [`MAX_CONNECTIONS`] slots, so memory and threads stay bounded
+//! whatever clients do.
 
-use std::io::Write;
+use std::io::{ErrorKind, Write};
 use std::net::{TcpListener, TcpStream};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
@@ -25,7 +30,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use super::api::{App, Outcome, Wait};
-use super::http::{self, Reply};
+use super::http::{self, HeadProgress, HeadReader, Reply};
 use super::progressive::Board;
 
 /// Threads that read and answer requests.
@@ -34,10 +39,15 @@ pub const WORKERS: usize = 8;
 pub const MAX_CONNECTIONS: usize = 64;
 /// Long-polls parked at once; more are answered 503 with `Retry-After: 1`.
 pub const MAX_PARKED: usize = 32;
+/// How often the parker looks for parked clients that closed their connection (a tab
+/// closed or reloaded), to free their places before their timeout.
+pub const HANGUP_CHECK: Duration = Duration::from_secs(1);
 
-/// An accepted connection and its slot among [`MAX_CONNECTIONS`] (freed when dropped).
+/// An accepted connection, its request head as read so far, and its slot among
+/// [`MAX_CONNECTIONS`] (freed when dropped).
 pub struct Conn {
     pub stream: TcpStream,
+    head: HeadReader,
     _slot: Slot,
 }
 
@@ -71,7 +81,8 @@ struct Parking {
 
 impl Parking {
     fn lock(&self) -> MutexGuard<'_, Vec<Parked>> {
-        // Every change is one push or one swap_remove: a panic leaves a consistent list.
+        // Every change is one push, one swap_remove or a retain: a panic leaves a consistent
+        // list.
         self.parked.lock().unwrap_or_else(|e| e.into_inner())
     }
 }
@@ -83,10 +94,11 @@ pub fn run(listener: TcpListener, app: Arc<App>) -> std::io::Result<()> {
     let queue = Arc::new(Mutex::new(queue));
     let parking = Arc::new(Parking::default());
     for i in 0..WORKERS {
-        let (queue, app, parking) = (queue.clone(), app.clone(), parking.clone());
+        let (queue, jobs, app, parking) =
+            (queue.clone(), jobs.clone(), app.clone(), parking.clone());
         std::thread::Builder::new()
             .name(format!("isoview-http-{i}"))
-            .spawn(move || work(&queue, &app, &parking))?;
+            .spawn(move || work(&queue, &jobs, &app, &parking))?;
     }
     {
         let (board, parking, jobs) = (app.board.clone(), parking.clone(), jobs.clone());
@@ -111,7 +123,9 @@ pub fn run(listener: TcpListener, app: Arc<App>) -> std::io::Result<()> {
             let _ = stream.write_all(&busy.encode());
             continue;
         }
-        let conn = Conn { stream, _slot: Slot(open.clone()) };
+        // The head's deadline counts from here, not from when a worker takes the connection.
+        let conn =
+            Conn { stream, head: HeadReader::new(Instant::now()), _slot: Slot(open.clone()) };
         // Cannot fail while the workers live (see the queue's size); if it does, the
         // connection is dropped, which the client sees as a closed connection.
         let _ = jobs.try_send(Job::Serve(conn));
@@ -119,7 +133,7 @@ pub fn run(listener: TcpListener, app: Arc<App>) -> std::io::Result<()> {
     Ok(())
 }
 
-fn work(queue: &Mutex<Receiver<Job>>, app: &App, parking: &Parking) {
+fn work(queue: &Mutex<Receiver<Job>>, jobs: &SyncSender<Job>, app: &App, parking: &Parking) {
     loop {
         let job = match queue.lock().unwrap_or_else(|e| e.into_inner()).recv() {
             Ok(job) => job,
@@ -127,10 +141,23 @@ fn work(queue: &Mutex<Receiver<Job>>, app: &App, parking: &Parking) {
         };
         match job {
             Job::Answer(conn, reply) => reply.send(conn.stream, 0),
-            Job::Serve(mut conn) => match app.serve(&mut conn.stream) {
-                None => {}
-                Some((Outcome::Reply(reply), unread)) => reply.send(conn.stream, unread),
-                Some((Outcome::Park(wait), _)) => park(app, parking, conn, wait),
+            Job::Serve(mut conn) => match conn.head.read(&mut conn.stream, http::HEAD_TURN) {
+                Ok(HeadProgress::Done(head)) => {
+                    let mut body = http::Body::new(&mut conn.stream, &head);
+                    let outcome = app.route(&head, &mut body);
+                    let unread = body.unread();
+                    match outcome {
+                        Outcome::Reply(reply) => reply.send(conn.stream, unread),
+                        Outcome::Park(wait) => park(app, parking, conn, wait),
+                    }
+                }
+                // To the back of the queue: the connections behind it get their turn. Cannot
+                // fail (see `run`); if it did, the connection would close unanswered.
+                Ok(HeadProgress::Pending) => {
+                    let _ = jobs.try_send(Job::Serve(conn));
+                }
+                Ok(HeadProgress::Closed) => {}
+                Err(reply) => reply.send(conn.stream, 0),
             },
         }
     }
@@ -156,13 +183,19 @@ fn park(app: &App, parking: &Parking, conn: Conn, wait: Wait) {
 }
 
 /// The parker: answers each parked request once the board has what it waits for, or its
-/// deadline passed.
+/// deadline passed; every [`HANGUP_CHECK`], drops those whose client has gone.
 fn answer_parked(board: &Board, parking: &Parking, jobs: &SyncSender<Job>) {
     let mut seen = 0;
+    let mut checked = Instant::now();
     loop {
         let timeout = {
             let mut parked = parking.lock();
             let now = Instant::now();
+            if now >= checked + HANGUP_CHECK {
+                // Dropping a request closes its connection and frees its slot and place.
+                parked.retain(|p| !hung_up(&p.conn.stream));
+                checked = now;
+            }
             let mut ready = Vec::new();
             board.look(|b| {
                 let mut i = 0;
@@ -184,24 +217,26 @@ fn answer_parked(board: &Board, parking: &Parking, jobs: &SyncSender<Job>) {
                 let _ = jobs.try_send(Job::Answer(conn, reply));
             }
             let earliest = parked.iter().map(|p| p.deadline).min();
-            earliest.map_or(Duration::from_secs(3600), |d| d.saturating_duration_since(now))
+            let next_check = (!parked.is_empty()).then_some(checked + HANGUP_CHECK);
+            let wake = earliest.into_iter().chain(next_check).min();
+            wake.map_or(Duration::from_secs(3600), |d| d.saturating_duration_since(now))
         };
         seen = board.wait_change(seen, timeout);
     }
 }
 
-impl App {
-    /// Reads one request from `stream` and routes it: `None` when the client sent nothing;
-    /// else what to do and how many announced body bytes were left unread.
-    fn serve(&self, stream: &mut TcpStream) -> Option<(Outcome, u64)> {
-        let head = match http::read_head(stream) {
-            Ok(Some(head)) => head,
-            Ok(None) => return None,
-            Err(reply) => return Some((Outcome::Reply(reply), 0)),
-        };
-        let mut body = http::Body::new(stream, &head);
-        let outcome = self.route(&head, &mut body);
-        let unread = body.unread();
-        Some((outcome, unread))
+/// Whether a parked request's client has closed its connection (or it broke): a look at the
+/// socket that does not wait finds its end. A client that sent more bytes is still there.
+fn hung_up(stream: &TcpStream) -> bool {
+    if stream.set_nonblocking(true).is_err() {
+        return false;
     }
+    let mut byte = [0u8; 1];
+    let gone = match stream.peek(&mut byte) {
+        Ok(n) => n == 0,
+        Err(e) => !matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::Interrupted),
+    };
+    // The reply is written blocking (with its timeout).
+    let _ = stream.set_nonblocking(false);
+    gone
 }

@@ -92,7 +92,8 @@ impl From<&str> for StateError {
 /// A data error as the page may see it: errors that quote what a file holds (a reader's
 /// complaint about a header line, a dtype string, a mesh line) only name the file and say it
 /// could not be read; the whole message goes to the server's terminal. Sizes, I/O errors,
-/// caps and expressions (the page's own text) pass unchanged.
+/// caps, a reader's own limits (XML nesting) and expressions (the page's own text) pass
+/// unchanged.
 pub fn field_error_for_page(e: &FieldError) -> String {
     match redacted(e) {
         Some(short) => {
@@ -131,6 +132,8 @@ fn redacted(e: &FieldError) -> Option<String> {
         FieldError::BadMesh { path, .. } => (path, "a mesh"),
         FieldError::Format { path, format, .. } => (path, *format),
         FieldError::Io { .. }
+        | FieldError::ReaderLimit { .. }
+        | FieldError::Outside { .. }
         | FieldError::Truncated { .. }
         | FieldError::SizeMismatch { .. }
         | FieldError::TooLarge { .. }

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use isoview::field::formats::{self, Format, ReadOptions, Volume};
-use isoview::field::{FieldError, GridLimits};
+use isoview::field::{DataAccess, FieldError, GridLimits};
 use isoview::scene;
 use serde_json::Value;
 
@@ -17,7 +17,7 @@ fn data() -> PathBuf {
 }
 
 fn opts() -> ReadOptions {
-    ReadOptions { limits: GridLimits::default(), spacing: None }
+    ReadOptions { limits: GridLimits::default(), spacing: None, access: DataAccess::Any }
 }
 
 fn read(path: &Path) -> Result<Volume, FieldError> {
@@ -231,7 +231,11 @@ fn the_memory_cap_refuses_before_reading() {
     let e = read(&p).unwrap_err();
     assert!(matches!(e, FieldError::TooLarge { .. }), "{e}");
     // A real map under a cap smaller than its grid.
-    let small = ReadOptions { limits: GridLimits { max_bytes: 1 << 14 }, spacing: None };
+    let small = ReadOptions {
+        limits: GridLimits { max_bytes: 1 << 14 },
+        spacing: None,
+        access: DataAccess::Any,
+    };
     let e = formats::read(&data().join("EMD-3197.map"), Format::Mrc, &small).unwrap_err();
     assert!(matches!(e, FieldError::TooLarge { .. }), "{e}");
 }

@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use isoview::field::GridLimits;
+use isoview::field::{DataAccess, GridLimits};
 use isoview::scene;
 use proptest::prelude::*;
 
@@ -189,7 +189,11 @@ proptest! {
 /// cap, or one line of error naming the file; never a panic or an abort.
 fn read_volume(path: &Path) -> Result<(), String> {
     let format = isoview::field::formats::Format::from_path(path).unwrap();
-    let opts = isoview::field::formats::ReadOptions { limits: limits(), spacing: None };
+    let opts = isoview::field::formats::ReadOptions {
+        limits: limits(),
+        spacing: None,
+        access: DataAccess::Any,
+    };
     match isoview::field::formats::read(path, format, &opts) {
         Ok(v) => {
             assert!(v.values.len() * 4 <= limits().max_bytes as usize);

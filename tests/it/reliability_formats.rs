@@ -8,13 +8,13 @@ use std::path::Path;
 
 use isoview::field::formats::{self, Format, ReadOptions};
 use isoview::field::mapped::MappedGrid;
-use isoview::field::{FieldError, GridLimits, Residency};
+use isoview::field::{DataAccess, FieldError, GridLimits, Residency};
 use isoview::scene;
 
 use crate::common::*;
 
 fn opts() -> ReadOptions {
-    ReadOptions { limits: GridLimits::default(), spacing: None }
+    ReadOptions { limits: GridLimits::default(), spacing: None, access: DataAccess::Any }
 }
 
 /// The error reading `path` (its format from the extension) as one line.
@@ -145,7 +145,11 @@ fn a_tiff_stack_over_the_cap_is_refused_from_its_headers() {
     // headers are counted first, so not one page is decoded (here decoding would fail).
     let p = dir.join("stack.tif");
     std::fs::write(&p, tiff_without_data(1024, 1024, 3)).unwrap();
-    let capped = ReadOptions { limits: GridLimits { max_bytes: 10 << 20 }, spacing: None };
+    let capped = ReadOptions {
+        limits: GridLimits { max_bytes: 10 << 20 },
+        spacing: None,
+        access: DataAccess::Any,
+    };
     let m = refusal(&p, &capped);
     assert!(m.contains("a grid of 1024x1024x3 points needs 12 MiB"), "{m}");
     // Under the cap the same file gets as far as decoding, and says what is wrong there.
@@ -379,7 +383,11 @@ fn a_mesh_render_of_a_grid_over_the_cap_says_which_paths_read_it() {
 #[test]
 fn whole_file_readers_check_the_declared_dims_first() {
     let dir = scratch("rel-peek");
-    let small = ReadOptions { limits: GridLimits { max_bytes: 1 << 20 }, spacing: None };
+    let small = ReadOptions {
+        limits: GridLimits { max_bytes: 1 << 20 },
+        spacing: None,
+        access: DataAccess::Any,
+    };
     let p = dir.join("big.vti");
     let text = "<VTKFile type=\"ImageData\"><ImageData WholeExtent=\"0 999 0 999 0 999\">\
                 <Piece><PointData><DataArray <<< not xml";

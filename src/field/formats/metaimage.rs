@@ -135,7 +135,8 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
             format!("ElementDataFile = {data_file}: only LOCAL or a single file is supported"),
         ));
     } else {
-        (err.path.parent().unwrap_or(Path::new("")).join(data_file), 0)
+        let named = err.path.parent().unwrap_or(Path::new("")).join(data_file);
+        (err.detached("ElementDataFile", &named, &opts.access)?, 0)
     };
     let start = match header_size {
         -1 if !compressed => Start::FromEnd,

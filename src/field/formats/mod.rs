@@ -29,7 +29,7 @@ use std::path::Path;
 
 use glam::DVec3;
 
-use super::{FieldError, GridLimits};
+use super::{DataAccess, FieldError, GridLimits};
 
 /// How many pages of a TIFF stack over the cap are counted for its refusal.
 pub use tiff::MAX_PAGES_COUNTED as MAX_TIFF_PAGES_COUNTED;
@@ -133,11 +133,15 @@ impl Format {
 }
 
 /// What a reader needs besides the file.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct ReadOptions {
     pub limits: GridLimits,
     /// Voxel size for formats whose header has none (TIFF stacks); `None`: 1 per axis.
     pub spacing: Option<DVec3>,
+    /// Which files a detached header's data file may be (NRRD `data file`, MetaImage
+    /// `ElementDataFile`): the rule of the scene's own `path` keys, so a header inside the
+    /// folders `serve` reads cannot lead it out of them.
+    pub access: DataAccess,
 }
 
 /// A volume read from a file: samples and geometry.
@@ -282,6 +286,16 @@ impl Located<'_> {
         }
     }
 
+    /// `PATH: FORMAT: WHY` for a file over one of the reader's limits; `why` must not quote
+    /// the file (see [`FieldError::ReaderLimit`]).
+    pub fn over_limit(&self, why: String) -> FieldError {
+        FieldError::ReaderLimit {
+            path: self.path.to_path_buf(),
+            format: self.format.title(),
+            message: why,
+        }
+    }
+
     /// The memory cap for a grid of `dims`, named by this file.
     pub fn limits_check(&self, limits: &GridLimits, dims: [u64; 3]) -> Result<(), FieldError> {
         limits.check(dims, &self.path.display().to_string()).map(|_| ())
@@ -297,6 +311,18 @@ impl Located<'_> {
 
     pub fn io(&self, e: &std::io::Error) -> FieldError {
         FieldError::io(self.path, e)
+    }
+
+    /// The data file this detached header names under `key` (resolved against the header's
+    /// folder), as [`DataAccess::admit`] lets it be read. The refusal names the header and
+    /// the key but not the path: the path is the header's text.
+    pub fn detached(
+        &self,
+        key: &'static str,
+        data: &Path,
+        access: &DataAccess,
+    ) -> Result<std::path::PathBuf, FieldError> {
+        access.admit(data).map_err(|_| FieldError::Outside { path: self.path.to_path_buf(), key })
     }
 
     /// The same error about another file (a detached header's data file).

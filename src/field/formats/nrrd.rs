@@ -27,7 +27,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
 
     // Attached data follows the header's empty line; a detached file starts at its line skip.
     let (data_path, base) = match &h.data_file {
-        Some(name) => (name.clone(), 0),
+        Some(name) => (err.detached("data file", name, &opts.access)?, 0),
         None => (err.path.to_path_buf(), data_offset),
     };
     let line_start = skip_lines(err, &data_path, base, h.line_skip)?;

@@ -18,7 +18,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     let len = std::fs::metadata(err.path).map_err(|e| err.io(&e))?.len();
     // Compressed data is smaller than the grid, base64 a third larger: 16x the cap is no grid.
     if len > opts.limits.max_bytes.saturating_mul(16).saturating_add(1 << 20) {
-        return Err(err.bad(format!(
+        return Err(err.over_limit(format!(
             "the file has {len} bytes, more than any grid under the memory cap needs"
         )));
     }
@@ -50,7 +50,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     }
     // roxmltree parses nested elements by recursion: refuse deep nesting before it starts.
     if let Some((line, column)) = too_deep(&text, MAX_XML_DEPTH) {
-        return Err(err.bad(format!(
+        return Err(err.over_limit(format!(
             "line {line}, column {column}: the XML nests deeper than {MAX_XML_DEPTH} elements"
         )));
     }

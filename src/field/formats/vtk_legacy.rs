@@ -21,7 +21,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     // before any sample is decoded (a file far larger than its grid is refused unread).
     let most = opts.limits.max_bytes.saturating_mul(16).saturating_add(1 << 20);
     if len > most {
-        return Err(err.bad(format!(
+        return Err(err.over_limit(format!(
             "the file has {len} bytes, more than any grid under the memory cap needs"
         )));
     }

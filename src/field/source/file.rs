@@ -54,7 +54,7 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
             ))
         }
     };
-    let opts = ReadOptions { limits: *p.limits(), spacing };
+    let opts = ReadOptions { limits: *p.limits(), spacing, access: p.access().clone() };
     let volume = formats::read(&path, format, &opts).map_err(|e| p.data_error("path", e))?;
     let max =
         volume.origin + volume.spacing * DVec3::from_array(volume.dims.map(|d| (d - 1) as f64));

@@ -21,6 +21,7 @@ mod golden;
 mod gpu_errors;
 mod layout;
 mod mesh;
+mod mesh_content;
 mod mesh_field;
 mod mesh_parallel;
 mod mesh_render;

@@ -33,7 +33,7 @@ use glam::DVec3;
 
 use crate::field::Grid;
 
-pub use crate::field::trilinear::{lerp, trilerp};
+pub use crate::field::interpolant::trilinear::{lerp, trilerp};
 
 /// Component-wise [`lerp`].
 #[inline]

@@ -4,7 +4,7 @@
 
 use super::params::{Need, Params};
 use super::{fill, FieldSource, Info, Parsed, PointField, Supports};
-use crate::field::trilinear::trilerp;
+use crate::field::interpolant::trilinear::trilerp;
 use crate::field::Grid;
 use crate::vocab::Bounds;
 

@@ -82,10 +82,12 @@ impl Grid {
         ]
     }
 
-    /// The trilinear interpolant at grid coordinates `u`, in f64 (`super::trilinear`'s order).
+    /// The interpolant (trilinear) at grid coordinates `u`, in f64.
     pub fn value_at(&self, u: DVec3) -> f64 {
+        use super::interpolant::{Kernel, Trilinear};
         let c = self.cell_of(u);
         let f = u - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
-        super::interpolant::trilinear::trilerp(&self.corners(c[0], c[1], c[2]).map(f64::from), f)
+        let cell = Trilinear::gather(|[i, j, k]| f64::from(self.at(i, j, k)), c);
+        Trilinear::value(&cell, f)
     }
 }

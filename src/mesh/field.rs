@@ -4,8 +4,7 @@
 
 use glam::DVec3;
 
-use crate::field::interpolant::trilinear;
-use crate::field::interpolant::{cell_missing, is_missing};
+use crate::field::interpolant::{is_missing, Kernel, Trilinear};
 use crate::field::Grid;
 use crate::vocab::Inside;
 
@@ -113,7 +112,7 @@ impl<'a> Field<'a> {
 
     /// Whether cell `(i, j, k)` is missing (a corner is missing data): it holds no surface.
     pub fn cell_missing(&self, i: usize, j: usize, k: usize) -> bool {
-        cell_missing(&self.corners(i, j, k))
+        Trilinear::missing(&self.corners(i, j, k))
     }
 
     /// The inside rule at point `(i, j, k)`.
@@ -181,7 +180,7 @@ impl<'a> Field<'a> {
         let v = self.corners(cell[0], cell[1], cell[2]);
         let l = u - lo;
         // `gradient`'s mean over one cell: the sum from zero, divided by 1.
-        let g = (DVec3::ZERO + trilinear::gradient(&v, l.x, l.y, l.z)) / 1.0;
+        let g = (DVec3::ZERO + Trilinear::gradient(&v, l)) / 1.0;
         self.normal_from(g, fallback)
     }
 
@@ -233,10 +232,10 @@ impl<'a> Field<'a> {
             for &(cy, ly) in &choices[1][..counts[1]] {
                 for &(cx, lx) in &choices[0][..counts[0]] {
                     let v = self.corners(cx, cy, cz);
-                    if cell_missing(&v) {
+                    if Trilinear::missing(&v) {
                         continue;
                     }
-                    sum += trilinear::gradient(&v, lx, ly, lz);
+                    sum += Trilinear::gradient(&v, DVec3::new(lx, ly, lz));
                     n += 1.0;
                 }
             }

@@ -12,6 +12,37 @@
 
 use glam::DVec3;
 
+use super::{cell_missing, Kernel, Stencil};
+
+/// The trilinear interpolant as a [`Kernel`]: [`trilerp`], [`gradient`] and [`cell_missing`]
+/// on the 8 corners, bit for bit.
+pub struct Trilinear;
+
+impl Kernel for Trilinear {
+    const STENCIL: Stencil = Stencil { below: 0, above: 1 };
+    type Cell = [f64; 8];
+
+    #[inline]
+    fn gather(read: impl Fn([usize; 3]) -> f64, [i, j, k]: [usize; 3]) -> [f64; 8] {
+        std::array::from_fn(|n| read([i + (n & 1), j + (n >> 1 & 1), k + (n >> 2)]))
+    }
+
+    #[inline]
+    fn value(c: &[f64; 8], q: DVec3) -> f64 {
+        trilerp(c, q)
+    }
+
+    #[inline]
+    fn gradient(c: &[f64; 8], q: DVec3) -> DVec3 {
+        gradient(c, q.x, q.y, q.z)
+    }
+
+    #[inline]
+    fn missing(c: &[f64; 8]) -> bool {
+        cell_missing(c)
+    }
+}
+
 /// `(1 - w) a + w b`: exact at `w = 0` (gives `a`) and `w = 1` (gives `b`).
 #[inline]
 pub fn lerp(a: f64, b: f64, w: f64) -> f64 {
@@ -53,4 +84,25 @@ pub fn gradient(v: &[f64; 8], x: f64, y: f64, z: f64) -> DVec3 {
             + mx * y * (v[6] - v[2])
             + x * y * (v[7] - v[3]),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_kernel_gathers_in_corner_order_and_is_the_free_functions_bit_for_bit() {
+        let read = |[i, j, k]: [usize; 3]| (i * 100 + j * 10 + k) as f64 + 0.25;
+        let c = Trilinear::gather(read, [3, 5, 7]);
+        assert_eq!(c, [357.25, 457.25, 367.25, 467.25, 358.25, 458.25, 368.25, 468.25]);
+        let c = [0.3, -1.7, 2.9, 0.01, -0.4, 1.3, -2.2, 0.8];
+        for q in [DVec3::new(0.1, 0.7, 0.33), DVec3::ZERO, DVec3::ONE, DVec3::new(1.0, 0.5, 0.0)] {
+            assert_eq!(Trilinear::value(&c, q).to_bits(), trilerp(&c, q).to_bits());
+            assert_eq!(Trilinear::gradient(&c, q), gradient(&c, q.x, q.y, q.z));
+        }
+        assert!(!Trilinear::missing(&c));
+        let mut holed = c;
+        holed[6] = f64::NAN;
+        assert!(Trilinear::missing(&holed));
+    }
 }

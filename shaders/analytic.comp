@@ -75,10 +75,10 @@ layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 
 // A brick is skipped only when its whole value range is on one side of the isovalue by more
 // than this, relative to the magnitudes involved. Every value the walk decides the predicate on
-// inside a brick is a convex combination of the brick's corners (trilerp at segment ends) or the
-// cubic evaluated at a derivative root; their f32 rounding errors are bounded by a few tens of
-// FLT_EPSILON times (max |corner| + |iso|) (coefficients up to ~30 times the corner magnitude,
-// Horner and coefficient rounding), about 2^-15 of it. 2^-10 leaves a factor of 30.
+// inside a brick is a convex combination of the brick's corners (interp_value at segment ends)
+// or the cubic evaluated at a derivative root; their f32 rounding errors are bounded by a few
+// tens of FLT_EPSILON times (max |corner| + |iso|) (coefficients up to ~30 times the corner
+// magnitude, Horner and coefficient rounding), about 2^-15 of it. 2^-10 leaves a factor of 30.
 const float SKIP_MARGIN = 1.0 / 1024.0;
 
 float tmax_of(int a, int c, vec3 o, vec3 d) {
@@ -508,7 +508,7 @@ void main() {
     //
     // A candidate is evaluated from its own corners and entry point, which are the bits a walk
     // carrying them from cell to cell would have: the value at a face point is the same from
-    // both cells sharing the face (trilerp), and the entry point is the previous exit point,
+    // both cells sharing the face (interp_value), and the entry point is the previous exit point,
     // computed from the t the cell is entered at, except while every segment so far had length
     // 0 (a ray starting on a plane), when it is carried from step 4's (`known`).
     bool skip = P.analytic.y != 0u;
@@ -565,11 +565,11 @@ void main() {
 
         // 6b. The candidate cell.
         q_in = known ? q_known : entry_point(entered, cell, t_in, o, d);
-        float f_in = trilerp(corners, q_in);
+        float f_in = interp_value(corners, q_in);
         float t_out = segment_end(tmax, t_in, t_hi);
         bvec3 crossed = lessThanEqual(tmax, vec3(t_out));
         vec3 q_out = exit_point(crossed, cell, q_in, t_in, t_out, o, d);
-        float f_out = t_out == t_in ? f_in : trilerp(corners, q_out);
+        float f_out = t_out == t_in ? f_in : interp_value(corners, q_out);
         uint cell_mask = cell_crossings(corners, q_in, q_out, f_in, f_out, t_in, t_out, found,
                                         crossings, exact_mask, brackets);
         if (!found && cell_mask != 0u) {
@@ -623,7 +623,7 @@ void main() {
         vec3 hit_q = vec3(lerp1(hit_q_in.x, hit_q_out.x, hit_u),
                           lerp1(hit_q_in.y, hit_q_out.y, hit_u),
                           lerp1(hit_q_in.z, hit_q_out.z, hit_u));
-        vec3 grad = gradient_cell(k8, hit_q) * P.inv_spacing.xyz;
+        vec3 grad = interp_gradient(k8, hit_q) * P.inv_spacing.xyz;
         vec3 oriented = below ? grad : -grad;
         float len = length(oriented);
         r.normal = len > 0.0 && !isinf(len) ? oriented / len : -dir;

@@ -24,7 +24,7 @@ void main() {
     int size = shape.bricks.w;
     ivec3 lo = b * size;
     ivec3 hi = min(lo + size, shape.points.xyz - 1);
-    // Missing samples (NaN, inf) are left out (`field::trilinear::widen`): GLSL's min/max are undefined
+    // Missing samples (NaN, inf) are left out (`field::interpolant::widen`): GLSL's min/max are undefined
     // with NaN. A brick with no finite sample keeps [inf, -inf], which no range test calls clear.
     float vmin = uintBitsToFloat(0x7f800000u);
     float vmax = -vmin;

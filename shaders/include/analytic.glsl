@@ -1,50 +1,15 @@
 // The arithmetic of exact ray tracing in one trilinear cell, in f32: the GLSL port of
 // `reference::analytic::cubic` and of `reference::trilinear` (f64), line for line.
-// Needs: `Corners` from field.glsl (lo = (v000, v100, v010, v110), hi = (v001, v101, v011, v111),
-// which is the reference's corner order c[0..8]).
+// The cell's value and gradient (`interp_value`, `interp_gradient`) and `Corners` (lo = (v000,
+// v100, v010, v110), hi = (v001, v101, v011, v111): the reference's corner order c[0..8]) are
+// interpolant.glsl's.
+
+#include "interpolant.glsl"
 
 // A Newton step this small (in the segment parameter u in [0, 1]) that still leaves the bracket
 // is rounding: the iterate has converged against one end of the bracket. The reference's
 // 4 * f64::EPSILON becomes 4 * FLT_EPSILON.
 const float CONVERGED = 4.0 * 1.1920928955078125e-7;
-
-// (1 - w) a + w b, exact at w = 0 (gives a) and w = 1 (gives b) as long as the compiler neither
-// reassociates it nor turns it into a + w (b - a): `precise` forbids both (and FMA contraction,
-// which would keep the end points exact anyway).
-float lerp1(float a, float b, float w) {
-    precise float r = (1.0 - w) * a + w * b;
-    return r;
-}
-
-vec2 lerp2(vec2 a, vec2 b, float w) {
-    precise vec2 r = (1.0 - w) * a + w * b;
-    return r;
-}
-
-vec4 lerp4(vec4 a, vec4 b, float w) {
-    precise vec4 r = (1.0 - w) * a + w * b;
-    return r;
-}
-
-// Value of the trilinear interpolant at cell-local q: along x, then y, then z (the reference's
-// order, which makes a face point evaluate to the same bits from both cells sharing the face).
-float trilerp(Corners k, vec3 q) {
-    // (x00, x10, x01, x11): the four x-edges at x = q.x.
-    vec4 x = lerp4(vec4(k.lo.x, k.lo.z, k.hi.x, k.hi.z), vec4(k.lo.y, k.lo.w, k.hi.y, k.hi.w), q.x);
-    vec2 y = lerp2(x.xz, x.yw, q.y);
-    return lerp1(y.x, y.y, q.z);
-}
-
-// Gradient at cell-local q, in value per cell: each component is the bilinear interpolation of
-// the 4 edge differences along that axis.
-vec3 gradient_cell(Corners k, vec3 q) {
-    float c0 = k.lo.x, c1 = k.lo.y, c2 = k.lo.z, c3 = k.lo.w;
-    float c4 = k.hi.x, c5 = k.hi.y, c6 = k.hi.z, c7 = k.hi.w;
-    return vec3(
-        lerp1(lerp1(c1 - c0, c3 - c2, q.y), lerp1(c5 - c4, c7 - c6, q.y), q.z),
-        lerp1(lerp1(c2 - c0, c3 - c1, q.x), lerp1(c6 - c4, c7 - c5, q.x), q.z),
-        lerp1(lerp1(c4 - c0, c5 - c1, q.x), lerp1(c6 - c2, c7 - c3, q.x), q.y));
-}
 
 // The cubic g(u) = f(q_in + u (q_out - q_in)) - iso of one segment, as (c0, c1, c2, c3):
 // c0 = g_in (the carried face value), c1 = grad f(q_in) . D,
@@ -59,7 +24,7 @@ vec4 cubic_along(Corners k, vec3 q_in, vec3 q_out, float g_in) {
     float axyz = ((c7 - c6) - (c5 - c4)) - ((c3 - c2) - (c1 - c0));
     vec3 mixed = vec3(ayz + axyz * q_in.x, axz + axyz * q_in.y, axy + axyz * q_in.z);
     return vec4(g_in,
-                dot(gradient_cell(k, q_in), d),
+                dot(interp_gradient(k, q_in), d),
                 d.x * d.y * mixed.z + d.x * d.z * mixed.y + d.y * d.z * mixed.x,
                 axyz * d.x * d.y * d.z);
 }

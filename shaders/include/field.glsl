@@ -11,6 +11,7 @@
 // points), so a cell never needs a second brick.
 
 #include "missing.glsl"
+#include "interpolant.glsl"
 
 // THE inside rule (Rust: `Inside::contains`): strictly below (or above) is inside; equal is
 // outside.
@@ -89,13 +90,6 @@ ivec3 cell_of(vec3 u) {
     return clamp(ivec3(floor(u)), ivec3(0), P.dims.xyz - 2);
 }
 
-// The 8 corner values of one cell, as two vec4s: lo = (v000, v100, v010, v110) on the cell's
-// z = 0 face, hi = (v001, v101, v011, v111) on its z = 1 face (vXYZ: corner x+X, y+Y, z+Z).
-struct Corners {
-    vec4 lo;
-    vec4 hi;
-};
-
 #ifdef GRID_POOL
 // One page lookup for the 8 corners (they are all in c's slot).
 Corners cell_corners(ivec3 c) {
@@ -144,24 +138,8 @@ bool cell_missing(Corners k) {
     return corners_missing(k.lo, k.hi);
 }
 
-// Trilinear interpolation at local coordinates f in [0,1]^3.
-float trilinear_local(Corners k, vec3 f) {
-    vec4 x = mix(k.lo, k.hi, f.z);       // the 4 x-edges' ends on the plane z = f.z
-    vec2 y = mix(x.xy, x.zw, f.y);       // the x-edge at y = f.y
-    return mix(y.x, y.y, f.x);
-}
 
-// Gradient with respect to local coordinates.
-vec3 gradient_local(Corners k, vec3 f) {
-    vec4 x = mix(k.lo, k.hi, f.z);
-    vec2 y = mix(x.xy, x.zw, f.y);
-    float gx = y.y - y.x;
-    float gy = mix(x.z - x.x, x.w - x.y, f.x);
-    vec4 dz = k.hi - k.lo;
-    vec2 dzy = mix(dz.xy, dz.zw, f.y);
-    float gz = mix(dzy.x, dzy.y, f.x);
-    return vec3(gx, gy, gz);
-}
+
 
 // A cell whose corners were fetched last; marching reuses it while samples stay in the cell.
 // `missing`: the cell is missing (cell_missing), tested once per cell.

@@ -1,4 +1,4 @@
-// THE missing-data rule (`field.nan = "empty"`; Rust: `field::trilinear::is_missing` and
+// THE missing-data rule (`field.nan = "empty"`; Rust: `field::interpolant::is_missing` and
 // `cell_missing`, whose docs are the specification): a NaN or infinite sample is missing data,
 // and a cell whose trilinear stencil (its 8 corners) holds one holds no surface. Tested with
 // isnan/isinf explicitly: GLSL's min, max and comparisons with NaN are undefined, so no other

@@ -56,11 +56,11 @@ impl Grid {
     }
 
     /// Smallest and largest sample, of those that are not missing data (NaN or ±inf:
-    /// [`super::trilinear::is_missing`]); `(inf, -inf)` when none is.
+    /// [`super::interpolant::is_missing`]); `(inf, -inf)` when none is.
     pub fn range(&self) -> (f32, f32) {
         let mut mm = [f32::INFINITY, f32::NEG_INFINITY];
         for &v in &self.values {
-            crate::field::trilinear::widen(&mut mm, v);
+            crate::field::interpolant::widen(&mut mm, v);
         }
         (mm[0], mm[1])
     }
@@ -82,10 +82,12 @@ impl Grid {
         ]
     }
 
-    /// The trilinear interpolant at grid coordinates `u`, in f64 (`super::trilinear`'s order).
+    /// The interpolant (trilinear) at grid coordinates `u`, in f64.
     pub fn value_at(&self, u: DVec3) -> f64 {
+        use super::interpolant::{Kernel, Trilinear};
         let c = self.cell_of(u);
         let f = u - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
-        super::trilinear::trilerp(&self.corners(c[0], c[1], c[2]).map(f64::from), f)
+        let cell = Trilinear::gather(|[i, j, k]| f64::from(self.at(i, j, k)), c);
+        Trilinear::value(&cell, f)
     }
 }

@@ -203,7 +203,7 @@ impl MappedGrid {
     /// fastest, `ceil(cells / brick)` per axis, as `passes::bricks` lays them out; with
     /// `field.nan = "error"` fails on a non-finite sample (the first the scan meets: by brick
     /// layer along the file's slowest axis), with `"empty"` leaves it out of the range
-    /// ([`super::trilinear::widen`]); fails on a file that shrank. One pass over the file, in
+    /// ([`super::interpolant::widen`]); fails on a file that shrank. One pass over the file, in
     /// its order: each layer of bricks along the slowest axis is read row by row along the
     /// fastest (every row once per brick row holding it), in parallel over the brick rows.
     pub fn brick_ranges(&self, brick: usize) -> Result<Vec<[f32; 2]>, FieldError> {
@@ -264,7 +264,7 @@ impl MappedGrid {
                 }
                 for (bf, m) in mm.iter_mut().enumerate() {
                     for &v in &row[span(f, bf)] {
-                        crate::field::trilinear::widen(m, v);
+                        crate::field::interpolant::widen(m, v);
                     }
                 }
             }

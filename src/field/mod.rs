@@ -39,6 +39,7 @@ mod error;
 mod expr;
 pub mod formats;
 mod grid;
+pub mod interpolant;
 mod limits;
 pub mod mapped;
 pub mod mesh_sdf;
@@ -48,7 +49,6 @@ mod samples;
 mod source;
 mod spec;
 pub mod stats;
-pub mod trilinear;
 
 pub use access::DataAccess;
 pub use error::FieldError;

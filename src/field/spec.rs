@@ -26,7 +26,7 @@ pub struct FieldSpec {
 
 /// `field.nan`: what a non-finite sample (NaN or ±inf) means. With `Empty` it is missing data:
 /// a cell whose interpolation stencil holds one holds no surface, for every method (the rule:
-/// [`crate::field::trilinear::cell_missing`]; docs/scene.md "Missing data").
+/// [`crate::field::interpolant::cell_missing`]; docs/scene.md "Missing data").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum NanPolicy {
     /// The grid is refused at load time, naming the first such sample.
@@ -214,7 +214,7 @@ mod tests {
         assert_eq!(g.at(2, 4, 1), v[7] as f32);
         assert!(
             (g.at(1, 2, 0) as f64
-                - super::super::trilinear::trilerp(&v, DVec3::new(0.5, 0.5, 0.0)))
+                - super::super::interpolant::trilinear::trilerp(&v, DVec3::new(0.5, 0.5, 0.0)))
             .abs()
                 < 1e-7
         );

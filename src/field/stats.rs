@@ -7,10 +7,10 @@
 //!   samples' value at fractional rank `p / 100 * (n - 1)`, interpolated linearly between
 //!   the two neighbouring ranks.
 //!
-//! Missing data (NaN or ±inf samples, [`crate::field::trilinear::is_missing`]) is counted
+//! Missing data (NaN or ±inf samples, [`crate::field::interpolant::is_missing`]) is counted
 //! ([`Stats::missing`]) and left out of everything else.
 
-use crate::field::trilinear::is_missing;
+use crate::field::interpolant::is_missing;
 
 /// Statistics of a set of samples.
 #[derive(Clone, Debug)]

@@ -86,7 +86,7 @@ impl Padded<'_, '_, '_> {
     }
 
     /// Whether padded cell `c` is missing: a corner in the grid is missing data
-    /// (`field::trilinear::cell_missing`; padding points are outside, never missing).
+    /// (`field::interpolant::cell_missing`; padding points are outside, never missing).
     fn cell_missing(&self, c: [usize; 3]) -> bool {
         (0..8usize).any(|n| {
             let q = [c[0] + (n & 1), c[1] + ((n >> 1) & 1), c[2] + ((n >> 2) & 1)];

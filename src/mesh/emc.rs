@@ -88,7 +88,7 @@ impl Emc<'_, '_, '_> {
             for j in 0..ny - 1 {
                 for i in 0..nx - 1 {
                     if f.cell_missing(i, j, k) {
-                        continue; // no surface (`field::trilinear::cell_missing`)
+                        continue; // no surface (`field::interpolant::cell_missing`)
                     }
                     let row = &MC_TRIANGLES[case_index(f.corner_mask(i, j, k))];
                     if row[0] < 0 {

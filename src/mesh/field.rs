@@ -4,13 +4,13 @@
 
 use glam::DVec3;
 
-use crate::field::trilinear::{cell_missing, is_missing};
+use crate::field::interpolant::{is_missing, Kernel, Trilinear};
 use crate::field::Grid;
 use crate::vocab::Inside;
 
 /// The flag of a missing sample ([`is_missing`]) in [`Field::inside_flags`], beside 1 (inside)
 /// and 0 (outside): a cell with such a corner is missing and an edge with such an end is never
-/// crossed (see [`crate::field::trilinear::cell_missing`]).
+/// crossed (see [`crate::field::interpolant::cell_missing`]).
 pub(crate) const MISSING: u8 = 2;
 
 pub(crate) struct Field<'a> {
@@ -38,33 +38,6 @@ pub(crate) fn crossing(a: f64, b: f64, iso: f64) -> f64 {
     } else {
         s.clamp(0.0, 1.0)
     }
-}
-
-/// Gradient (index space) of the trilinear interpolant of corner values `v` (corner order of
-/// [`Grid::corners`]) at local coordinates `(x, y, z)` in `[0, 1]³`.
-pub(crate) fn trilinear_gradient(v: &[f64; 8], x: f64, y: f64, z: f64) -> DVec3 {
-    let (mx, my, mz) = (1.0 - x, 1.0 - y, 1.0 - z);
-    DVec3::new(
-        my * mz * (v[1] - v[0])
-            + y * mz * (v[3] - v[2])
-            + my * z * (v[5] - v[4])
-            + y * z * (v[7] - v[6]),
-        mx * mz * (v[2] - v[0])
-            + x * mz * (v[3] - v[1])
-            + mx * z * (v[6] - v[4])
-            + x * z * (v[7] - v[5]),
-        mx * my * (v[4] - v[0])
-            + x * my * (v[5] - v[1])
-            + mx * y * (v[6] - v[2])
-            + x * y * (v[7] - v[3]),
-    )
-}
-
-/// Value of the trilinear interpolant of corner values `v` at local `(x, y, z)`: the one CPU
-/// implementation, [`crate::field::trilinear::trilerp`].
-#[cfg(test)]
-pub(crate) fn trilinear(v: &[f64; 8], x: f64, y: f64, z: f64) -> f64 {
-    crate::field::trilinear::trilerp(v, DVec3::new(x, y, z))
 }
 
 impl<'a> Field<'a> {
@@ -139,7 +112,7 @@ impl<'a> Field<'a> {
 
     /// Whether cell `(i, j, k)` is missing (a corner is missing data): it holds no surface.
     pub fn cell_missing(&self, i: usize, j: usize, k: usize) -> bool {
-        cell_missing(&self.corners(i, j, k))
+        Trilinear::missing(&self.corners(i, j, k))
     }
 
     /// The inside rule at point `(i, j, k)`.
@@ -207,7 +180,7 @@ impl<'a> Field<'a> {
         let v = self.corners(cell[0], cell[1], cell[2]);
         let l = u - lo;
         // `gradient`'s mean over one cell: the sum from zero, divided by 1.
-        let g = (DVec3::ZERO + trilinear_gradient(&v, l.x, l.y, l.z)) / 1.0;
+        let g = (DVec3::ZERO + Trilinear::gradient(&v, l)) / 1.0;
         self.normal_from(g, fallback)
     }
 
@@ -259,10 +232,10 @@ impl<'a> Field<'a> {
             for &(cy, ly) in &choices[1][..counts[1]] {
                 for &(cx, lx) in &choices[0][..counts[0]] {
                     let v = self.corners(cx, cy, cz);
-                    if cell_missing(&v) {
+                    if Trilinear::missing(&v) {
                         continue;
                     }
-                    sum += trilinear_gradient(&v, lx, ly, lz);
+                    sum += Trilinear::gradient(&v, DVec3::new(lx, ly, lz));
                     n += 1.0;
                 }
             }

@@ -20,7 +20,7 @@
 use glam::DVec3;
 
 use super::field::Field;
-use crate::field::trilinear::is_missing;
+use crate::field::interpolant::is_missing;
 use crate::field::PointField;
 
 /// Where Hermite data comes from.
@@ -38,7 +38,7 @@ impl Hermite<'_, '_, '_> {
         let mut b = a;
         b[axis] += 1;
         let (va, vb) = (f.value(a[0], a[1], a[2]), f.value(b[0], b[1], b[2]));
-        // An edge with a missing end is never crossed (`trilinear::cell_missing`).
+        // An edge with a missing end is never crossed (`interpolant::cell_missing`).
         if f.inside.contains(va, f.iso) == f.inside.contains(vb, f.iso)
             || is_missing(va)
             || is_missing(vb)

@@ -79,7 +79,7 @@ pub(crate) fn extract_slab(f: &Field, cells: Range<usize>) -> Result<Part, MeshE
             edges.active_cells(j, k, &mut active);
             for i in (0..nx - 1).filter(|&i| active[i] != 0) {
                 if edges.cell_missing(i, j, k) {
-                    continue; // no surface (`field::trilinear::cell_missing`)
+                    continue; // no surface (`field::interpolant::cell_missing`)
                 }
                 let mask = edges.corner_mask(i, j, k);
                 let row = &MC_TRIANGLES[CASE_OF_MASK[usize::from(mask)]];

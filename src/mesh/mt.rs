@@ -52,7 +52,7 @@ pub(crate) fn extract_slab(f: &Field, cells: Range<usize>) -> Result<Part, MeshE
         for j in 0..ny - 1 {
             for i in 0..nx - 1 {
                 // With a missing corner the mask is not a case; such a cell is skipped either
-                // way: no surface (`field::trilinear::cell_missing`).
+                // way: no surface (`field::interpolant::cell_missing`).
                 let mask = edges.corner_mask(i, j, k);
                 if mask == 0 || mask == 0xff || edges.cell_missing(i, j, k) {
                     continue;

@@ -123,7 +123,7 @@ pub(crate) fn extract_slab(
                         layer[p + (n & 1) + nx * ((n >> 1) & 1)]
                     };
                     let mask = (0..8).fold(0u8, |m, n| m | corner(n) << n);
-                    // A missing cell has no vertex (`field::trilinear::cell_missing`).
+                    // A missing cell has no vertex (`field::interpolant::cell_missing`).
                     if (0..8).any(|n| corner(n) & MISSING != 0) {
                         continue;
                     }

@@ -93,7 +93,7 @@ impl Octree<'_, '_, '_, '_> {
             let s = self.signs(min, 1);
             if s.iter().all(|&x| x == s[0]) || self.q.hermite.f.cell_missing(min[0], min[1], min[2])
             {
-                return None; // no surface; a missing cell has none (`trilinear::cell_missing`)
+                return None; // no surface; a missing cell has none (`interpolant::cell_missing`)
             }
             let qef = self.q.cell_qef(min);
             let vertex = self.q.vertex(min);

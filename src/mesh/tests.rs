@@ -3,12 +3,18 @@
 
 use glam::DVec3;
 
-use super::field::{trilinear, trilinear_gradient};
+use crate::field::interpolant::trilinear::{gradient as trilinear_gradient, trilerp};
+
 use super::stats::compute;
 use super::tables::*;
 use super::{extract, ExtractOptions, Mesh};
 use crate::field::Grid;
 use crate::vocab::{Inside, MeshAlgorithm};
+
+/// [`trilerp`] at local `(x, y, z)`.
+fn trilinear(v: &[f64; 8], x: f64, y: f64, z: f64) -> f64 {
+    trilerp(v, DVec3::new(x, y, z))
+}
 
 /// A grid over its own index space.
 fn grid(dims: [usize; 3], values: Vec<f32>) -> Grid {

@@ -17,7 +17,7 @@ use std::sync::Arc;
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
-use crate::field::trilinear::widen;
+use crate::field::interpolant::widen;
 use crate::gpu::{
     grid_groups, Buffer, Compute, ComputePipeline, Context, GpuError, Image3d, MemoryLocation,
     Resource, Timer, Tracker,

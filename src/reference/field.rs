@@ -4,7 +4,8 @@
 
 use glam::DVec3;
 
-use super::trilinear::{cell_corners, gradient, trilerp};
+use super::trilinear::{cell_corners, gradient};
+use crate::field::interpolant::{Kernel, Trilinear};
 use crate::field::Grid;
 
 /// World position → continuous grid coordinates, clamped into the box ([`Grid::to_grid`]).
@@ -57,7 +58,7 @@ pub fn smooth_gradient_at(grid: &Grid, u: DVec3) -> DVec3 {
     let corners: [DVec3; 8] = std::array::from_fn(|n| {
         point_gradient(grid, [c[0] + (n & 1), c[1] + ((n >> 1) & 1), c[2] + ((n >> 2) & 1)])
     });
-    let component = |a: usize| trilerp(&corners.map(|g| g[a]), f);
+    let component = |a: usize| Trilinear::value(&corners.map(|g| g[a]), f);
     DVec3::new(component(0), component(1), component(2)) / grid.spacing()
 }
 

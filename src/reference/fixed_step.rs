@@ -8,7 +8,7 @@
 //! 4. normal: the analytic gradient of the trilinear interpolant at the hit, inside → outside
 //!    (`-dir` where the gradient vanishes).
 //!
-//! Missing data (`field.nan = "empty"`, [`crate::field::trilinear::cell_missing`]): a sample
+//! Missing data (`field.nan = "empty"`, [`crate::field::interpolant::cell_missing`]): a sample
 //! whose cell is missing has no inside state, and a step with such a sample at either end has
 //! no crossing; a bisection midpoint in a missing cell moves the far end of the bracket (its
 //! value kept), and a crossing whose refined point lies in a missing cell is no hit: the march
@@ -22,7 +22,7 @@ use glam::DVec3;
 use super::field::{cell_of, clip_box, gradient_at, to_grid, value_at};
 use super::shade::{nearest_surface, render_with, RayHit};
 use super::trilinear::cell_corners;
-use crate::field::trilinear::cell_missing;
+use crate::field::interpolant::cell_missing;
 use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::scene::{Inside, Scene};

@@ -31,9 +31,10 @@
 
 use glam::DVec3;
 
+use crate::field::interpolant::{Kernel, Trilinear};
 use crate::field::Grid;
 
-pub use crate::field::trilinear::{lerp, trilerp};
+pub use crate::field::interpolant::trilinear::{lerp, trilerp};
 
 /// Component-wise [`lerp`].
 #[inline]
@@ -128,7 +129,7 @@ pub fn locate(grid: &Grid, p: DVec3) -> Option<([usize; 3], DVec3)> {
 /// Field value at world point `p`, `None` outside the box.
 pub fn value_at(grid: &Grid, p: DVec3) -> Option<f64> {
     let (cell, q) = locate(grid, p)?;
-    Some(trilerp(&cell_corners(grid, cell), q))
+    Some(Trilinear::value(&cell_corners(grid, cell), q))
 }
 
 /// World-space gradient of the field in cell `cell` at cell-local `q` (value per world unit).

@@ -78,7 +78,7 @@ impl Block {
     /// Its part of the brick min/max grid of the whole grid (`passes::bricks`' layout and
     /// definition: brick b covers points b·BRICK ..= min(b·BRICK + BRICK, n - 1) per axis):
     /// min and max over the points of its own cells in each brick (missing samples left out:
-    /// `field::trilinear::widen`), (+inf, -inf) where it has none. The element-wise min of the
+    /// `field::interpolant::widen`), (+inf, -inf) where it has none. The element-wise min of the
     /// mins and max of the maxes over all ranks is the whole grid's brick grid, since the
     /// ranks' cells cover every point.
     pub fn bricks(&self, dims: [usize; 3], values: &[f32]) -> Vec<[f32; 2]> {
@@ -99,7 +99,7 @@ impl Block {
                         for bj in bricks_of(j, counts[1]) {
                             for bi in bricks_of(i, counts[0]) {
                                 let m = &mut out[(bk * counts[1] + bj) * counts[0] + bi];
-                                crate::field::trilinear::widen(m, v);
+                                crate::field::interpolant::widen(m, v);
                             }
                         }
                     }

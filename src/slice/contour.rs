@@ -412,7 +412,7 @@ pub fn extract(
     let mut stats = ContourStats { cells: leaves.len(), on_source, ..Default::default() };
     let mut segments: Vec<(Key, Key)> = Vec::new();
     for leaf in &leaves {
-        // A missing cell holds no contour (`field::trilinear::cell_missing`).
+        // A missing cell holds no contour (`field::interpolant::cell_missing`).
         if plane.cell_missing((leaf.x / scale) as usize, (leaf.y / scale) as usize) {
             continue;
         }

@@ -19,7 +19,8 @@
 use glam::{DVec2, DVec3};
 
 use super::SliceError;
-use crate::field::trilinear::{is_missing, lerp};
+use crate::field::interpolant::is_missing;
+use crate::field::interpolant::trilinear::lerp;
 use crate::field::Grid;
 
 /// A slicing axis.
@@ -235,7 +236,7 @@ impl PlaneGrid {
 
     /// Whether plane cell `(i, j)` is missing: a corner value is missing data. Its values mix
     /// the two grid layers around the plane (a missing sample in either makes theirs missing), so
-    /// this is [`crate::field::trilinear::cell_missing`] of the grid cell the plane cuts.
+    /// this is [`crate::field::interpolant::cell_missing`] of the grid cell the plane cuts.
     pub fn cell_missing(&self, i: usize, j: usize) -> bool {
         self.cell_corners(i, j).iter().any(|&v| is_missing(v))
     }

@@ -1,10 +1,10 @@
 //! The f64 mirror of `shaders/slice.comp`'s `value`: the trilinear interpolant of the grid at
 //! each pixel centre's grid index coordinates ([`PlaneGrid::pixel_grid_point`]); NaN (no data)
-//! where that point's cell is missing ([`crate::field::trilinear::cell_missing`]), and the
+//! where that point's cell is missing ([`crate::field::interpolant::cell_missing`]), and the
 //! picture shows [`NO_DATA`] there.
 
 use super::plane::PlaneGrid;
-use crate::field::trilinear::cell_missing;
+use crate::field::interpolant::cell_missing;
 use crate::field::Grid;
 use crate::reference::field::{cell_of, value_at};
 use crate::reference::trilinear::cell_corners;

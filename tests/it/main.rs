@@ -27,6 +27,7 @@ mod gpu_errors;
 mod gpu_skips;
 mod layout;
 mod mesh;
+mod mesh_content;
 mod mesh_field;
 mod mesh_parallel;
 mod mesh_render;

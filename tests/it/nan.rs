@@ -1,5 +1,5 @@
 //! `field.nan = "empty"` (the default): NaN and infinite samples are missing data, and a cell
-//! whose 8 corners hold one holds no surface, for every method (`field::trilinear::cell_missing`,
+//! whose 8 corners hold one holds no surface, for every method (`field::interpolant::cell_missing`,
 //! `shaders/include/missing.glsl`).
 //!
 //! Closed form: a sphere's distance grid with a block of NaN (and inf) samples on its surface:
@@ -10,7 +10,7 @@
 //! `nan = "error"` keeps today's refusal, `stats` counts them, `probe` says why a cell is empty.
 
 use glam::{DVec2, DVec3};
-use isoview::field::trilinear::cell_missing;
+use isoview::field::interpolant::cell_missing;
 use isoview::field::Grid;
 use isoview::frame::Pixel;
 use isoview::mesh::{extract, extract_with, ExtractOptions, Mesh, QuadSplit};

@@ -171,7 +171,8 @@ fn a_tiff_stack_over_the_cap_is_refused_with_its_page_count() {
     // A chain of pages longer than isoview counts says the count is a floor.
     let many = formats::MAX_TIFF_PAGES_COUNTED as u32 + 5;
     std::fs::write(&p, tiff_without_data(1024, 1024, many)).unwrap();
-    let capped = ReadOptions { limits: GridLimits { max_bytes: 10 << 20 }, spacing: None };
+    let capped =
+        ReadOptions { limits: GridLimits { max_bytes: 10 << 20 }, spacing: None, ..opts() };
     let m = refusal(&p, &capped);
     let floor = format!("1024x1024x{} points", formats::MAX_TIFF_PAGES_COUNTED);
     assert!(

@@ -404,8 +404,7 @@ fn memory_per_state_stays_flat() {
 /// `path` key, naming the header key (not the path the header holds); nothing of the file
 /// reaches the field, not even its size. Inside the folders, detached data still reads, and
 /// the command line still reads whatever its headers name.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn detached_headers_read_only_inside_the_allowed_folders() {
     let (dir, file) = path_fixture("serve-detached");
     let secret = dir.join("outside/secret.raw");
@@ -463,8 +462,7 @@ fn detached_headers_read_only_inside_the_allowed_folders() {
 /// Connections that open and send nothing do not hold the workers: a request beside 60 of
 /// them (the cap is 64) is answered at once. Each used to hold a worker for its whole head
 /// timeout (5 s, counted from when a worker took it), 8 at a time: 40 s for the 61st.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn idle_connections_do_not_delay_a_request() {
     let server = Server::start(
         &scene("cell-tunnel.toml"),
@@ -489,8 +487,7 @@ fn idle_connections_do_not_delay_a_request() {
 }
 
 /// `ch` repeated: each channel once, and no more names than there are channels.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn aov_channels_are_bounded() {
     let server = Server::start(
         &scene("cell-tunnel.toml"),
@@ -511,8 +508,7 @@ fn aov_channels_are_bounded() {
 
 /// Two different Content-Lengths frame the body two ways (request smuggling): 400. The same
 /// length twice is one framing and is accepted.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn conflicting_content_lengths_are_refused() {
     let server = Server::start(
         &scene("cell-tunnel.toml"),
@@ -543,8 +539,7 @@ fn conflicting_content_lengths_are_refused() {
 
 /// A `.vti` nested too deep: the page is told what the reader said (a nesting limit, with
 /// its place), not only that the file cannot be read.
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn the_page_sees_why_a_nested_vti_is_refused() {
     let (dir, file) = path_fixture("serve-nested");
     let depth = 5000;
@@ -569,8 +564,7 @@ fn the_page_sees_why_a_nested_vti_is_refused() {
 /// Long-polls whose clients went away give back their places: with every parking place
 /// taken and then closed, a new long-poll parks within a few seconds (it used to be refused
 /// with 503 until the closed ones' 25 s ran out).
-#[test]
-#[cfg_attr(isoview_skip_gpu, ignore = "GPU test: ISOVIEW_SKIP_GPU_TESTS=1")]
+#[gpu_test]
 fn closed_long_polls_free_their_places() {
     let server = Server::start(
         &scene("cell-tunnel.toml"),

@@ -4,7 +4,7 @@
 
 use super::params::{Need, Params};
 use super::{fill, FieldSource, Info, Parsed, PointField, Supports};
-use crate::field::trilinear::trilerp;
+use crate::field::interpolant::{Kernel, Trilinear};
 use crate::field::Grid;
 use crate::vocab::Bounds;
 
@@ -32,12 +32,12 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
 /// [`point`] (on a 2x2x2 grid, exactly the corner values: `trilerp` is exact at 0 and 1).
 pub(super) fn sample(v: &[f64; 8], grid: &Grid) -> Vec<f32> {
     let (lo, size) = (grid.min, grid.max - grid.min);
-    fill(grid, |p| trilerp(v, (p - lo) / size))
+    fill(grid, |p| Trilinear::value(v, (p - lo) / size))
 }
 
 pub(super) fn point<'a>(v: &'a [f64; 8], bounds: &Bounds) -> PointField<'a> {
     let (lo, size) = (bounds.min, bounds.max - bounds.min);
-    PointField { eval: Box::new(move |p| trilerp(v, (p - lo) / size)), lipschitz: None }
+    PointField { eval: Box::new(move |p| Trilinear::value(v, (p - lo) / size)), lipschitz: None }
 }
 
 pub(super) fn describe(v: &[f64; 8]) -> String {

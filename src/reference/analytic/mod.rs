@@ -116,7 +116,7 @@
 //!    `origin + t dir`.
 //!
 //! **Missing data** (`field.nan = "empty"`): a missing cell
-//! ([`crate::field::trilinear::cell_missing`]) is walked (it counts in `cells_total`) but holds
+//! ([`crate::field::interpolant::cell_missing`]) is walked (it counts in `cells_total`) but holds
 //! no crossing: steps 6.2–6.5 are skipped, and the next cell's `g_in` is evaluated from its own
 //! corners at its entry point (by face exactness, what a finite neighbour would have carried).
 //!
@@ -166,7 +166,7 @@ mod tests;
 
 use glam::DVec3;
 
-use crate::field::trilinear::cell_missing;
+use crate::field::interpolant::cell_missing;
 use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::reference::shade::{nearest_surface, render_with, RayHit};

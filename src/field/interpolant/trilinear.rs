@@ -1,0 +1,108 @@
+//! The trilinear interpolant, the one CPU implementation (f64): the corners source, the CPU
+//! references (`reference::trilinear` re-exports these), the slices and the extractors' normals
+//! all evaluate it here.
+//!
+//! [`trilerp`] interpolates along x, then y, then z, with [`lerp`]`(a, b, w) = (1 - w) a + w b`
+//! (GLSL's `mix`), which returns `a` and `b` bit for bit at `w = 0` and `w = 1`: a cell's corners
+//! are reproduced exactly, and two cells sharing a face give bitwise identical values at a point
+//! of that face (see `reference::trilinear`, "Face exactness").
+//!
+//! Corner order: `[v000, v100, v010, v110, v001, v101, v011, v111]` (vXYZ is the corner at
+//! x+X, y+Y, z+Z), as `Grid::corners` returns them.
+
+use glam::DVec3;
+
+use super::{cell_missing, Kernel, Stencil};
+
+/// The trilinear interpolant as a [`Kernel`]: [`trilerp`], [`gradient`] and [`cell_missing`]
+/// on the 8 corners, bit for bit.
+pub struct Trilinear;
+
+impl Kernel for Trilinear {
+    const STENCIL: Stencil = Stencil { below: 0, above: 1 };
+    type Cell = [f64; 8];
+
+    #[inline]
+    fn gather(read: impl Fn([usize; 3]) -> f64, [i, j, k]: [usize; 3]) -> [f64; 8] {
+        std::array::from_fn(|n| read([i + (n & 1), j + (n >> 1 & 1), k + (n >> 2)]))
+    }
+
+    #[inline]
+    fn value(c: &[f64; 8], q: DVec3) -> f64 {
+        trilerp(c, q)
+    }
+
+    #[inline]
+    fn gradient(c: &[f64; 8], q: DVec3) -> DVec3 {
+        gradient(c, q.x, q.y, q.z)
+    }
+
+    #[inline]
+    fn missing(c: &[f64; 8]) -> bool {
+        cell_missing(c)
+    }
+}
+
+/// `(1 - w) a + w b`: exact at `w = 0` (gives `a`) and `w = 1` (gives `b`).
+#[inline]
+pub fn lerp(a: f64, b: f64, w: f64) -> f64 {
+    (1.0 - w) * a + w * b
+}
+
+/// Value of the trilinear interpolant of corners `c` at cell-local `q` in `[0, 1]^3` (x first,
+/// then y, then z).
+#[inline]
+pub fn trilerp(c: &[f64; 8], q: DVec3) -> f64 {
+    let x00 = lerp(c[0], c[1], q.x);
+    let x10 = lerp(c[2], c[3], q.x);
+    let x01 = lerp(c[4], c[5], q.x);
+    let x11 = lerp(c[6], c[7], q.x);
+    let y0 = lerp(x00, x10, q.y);
+    let y1 = lerp(x01, x11, q.y);
+    lerp(y0, y1, q.z)
+}
+
+/// Gradient (index space, value per cell) of the trilinear interpolant of corner values `v` at
+/// cell-local `(x, y, z)` in `[0, 1]³`, as a sum of products: the mesh normals (`mesh::field`)
+/// and the GPU extraction's `cell_gradient` (`shaders/extract/common.glsl`) depend on these
+/// exact bits. (`reference::trilinear::gradient` is the same derivative as a bilerp of edge
+/// differences: equal in exact arithmetic, not bit for bit.)
+#[inline]
+pub fn gradient(v: &[f64; 8], x: f64, y: f64, z: f64) -> DVec3 {
+    let (mx, my, mz) = (1.0 - x, 1.0 - y, 1.0 - z);
+    DVec3::new(
+        my * mz * (v[1] - v[0])
+            + y * mz * (v[3] - v[2])
+            + my * z * (v[5] - v[4])
+            + y * z * (v[7] - v[6]),
+        mx * mz * (v[2] - v[0])
+            + x * mz * (v[3] - v[1])
+            + mx * z * (v[6] - v[4])
+            + x * z * (v[7] - v[5]),
+        mx * my * (v[4] - v[0])
+            + x * my * (v[5] - v[1])
+            + mx * y * (v[6] - v[2])
+            + x * y * (v[7] - v[3]),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_kernel_gathers_in_corner_order_and_is_the_free_functions_bit_for_bit() {
+        let read = |[i, j, k]: [usize; 3]| (i * 100 + j * 10 + k) as f64 + 0.25;
+        let c = Trilinear::gather(read, [3, 5, 7]);
+        assert_eq!(c, [357.25, 457.25, 367.25, 467.25, 358.25, 458.25, 368.25, 468.25]);
+        let c = [0.3, -1.7, 2.9, 0.01, -0.4, 1.3, -2.2, 0.8];
+        for q in [DVec3::new(0.1, 0.7, 0.33), DVec3::ZERO, DVec3::ONE, DVec3::new(1.0, 0.5, 0.0)] {
+            assert_eq!(Trilinear::value(&c, q).to_bits(), trilerp(&c, q).to_bits());
+            assert_eq!(Trilinear::gradient(&c, q), gradient(&c, q.x, q.y, q.z));
+        }
+        assert!(!Trilinear::missing(&c));
+        let mut holed = c;
+        holed[6] = f64::NAN;
+        assert!(Trilinear::missing(&holed));
+    }
+}

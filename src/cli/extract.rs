@@ -43,7 +43,6 @@ use crate::mesh::stats;
 use crate::mesh::{self, ExtractOptions, Mesh, MeshBudget, MeshLimits};
 use crate::output::atomic;
 use crate::scene::Scene;
-use crate::vocab::echo_number;
 
 #[derive(clap::Args, Debug)]
 pub struct ExtractArgs {
@@ -125,12 +124,7 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: &Ranks) -> Result<i32, Failure> 
             args.output.display()
         ))
     })?;
-    if !args.time.is_finite() {
-        return Err(Failure::input(format!(
-            "--time {}: must be a finite number",
-            echo_number(args.time)
-        )));
-    }
+    super::finite("--time", args.time)?;
     let env = std::env::var("ISOVIEW_DEVICE").ok();
     let (backend, vulkan_device) =
         resolve_device(cli.device.as_deref(), cli.device_from_command_line, env.as_deref());

@@ -179,6 +179,15 @@ fn failed_alone(ranks: &crate::cluster::Ranks, f: Failure) -> Failure {
 
 /// Loads a scene for a verb; an isovalue picked from the data (`isovalue_sigma`,
 /// `isovalue_percentile`) is said on stderr, once.
+/// `FLAG V: must be a finite number` for a number flag (`--time`, `--at`) that is not finite:
+/// the one check every verb that takes one runs before any work.
+pub fn finite(flag: &str, v: f64) -> Result<(), Failure> {
+    if v.is_finite() {
+        return Ok(());
+    }
+    Err(Failure::input(format!("{flag} {}: must be a finite number", crate::vocab::echo_number(v))))
+}
+
 pub fn load_scene(path: &std::path::Path, sets: &[String]) -> Result<crate::scene::Scene, Failure> {
     let scene = crate::scene::load(path, sets).map_err(Failure::input)?;
     if let Some(how) = scene.surface.rule.describe(scene.surface.isovalue) {

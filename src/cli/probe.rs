@@ -37,6 +37,7 @@ pub struct ProbeArgs {
 }
 
 pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
+    super::finite("--time", args.time)?;
     if let Some(s) = &args.slice {
         let segment = args.segment.as_deref();
         return super::slice::probe(&args.scene, &args.sets, args.time, s, segment, args.json);

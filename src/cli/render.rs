@@ -104,12 +104,7 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
             echo_number(args.fps)
         )));
     }
-    if !args.time.is_finite() {
-        return Err(Failure::input(format!(
-            "--time {}: must be a finite number",
-            echo_number(args.time)
-        )));
-    }
+    super::finite("--time", args.time)?;
     let range = args.frames.as_deref().map(parse_frames).transpose().map_err(Failure::input)?;
     let scene = super::load_scene(&args.scene, &args.sets)?;
     let frames = Frames { args, range };

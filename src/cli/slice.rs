@@ -12,7 +12,7 @@ use super::{Cli, Failure};
 use crate::render::GpuGrid;
 use crate::scene;
 use crate::slice::{self, export, Axis, PlaneGrid, SliceRenderer};
-use crate::vocab::{echo, echo_number};
+use crate::vocab::echo;
 
 #[derive(clap::Args, Debug)]
 pub struct SliceArgs {
@@ -66,18 +66,8 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
     if let Some(p) = &args.png {
         check_extension(p, "png", "--png")?;
     }
-    if !args.at.is_finite() {
-        return Err(Failure::input(format!(
-            "--at {}: must be a finite number",
-            echo_number(args.at)
-        )));
-    }
-    if !args.time.is_finite() {
-        return Err(Failure::input(format!(
-            "--time {}: must be a finite number",
-            echo_number(args.time)
-        )));
-    }
+    super::finite("--at", args.at)?;
+    super::finite("--time", args.time)?;
     let scene = super::load_scene(&args.scene, &args.sets)?;
     let mut outputs = vec![("-o", args.output.as_path())];
     for (p, flag) in [(&args.png, "--png"), (&args.json, "--json"), (&args.svg, "--svg")] {

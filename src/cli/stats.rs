@@ -9,7 +9,6 @@ use clap::Args;
 use super::console::say;
 use super::{load_scene, Failure};
 use crate::field::stats::Stats;
-use crate::vocab::echo_number;
 
 #[derive(Args, Debug)]
 pub struct StatsArgs {
@@ -30,12 +29,7 @@ pub struct StatsArgs {
 pub const PERCENTILES: [f64; 7] = [1.0, 5.0, 25.0, 50.0, 75.0, 95.0, 99.0];
 
 pub fn run(args: &StatsArgs) -> Result<i32, Failure> {
-    if !args.time.is_finite() {
-        return Err(Failure::input(format!(
-            "--time {}: must be a finite number",
-            echo_number(args.time)
-        )));
-    }
+    super::finite("--time", args.time)?;
     if !(1..=200).contains(&args.bins) {
         return Err(Failure::input(format!("--bins {}: must be in 1..=200", args.bins)));
     }

@@ -519,6 +519,31 @@ fn numbers_are_echoed_short() {
 }
 
 #[test]
+fn every_verb_refuses_a_time_that_is_not_finite() {
+    // One rule (`cli::finite`) for every verb with `--time`: probe sampled the field at inf.
+    let dir = scratch("rio-time");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let out = |name: &str| dir.join(name).display().to_string();
+    let (exr, ply) = (out("o.exr"), out("o.ply"));
+    let lines = [
+        vec!["probe", &scene, "--pixel", "8,8"],
+        vec!["probe", &scene, "--slice", "z=0", "--segment", "0,0,1,1"],
+        vec!["stats", &scene],
+        vec!["extract", &scene, "-o", &ply],
+        vec!["slice", &scene, "-o", &exr, "--axis", "z", "--at", "0"],
+        vec!["render", &scene, "-o", &exr],
+    ];
+    for args in lines {
+        for t in ["inf", "-inf", "NaN"] {
+            let time = format!("--time={t}");
+            let o = isoview_output(&[&args[..], &[time.as_str()]].concat());
+            assert_fails(&o, 2, &[&format!("--time {t}: must be a finite number")]);
+        }
+    }
+    assert!(!Path::new(&exr).exists() && !Path::new(&ply).exists());
+}
+
+#[test]
 fn values_clap_refuses_are_echoed_cut_and_escaped() {
     // The command line's own parser (clap) quotes what it refuses; it too goes through echo.
     let long = format!("{}x", "9".repeat(5000));

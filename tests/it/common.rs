@@ -249,3 +249,31 @@ impl Agreement {
         Agreement::of(a, b, |p, n| (p, n))
     }
 }
+
+/// FNV-1a (64 bits) from `h` (start at [`FNV_START`]): a fingerprint of bytes, enough to
+/// notice any change (the fingerprint tests `mesh_content.rs` and `one_copy.rs`).
+pub fn fnv(h: u64, bytes: &[u8]) -> u64 {
+    bytes.iter().fold(h, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3))
+}
+
+/// FNV-1a's offset basis.
+pub const FNV_START: u64 = 0xcbf2_9ce4_8422_2325;
+
+/// Every fingerprint of `got` is the one recorded in `expected` under its name, and there are
+/// as many; on a mismatch the message names those that differ (from `recorded`, what the table
+/// was taken from) and prints this run's table, ready to paste once a change is meant.
+pub fn assert_fingerprints(got: &[(String, u64)], expected: &[(&str, u64)], recorded: &str) {
+    let table: String =
+        got.iter().map(|(what, h)| format!("    ({what:?}, {h:#018x}),\n")).collect();
+    let differ: Vec<&str> = got
+        .iter()
+        .filter(|(what, h)| expected.iter().find(|(w, _)| w == what).map(|(_, e)| e) != Some(h))
+        .map(|(what, _)| what.as_str())
+        .collect();
+    assert!(
+        differ.is_empty() && got.len() == expected.len(),
+        "{} of {} differ from {recorded}: {differ:?}\nthis run:\n{table}",
+        differ.len(),
+        expected.len()
+    );
+}

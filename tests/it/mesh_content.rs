@@ -14,15 +14,12 @@ use isoview::field::{Grid, PointField};
 use isoview::mesh::{extract_in_slabs_with, extract_with, ExtractOptions, Mesh, QuadSplit};
 use isoview::scene::{HermiteNormals, Inside, MeshAlgorithm, SharpSettings};
 
-/// FNV-1a (64 bits), as in `one_copy.rs`: a fingerprint of bytes, enough to notice any change.
-fn fnv(h: u64, bytes: &[u8]) -> u64 {
-    bytes.iter().fold(h, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3))
-}
+use crate::common::{assert_fingerprints, fnv, FNV_START};
 
 /// The fingerprint of everything a mesh holds: counts, positions' and normals' bits, triangles,
 /// quads (and whether there are any).
 fn fingerprint(m: &Mesh) -> u64 {
-    let mut h = 0xcbf2_9ce4_8422_2325;
+    let mut h = FNV_START;
     let counts = [m.positions.len(), m.normals.len(), m.indices.len()];
     for c in counts {
         h = fnv(h, &(c as u64).to_le_bytes());
@@ -219,20 +216,7 @@ fn outcomes() -> Vec<(String, u64)> {
 
 #[test]
 fn every_cpu_mesh_keeps_its_content() {
-    let got = outcomes();
-    let table: String =
-        got.iter().map(|(what, h)| format!("    ({what:?}, {h:#018x}),\n")).collect();
-    let differ: Vec<&str> = got
-        .iter()
-        .filter(|(what, h)| EXPECTED.iter().find(|(w, _)| w == what).map(|(_, e)| e) != Some(h))
-        .map(|(what, _)| what.as_str())
-        .collect();
-    assert!(
-        differ.is_empty() && got.len() == EXPECTED.len(),
-        "{} of {} meshes differ from main's at 50d75bd: {differ:?}\nthis run:\n{table}",
-        differ.len(),
-        EXPECTED.len()
-    );
+    assert_fingerprints(&outcomes(), EXPECTED, "main's meshes at 50d75bd");
 }
 
 /// Recorded on `main` at 50d75bd (before #24's method registry and interpolant home).

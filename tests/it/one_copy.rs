@@ -9,15 +9,12 @@ use std::path::{Path, PathBuf};
 use isoview::compare::{compare, write_diff_exr, write_heat_map_png, Thresholds};
 use isoview::output::exr as out_exr;
 
-use crate::common::scratch;
+use crate::common::{self, assert_fingerprints, scratch};
 use crate::compare_stream::{picture, write, Layout};
 use crate::output::test_frame;
 
-/// FNV-1a (64 bits): a fingerprint of bytes, enough to notice any change.
 fn fnv(bytes: &[u8]) -> u64 {
-    bytes
-        .iter()
-        .fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3))
+    common::fnv(common::FNV_START, bytes)
 }
 
 fn file_fnv(path: &Path) -> u64 {
@@ -94,19 +91,7 @@ fn the_one_band_path_reproduces_the_former_whole_image_outputs() {
     let dir = scratch("one-copy");
     let got = outcomes(&dir);
     std::fs::remove_dir_all(&dir).unwrap();
-    let table: String =
-        got.iter().map(|(what, h)| format!("    ({what:?}, {h:#018x}),\n")).collect();
-    let differ: Vec<&str> = got
-        .iter()
-        .filter(|(what, h)| EXPECTED.iter().find(|(w, _)| w == what).map(|(_, e)| e) != Some(h))
-        .map(|(what, _)| what.as_str())
-        .collect();
-    assert!(
-        differ.is_empty() && got.len() == EXPECTED.len(),
-        "{} of {} outputs differ from the former code's: {differ:?}\nthis run:\n{table}",
-        differ.len(),
-        EXPECTED.len()
-    );
+    assert_fingerprints(&got, EXPECTED, "the former code's outputs");
 }
 
 /// Recorded from the separate whole-image compare and in-memory EXR writers (before #24.5).

@@ -151,6 +151,10 @@ impl FieldError {
     /// An I/O error on `path`, worded for a user ("file not found" rather than "os error 2").
     pub(crate) fn io(path: &std::path::Path, err: &std::io::Error) -> FieldError {
         use std::io::ErrorKind;
+        let refused = err.get_ref().and_then(|e| e.downcast_ref::<super::access::NotDataFile>());
+        if let Some(refused) = refused {
+            return FieldError::Io { path: path.to_path_buf(), message: refused.to_string() };
+        }
         let message = match err.kind() {
             ErrorKind::NotFound => "file not found".to_string(),
             ErrorKind::PermissionDenied => "permission denied".to_string(),

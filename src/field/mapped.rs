@@ -56,7 +56,7 @@ impl MappedGrid {
             }
             _ => return Ok(None),
         };
-        let file = File::open(&path).map_err(|e| FieldError::io(&path, &e))?;
+        let file = crate::field::open_data(&path).map_err(|e| FieldError::io(&path, &e))?;
         let len = file.metadata().map_err(|e| FieldError::io(&path, &e))?.len();
         samples::check_file_size(&path, len, offset, dims, dtype)?;
         Ok(Some(MappedGrid {

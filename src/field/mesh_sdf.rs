@@ -139,7 +139,7 @@ fn one_line(e: &dyn std::fmt::Display) -> String {
 }
 
 fn open(path: &Path) -> Result<std::io::BufReader<std::fs::File>, FieldError> {
-    std::fs::File::open(path).map(std::io::BufReader::new).map_err(|e| FieldError::io(path, &e))
+    crate::field::open_data(path).map(std::io::BufReader::new).map_err(|e| FieldError::io(path, &e))
 }
 
 /// Fan-triangulates polygon `face` into `out`.

@@ -50,7 +50,7 @@ mod source;
 mod spec;
 pub mod stats;
 
-pub use access::DataAccess;
+pub use access::{open_data, DataAccess};
 pub use error::FieldError;
 pub use expr::ExprSource;
 pub use grid::Grid;

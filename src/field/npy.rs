@@ -73,7 +73,7 @@ impl NpySource {
             path: path.to_path_buf(),
             reason: reason.to_string(),
         };
-        let mut file = File::open(path).map_err(|e| FieldError::io(path, &e))?;
+        let mut file = crate::field::open_data(path).map_err(|e| FieldError::io(path, &e))?;
         let file_len = file.metadata().map_err(|e| FieldError::io(path, &e))?.len();
 
         // Magic, version and header length, read here so a corrupt length cannot make the
@@ -166,7 +166,8 @@ impl NpySource {
     pub fn read(&self, limits: &GridLimits) -> Result<Vec<f32>, FieldError> {
         let d = self.dims;
         limits.check([d[0] as u64, d[1] as u64, d[2] as u64], &path_str(&self.path))?;
-        let mut file = File::open(&self.path).map_err(|e| FieldError::io(&self.path, &e))?;
+        let mut file =
+            crate::field::open_data(&self.path).map_err(|e| FieldError::io(&self.path, &e))?;
         let len = file.metadata().map_err(|e| FieldError::io(&self.path, &e))?.len();
         samples::check_file_size(&self.path, len, self.data_offset, d, self.dtype)?;
         file.seek(SeekFrom::Start(self.data_offset)).map_err(|e| FieldError::io(&self.path, &e))?;

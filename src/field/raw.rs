@@ -1,7 +1,6 @@
 //! Headerless binary volumes: `dims = [nx, ny, nz]` samples of one `dtype`, x varying fastest,
 //! in the given byte order. The file must hold exactly `nx * ny * nz * size` bytes.
 
-use std::fs::File;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
@@ -27,20 +26,19 @@ impl RawSource {
     pub fn check(&self, limits: &GridLimits) -> Result<(), FieldError> {
         let d = self.dims;
         limits.check([d[0] as u64, d[1] as u64, d[2] as u64], &path_str(&self.path))?;
-        let len = std::fs::metadata(&self.path).map_err(|e| FieldError::io(&self.path, &e))?;
-        if len.is_dir() {
-            return Err(FieldError::Io {
-                path: self.path.clone(),
-                message: "is a directory, not a file".into(),
-            });
-        }
-        samples::check_file_size(&self.path, len.len(), 0, d, self.dtype)
+        // Opened to be judged: a folder, FIFO or device is refused by what it is, not by a
+        // length of 0 ("truncated").
+        let meta = crate::field::open_data(&self.path)
+            .and_then(|f| f.metadata())
+            .map_err(|e| FieldError::io(&self.path, &e))?;
+        samples::check_file_size(&self.path, meta.len(), 0, d, self.dtype)
     }
 
     /// Reads the samples, x fastest.
     pub fn read(&self, limits: &GridLimits) -> Result<Vec<f32>, FieldError> {
         self.check(limits)?;
-        let file = File::open(&self.path).map_err(|e| FieldError::io(&self.path, &e))?;
+        let file =
+            crate::field::open_data(&self.path).map_err(|e| FieldError::io(&self.path, &e))?;
         samples::read_samples(
             &mut BufReader::new(file),
             &self.path,

@@ -372,6 +372,49 @@ fn a_scene_path_that_is_no_scene_file_is_refused_before_reading() {
     assert_fails(&o, 2, &["big.toml: cannot read scene: ", "over the 16 MiB"]);
 }
 
+#[test]
+fn data_paths_that_are_no_regular_files_are_refused_without_waiting() {
+    // Opening a FIFO for reading waits for a writer: `stats` hung on each of these, and a
+    // `serve` worker stayed stuck for good. /dev/zero read as raw said "truncated data".
+    let dir = scratch("rio-data-fifo");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let fifo = dir.join("fifo.dat");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let f = fifo.display();
+    // Detached headers whose data file is the FIFO.
+    let nhdr = "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\
+                endian: little\ndata file: fifo.dat\n\n";
+    write(&dir, "d.nhdr", nhdr);
+    let mhd = "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_FLOAT\n\
+               ElementDataFile = fifo.dat\n";
+    write(&dir, "d.mhd", mhd);
+    let mut fields = vec![
+        format!("field={{source=\"raw\",path=\"{f}\",dims=[2,2,2],dtype=\"f32\"}}"),
+        "field={source=\"raw\",path=\"/dev/zero\",dims=[2,2,2],dtype=\"f32\"}".to_string(),
+        format!("field={{source=\"npy\",path=\"{f}\"}}"),
+        format!("field={{source=\"mesh\",path=\"{}\",resolution=8}}", dir.join("m.ply").display()),
+        "field={source=\"file\",path=\"d.nhdr\"}".to_string(),
+        "field={source=\"file\",path=\"d.mhd\"}".to_string(),
+    ];
+    let mesh = dir.join("m.ply");
+    assert!(Command::new("mkfifo").arg(&mesh).status().unwrap().success());
+    for format in ["nrrd", "nifti", "mrc", "metaimage", "vti", "vtk", "tiff"] {
+        fields.push(format!("field={{source=\"file\",path=\"{f}\",format=\"{format}\"}}"));
+    }
+    for field in &fields {
+        let child = isoview()
+            .args(["stats", &scene, "--set", field])
+            .current_dir(&dir)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let o = wait_or_kill(child);
+        let why = if field.contains("/dev/zero") { "a character device" } else { "a FIFO" };
+        assert_fails(&o, 2, &[&format!("is {why}"), "not a data file"]);
+    }
+}
+
 // ---- --frames -------------------------------------------------------------------------------
 
 #[test]

@@ -264,7 +264,7 @@ const PEEK_BYTES: u64 = 64 << 10;
 /// header over the cap is refused without reading gigabytes first.
 pub(crate) fn peek(err: &Located) -> Result<Vec<u8>, FieldError> {
     use std::io::Read;
-    let file = std::fs::File::open(err.path).map_err(|e| err.io(&e))?;
+    let file = crate::field::open_data(err.path).map_err(|e| err.io(&e))?;
     let mut head = Vec::new();
     file.take(PEEK_BYTES).read_to_end(&mut head).map_err(|e| err.io(&e))?;
     Ok(head)

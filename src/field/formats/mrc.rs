@@ -11,7 +11,6 @@
 //!   (`NCSTART, NRSTART, NSSTART`, mapped to x, y, z by the axis order) times the voxel size,
 //!   the rule ChimeraX uses: EMDB maps mostly set one of the two.
 
-use std::fs::File;
 use std::io::Read;
 
 use glam::DVec3;
@@ -24,7 +23,7 @@ use crate::field::FieldError;
 const HEADER: u64 = 1024;
 
 pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
-    let mut file = File::open(err.path).map_err(|e| err.io(&e))?;
+    let mut file = crate::field::open_data(err.path).map_err(|e| err.io(&e))?;
     let len = file.metadata().map_err(|e| err.io(&e))?.len();
     if len < HEADER {
         return Err(err.bad(format!("the file has {len} bytes, less than the 1024-byte header")));

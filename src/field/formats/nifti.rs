@@ -12,7 +12,6 @@
 //!   Coordinates stay in NIfTI's RAS+ millimetres. (nibabel falls back to an Analyze affine,
 //!   centred and flipped in x, when both codes are 0; isoview takes the standard's method 1.)
 
-use std::fs::File;
 use std::io::{BufReader, Read};
 
 use flate2::read::MultiGzDecoder;
@@ -26,7 +25,7 @@ use crate::field::FieldError;
 const HEADER: usize = 348;
 
 pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
-    let file = File::open(err.path).map_err(|e| err.io(&e))?;
+    let file = crate::field::open_data(err.path).map_err(|e| err.io(&e))?;
     let gz = err.path.to_string_lossy().to_ascii_lowercase().ends_with(".gz");
     let mut reader: Box<dyn Read> = if gz {
         Box::new(MultiGzDecoder::new(BufReader::new(file)))

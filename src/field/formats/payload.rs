@@ -4,7 +4,6 @@
 //! inflated past the bytes the header promises, so a hostile header cannot make a reader
 //! allocate more than the memory cap.
 
-use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
@@ -55,7 +54,7 @@ pub fn from_file(
     dims: [usize; 3],
 ) -> Result<Vec<f32>, FieldError> {
     let at = err.at(path);
-    let mut file = File::open(path).map_err(|e| match path == err.path {
+    let mut file = crate::field::open_data(path).map_err(|e| match path == err.path {
         true => at.io(&e),
         // A detached header's data file: name the header too.
         false => err.bad(format!("data file {}", FieldError::io(path, &e))),

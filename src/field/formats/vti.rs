@@ -27,7 +27,10 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     if let Some(dims) = peek_extent(&super::peek(err)?) {
         err.limits_check(&opts.limits, dims)?;
     }
-    let bytes = std::fs::read(err.path).map_err(|e| err.io(&e))?;
+    let mut bytes = Vec::new();
+    crate::field::open_data(err.path)
+        .and_then(|mut f| std::io::Read::read_to_end(&mut f, &mut bytes))
+        .map_err(|e| err.io(&e))?;
     // Raw appended data is binary: parse the XML before it, and find the data after its `_`.
     let (xml, appended) = match find(&bytes, b"<AppendedData") {
         None => (bytes.as_slice(), None),

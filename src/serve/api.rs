@@ -322,6 +322,21 @@ impl App {
                 })))
             }
             "png" => {
+                // The picture is drawn in memory: its size counts against the same cap as the
+                // image's (16384² took the server to 9.6 GB).
+                let (w, h) = (planned.style.width as u64, planned.style.height as u64);
+                if w * h > self.policy.max_pixels {
+                    return Err(Reply::error(
+                        400,
+                        format!(
+                            "isoview: the slice picture: {w}x{h} = {} pixels (slice.width, \
+                             slice.height), over isoview serve's cap of {} pixels; raise it with \
+                             --max-pixels",
+                            w * h,
+                            self.policy.max_pixels
+                        ),
+                    ));
+                }
                 let (reply, answer) = std::sync::mpsc::channel();
                 let task = Task::Slice { state: state.clone(), planned: Box::new(planned), reply };
                 self.tasks

@@ -375,6 +375,18 @@ fn images_over_the_pixel_cap_are_refused() {
     );
     let a = server.post("/api/state", &json!({ "set": ["image.width=21", "image.height=20"] }));
     assert_eq!(a.status, 400, "{}", a.text());
+    // The slice picture counts too: 16384² took serve to 9.6 GB (third attack pass).
+    let image = ["image.width=20", "image.height=20"];
+    let set = [&image[..], &["slice.width=16384", "slice.height=16384"]].concat();
+    assert_eq!(server.post("/api/state", &json!({ "set": set })).status, 200);
+    let a = server.get("/api/slice?axis=z&at=0&format=png");
+    assert_eq!(a.status, 400, "{}", a.text());
+    let e = a.json()["error"].as_str().unwrap().to_string();
+    assert!(e.contains("16384x16384") && e.contains("400 pixels") && e.contains("--max-pixels"));
+    let set = [&image[..], &["slice.width=20", "slice.height=20"]].concat();
+    assert_eq!(server.post("/api/state", &json!({ "set": set })).status, 200);
+    assert_eq!(server.get("/api/slice?axis=z&at=0&format=png").status, 200);
+    alive(&server);
 }
 
 /// Each state renders 4 bands of 32 rows; lavapipe used to keep ~1 MiB per band for good

@@ -22,6 +22,7 @@ use std::net::{TcpStream, ToSocketAddrs};
 use std::time::Duration;
 
 use crate::frame::{Channel, Frame, Pixel};
+use crate::vocab::echo;
 
 /// Where tev listens unless told otherwise.
 pub const DEFAULT_ADDRESS: &str = "127.0.0.1:14158";
@@ -37,14 +38,15 @@ pub const UPDATE_IMAGE_V3: u8 = 6;
 /// Why a frame could not be sent (one line, naming the address).
 #[derive(Debug, thiserror::Error)]
 pub enum TevError {
-    #[error("tev at {address}: {what}: {source} (is tev running and listening there?)")]
+    // The address is the user's text (`--tev`, serve's page): echoed cut and escaped.
+    #[error("tev at {}: {what}: {source} (is tev running and listening there?)", echo(address))]
     Io {
         address: String,
         what: &'static str,
         #[source]
         source: std::io::Error,
     },
-    #[error("tev at {address}: the address does not resolve")]
+    #[error("tev at {}: the address does not resolve", echo(address))]
     Address { address: String },
     #[error("tev: {0}")]
     TooLarge(String),

@@ -227,6 +227,8 @@ impl<'a> Source<'a> {
             None => self.origin(v.span().start),
         };
         let out_of_range = |what: &str| {
+            // Cut: the number is the user's text, of any length (`--set` and serve's page).
+            let what = crate::vocab::echo(what);
             self.err(SceneErrorKind::Value, at, path, format!("{what} is out of range"))
         };
         let value = match v.get_ref() {

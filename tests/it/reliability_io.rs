@@ -587,6 +587,28 @@ fn every_verb_refuses_a_time_that_is_not_finite() {
 }
 
 #[test]
+fn long_numbers_and_tev_addresses_are_echoed_cut_and_escaped() {
+    // Third attack pass: the TOML reader's "integer N is out of range" repeated a 20,000-digit
+    // --set value whole, and --tev's address was echoed whole with its newlines and escapes.
+    let dir = scratch("rio-echo-more");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let nines = "9".repeat(20_000);
+    for set in [format!("image.width={nines}"), format!("surface.isovalue=1e{nines}")] {
+        let o = isoview_output(&["stats", &scene, "--set", &set]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).len() < 400, "{} bytes", stderr(&o).len());
+    }
+    let out = dir.join("o.exr").display().to_string();
+    for address in [format!("{}:1", "h".repeat(5000)), "a\nINJECTED\u{1b}[31m:1".to_string()] {
+        let o = isoview_output(&["render", &scene, "-o", &out, "--tev", &address]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        let err = stderr(&o);
+        assert!(err.len() < 600 && err.contains("tev at"), "{} bytes: {err}", err.len());
+        assert!(!err.contains('\u{1b}') && !err.contains("\nINJECTED"), "{err}");
+    }
+}
+
+#[test]
 fn values_clap_refuses_are_echoed_cut_and_escaped() {
     // The command line's own parser (clap) quotes what it refuses; it too goes through echo.
     let long = format!("{}x", "9".repeat(5000));

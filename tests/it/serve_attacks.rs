@@ -49,6 +49,14 @@ fn read_answer(s: &mut TcpStream) -> (u16, String) {
     (status, body)
 }
 
+/// A server on the cell-tunnel scene at 16 x 16 pixels: what most attacks need.
+fn small_server() -> Server {
+    Server::start(
+        &scene("cell-tunnel.toml"),
+        &["--set", "image.width=16", "--set", "image.height=16"],
+    )
+}
+
 fn alive(server: &Server) {
     let a = server.get("/api/state");
     assert_eq!(a.status, 200, "the server still answers: {}", a.text());
@@ -56,10 +64,7 @@ fn alive(server: &Server) {
 
 #[gpu_test]
 fn oversized_requests_are_refused_before_they_are_read() {
-    let server = Server::start(
-        &scene("cell-tunnel.toml"),
-        &["--set", "image.width=16", "--set", "image.height=16"],
-    );
+    let server = small_server();
     alive(&server);
     let before = rss_mib(&server);
     // A request line of 256 MiB, unauthenticated: the server reads 16 KiB of it, answers 414
@@ -115,10 +120,7 @@ fn oversized_requests_are_refused_before_they_are_read() {
 
 #[gpu_test]
 fn many_connections_take_no_more_threads_and_the_excess_is_told_to_wait() {
-    let server = Server::start(
-        &scene("cell-tunnel.toml"),
-        &["--set", "image.width=16", "--set", "image.height=16"],
-    );
+    let server = small_server();
     alive(&server);
     let threads = status_of(&server, "Threads");
     // 150 connections that send nothing: the first 64 hold slots, the rest get 503 at once.
@@ -148,10 +150,7 @@ fn many_connections_take_no_more_threads_and_the_excess_is_told_to_wait() {
 
 #[gpu_test]
 fn parked_long_polls_leave_the_workers_free() {
-    let server = Server::start(
-        &scene("cell-tunnel.toml"),
-        &["--set", "image.width=16", "--set", "image.height=16"],
-    );
+    let server = small_server();
     assert_eq!(server.get("/api/frame").status, 200);
     let generation = server.get("/api/state").json()["generation"].as_u64().unwrap();
     // 40 tabs waiting for a newer frame: 32 park, the rest are told to come back.
@@ -476,10 +475,7 @@ fn detached_headers_read_only_inside_the_allowed_folders() {
 /// timeout (5 s, counted from when a worker took it), 8 at a time: 40 s for the 61st.
 #[gpu_test]
 fn idle_connections_do_not_delay_a_request() {
-    let server = Server::start(
-        &scene("cell-tunnel.toml"),
-        &["--set", "image.width=16", "--set", "image.height=16"],
-    );
+    let server = small_server();
     alive(&server);
     let idle: Vec<TcpStream> = (0..60).map(|_| TcpStream::connect(&server.addr).unwrap()).collect();
     // Let the server accept them and its workers take them up.
@@ -501,10 +497,7 @@ fn idle_connections_do_not_delay_a_request() {
 /// `ch` repeated: each channel once, and no more names than there are channels.
 #[gpu_test]
 fn aov_channels_are_bounded() {
-    let server = Server::start(
-        &scene("cell-tunnel.toml"),
-        &["--set", "image.width=16", "--set", "image.height=16"],
-    );
+    let server = small_server();
     let a = server.get("/api/aov?ch=Z,Z,N.X,Z");
     assert_eq!(a.status, 200, "{}", a.text());
     assert_eq!(a.header("x-isoview-channels"), "Z,N.X");
@@ -522,10 +515,7 @@ fn aov_channels_are_bounded() {
 /// length twice is one framing and is accepted.
 #[gpu_test]
 fn conflicting_content_lengths_are_refused() {
-    let server = Server::start(
-        &scene("cell-tunnel.toml"),
-        &["--set", "image.width=16", "--set", "image.height=16"],
-    );
+    let server = small_server();
     let body = r#"{"set": ["image.width=16", "image.height=16"]}"#;
     let post = |lengths: &[usize]| {
         let mut req =
@@ -578,10 +568,7 @@ fn the_page_sees_why_a_nested_vti_is_refused() {
 /// with 503 until the closed ones' 25 s ran out).
 #[gpu_test]
 fn closed_long_polls_free_their_places() {
-    let server = Server::start(
-        &scene("cell-tunnel.toml"),
-        &["--set", "image.width=16", "--set", "image.height=16"],
-    );
+    let server = small_server();
     assert_eq!(server.get("/api/frame").status, 200);
     let generation = server.get("/api/state").json()["generation"].as_u64().unwrap();
     let poll = format!(

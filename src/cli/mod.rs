@@ -203,11 +203,20 @@ pub fn scene_inputs(scene: &crate::scene::Scene) -> Vec<(&'static str, &std::pat
     if let Some(p) = &scene.path {
         inputs.push(("the scene file", p.as_path()));
     }
-    if let Some(p) = scene.field.source.data_path() {
-        inputs.push(("the scene's field.path", p));
-    }
-    if let Some(p) = scene.field2.as_ref().and_then(|f| f.source.data_path()) {
-        inputs.push(("the scene's field2.path", p));
+    for (spec, path, data) in [
+        (Some(&scene.field), "the scene's field.path", "the data file of field.path's header"),
+        (scene.field2.as_ref(), "the scene's field2.path", "the data file of field2.path's header"),
+    ] {
+        let Some(source) = spec.map(|f| &f.source) else { continue };
+        if let Some(p) = source.data_path() {
+            inputs.push((path, p));
+        }
+        // A detached header's samples are in another file, which the run reads as well.
+        if let crate::field::FieldSource::File(f) = source {
+            if let Some(p) = &f.volume.data_file {
+                inputs.push((data, p.as_path()));
+            }
+        }
     }
     inputs
 }

@@ -373,6 +373,48 @@ fn a_scene_path_that_is_no_scene_file_is_refused_before_reading() {
 }
 
 #[test]
+fn outputs_never_replace_a_detached_header_s_data_file() {
+    // Third attack pass: only the scene and field.path counted as inputs, so an output named
+    // like the file a detached NRRD or MetaImage header reads its samples from replaced it.
+    let dir = scratch("rio-detached-out");
+    let samples: Vec<u8> = (0..27).flat_map(|i| (i as f32 - 13.0).to_le_bytes()).collect();
+    let header_scene = |name: &str, header: &str, data: &str| {
+        std::fs::write(dir.join(data), &samples).unwrap();
+        write(&dir, name, header);
+        let scene = format!(
+            "[image]\nwidth = 16\nheight = 16\n[camera]\neye = [0.0, 0.5, 3.0]\n\
+             [field]\nsource = \"file\"\npath = \"{name}\"\n[surface]\nisovalue = 0.5\n"
+        );
+        write(&dir, &format!("{name}.toml"), &scene)
+    };
+    let nrrd = "NRRD0004\ntype: float\ndimension: 3\nsizes: 3 3 3\nencoding: raw\n\
+                endian: little\ndata file: n.svg\n\n";
+    let nrrd_scene = header_scene("n.nhdr", nrrd, "n.svg");
+    let mhd = "ObjectType = Image\nNDims = 3\nDimSize = 3 3 3\nElementType = MET_FLOAT\n\
+               ElementDataFile = data.ply\n";
+    let mhd_scene = header_scene("m.mhd", mhd, "data.ply");
+    let at = |name: &str| dir.join(name).display().to_string();
+    let (exr, svg, ply) = (at("o.exr"), at("n.svg"), at("data.ply"));
+    for (args, flag) in [
+        (
+            vec!["slice", &nrrd_scene, "--axis", "z", "--at", "0.5", "-o", &exr, "--svg", &svg],
+            "--svg",
+        ),
+        (vec!["extract", &mhd_scene, "-o", &ply], "-o"),
+    ] {
+        let o = isoview_output(&args);
+        assert_fails(
+            &o,
+            2,
+            &[flag, "is the data file of field.path's header", "which this run reads"],
+        );
+    }
+    assert_eq!(std::fs::read(&svg).unwrap(), samples);
+    assert_eq!(std::fs::read(&ply).unwrap(), samples);
+    assert!(!Path::new(&exr).exists());
+}
+
+#[test]
 fn data_paths_that_are_no_regular_files_are_refused_without_waiting() {
     // Opening a FIFO for reading waits for a writer: `stats` hung on each of these, and a
     // `serve` worker stayed stuck for good. /dev/zero read as raw said "truncated data".

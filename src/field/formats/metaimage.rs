@@ -164,6 +164,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         spacing: DVec3::ONE,
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         dtype: et.to_string(),
+        data_file: (path != err.path).then(|| path.clone()),
     };
     let spacing = vec3(&["ElementSpacing", "ElementSize"])?.unwrap_or(DVec3::ONE);
     let axes = match get(&["TransformMatrix", "Rotation", "Orientation"]) {

@@ -159,6 +159,10 @@ pub struct Volume {
     pub axes: [DVec3; 3],
     /// The file's sample type, in the format's own words (`int16`, `MET_FLOAT`, `mode 2 (float32)`).
     pub dtype: String,
+    /// The detached data file the samples were read from (NRRD `data file`, MetaImage
+    /// `ElementDataFile`); None when they are in the file itself. An input like the header:
+    /// no output of the run may replace it (`cli::scene_inputs`).
+    pub data_file: Option<std::path::PathBuf>,
 }
 
 impl Volume {

@@ -141,6 +141,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         spacing,
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         dtype: dtype.into(),
+        data_file: None,
     })
 }
 

@@ -60,6 +60,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         spacing: DVec3::ONE,
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         dtype: h.type_name.clone(),
+        data_file: (data_path != err.path).then(|| data_path.clone()),
     };
     match &h.directions {
         Some(dirs) => {

@@ -100,5 +100,6 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         spacing: opts.spacing.unwrap_or(DVec3::ONE),
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         dtype: format!("{bits}-bit gray"),
+        data_file: None,
     })
 }

@@ -203,6 +203,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         spacing,
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         dtype: format!("{} ({name})", type_name(ty)),
+        data_file: None,
     })
 }
 

@@ -219,10 +219,12 @@ impl Head {
 fn content_length(headers: &[(String, String)]) -> Result<Option<u64>, Reply> {
     let mut length = None;
     for (_, v) in headers.iter().filter(|(k, _)| k.eq_ignore_ascii_case("Content-Length")) {
-        let n = v
-            .trim()
-            .parse::<u64>()
-            .map_err(|_| Reply::error(400, "Content-Length: not a whole number of bytes"))?;
+        // Digits only (RFC 9110: 1*DIGIT): Rust's parse would also take "+2".
+        let v = v.trim();
+        let n = Some(v)
+            .filter(|v| !v.is_empty() && v.bytes().all(|b| b.is_ascii_digit()))
+            .and_then(|v| v.parse::<u64>().ok())
+            .ok_or_else(|| Reply::error(400, "Content-Length: not a whole number of bytes"))?;
         match length {
             Some(m) if m != n => {
                 return Err(Reply::error(
@@ -313,6 +315,11 @@ fn parse_head(bytes: &[u8]) -> Result<Option<Head>, Reply> {
                 .collect();
             // The body's framing is checked before any route sees the request.
             content_length(&headers)?;
+            // One Host (RFC 9112, 3.2): the check of the Host header reads the first, so a
+            // second must not pass unseen.
+            if headers.iter().filter(|(k, _)| k.eq_ignore_ascii_case("Host")).count() > 1 {
+                return Err(Reply::error(400, "Host: sent more than once; send one"));
+            }
             Ok(Some(Head {
                 method: request.method.unwrap_or("").to_string(),
                 url: request.path.unwrap_or("").to_string(),
@@ -525,6 +532,12 @@ mod tests {
         assert_eq!(status(read_head(&mut Pieces::new(&[twice.as_bytes()], true))), 400);
         let same = head("POST / HTTP/1.1\r\nContent-Length: 3\r\ncontent-length: 3\r\n\r\nabc");
         assert_eq!(read_body(&mut Pieces::new(&[], true), &same).unwrap(), b"abc");
+        for bad in ["+2", "-2", "0x2", "", "2 2"] {
+            let r = format!("POST / HTTP/1.1\r\nContent-Length: {bad}\r\n\r\nab");
+            assert_eq!(status(read_head(&mut Pieces::new(&[r.as_bytes()], true))), 400, "{bad}");
+        }
+        let hosts = "GET / HTTP/1.1\r\nHost: localhost\r\nhost: evil.example\r\n\r\n";
+        assert_eq!(status(read_head(&mut Pieces::new(&[hosts.as_bytes()], true))), 400);
         let short = head("POST / HTTP/1.1\r\nContent-Length: 9\r\n\r\nab");
         assert_eq!(read_body(&mut Pieces::new(&[], false), &short).unwrap_err().status, 400);
     }

@@ -390,6 +390,41 @@ pub fn echo_number(value: f64) -> String {
 /// The longest plain form [`echo_number`] keeps (`0.30000000000000004` is 19 characters).
 const ECHO_NUMBER_CHARS: usize = 24;
 
+/// Opens an input (`noun`: "a data file", "an EXR file") for reading, refusing a path that is
+/// not a regular file (a FIFO, a device, a socket, a folder) with [`NotRegular`].
+///
+/// The open itself must not wait: opening a FIFO for reading blocks until a writer comes
+/// (it hung the command line and wedged `serve` workers). So the file is opened non-blocking
+/// and judged by `fstat` on what was opened (no window for a swap between a check and the
+/// open). O_NONBLOCK has no effect on reading a regular file, so it stays set.
+pub fn open_regular(path: &std::path::Path, noun: &'static str) -> std::io::Result<std::fs::File> {
+    use std::os::unix::fs::OpenOptionsExt;
+    let file = std::fs::OpenOptions::new().read(true).custom_flags(libc::O_NONBLOCK).open(path)?;
+    match special_file(&file.metadata()?) {
+        None => Ok(file),
+        Some(kind) => Err(std::io::Error::other(NotRegular { kind, noun })),
+    }
+}
+
+/// What [`open_regular`] refuses: `is a FIFO (named pipe), not a data file`.
+#[derive(Debug)]
+pub struct NotRegular {
+    pub kind: &'static str,
+    pub noun: &'static str,
+}
+
+impl std::fmt::Display for NotRegular {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.kind {
+            // As a read of a folder has always been worded.
+            "a directory" => write!(f, "is a directory, not a file"),
+            kind => write!(f, "is {kind}, not {}", self.noun),
+        }
+    }
+}
+
+impl std::error::Error for NotRegular {}
+
 /// What a file that is not a regular file is, for messages ("a FIFO (named pipe)", "a
 /// directory"); None for a regular file. Outputs (`output::guard`) and scene files
 /// must be regular files.

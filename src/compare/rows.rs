@@ -58,7 +58,8 @@ pub struct ExrRows {
 impl ExrRows {
     /// Opens `path` and reads its header (no pixels yet).
     pub fn open(path: &Path) -> Result<ExrRows, OutputError> {
-        let file = File::open(path).map_err(|e| OutputError::io(path, "read", e))?;
+        let file = crate::vocab::open_regular(path, "an EXR file")
+            .map_err(|e| OutputError::io(path, "read", e))?;
         let meta = exr::block::read(BufReader::new(&file), false)
             .map_err(|source| unreadable(path, source))?
             .into_meta_data();

@@ -65,36 +65,11 @@ impl DataAccess {
 
 /// Opens a data file for reading; a path that is not a regular file (a FIFO, a device, a
 /// socket, a folder) is refused with `is a FIFO (named pipe), not a data file`, whatever
-/// names it (`path` keys, a detached header's data file, a mesh source).
-///
-/// The open itself must not wait: opening a FIFO for reading blocks until a writer comes,
-/// which hung the command line and wedged a `serve` worker for good. So the file is opened
-/// non-blocking and judged by `fstat` on what was opened (no window for a swap between a
-/// check and the open). O_NONBLOCK has no effect on reading a regular file, so it stays set.
+/// names it (`path` keys, a detached header's data file, a mesh source). The rule is
+/// [`crate::vocab::open_regular`]'s (a FIFO hung the command line and wedged `serve` workers).
 pub fn open_data(path: &Path) -> std::io::Result<std::fs::File> {
-    use std::os::unix::fs::OpenOptionsExt;
-    let file = std::fs::OpenOptions::new().read(true).custom_flags(libc::O_NONBLOCK).open(path)?;
-    match crate::vocab::special_file(&file.metadata()?) {
-        None => Ok(file),
-        Some(kind) => Err(std::io::Error::other(NotDataFile(kind))),
-    }
+    crate::vocab::open_regular(path, "a data file")
 }
-
-/// What [`open_data`] refuses; `FieldError::io` words it without "cannot read".
-#[derive(Debug)]
-pub(crate) struct NotDataFile(pub &'static str);
-
-impl std::fmt::Display for NotDataFile {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self.0 {
-            // As a read of a folder has always been worded.
-            "a directory" => write!(f, "is a directory, not a file"),
-            kind => write!(f, "is {kind}, not a data file"),
-        }
-    }
-}
-
-impl std::error::Error for NotDataFile {}
 
 #[cfg(test)]
 mod tests {

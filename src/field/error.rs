@@ -151,7 +151,7 @@ impl FieldError {
     /// An I/O error on `path`, worded for a user ("file not found" rather than "os error 2").
     pub(crate) fn io(path: &std::path::Path, err: &std::io::Error) -> FieldError {
         use std::io::ErrorKind;
-        let refused = err.get_ref().and_then(|e| e.downcast_ref::<super::access::NotDataFile>());
+        let refused = err.get_ref().and_then(|e| e.downcast_ref::<crate::vocab::NotRegular>());
         if let Some(refused) = refused {
             return FieldError::Io { path: path.to_path_buf(), message: refused.to_string() };
         }

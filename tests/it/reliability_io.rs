@@ -373,6 +373,27 @@ fn a_scene_path_that_is_no_scene_file_is_refused_before_reading() {
 }
 
 #[test]
+fn compare_refuses_inputs_that_are_no_regular_files_without_waiting() {
+    // Fourth attack pass: `compare` opened a FIFO as A or B and waited for a writer forever.
+    let dir = scratch("rio-compare-fifo");
+    let fifo = dir.join("a.exr");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let link = dir.join("link.exr");
+    std::os::unix::fs::symlink(&fifo, &link).unwrap();
+    let (f, l) = (fifo.display().to_string(), link.display().to_string());
+    for (a, b) in [(&f, &f), (&l, &f)] {
+        let child = isoview()
+            .args(["compare", a, b])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let o = wait_or_kill(child);
+        assert_fails(&o, 2, &["is a FIFO (named pipe), not an EXR file"]);
+    }
+}
+
+#[test]
 fn outputs_never_replace_a_detached_header_s_data_file() {
     // Third attack pass: only the scene and field.path counted as inputs, so an output named
     // like the file a detached NRRD or MetaImage header reads its samples from replaced it.

@@ -92,7 +92,10 @@ impl ExrImage {
 
 /// Reads every channel and the header of the EXR at `path` (see the module docs).
 pub fn read(path: &Path) -> Result<ExrImage, OutputError> {
-    let bytes = std::fs::read(path).map_err(|e| OutputError::io(path, "read", e))?;
+    let mut bytes = Vec::new();
+    crate::vocab::open_regular(path, "an EXR file")
+        .and_then(|mut f| std::io::Read::read_to_end(&mut f, &mut bytes))
+        .map_err(|e| OutputError::io(path, "read", e))?;
     let bad = |source| OutputError::Exr {
         path: path.to_path_buf(),
         action: "not a readable OpenEXR file",

@@ -24,7 +24,7 @@
 //!   all values: found exactly by [`super::select`] over one or more further passes, each
 //!   re-reading (and for FLIP recomputing) the bands.
 //! - The difference EXR's header carries the verdict line, known only after pass 1, so the
-//!   outputs are written in pass 2, row by row ([`crate::output::exr_planes`],
+//!   outputs are written in pass 2, row by row ([`crate::output::exr::PlaneStream`],
 //!   [`crate::output::png::Rgba8Stream`]), each to a temporary file renamed at the end.
 //!
 //! - FLIP is computed once, in pass 1, and its map (4 bytes a pixel) kept for the later
@@ -44,8 +44,8 @@ use super::{
     Coverage, FlipStats, PixelMaps, PixelState, Report, Thresholds, Verdict,
 };
 use crate::frame::Channel;
+use crate::output::exr::PlaneStream;
 use crate::output::exr::{ExrImage, SampleKind};
-use crate::output::exr_planes::PlaneStream;
 use crate::output::png::{to_srgb8, Rgba8Stream};
 use crate::output::OutputError;
 

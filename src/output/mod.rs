@@ -24,10 +24,6 @@ pub mod legend;
 pub mod png;
 pub mod tev;
 
-// The streaming writers' paths from before they moved into `exr/` (one home: `exr::stream`,
-// `exr::planes`); kept so that callers written against them still build.
-pub use exr::{planes as exr_planes, stream as exr_stream};
-
 use std::path::{Path, PathBuf};
 
 use crate::vocab::Placement;

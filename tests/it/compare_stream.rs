@@ -12,7 +12,7 @@ use isoview::compare::{
     Thresholds,
 };
 use isoview::output::exr as out_exr;
-use isoview::output::exr_planes::PlaneStream;
+use isoview::output::exr::PlaneStream;
 
 use crate::common::{assert_fails, isoview, scratch};
 

@@ -5,7 +5,7 @@
 
 use isoview::frame::{Channel, FrameInfo, Pixel};
 use isoview::output::exr as out_exr;
-use isoview::output::exr_stream::ExrStream;
+use isoview::output::exr::ExrStream;
 use isoview::output::png;
 use isoview::passes::Band;
 use isoview::render::{Collect, FrameSink, GpuGrid, RenderError, Renderer};

@@ -69,9 +69,9 @@
 
 mod blocks;
 mod header;
-pub mod planes;
+mod planes;
 mod read;
-pub mod stream;
+mod stream;
 
 use std::path::Path;
 

@@ -6,7 +6,7 @@
 //!
 //! `Pixel` is written by the compute shaders (`shaders/include/pixel.glsl`) and read back as
 //! is, so its layout is fixed, asserted here and checked against the compiled shaders
-//! (`tests/it/layout.rs`).
+//! (`tests/it/gpu/layout.rs`).
 //!
 //! # Adding a channel
 //!

@@ -1,6 +1,6 @@
 //! isoview: isosurfaces of trilinearly interpolated scalar fields, rendered with Vulkan compute.
 //!
-//! The pipeline, and the one direction dependencies run (no cycle: `tests/it/modules.rs`):
+//! The pipeline, and the one direction dependencies run (no cycle: `tests/it/project/modules.rs`):
 //!
 //! ```text
 //!   vocab (Bounds, Inside, ...: plain types every stage speaks)

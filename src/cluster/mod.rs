@@ -29,7 +29,7 @@
 //! - `crossings` (whole ray) is the sum over ranks: each rank counts the crossings in the
 //!   cells it owns, and every cell has one owner. -1 (not counted) stays -1.
 //!
-//! Every channel is thereby bit-identical to one process's render (tests/it/cluster.rs). Not
+//! Every channel is thereby bit-identical to one process's render (tests/it/cluster/mpi.rs). Not
 //! split (refused under more than one rank, with a message): fixed-step (a sample's
 //! refinement needs the previous sample, which may lie in another block), the mesh method,
 //! `render.crossing` > 1 (the k-th crossing needs the count of crossings in blocks before it

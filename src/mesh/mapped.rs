@@ -6,7 +6,7 @@
 //! A window whose every point is outside the surface holds no vertex and no face (no edge
 //! changes sign, and the closing faces of `dual-contouring` only close inside regions), so its
 //! range joins as an empty mesh without being extracted: on a sparse file, reading it is all
-//! the work. The joined mesh is the whole grid's bit for bit (`tests/it/residency.rs`).
+//! the work. The joined mesh is the whole grid's bit for bit (`tests/it/field/residency.rs`).
 
 use std::sync::Arc;
 

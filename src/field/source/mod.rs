@@ -29,7 +29,7 @@
 //!    `sample`, `describe`, and `point` if it can be evaluated anywhere.
 //! 2. Here: `mod NAME;`, the kind in `source_kinds!` and its [`FieldSource`] variant; the
 //!    compiler then names every `match` below that lacks an arm for them.
-//! 3. `tests/it/sources.rs`: its keys, errors and samples, and its row in
+//! 3. `tests/it/field/sources.rs`: its keys, errors and samples, and its row in
 //!    `each_source_kind_says_what_it_supports` (which fails until the kind is listed there).
 //!
 //! A key of a type no source reads yet needs a [`Params`] method (and the scene's

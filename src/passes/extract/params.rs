@@ -3,7 +3,7 @@
 //! ([`ExtractTables`], the CPU reference's own arrays), the modes of `classify.comp`, and the
 //! f32 threshold that makes the shaders' inside test the f64 reference's
 //! ([`inside_threshold`]). Each struct mirrors its GLSL declaration; the sizes and offsets are
-//! asserted here and checked on the GPU by `tests/it/layout.rs`.
+//! asserted here and checked on the GPU by `tests/it/gpu/layout.rs`.
 
 use bytemuck::{Pod, Zeroable};
 

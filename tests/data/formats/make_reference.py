@@ -2,7 +2,7 @@
 """Reads every volume in this folder with its format's reference reader (nibabel, mrcfile,
 pynrrd, SimpleITK, VTK, tifffile) and writes reference.json: dims, origin, spacing, unit axis
 directions, and checksums (sum, min, max, values at a few grid points) of the samples as f32.
-tests/it/formats.rs compares isoview's readers against it, so the tests need no Python.
+tests/it/field/formats.rs compares isoview's readers against it, so the tests need no Python.
 
     python3 make_reference.py      (a Python with nibabel mrcfile pynrrd SimpleITK tifffile vtk)
 """

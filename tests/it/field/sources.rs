@@ -290,7 +290,7 @@ fn npy_non_finite_samples_are_reported_at_their_grid_point() {
         npy("'>f8'", false, &[2, 3, 4], &payload("f8", true, false, [2, 3, 4], f)),
     )
     .unwrap();
-    // Missing data by default (tests/it/nan.rs); `nan = "error"` refuses it.
+    // Missing data by default (tests/it/render/nan.rs); `nan = "error"` refuses it.
     let s = load(&d, "source = \"npy\"\npath = \"nan.npy\"\n").unwrap();
     assert!(sample(&s).is_ok());
     let s = load(&d, "source = \"npy\"\npath = \"nan.npy\"\nnan = \"error\"\n").unwrap();
@@ -497,7 +497,7 @@ fn expressions_are_evaluated_at_world_points_and_time() {
 #[test]
 fn non_finite_expression_values_name_the_point_and_time() {
     let b = Bounds { min: DVec3::splat(-1.0), max: DVec3::ONE };
-    // With `field.nan = "error"` (the default takes them as missing data: tests/it/nan.rs).
+    // With `field.nan = "error"` (the default takes them as missing data: tests/it/render/nan.rs).
     let error = |s: FieldSpec| FieldSpec { nan: NanPolicy::Error, ..s };
     let spec = FieldSpec::expr("sqrt(x)", [3, 3, 3], b).unwrap();
     assert!(spec.sample_with(0.0, &GridLimits::default()).is_ok());

@@ -7,7 +7,7 @@ use isoview::cli::compare::{run_with, CompareArgs};
 use isoview::compare::{compare, ChannelClass, PixelState, Thresholds, Verdict};
 use isoview::output::exr::{self as out_exr, ExrChannel, ExrImage, SampleKind};
 
-use crate::output::{scratch, test_frame};
+use crate::cli::output::{scratch, test_frame};
 
 /// An in-memory image from `(name, values)` pairs.
 fn image(path: &str, w: usize, h: usize, channels: &[(&str, Vec<f32>)]) -> ExrImage {

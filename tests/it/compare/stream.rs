@@ -345,7 +345,7 @@ fn a_large_compare_stays_in_bounded_memory() {
         big_exr(&b, w, h, 1);
         let made = start.elapsed().as_secs_f64();
         let (diff, png) = (dir.join(format!("d{w}.exr")), dir.join(format!("d{w}.png")));
-        let (code, mib) = crate::stream::peak_rss_mib(&[
+        let (code, mib) = crate::render::stream::peak_rss_mib(&[
             "compare",
             a.to_str().unwrap(),
             b.to_str().unwrap(),

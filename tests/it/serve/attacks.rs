@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use serde_json::json;
 
 use crate::common::{isoview, scratch, stderr, write};
-use crate::serve::{scene, Server};
+use crate::serve::api::{scene, Server};
 
 /// A line of the server's /proc/PID/status (`VmRSS`, `Threads`), as a number (kB for sizes).
 fn status_of(server: &Server, key: &str) -> u64 {

@@ -9,9 +9,9 @@ use std::path::{Path, PathBuf};
 use isoview::compare::{compare, write_diff_exr, write_heat_map_png, Thresholds};
 use isoview::output::exr as out_exr;
 
+use crate::cli::output::test_frame;
 use crate::common::{self, assert_fingerprints, scratch};
-use crate::compare_stream::{picture, write, Layout};
-use crate::output::test_frame;
+use crate::compare::stream::{picture, write, Layout};
 
 fn fnv(bytes: &[u8]) -> u64 {
     common::fnv(common::FNV_START, bytes)

@@ -319,7 +319,7 @@ fn stats_of_a_known_cube() {
 /// welded vertex set and triangle count.
 #[test]
 fn marching_cubes_matches_scikit_image() {
-    let text = include_str!("../data/skimage_mc_cassini16.txt");
+    let text = include_str!("../../data/skimage_mc_cassini16.txt");
     let mut n = 0;
     let mut level = 0.0;
     let mut value_sum = 0.0;

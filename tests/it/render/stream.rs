@@ -10,8 +10,8 @@ use isoview::output::png;
 use isoview::passes::Band;
 use isoview::render::{Collect, FrameSink, GpuGrid, RenderError, Renderer};
 
+use crate::cli::output::test_frame;
 use crate::common::{gpu, isoview, scratch, stderr};
-use crate::output::test_frame;
 
 /// The contract's channels plus `crossings` (what `test_frame` counts).
 fn all_channels() -> Vec<Channel> {

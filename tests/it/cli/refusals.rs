@@ -171,8 +171,8 @@ fn isoview_output(args: &[&str]) -> Output {
 fn compare_never_writes_over_its_inputs() {
     let dir = scratch("rio-compare");
     let (a, b) = (dir.join("a.exr"), dir.join("b.exr"));
-    isoview::output::exr::write_frame(&a, &crate::output::test_frame(9, 7)).unwrap();
-    isoview::output::exr::write_frame(&b, &crate::output::test_frame(9, 7)).unwrap();
+    isoview::output::exr::write_frame(&a, &crate::cli::output::test_frame(9, 7)).unwrap();
+    isoview::output::exr::write_frame(&b, &crate::cli::output::test_frame(9, 7)).unwrap();
     let before = (std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
     let (sa, sb) = (a.display().to_string(), b.display().to_string());
     let o = isoview_output(&["compare", &sa, &sb, "--diff", &sa]);
@@ -192,8 +192,8 @@ fn compare_never_writes_over_its_inputs() {
 fn two_outputs_of_one_run_are_never_one_file() {
     let dir = scratch("rio-two-outputs");
     let (a, b) = (dir.join("a.exr"), dir.join("b.exr"));
-    isoview::output::exr::write_frame(&a, &crate::output::test_frame(9, 7)).unwrap();
-    isoview::output::exr::write_frame(&b, &crate::output::test_frame(9, 7)).unwrap();
+    isoview::output::exr::write_frame(&a, &crate::cli::output::test_frame(9, 7)).unwrap();
+    isoview::output::exr::write_frame(&b, &crate::cli::output::test_frame(9, 7)).unwrap();
     let (sa, sb) = (a.display().to_string(), b.display().to_string());
     // The same name twice: the PNG would replace the EXR (and the run say both were written).
     let d = dir.join("d.exr");

@@ -60,7 +60,7 @@ fn test_sources() -> Vec<(PathBuf, String)> {
     let mut files = Vec::new();
     rust_files(&root.join("tests"), &mut files);
     for p in files {
-        if p.ends_with("it/gpu_skips.rs") {
+        if p.ends_with("it/gpu/skips.rs") {
             continue;
         }
         out.push((p.clone(), std::fs::read_to_string(&p).unwrap()));

@@ -2,7 +2,7 @@
 //! (`Ranks::Single`, every build) answers as the single-process path always did: rank 0 of 1,
 //! nothing refused, the whole grid uploaded, the frame drawn straight into the sink, and its
 //! extraction (the z-range path with one range) the one-process CPU mesh. The MPI side is
-//! `tests/it/cluster.rs` (`--features mpi`, under `mpirun`).
+//! `tests/it/cluster/mpi.rs` (`--features mpi`, under `mpirun`).
 
 use std::path::Path;
 use std::sync::Arc;

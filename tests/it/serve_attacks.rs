@@ -664,7 +664,12 @@ fn a_data_link_is_judged_by_its_own_name_and_its_target_s_kind() {
         b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n".to_vec();
     volume.extend([0u8, 10, 20, 30, 40, 50, 60, 70]);
     std::fs::write(scene_dir.join("volume.data"), &volume).unwrap();
-    for (link, target) in [("fifo.nrrd", "pipe"), ("v.nrrd", "volume.data")] {
+    let ply = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+               property float z\nelement face 4\nproperty list uchar int vertex_indices\n\
+               end_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+    std::fs::write(scene_dir.join("mesh.data"), ply).unwrap();
+    for (link, target) in [("fifo.nrrd", "pipe"), ("v.nrrd", "volume.data"), ("m.ply", "mesh.data")]
+    {
         let _ = std::fs::remove_file(scene_dir.join(link));
         std::os::unix::fs::symlink(target, scene_dir.join(link)).unwrap();
     }
@@ -679,6 +684,10 @@ fn a_data_link_is_judged_by_its_own_name_and_its_target_s_kind() {
     crate::common::assert_fails(&o, 2, &["is a FIFO (named pipe), not a data file"]);
     let a = server
         .post("/api/state", &json!({ "set": ["field = {source = \"file\", path = \"v.nrrd\"}"] }));
+    assert_eq!(a.status, 200, "{}", a.text());
+    // A mesh's format (STL, OBJ, PLY) too is told from the name written.
+    let mesh_field = "field = {source = \"mesh\", path = \"m.ply\", resolution = 8}";
+    let a = server.post("/api/state", &json!({ "set": [mesh_field] }));
     assert_eq!(a.status, 200, "{}", a.text());
     alive(&server);
 }

@@ -177,8 +177,6 @@ fn failed_alone(ranks: &crate::cluster::Ranks, f: Failure) -> Failure {
     f
 }
 
-/// Loads a scene for a verb; an isovalue picked from the data (`isovalue_sigma`,
-/// `isovalue_percentile`) is said on stderr, once.
 /// `FLAG V: must be a finite number` for a number flag (`--time`, `--at`) that is not finite:
 /// the one check every verb that takes one runs before any work.
 pub fn finite(flag: &str, v: f64) -> Result<(), Failure> {
@@ -188,6 +186,22 @@ pub fn finite(flag: &str, v: f64) -> Result<(), Failure> {
     Err(Failure::input(format!("{flag} {}: must be a finite number", crate::vocab::echo_number(v))))
 }
 
+/// clap's parser of a number flag (`--time`, `--at`, `--fps`): Rust reads digits past
+/// f64's range (`1e400`, 400 nines) as infinity, so such a value is refused here as too
+/// large, where clap quotes the text the user gave (cut, through `echo_clap_values`);
+/// otherwise the flag's own check would call it `inf`. Infinity and NaN spelled out pass,
+/// for that check to refuse in its own words.
+pub fn number(s: &str) -> Result<f64, String> {
+    let v: f64 = s.trim().parse().map_err(|_| "not a number".to_string())?;
+    let spelled = s.trim().trim_start_matches(['+', '-']).to_ascii_lowercase();
+    if v.is_infinite() && !matches!(spelled.as_str(), "inf" | "infinity") {
+        return Err("too large: numbers go from about -1.8e308 to 1.8e308".to_string());
+    }
+    Ok(v)
+}
+
+/// Loads a scene for a verb; an isovalue picked from the data (`isovalue_sigma`,
+/// `isovalue_percentile`) is said on stderr, once.
 pub fn load_scene(path: &std::path::Path, sets: &[String]) -> Result<crate::scene::Scene, Failure> {
     let scene = crate::scene::load(path, sets).map_err(Failure::input)?;
     if let Some(how) = scene.surface.rule.describe(scene.surface.isovalue) {

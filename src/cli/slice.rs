@@ -26,7 +26,7 @@ pub struct SliceArgs {
     #[arg(long, value_enum, ignore_case = true)]
     pub axis: Axis,
     /// World coordinate of the plane along the axis (inside the grid box).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::number)]
     pub at: f64,
     /// Write the contours as JSON (world coordinates).
     #[arg(long)]
@@ -41,8 +41,12 @@ pub struct SliceArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
     /// Time of the field in seconds (`t` in expr fields).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = super::number)]
     pub time: f64,
+    /// Largest picture, in pixels (width x height): it is drawn whole in memory.
+    #[arg(long, value_name = "N", default_value_t = scene::DEFAULT_MAX_PIXELS,
+          value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_pixels: u64,
 }
 
 fn check_extension(path: &Path, ext: &str, flag: &str) -> Result<(), Failure> {
@@ -78,7 +82,10 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
     super::check_outputs(&outputs, &scene)?;
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let slice::Planned { plane, mut set, style } =
-        slice::plan(&scene, &grid, args.axis, args.at, args.time).map_err(Failure::input)?;
+        slice::plan(&scene, &grid, args.axis, args.at, args.time).map_err(|e| {
+            Failure::input(e.located(&format!("--at {}", crate::vocab::echo_number(args.at))))
+        })?;
+    slice::check_picture(&scene, &style, args.max_pixels, "slice").map_err(Failure::input)?;
     // Several isovalues: one contour set per surface (the picture's colours centre on the
     // first; every set's lines are drawn; the JSON lists them per surface).
     let mut per_surface = vec![(scene.surface.isovalue, set.contours.clone())];
@@ -190,7 +197,8 @@ pub fn probe(
     let (a, b) = parse_segment(segment).map_err(Failure::input)?;
     let scene = scene::load(scene_path, sets).map_err(Failure::input)?;
     let grid = scene.field.sample(time).map_err(Failure::input)?;
-    let plane = PlaneGrid::new(&grid, axis, at).map_err(Failure::input)?;
+    let plane = PlaneGrid::new(&grid, axis, at)
+        .map_err(|e| Failure::input(e.located(&format!("--slice {}", echo(slice_arg)))))?;
     let (iso, inside) = (scene.surface.isovalue, scene.surface.inside);
     let probe = slice::probe_segment(&plane, a, b, iso, inside);
     // The segment is in the plane's (u, v), the grid's own frame; root points are reported in

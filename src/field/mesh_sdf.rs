@@ -68,8 +68,14 @@ impl TriangleMesh {
     /// `vertex` x, y, z and `face` vertex_indices / vertex_index, polygons fan-triangulated)
     /// file, by its extension.
     pub fn read(path: &Path) -> Result<TriangleMesh, FieldError> {
+        Self::read_named(path, path)
+    }
+
+    /// [`TriangleMesh::read`] of `path`, the format told from `named`'s extension: the name
+    /// the scene wrote, where `path` is what `serve` resolved it to (a link's target).
+    pub fn read_named(path: &Path, named: &Path) -> Result<TriangleMesh, FieldError> {
         let bad = |message: String| FieldError::BadMesh { path: path.to_path_buf(), message };
-        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        let ext = named.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
         let mesh = match ext.as_deref() {
             Some("stl") => {
                 let mut file = open(path)?;
@@ -483,9 +489,10 @@ pub struct MeshSource {
 }
 
 impl MeshSource {
-    /// Reads the mesh file.
-    pub fn open(path: &Path) -> Result<MeshSource, FieldError> {
-        Ok(MeshSource { path: path.to_path_buf(), mesh: Arc::new(TriangleMesh::read(path)?) })
+    /// Reads the mesh file `path`, of the format `named` (the name written) says.
+    pub fn open(path: &Path, named: &Path) -> Result<MeshSource, FieldError> {
+        let mesh = TriangleMesh::read_named(path, named)?;
+        Ok(MeshSource { path: path.to_path_buf(), mesh: Arc::new(mesh) })
     }
 }
 

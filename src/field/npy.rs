@@ -111,11 +111,17 @@ impl NpySource {
             }
         }
         // npyz parses the header's Python literal by recursive descent: deep nesting would
-        // overflow the stack, so it is refused before npyz sees it.
+        // overflow the stack, so it is refused before npyz sees it. A reader's limit, told in
+        // numbers only: `serve` shows it to the page (as the deep `.vti`'s).
         if let Some(at) = nests_deeper(&bytes[prefix..], MAX_HEADER_NESTING) {
-            return Err(not_npy(&format!(
-                "the header nests brackets deeper than {MAX_HEADER_NESTING} (at header byte {at})"
-            )));
+            return Err(FieldError::ReaderLimit {
+                path: path.to_path_buf(),
+                format: "NumPy .npy",
+                message: format!(
+                    "the header nests brackets deeper than {MAX_HEADER_NESTING} (at header byte \
+                     {at})"
+                ),
+            });
         }
         let header = NpyHeader::from_reader(bytes.as_slice())
             .map_err(|e| not_npy(&one_line(&e.to_string())))?;

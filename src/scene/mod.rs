@@ -32,7 +32,9 @@ use std::path::Path;
 pub use error::{SceneError, SceneErrorKind};
 pub use tree::MAX_SCENE_BYTES;
 pub use types::*;
-pub use validate::{MAX_IMAGE_SIDE, MAX_NEWTON_STEPS, MAX_SLICE_DEPTH, MAX_STEPS};
+pub use validate::{
+    DEFAULT_MAX_PIXELS, MAX_IMAGE_SIDE, MAX_NEWTON_STEPS, MAX_SLICE_DEPTH, MAX_STEPS,
+};
 
 use crate::field::{DataAccess, GridLimits, GRID_CAP_ENV};
 use tree::Source;

@@ -18,6 +18,11 @@ use glam::DVec3;
 
 /// Largest image side.
 pub const MAX_IMAGE_SIDE: i64 = 16384;
+/// The default of `--max-pixels` (`serve`, `slice`): the largest picture, width x height, a
+/// command holds whole in memory, 4096 x 4096. `serve` keeps a frame's records (80 bytes a
+/// pixel) for the EXR, tev and the channels the page reads; a slice picture is drawn whole
+/// (32 bytes a pixel, then its channel planes). `render` streams its bands and needs no cap.
+pub const DEFAULT_MAX_PIXELS: u64 = 4096 * 4096;
 /// Most fixed-step samples per ray.
 pub const MAX_STEPS: i64 = 1 << 20;
 /// Most Newton refinements per root.

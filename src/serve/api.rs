@@ -112,6 +112,17 @@ impl App {
             }
             _ => {}
         }
+        // One token: with two, a check of one would let the other pass unseen (the query's
+        // last one was checked, so `?token=bad&token=GOOD` was let in), and two that agree
+        // are no request the page sends.
+        let headers =
+            head.headers.iter().filter(|(k, _)| k.eq_ignore_ascii_case("X-Isoview-Token"));
+        if target.count("token") + headers.count() > 1 {
+            return Outcome::Reply(Reply::error(
+                403,
+                "token: given more than once; send it once (?token= or X-Isoview-Token)",
+            ));
+        }
         let given = target.get("token").or_else(|| head.header("X-Isoview-Token")).unwrap_or("");
         if !access::token_matches(&self.token, given) {
             return Outcome::Reply(Reply::error(
@@ -294,8 +305,12 @@ impl App {
         })?;
         let (_, state, grid) = self.current()?;
         let scene = &state.scene;
-        let planned = slice::plan(scene, &grid, axis, at, state.time)
-            .map_err(|e| Reply::error(400, format!("isoview: {e}")))?;
+        let planned = slice::plan(scene, &grid, axis, at, state.time).map_err(|e| {
+            Reply::error(
+                400,
+                format!("isoview: {}", e.located(&format!("--at {}", shorten(at_arg)))),
+            )
+        })?;
         let (plane, iso) = (&planned.plane, scene.surface.isovalue);
         match target.get("format").unwrap_or("png") {
             "json" => Ok(Reply::text(
@@ -323,20 +338,9 @@ impl App {
             }
             "png" => {
                 // The picture is drawn in memory: its size counts against the same cap as the
-                // image's (16384² took the server to 9.6 GB).
-                let (w, h) = (planned.style.width as u64, planned.style.height as u64);
-                if w * h > self.policy.max_pixels {
-                    return Err(Reply::error(
-                        400,
-                        format!(
-                            "isoview: the slice picture: {w}x{h} = {} pixels (slice.width, \
-                             slice.height), over isoview serve's cap of {} pixels; raise it with \
-                             --max-pixels",
-                            w * h,
-                            self.policy.max_pixels
-                        ),
-                    ));
-                }
+                // image's.
+                slice::check_picture(scene, &planned.style, self.policy.max_pixels, "serve")
+                    .map_err(|e| Reply::error(400, format!("isoview: {e}")))?;
                 let (reply, answer) = std::sync::mpsc::channel();
                 let task = Task::Slice { state: state.clone(), planned: Box::new(planned), reply };
                 self.tasks

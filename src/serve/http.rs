@@ -12,7 +12,6 @@
 //!   a chunked body: 411 (send Content-Length)
 //! ```
 
-use std::collections::HashMap;
 use std::io::{self, Read, Write};
 use std::net::{Shutdown, TcpStream};
 use std::time::{Duration, Instant};
@@ -400,10 +399,10 @@ impl<'a, W: Wire> Body<'a, W> {
     }
 }
 
-/// A request's path and decoded query parameters.
+/// A request's path and decoded query parameters, in order.
 pub struct Target {
     pub path: String,
-    pub query: HashMap<String, String>,
+    pub query: Vec<(String, String)>,
 }
 
 impl Target {
@@ -420,8 +419,14 @@ impl Target {
         Target { path: percent_decode(path), query }
     }
 
+    /// The value of parameter `key`, the last where it is given more than once.
     pub fn get(&self, key: &str) -> Option<&str> {
-        self.query.get(key).map(String::as_str)
+        self.query.iter().rev().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
+    }
+
+    /// How many times parameter `key` is given.
+    pub fn count(&self, key: &str) -> usize {
+        self.query.iter().filter(|(k, _)| k == key).count()
     }
 }
 
@@ -604,6 +609,8 @@ mod tests {
         assert_eq!(t.get("token"), Some("ab/c"));
         assert_eq!(t.get("s"), Some("a b"));
         assert_eq!(t.get("flag"), Some(""));
+        let t = Target::parse("/api/state?token=a&x=1&token=b");
+        assert_eq!((t.count("token"), t.count("x"), t.count("y")), (2, 1, 0));
         assert_eq!(percent_decode("100%"), "100%");
         assert_eq!(percent_decode("%zz%41"), "%zzA");
     }

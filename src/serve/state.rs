@@ -10,10 +10,6 @@ use serde_json::{json, Value};
 use crate::field::{DataAccess, FieldError, FieldSource, FieldSpec, Grid};
 use crate::scene::{self, Scene, SceneError};
 
-/// The default of `--max-pixels`: a 4096 x 4096 image (each pixel's record takes 80 bytes,
-/// and the server keeps a frame's records for the EXR, tev and the channels the page reads).
-pub const DEFAULT_MAX_PIXELS: u64 = 4096 * 4096;
-
 /// What a state may ask for: which data files it may name, how large an image.
 #[derive(Clone, Debug)]
 pub struct Policy {

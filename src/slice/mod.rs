@@ -41,13 +41,25 @@ use crate::vocab::echo_number;
 /// What can go wrong in a slice before the GPU or the output files are involved.
 #[derive(Debug, thiserror::Error)]
 pub enum SliceError {
+    /// The plane misses the box; [`SliceError::located`] names the option it came from.
     #[error(
-        "--at {}: the plane {axis} = {} misses the grid box ({axis} from {} to {})",
-        echo_number(*at), echo_number(*at), echo_number(*min), echo_number(*max)
+        "the plane {axis} = {} misses the grid box ({axis} from {} to {})",
+        echo_number(*at), echo_number(*min), echo_number(*max)
     )]
     OutsideBox { axis: &'static str, at: f64, min: f64, max: f64 },
     #[error("{0}")]
     Input(String),
+}
+
+impl SliceError {
+    /// The message, a plane outside the box led by the option that placed it, as the user
+    /// gave it (`--at 1.5` for `slice`, `--slice x=1.5` for `probe`).
+    pub fn located(&self, option: &str) -> String {
+        match self {
+            SliceError::OutsideBox { .. } => format!("{option}: {self}"),
+            SliceError::Input(_) => self.to_string(),
+        }
+    }
 }
 
 /// Contour options from a scene's `[surface]` and `[slice]`.
@@ -108,6 +120,37 @@ pub fn plan(
         line_color: [0.0, 0.0, 0.0, 1.0],
     };
     Ok(Planned { plane, set, style })
+}
+
+/// Refuses a picture of `style`'s size over `max_pixels` (`--max-pixels`), before anything
+/// is drawn: the picture is held whole in memory, and a side derived from a thin plane's
+/// aspect ratio can reach 16384 x 16384 (8 GiB of records; it aborted `slice` and took
+/// `serve` to 9.6 GB). `verb` names the command whose cap it is; the keys named are those
+/// the size came from. `isoview slice` and the page's slice panel share this rule.
+pub fn check_picture(
+    scene: &Scene,
+    style: &SliceStyle,
+    max_pixels: u64,
+    verb: &str,
+) -> Result<(), SliceError> {
+    let (w, h) = (style.width as u64, style.height as u64);
+    if w * h <= max_pixels {
+        return Ok(());
+    }
+    let derived = |given: &str, other: &str| {
+        format!("{given}, and the {other} from the cross-section's aspect ratio")
+    };
+    let from = match (scene.slice.width, scene.slice.height) {
+        (Some(_), Some(_)) => "slice.width, slice.height".to_string(),
+        (Some(_), None) => derived("slice.width", "height"),
+        (None, Some(_)) => derived("slice.height", "width"),
+        (None, None) => derived("image.width", "height"),
+    };
+    Err(SliceError::Input(format!(
+        "the slice picture: {w}x{h} = {} pixels ({from}), over isoview {verb}'s cap of \
+         {max_pixels} pixels; raise it with --max-pixels",
+        w * h
+    )))
 }
 
 /// The title of a slice's SVG.

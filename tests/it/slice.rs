@@ -604,7 +604,7 @@ fn the_plane_must_meet_the_box() {
     );
     let grid = spec.sample(0.0).unwrap();
     let e = PlaneGrid::new(&grid, Axis::X, 1.5).unwrap_err().to_string();
-    assert_eq!(e, "--at 1.5: the plane x = 1.5 misses the grid box (x from -1 to 1)");
+    assert_eq!(e, "the plane x = 1.5 misses the grid box (x from -1 to 1)");
     assert!(PlaneGrid::new(&grid, Axis::X, f64::NAN).is_err());
     assert!(PlaneGrid::new(&grid, Axis::X, -1.0).is_ok());
 }

@@ -26,11 +26,11 @@ pub(super) const INFO: Info = Info {
 };
 
 pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
-    let path = params::data_path(p)?;
+    let (named, path) = params::data_path_named(p)?;
     let names = Format::ALL.map(|f| (f.name(), Some(f)));
     let format = match p.choice("format", Need::Or(None), &names)? {
         Some(f) => f,
-        None => Format::from_path(&path).ok_or_else(|| {
+        None => Format::from_path(&named).ok_or_else(|| {
             p.value_error(
                 "path",
                 format!(

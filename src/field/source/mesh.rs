@@ -21,14 +21,14 @@ pub(super) const INFO: Info = Info {
 const MAX_RESOLUTION: i64 = 1 << 16;
 
 pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
-    let path = params::data_path(p)?;
+    let (named, path) = params::data_path_named(p)?;
     let n = p.integer(
         "resolution",
         Need::Required("grid points along the mesh's longest axis, e.g. 64"),
         2,
         MAX_RESOLUTION,
     )? as usize;
-    let mesh = MeshSource::open(&path).map_err(|e| p.data_error("path", e))?;
+    let mesh = MeshSource::open(&path, &named).map_err(|e| p.data_error("path", e))?;
     let (lo, hi) = mesh.mesh.bounds();
     let (dims, bounds) = mesh_sdf::grid_for(lo, hi, n);
     p.limits()

@@ -93,9 +93,18 @@ pub(super) fn resolution<P: Params>(p: &P) -> Result<[usize; 3], P::Error> {
 /// `path`, required, not empty, resolved against the scene file's folder and admitted by
 /// [`Params::access`] (every data path passes here, so this is where `serve` confines them).
 pub(super) fn data_path<P: Params>(p: &P) -> Result<PathBuf, P::Error> {
+    data_path_named(p).map(|(_, admitted)| admitted)
+}
+
+/// [`data_path`], with the path as written (against the scene's folder) first: what a format
+/// is told from. `serve` admits a link as its resolved target, whose name may say nothing
+/// (`v.nrrd` -> `volume.data`); the command line reads the same file by the name written.
+pub(super) fn data_path_named<P: Params>(p: &P) -> Result<(PathBuf, PathBuf), P::Error> {
     let path = p.string("path", Need::Required("the data file, relative to the scene file"))?;
     if path.is_empty() {
         return Err(p.value_error("path", "must not be empty".into()));
     }
-    p.access().admit(&p.base_dir().join(path)).map_err(|m| p.value_error("path", m))
+    let named = p.base_dir().join(path);
+    let admitted = p.access().admit(&named).map_err(|m| p.value_error("path", m))?;
+    Ok((named, admitted))
 }

@@ -490,16 +490,7 @@ fn a_huge_frame_range_is_never_materialised() {
     cmd.args(["render", &scene, "-o", &pattern, "--frames", "0..4294967296"]);
     // 2 GiB of address space: far more than the run needs, far less than the 4 billion
     // frames' names would take if the range were collected before frame 0.
-    // SAFETY: setrlimit is async-signal-safe; the closure touches nothing else.
-    unsafe {
-        std::os::unix::process::CommandExt::pre_exec(&mut cmd, || {
-            let limit = libc::rlimit { rlim_cur: 2 << 30, rlim_max: 2 << 30 };
-            if libc::setrlimit(libc::RLIMIT_AS, &limit) != 0 {
-                return Err(std::io::Error::last_os_error());
-            }
-            Ok(())
-        });
-    }
+    with_memory_limit(&mut cmd, 2);
     let o = cmd.output().unwrap();
     assert_fails(&o, 2, &["f0000.exr: is a directory"]);
 }
@@ -709,4 +700,96 @@ fn tev_with_nobody_listening_still_writes_the_files_then_exits_2() {
     assert_fails(&o, 2, &["isoview: tev at ", &address, "the render's files were written"]);
     assert!(isoview::output::exr::read(Path::new(&out)).is_ok(), "the EXR is written");
     assert!(Path::new(&png).exists(), "the PNG is written");
+}
+
+/// Runs `cmd` under an address-space limit of `gib` GiB (what `ulimit -v` sets).
+fn with_memory_limit(cmd: &mut Command, gib: u64) {
+    // SAFETY: setrlimit is async-signal-safe; the closure touches nothing else.
+    unsafe {
+        std::os::unix::process::CommandExt::pre_exec(cmd, move || {
+            let limit = libc::rlimit { rlim_cur: gib << 30, rlim_max: gib << 30 };
+            if libc::setrlimit(libc::RLIMIT_AS, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+}
+
+#[test]
+fn a_slice_picture_over_the_pixel_cap_is_refused_before_it_is_drawn() {
+    // Fourth attack pass: a plane 1000 times wider than high with only slice.height = 16384
+    // derived a width of 16384 too, one 8 GiB picture: "memory allocation failed", SIGABRT.
+    let dir = scratch("rio-slice-pixels");
+    let thin = SPHERE.replace(
+        "resolution = [10, 10, 10]\nbounds = { min = [-1.0, -1.0, -1.0], max = [1.0, 1.0, 1.0] }",
+        "resolution = [10, 10, 2]\nbounds = { min = [-1.0, -1.0, -0.001], max = [1.0, 1.0, 0.001] }",
+    );
+    assert_ne!(thin, SPHERE);
+    let scene = write(&dir, "thin.toml", &thin);
+    let out = dir.join("o.exr").display().to_string();
+    let slice = ["slice", &scene, "-o", &out, "--axis", "y", "--at", "0"];
+    let mut cmd = isoview();
+    cmd.args(slice).args(["--set", "slice.height=16384"]);
+    with_memory_limit(&mut cmd, 4);
+    let o = cmd.output().unwrap();
+    assert_fails(
+        &o,
+        2,
+        &["isoview: the slice picture: 16384x16384 = 268435456 pixels (slice.height, and the \
+           width from the cross-section's aspect ratio), over isoview slice's cap of 16777216 \
+           pixels; raise it with --max-pixels"],
+    );
+    // Both sides given, under a cap the user lowered.
+    let o = isoview_output(
+        &[
+            &slice[..],
+            &["--set", "slice.width=20", "--set", "slice.height=20", "--max-pixels", "399"],
+        ]
+        .concat(),
+    );
+    assert_fails(&o, 2, &["20x20 = 400 pixels (slice.width, slice.height)", "cap of 399 pixels"]);
+    assert!(!Path::new(&out).exists());
+}
+
+#[test]
+fn a_number_past_the_largest_float_is_too_large_not_inf() {
+    // Fourth attack pass: `--fps 999…9` (400 nines) read as inf, then "--fps inf: must be a
+    // positive number"; --time and --at alike.
+    let dir = scratch("rio-number-inf");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let out = dir.join("o.exr").display().to_string();
+    let nines = "9".repeat(400);
+    let lines = [
+        vec!["render", &scene, "-o", &out, "--frames", "0..1", "--fps", &nines],
+        vec!["render", &scene, "-o", &out, "--time", &nines],
+        vec!["slice", &scene, "-o", &out, "--axis", "z", "--at", &nines],
+        vec!["stats", &scene, "--time", &nines],
+    ];
+    for args in lines {
+        let o = isoview_output(&args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains("'99999") && err.contains('…') && err.contains("too large"), "{err}");
+        assert!(!err.contains("inf:") && err.len() < 400, "{err}");
+    }
+    // Infinity spelled out is still the flag's own refusal.
+    let o = isoview_output(&["render", &scene, "-o", &out, "--frames", "0..1", "--fps", "inf"]);
+    assert_fails(&o, 2, &["--fps inf: must be a positive number"]);
+    assert!(!Path::new(&out).exists());
+}
+
+#[test]
+fn probe_slice_names_the_option_the_plane_came_from() {
+    // Fourth attack pass: `probe --slice x=5` said "--at 5: the plane x = 5 misses the grid
+    // box", naming an option of `slice` the user never gave.
+    let dir = scratch("rio-probe-slice");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let o = isoview_output(&["probe", &scene, "--slice", "x=5", "--segment", "0,0,1,1"]);
+    assert_fails(
+        &o,
+        2,
+        &["isoview: --slice x=5: the plane x = 5 misses the grid box (x from -1 to 1)"],
+    );
+    assert!(!stderr(&o).contains("--at"), "{}", stderr(&o));
 }

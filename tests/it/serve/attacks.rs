@@ -622,3 +622,98 @@ fn closed_long_polls_free_their_places() {
     parked.set_read_timeout(Some(Duration::from_secs(60))).unwrap();
     assert_eq!(read_answer(&mut parked).0, 200);
 }
+
+/// A token given twice in the query (`?token=bad&token=GOOD`) was judged by the last one:
+/// a second token is refused like a wrong one, whichever comes first, and so is a second
+/// `X-Isoview-Token` header.
+#[gpu_test]
+fn a_token_given_twice_is_refused() {
+    let server = small_server();
+    alive(&server);
+    let (good, bad) = (server.token.clone(), "0".repeat(32));
+    for query in [
+        format!("token={bad}&token={good}"),
+        format!("token={good}&token={bad}"),
+        format!("token={good}&token={good}"),
+    ] {
+        let a = server.raw("GET", &format!("/api/state?{query}"), &[], b"");
+        assert_eq!(a.status, 403, "{query}: {}", a.text());
+        assert!(a.text().contains("token: given more than once"), "{query}: {}", a.text());
+    }
+    let twice = [("X-Isoview-Token", good.as_str()), ("X-Isoview-Token", bad.as_str())];
+    let a = server.raw("GET", "/api/state", &twice, b"");
+    assert_eq!(a.status, 403, "{}", a.text());
+    let a = server.raw("GET", &format!("/api/state?token={good}"), &twice[1..], b"");
+    assert_eq!(a.status, 403, "a query token and a header token: {}", a.text());
+    alive(&server);
+}
+
+/// A `.nrrd` link to a FIFO: the page is told what the command line says (not a regular
+/// file), not "cannot tell the format" (the format was read from the link's target's name);
+/// a `.nrrd` link to a NRRD file of another name is read as NRRD, as on the command line.
+#[gpu_test]
+fn a_data_link_is_judged_by_its_own_name_and_its_target_s_kind() {
+    let (dir, file) = path_fixture("serve-fifo-link");
+    let scene_dir = dir.join("scene");
+    let fifo = scene_dir.join("pipe");
+    let _ = std::fs::remove_file(&fifo);
+    let c_path = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+    // SAFETY: a valid NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(c_path.as_ptr(), 0o600) }, 0);
+    let mut volume =
+        b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n".to_vec();
+    volume.extend([0u8, 10, 20, 30, 40, 50, 60, 70]);
+    std::fs::write(scene_dir.join("volume.data"), &volume).unwrap();
+    let ply = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+               property float z\nelement face 4\nproperty list uchar int vertex_indices\n\
+               end_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+    std::fs::write(scene_dir.join("mesh.data"), ply).unwrap();
+    for (link, target) in [("fifo.nrrd", "pipe"), ("v.nrrd", "volume.data"), ("m.ply", "mesh.data")]
+    {
+        let _ = std::fs::remove_file(scene_dir.join(link));
+        std::os::unix::fs::symlink(target, scene_dir.join(link)).unwrap();
+    }
+    let server = Server::start(&file, &[]);
+    let fifo_field = "field = {source = \"file\", path = \"fifo.nrrd\"}";
+    let a = server.post("/api/state", &json!({ "set": [fifo_field] }));
+    assert_eq!(a.status, 400, "{}", a.text());
+    let e = a.json()["error"].as_str().unwrap().to_string();
+    assert!(e.contains("is a FIFO (named pipe), not a data file"), "{e}");
+    assert!(!e.contains("cannot tell the format"), "{e}");
+    let o = isoview(&["stats", &file, "--set", fifo_field], &[]);
+    crate::common::assert_fails(&o, 2, &["is a FIFO (named pipe), not a data file"]);
+    let a = server
+        .post("/api/state", &json!({ "set": ["field = {source = \"file\", path = \"v.nrrd\"}"] }));
+    assert_eq!(a.status, 200, "{}", a.text());
+    // A mesh's format (STL, OBJ, PLY) too is told from the name written.
+    let mesh_field = "field = {source = \"mesh\", path = \"m.ply\", resolution = 8}";
+    let a = server.post("/api/state", &json!({ "set": [mesh_field] }));
+    assert_eq!(a.status, 200, "{}", a.text());
+    alive(&server);
+}
+
+/// A `.npy` header nested too deep: the page is told the reader's limit (positions and
+/// numbers only), as for a deep `.vti`, not only that the file cannot be read.
+#[gpu_test]
+fn the_page_sees_why_a_nested_npy_header_is_refused() {
+    let (dir, file) = path_fixture("serve-nested-npy");
+    let nest = 5000;
+    let dict = format!(
+        "{{'descr': '<f4', 'fortran_order': False, 'shape': (2, 2, 2), 'SECRET': {}{}}}\n",
+        "[".repeat(nest),
+        "]".repeat(nest)
+    );
+    let mut bytes = b"\x93NUMPY\x02\x00".to_vec();
+    bytes.extend((dict.len() as u32).to_le_bytes());
+    bytes.extend(dict.as_bytes());
+    bytes.extend([0u8; 32]);
+    std::fs::write(dir.join("scene/deep.npy"), &bytes).unwrap();
+    let server = Server::start(&file, &[]);
+    let a = server
+        .post("/api/state", &json!({ "set": ["field = {source = \"npy\", path = \"deep.npy\"}"] }));
+    assert_eq!(a.status, 400, "{}", a.text());
+    let e = a.json()["error"].as_str().unwrap().to_string();
+    assert!(e.contains("deep.npy") && e.contains("nests brackets deeper than 16"), "{e}");
+    assert!(e.contains("at header byte ") && !e.contains("SECRET"), "{e}");
+    alive(&server);
+}

@@ -41,15 +41,20 @@ float interp_value(Corners k, vec3 q) {
     return lerp1(y.x, y.y, q.z);
 }
 
-// Gradient at cell-local q, in value per cell: each component is the bilinear interpolation of
-// the 4 edge differences along that axis.
+// Gradient at cell-local q, in value per cell: the sum-of-products form of the f64 one
+// (`field::interpolant::trilinear::gradient`), term for term and in the same order; `precise`
+// (no reassociation, no fused multiply-adds) so that every shader that calls it gets the same
+// bits from the same corners.
 vec3 interp_gradient(Corners k, vec3 q) {
-    float c0 = k.lo.x, c1 = k.lo.y, c2 = k.lo.z, c3 = k.lo.w;
-    float c4 = k.hi.x, c5 = k.hi.y, c6 = k.hi.z, c7 = k.hi.w;
-    return vec3(
-        lerp1(lerp1(c1 - c0, c3 - c2, q.y), lerp1(c5 - c4, c7 - c6, q.y), q.z),
-        lerp1(lerp1(c2 - c0, c3 - c1, q.x), lerp1(c6 - c4, c7 - c5, q.x), q.z),
-        lerp1(lerp1(c4 - c0, c5 - c1, q.x), lerp1(c6 - c2, c7 - c3, q.x), q.y));
+    float v0 = k.lo.x, v1 = k.lo.y, v2 = k.lo.z, v3 = k.lo.w;
+    float v4 = k.hi.x, v5 = k.hi.y, v6 = k.hi.z, v7 = k.hi.w;
+    float x = q.x, y = q.y, z = q.z;
+    precise float mx = 1.0 - x, my = 1.0 - y, mz = 1.0 - z;
+    precise vec3 g = vec3(
+        my * mz * (v1 - v0) + y * mz * (v3 - v2) + my * z * (v5 - v4) + y * z * (v7 - v6),
+        mx * mz * (v2 - v0) + x * mz * (v3 - v1) + mx * z * (v6 - v4) + x * z * (v7 - v5),
+        mx * my * (v4 - v0) + x * my * (v5 - v1) + mx * y * (v6 - v2) + x * y * (v7 - v3));
+    return g;
 }
 
 // Trilinear interpolation at local coordinates f in [0,1]^3.

@@ -27,7 +27,8 @@
 //! The interpolant is only C0 across cells: on a shared face the two cells' gradients differ in
 //! the component normal to the face. [`locate`] picks the cell `clamp(floor(q), 0, n - 2)`, so a
 //! point on an interior face belongs to the cell on its + side. Callers that know which cell a
-//! point belongs to (a ray tracer does) should use [`gradient`] with that cell instead.
+//! point belongs to (a ray tracer does) should use [`Trilinear::gradient`] with that cell
+//! instead: the one gradient, CPU and GPU (`field::interpolant::trilinear::gradient`).
 
 use glam::DVec3;
 
@@ -45,20 +46,6 @@ pub fn lerp3(a: DVec3, b: DVec3, w: f64) -> DVec3 {
 /// The 8 corner values of cell `cell`, widened to `f64`, in corner order.
 pub fn cell_corners(grid: &Grid, cell: [usize; 3]) -> [f64; 8] {
     grid.corners(cell[0], cell[1], cell[2]).map(f64::from)
-}
-
-/// Gradient of the trilinear interpolant of `c` at cell-local `q`, in cell-local units (value
-/// per cell). Each component is the bilinear interpolation of the 4 edge differences along that
-/// axis.
-#[inline]
-pub fn gradient(c: &[f64; 8], q: DVec3) -> DVec3 {
-    let bilerp =
-        |a: f64, b: f64, cc: f64, d: f64, u: f64, v: f64| lerp(lerp(a, b, u), lerp(cc, d, u), v);
-    DVec3::new(
-        bilerp(c[1] - c[0], c[3] - c[2], c[5] - c[4], c[7] - c[6], q.y, q.z),
-        bilerp(c[2] - c[0], c[3] - c[1], c[6] - c[4], c[7] - c[5], q.x, q.z),
-        bilerp(c[4] - c[0], c[5] - c[1], c[6] - c[2], c[7] - c[3], q.x, q.y),
-    )
 }
 
 /// The interpolant of a cell in the monomial basis:
@@ -134,7 +121,7 @@ pub fn value_at(grid: &Grid, p: DVec3) -> Option<f64> {
 
 /// World-space gradient of the field in cell `cell` at cell-local `q` (value per world unit).
 pub fn world_gradient(grid: &Grid, cell: [usize; 3], q: DVec3) -> DVec3 {
-    gradient(&cell_corners(grid, cell), q) / grid.spacing()
+    Trilinear::gradient(&cell_corners(grid, cell), q) / grid.spacing()
 }
 
 /// World-space gradient at world point `p` (in the cell [`locate`] picks), `None` outside the
@@ -180,7 +167,7 @@ mod tests {
                 + m.ayz * q.y * q.z
                 + m.axyz * q.x * q.y * q.z;
             assert!((mono - trilerp(&c, q)).abs() < 1e-14);
-            let g = gradient(&c, q);
+            let g = Trilinear::gradient(&c, q);
             let mg = DVec3::new(
                 m.ax + m.axy * q.y + m.axz * q.z + m.axyz * q.y * q.z,
                 m.ay + m.axy * q.x + m.ayz * q.z + m.axyz * q.x * q.z,

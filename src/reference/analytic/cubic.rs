@@ -4,7 +4,8 @@
 
 use glam::DVec3;
 
-use crate::reference::trilinear::{gradient, Monomial};
+use crate::field::interpolant::{Kernel, Trilinear};
+use crate::reference::trilinear::Monomial;
 use crate::scene::Inside;
 
 /// `g(u) = c[3] u^3 + c[2] u^2 + c[1] u + c[0]` for `u` in `[0, 1]`.
@@ -34,7 +35,7 @@ impl Cubic {
         Cubic {
             c: [
                 g_in,
-                gradient(corners, q_in).dot(d),
+                Trilinear::gradient(corners, q_in).dot(d),
                 d.x * d.y * mixed.z + d.x * d.z * mixed.y + d.y * d.z * mixed.x,
                 m.axyz * d.x * d.y * d.z,
             ],

@@ -1,9 +1,8 @@
 // The interpolant of a cell, one home for every shader that interpolates (Rust:
-// `field::interpolant`). Only the trilinear interpolant exists. Two forms are here until every
-// shader uses the first: `interp_value` / `interp_gradient` interpolate in the f64 reference's
-// order (x, then y, then z, with `precise` lerps: exact at 0 and 1), used by the analytic
-// method; `trilinear_local` / `gradient_local` interpolate z first with `mix`, used by the
-// fixed-step march and the mesh resolve (field.glsl). Depends on nothing (no `P`, no bindings).
+// `field::interpolant`). Only the trilinear interpolant exists. `interp_value` and
+// `interp_gradient` are the f64 reference's arithmetic in f32: x, then y, then z, with
+// `precise` lerps (exact at 0 and 1), and the sum-of-products gradient. Depends on nothing
+// (no `P`, no bindings), so every shader can include it.
 #ifndef INTERPOLANT_GLSL
 #define INTERPOLANT_GLSL
 
@@ -57,23 +56,26 @@ vec3 interp_gradient(Corners k, vec3 q) {
     return g;
 }
 
-// Trilinear interpolation at local coordinates f in [0,1]^3.
-float trilinear_local(Corners k, vec3 f) {
-    vec4 x = mix(k.lo, k.hi, f.z);       // the 4 x-edges' ends on the plane z = f.z
-    vec2 y = mix(x.xy, x.zw, f.y);       // the x-edge at y = f.y
-    return mix(y.x, y.y, f.x);
+// Corners from 8 values in corner order (v000, v100, v010, v110, v001, v101, v011, v111).
+Corners corners_of(float v[8]) {
+    Corners k;
+    k.lo = vec4(v[0], v[1], v[2], v[3]);
+    k.hi = vec4(v[4], v[5], v[6], v[7]);
+    return k;
 }
 
-// Gradient with respect to local coordinates.
-vec3 gradient_local(Corners k, vec3 f) {
-    vec4 x = mix(k.lo, k.hi, f.z);
-    vec2 y = mix(x.xy, x.zw, f.y);
-    float gx = y.y - y.x;
-    float gy = mix(x.z - x.x, x.w - x.y, f.x);
-    vec4 dz = k.hi - k.lo;
-    vec2 dzy = mix(dz.xy, dz.zw, f.y);
-    float gz = mix(dzy.x, dzy.y, f.x);
-    return vec3(gx, gy, gz);
+// The interpolant applied to each component of 8 vectors in corner order (smooth normals
+// interpolate the point gradients so): `interp_value` per component, the same bits.
+vec3 interp_value3(vec3 g[8], vec3 q) {
+    vec3 r;
+    for (int a = 0; a < 3; a++) {
+        float v[8];
+        for (int n = 0; n < 8; n++) {
+            v[n] = g[n][a];
+        }
+        r[a] = interp_value(corners_of(v), q);
+    }
+    return r;
 }
 
 #endif

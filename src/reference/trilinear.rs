@@ -1,5 +1,7 @@
-//! The trilinear interpolant of a [`Grid`], in `f64`: value and gradient, per cell and at world
-//! points. Every CPU reference evaluates the field through these functions.
+//! The trilinear interpolant of a [`Grid`], in `f64`, at world points: the spaces, [`locate`], and
+//! the value and gradient at a point, around `field::interpolant::trilinear`'s per-cell
+//! arithmetic (the one value and gradient, CPU and GPU). Every CPU reference evaluates the field
+//! through these functions.
 //!
 //! # Spaces
 //!
@@ -20,7 +22,8 @@
 //! which returns `a` and `b` bit for bit at `w = 0` and `w = 1`. So two cells sharing a face give
 //! bitwise identical values at a point of that face, provided both see the same non-snapped local
 //! coordinates and the crossed coordinate is exactly 0 in one and exactly 1 in the other. The
-//! analytic tracer relies on this (see `analytic`); a GPU port must keep the same order.
+//! analytic tracer relies on this (see `analytic`); the GPU keeps the same order
+//! (`shaders/include/interpolant.glsl`, `precise`).
 //!
 //! # Gradients at faces
 //!

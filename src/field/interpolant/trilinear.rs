@@ -1,6 +1,7 @@
 //! The trilinear interpolant, the one CPU implementation (f64): the corners source, the CPU
 //! references (`reference::trilinear` re-exports these), the slices and the extractors' normals
-//! all evaluate it here.
+//! all evaluate it here. Its GPU twin is `shaders/include/interpolant.glsl` (`interp_value`,
+//! `interp_gradient`): the same arithmetic in the same order, in f32.
 //!
 //! [`trilerp`] interpolates along x, then y, then z, with [`lerp`]`(a, b, w) = (1 - w) a + w b`
 //! (GLSL's `mix`), which returns `a` and `b` bit for bit at `w = 0` and `w = 1`: a cell's corners

@@ -51,46 +51,6 @@ pub fn cell_corners(grid: &Grid, cell: [usize; 3]) -> [f64; 8] {
     grid.corners(cell[0], cell[1], cell[2]).map(f64::from)
 }
 
-/// The interpolant of a cell in the monomial basis:
-/// `f = a0 + ax x + ay y + az z + axy x y + axz x z + ayz y z + axyz x y z` (cell-local).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Monomial {
-    pub a0: f64,
-    pub ax: f64,
-    pub ay: f64,
-    pub az: f64,
-    pub axy: f64,
-    pub axz: f64,
-    pub ayz: f64,
-    pub axyz: f64,
-}
-
-impl Monomial {
-    /// Coefficients of the interpolant of corners `c` (corner order).
-    pub fn from_corners(c: &[f64; 8]) -> Self {
-        Monomial {
-            a0: c[0],
-            ax: c[1] - c[0],
-            ay: c[2] - c[0],
-            az: c[4] - c[0],
-            axy: (c[3] - c[2]) - (c[1] - c[0]),
-            axz: (c[5] - c[4]) - (c[1] - c[0]),
-            ayz: (c[6] - c[4]) - (c[2] - c[0]),
-            axyz: ((c[7] - c[6]) - (c[5] - c[4])) - ((c[3] - c[2]) - (c[1] - c[0])),
-        }
-    }
-
-    /// Mixed second derivatives `(f_yz, f_xz, f_xy)` at cell-local `q` (the diagonal of the
-    /// Hessian is zero).
-    pub fn mixed(&self, q: DVec3) -> DVec3 {
-        DVec3::new(
-            self.ayz + self.axyz * q.x,
-            self.axz + self.axyz * q.y,
-            self.axy + self.axyz * q.z,
-        )
-    }
-}
-
 /// Index-space coordinates of world point `p` (may lie outside the box).
 pub fn to_index(grid: &Grid, p: DVec3) -> DVec3 {
     (p - grid.min) / grid.spacing()
@@ -137,6 +97,7 @@ pub fn gradient_at(grid: &Grid, p: DVec3) -> Option<DVec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::reference::analytic::cubic::Monomial;
 
     fn xorshift(state: &mut u64) -> f64 {
         *state ^= *state << 13;

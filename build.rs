@@ -54,6 +54,10 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
         "Cells per side of a brick of the min/max grid (empty-space skipping).",
     ),
     ("SUPER", 4, Glsl::Int, "Bricks per side of a superbrick, the min/max grid's coarser level."),
+    // The interpolant's stencil (Rust: `field::interpolant::STENCIL`, asserted equal in
+    // passes/bricks.rs): the points a cell reads before its lower corner and after it.
+    ("STENCIL_BELOW", 0, Glsl::Int, "Points a cell reads before its lower corner, per axis."),
+    ("STENCIL_ABOVE", 1, Glsl::Int, "Points a cell reads after its lower corner, per axis."),
     // `RenderParams.method.x`.
     ("METHOD_FIXED_STEP", 0, Glsl::Uint, "RenderParams.method.x of fixed-step ray marching."),
     ("METHOD_ANALYTIC", 1, Glsl::Uint, "RenderParams.method.x of the exact ray tracer."),

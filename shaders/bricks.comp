@@ -1,9 +1,9 @@
 #version 450
 // The min/max grid of empty-space skipping (`src/passes/bricks.rs`): one invocation per brick of
-// `size`^3 cells, writing the smallest and largest of the grid values at the brick's points,
-// (size + 1)^3 of them (a brick's cells share their boundary points with the next brick). Every
-// value of the trilinear field inside the brick's cells is a convex combination of these, so it
-// lies in [min, max].
+// `size`^3 cells, writing the smallest and largest of the grid values at the points its cells
+// read (`Stencil::brick_points`; trilinear: (size + 1)^3, a brick's cells share their boundary
+// points with the next brick). Every value of the trilinear field inside the brick's cells is a
+// convex combination of these, so it lies in [min, max].
 
 #extension GL_GOOGLE_include_directive : require
 
@@ -22,8 +22,10 @@ void main() {
     ivec3 b = ivec3(gl_GlobalInvocationID);
     if (any(greaterThanEqual(b, shape.bricks.xyz))) return;
     int size = shape.bricks.w;
-    ivec3 lo = b * size;
-    ivec3 hi = min(lo + size, shape.points.xyz - 1);
+    // The brick's cells b size .. min((b + 1) size, n - 1) and their stencil, inside the grid.
+    ivec3 cells = shape.points.xyz - 1;
+    ivec3 lo = max(min(b * size, cells) - STENCIL_BELOW, 0);
+    ivec3 hi = min(min(b * size + size, cells) - 1 + STENCIL_ABOVE, shape.points.xyz - 1);
     // Missing samples (NaN, inf) are left out (`field::interpolant::widen`): GLSL's min/max are undefined
     // with NaN. A brick with no finite sample keeps [inf, -inf], which no range test calls clear.
     float vmin = uintBitsToFloat(0x7f800000u);

@@ -3,7 +3,7 @@
 // band of rows. Mirrors `slice::reference` (f64):
 //   1. pixel (px, py) -> grid index coordinates: (px + 0.5) * cells_u / W along the plane's u
 //      axis, (H - py - 0.5) * cells_v / H along v, the plane's own coordinate along its axis;
-//   2. value = the trilinear interpolant there (x, then y, then z, as reference::trilinear);
+//   2. value = the interpolant there (interpolant.glsl: the f64 reference's arithmetic);
 //   3. colour = a diverging colormap at 0.5 + 0.5 * s * (value - iso) / range (s = +1 when
 //      below is inside: inside takes the low end), linearly interpolated between 256 entries;
 //   4. contour lines: distance to the segments listed for the pixel's 8x8 tile, drawn with
@@ -47,6 +47,7 @@ layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 const uint TILE = uint(SLICE_GROUP);
 
 #include "missing.glsl"
+#include "interpolant.glsl"
 
 // The colour of a pixel with no data (`slice::reference::NO_DATA`).
 const vec3 NO_DATA = vec3(0.2);
@@ -55,21 +56,17 @@ float grid_value(ivec3 p) {
     return texelFetch(u_grid, p, 0).r;
 }
 
-// The trilinear interpolant at grid index coordinates g (inside the box); NaN where g's cell
-// is missing (missing.glsl).
-float trilinear(vec3 g) {
+// The interpolant at grid index coordinates g (inside the box); NaN where g's cell is missing
+// (missing.glsl).
+float field_value(vec3 g) {
     ivec3 c = clamp(ivec3(floor(g)), ivec3(0), P.dims.xyz - 2);
-    vec3 f = g - vec3(c);
-    vec4 lo = vec4(grid_value(c), grid_value(c + ivec3(1, 0, 0)), grid_value(c + ivec3(0, 1, 0)),
-                   grid_value(c + ivec3(1, 1, 0)));
-    vec4 hi = vec4(grid_value(c + ivec3(0, 0, 1)), grid_value(c + ivec3(1, 0, 1)),
-                   grid_value(c + ivec3(0, 1, 1)), grid_value(c + ivec3(1, 1, 1)));
-    if (corners_missing(lo, hi)) return uintBitsToFloat(0x7fc00000u);
-    float x00 = mix(grid_value(c), grid_value(c + ivec3(1, 0, 0)), f.x);
-    float x10 = mix(grid_value(c + ivec3(0, 1, 0)), grid_value(c + ivec3(1, 1, 0)), f.x);
-    float x01 = mix(grid_value(c + ivec3(0, 0, 1)), grid_value(c + ivec3(1, 0, 1)), f.x);
-    float x11 = mix(grid_value(c + ivec3(0, 1, 1)), grid_value(c + ivec3(1, 1, 1)), f.x);
-    return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
+    float v[8];
+    for (int n = 0; n < 8; n++) {
+        v[n] = grid_value(c + ivec3(n & 1, (n >> 1) & 1, n >> 2));
+    }
+    Corners k = corners_of(v);
+    if (corners_missing(k.lo, k.hi)) return uintBitsToFloat(0x7fc00000u);
+    return interp_value(k, g - vec3(c));
 }
 
 vec4 colormap_at(float c) {
@@ -96,7 +93,7 @@ void main() {
     g[P.axes.x] = (float(px.x) + 0.5) * P.scale.x;
     g[P.axes.y] = (float(P.image.y - px.y) - 0.5) * P.scale.y;
     g[P.axes.z] = P.plane.x;
-    float value = trilinear(g);
+    float value = field_value(g);
 
     // Colour, centred on the isovalue.
     vec4 colour = isnan(value)

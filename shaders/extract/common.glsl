@@ -12,6 +12,7 @@
 // layers from C.value_z0.
 
 #include "missing.glsl"
+#include "interpolant.glsl"
 
 layout(std140, binding = 0) uniform Params {
     ivec4 dims;     // xyz: grid points per axis; w: padding layers (pad)
@@ -238,22 +239,14 @@ vec3 world(ivec3 base, vec3 local) {
     return w;
 }
 
-// Index-space gradient of the trilinear interpolant of grid cell c at local (x, y, z):
-// `trilinear_gradient` in `mesh/field.rs`.
+// Index-space gradient of the interpolant of grid cell c at local l (interp_gradient: the sum
+// of products of `field::interpolant::trilinear::gradient`, the CPU meshes' normals).
 vec3 cell_gradient(ivec3 c, vec3 l) {
     float v[8];
     for (int n = 0; n < 8; n++) {
         v[n] = value_at(c + pad() + offset_of(uint(n)));
     }
-    float x = l.x, y = l.y, z = l.z;
-    float mx = 1.0 - x, my = 1.0 - y, mz = 1.0 - z;
-    return vec3(
-        my * mz * (v[1] - v[0]) + y * mz * (v[3] - v[2]) + my * z * (v[5] - v[4])
-            + y * z * (v[7] - v[6]),
-        mx * mz * (v[2] - v[0]) + x * mz * (v[3] - v[1]) + mx * z * (v[6] - v[4])
-            + x * z * (v[7] - v[5]),
-        mx * my * (v[4] - v[0]) + x * my * (v[5] - v[1]) + mx * y * (v[6] - v[2])
-            + x * y * (v[7] - v[3]));
+    return interp_gradient(corners_of(v), l);
 }
 
 // Index-space gradient at grid index-space point base + local (local in [0, 1]³), averaged over

@@ -167,20 +167,20 @@ float field_cached(inout CellCache cache, vec3 u) {
         cache.k = cell_corners(c);
         cache.missing = cell_missing(cache.k);
     }
-    return trilinear_local(cache.k, u - vec3(c));
+    return interp_value(cache.k, u - vec3(c));
 }
 
 // Field value at grid coordinates u (already inside the box).
 float field_at(vec3 u) {
     ivec3 c = cell_of(u);
-    return trilinear_local(cell_corners(c), u - vec3(c));
+    return interp_value(cell_corners(c), u - vec3(c));
 }
 
 // Unit world-space normal at grid coordinates u, pointing from inside to outside; `fallback`
 // where the gradient vanishes.
 vec3 normal_at(vec3 u, vec3 fallback) {
     ivec3 c = cell_of(u);
-    vec3 g = gradient_local(cell_corners(c), u - vec3(c)) * P.inv_spacing.xyz * P.surface.y;
+    vec3 g = interp_gradient(cell_corners(c), u - vec3(c)) * P.inv_spacing.xyz * P.surface.y;
     float len = length(g);
     return len > 0.0 ? g / len : fallback;
 }
@@ -202,19 +202,18 @@ vec3 point_gradient(ivec3 c, ivec3 p) {
     return g;
 }
 
-// The point gradients of u's cell interpolated trilinearly at u (z, then y, then x, as
-// `trilinear_local`), in world units. The points are read for cell `via`, the cell the hit was
-// found in: u's cell (cell_of) is `via` or, for a hit on via's far face, its neighbour across it,
-// whose far points then weigh 0 and whose other points are within POOL_APRON of via's brick.
+// The point gradients of u's cell interpolated at u component by component (`interp_value3`:
+// the interpolant's order, as `reference::field::smooth_gradient_at`), in world units. The
+// points are read for cell `via`, the cell the hit was found in: u's cell (cell_of) is `via`
+// or, for a hit on via's far face, its neighbour across it, whose far points then weigh 0 and
+// whose other points are within POOL_APRON of via's brick.
 vec3 smooth_gradient(ivec3 via, vec3 u) {
     ivec3 c = cell_of(u);
-    vec3 f = u - vec3(c);
-    vec3 g00 = mix(point_gradient(via, c), point_gradient(via, c + ivec3(0, 0, 1)), f.z);
-    vec3 g10 = mix(point_gradient(via, c + ivec3(1, 0, 0)), point_gradient(via, c + ivec3(1, 0, 1)), f.z);
-    vec3 g01 = mix(point_gradient(via, c + ivec3(0, 1, 0)), point_gradient(via, c + ivec3(0, 1, 1)), f.z);
-    vec3 g11 = mix(point_gradient(via, c + ivec3(1, 1, 0)), point_gradient(via, c + ivec3(1, 1, 1)), f.z);
-    vec3 g = mix(mix(g00, g01, f.y), mix(g10, g11, f.y), f.x);
-    return g * P.inv_spacing.xyz;
+    vec3 g[8];
+    for (int n = 0; n < 8; n++) {
+        g[n] = point_gradient(via, c + ivec3(n & 1, (n >> 1) & 1, n >> 2));
+    }
+    return interp_value3(g, u - vec3(c)) * P.inv_spacing.xyz;
 }
 
 // The normal the scene asks for at grid coordinates u (a hit found in cell `via`), given the

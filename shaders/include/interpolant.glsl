@@ -1,9 +1,8 @@
 // The interpolant of a cell, one home for every shader that interpolates (Rust:
-// `field::interpolant`). Only the trilinear interpolant exists. Two forms are here until every
-// shader uses the first: `interp_value` / `interp_gradient` interpolate in the f64 reference's
-// order (x, then y, then z, with `precise` lerps: exact at 0 and 1), used by the analytic
-// method; `trilinear_local` / `gradient_local` interpolate z first with `mix`, used by the
-// fixed-step march and the mesh resolve (field.glsl). Depends on nothing (no `P`, no bindings).
+// `field::interpolant`). Only the trilinear interpolant exists. `interp_value` and
+// `interp_gradient` are the f64 reference's arithmetic in f32: x, then y, then z, with
+// `precise` lerps (exact at 0 and 1), and the sum-of-products gradient. Depends on nothing
+// (no `P`, no bindings), so every shader can include it.
 #ifndef INTERPOLANT_GLSL
 #define INTERPOLANT_GLSL
 
@@ -41,34 +40,42 @@ float interp_value(Corners k, vec3 q) {
     return lerp1(y.x, y.y, q.z);
 }
 
-// Gradient at cell-local q, in value per cell: each component is the bilinear interpolation of
-// the 4 edge differences along that axis.
+// Gradient at cell-local q, in value per cell: the sum-of-products form of the f64 one
+// (`field::interpolant::trilinear::gradient`), term for term and in the same order; `precise`
+// (no reassociation, no fused multiply-adds) so that every shader that calls it gets the same
+// bits from the same corners.
 vec3 interp_gradient(Corners k, vec3 q) {
-    float c0 = k.lo.x, c1 = k.lo.y, c2 = k.lo.z, c3 = k.lo.w;
-    float c4 = k.hi.x, c5 = k.hi.y, c6 = k.hi.z, c7 = k.hi.w;
-    return vec3(
-        lerp1(lerp1(c1 - c0, c3 - c2, q.y), lerp1(c5 - c4, c7 - c6, q.y), q.z),
-        lerp1(lerp1(c2 - c0, c3 - c1, q.x), lerp1(c6 - c4, c7 - c5, q.x), q.z),
-        lerp1(lerp1(c4 - c0, c5 - c1, q.x), lerp1(c6 - c2, c7 - c3, q.x), q.y));
+    float v0 = k.lo.x, v1 = k.lo.y, v2 = k.lo.z, v3 = k.lo.w;
+    float v4 = k.hi.x, v5 = k.hi.y, v6 = k.hi.z, v7 = k.hi.w;
+    float x = q.x, y = q.y, z = q.z;
+    precise float mx = 1.0 - x, my = 1.0 - y, mz = 1.0 - z;
+    precise vec3 g = vec3(
+        my * mz * (v1 - v0) + y * mz * (v3 - v2) + my * z * (v5 - v4) + y * z * (v7 - v6),
+        mx * mz * (v2 - v0) + x * mz * (v3 - v1) + mx * z * (v6 - v4) + x * z * (v7 - v5),
+        mx * my * (v4 - v0) + x * my * (v5 - v1) + mx * y * (v6 - v2) + x * y * (v7 - v3));
+    return g;
 }
 
-// Trilinear interpolation at local coordinates f in [0,1]^3.
-float trilinear_local(Corners k, vec3 f) {
-    vec4 x = mix(k.lo, k.hi, f.z);       // the 4 x-edges' ends on the plane z = f.z
-    vec2 y = mix(x.xy, x.zw, f.y);       // the x-edge at y = f.y
-    return mix(y.x, y.y, f.x);
+// Corners from 8 values in corner order (v000, v100, v010, v110, v001, v101, v011, v111).
+Corners corners_of(float v[8]) {
+    Corners k;
+    k.lo = vec4(v[0], v[1], v[2], v[3]);
+    k.hi = vec4(v[4], v[5], v[6], v[7]);
+    return k;
 }
 
-// Gradient with respect to local coordinates.
-vec3 gradient_local(Corners k, vec3 f) {
-    vec4 x = mix(k.lo, k.hi, f.z);
-    vec2 y = mix(x.xy, x.zw, f.y);
-    float gx = y.y - y.x;
-    float gy = mix(x.z - x.x, x.w - x.y, f.x);
-    vec4 dz = k.hi - k.lo;
-    vec2 dzy = mix(dz.xy, dz.zw, f.y);
-    float gz = mix(dzy.x, dzy.y, f.x);
-    return vec3(gx, gy, gz);
+// The interpolant applied to each component of 8 vectors in corner order (smooth normals
+// interpolate the point gradients so): `interp_value` per component, the same bits.
+vec3 interp_value3(vec3 g[8], vec3 q) {
+    vec3 r;
+    for (int a = 0; a < 3; a++) {
+        float v[8];
+        for (int n = 0; n < 8; n++) {
+            v[n] = g[n][a];
+        }
+        r[a] = interp_value(corners_of(v), q);
+    }
+    return r;
 }
 
 #endif

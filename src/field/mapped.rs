@@ -21,6 +21,7 @@ use std::path::PathBuf;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::interpolant::STENCIL;
 use super::samples::{self, Endian, SampleType, StorageOrder};
 use super::source::FieldSource;
 use super::{FieldError, FieldSpec, Grid, NanPolicy};
@@ -199,7 +200,8 @@ impl MappedGrid {
         FieldError::Shrank { path: self.path.clone(), len: now.ok() }
     }
 
-    /// The min/max of every brick of `brick` cells (over its `brick + 1` points per axis), x
+    /// The min/max of every brick of `brick` cells (over the points it reads,
+    /// [`Stencil::brick_points`](super::interpolant::Stencil::brick_points)), x
     /// fastest, `ceil(cells / brick)` per axis, as `passes::bricks` lays them out; with
     /// `field.nan = "error"` fails on a non-finite sample (the first the scan meets: by brick
     /// layer along the file's slowest axis), with `"empty"` leaves it out of the range
@@ -243,7 +245,7 @@ impl MappedGrid {
         count_f: usize,
     ) -> Result<Vec<[f32; 2]>, FieldError> {
         let mut mm = vec![[f32::INFINITY, f32::NEG_INFINITY]; count_f];
-        let span = |a: usize, b: usize| b * brick..=((b + 1) * brick).min(self.dims[a] - 1);
+        let span = |a: usize, b: usize| STENCIL.brick_points(b, brick, self.dims[a]);
         let n = self.dims[f];
         let (mut row, mut raw) = (Vec::with_capacity(n), Vec::new());
         for ps in span(s, bs) {

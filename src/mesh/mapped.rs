@@ -39,9 +39,9 @@ pub fn extract_mapped_within(
     let lattice = Lattice { dims: grid.dims, min: grid.min, max: grid.max };
     let [nx, ny, _] = grid.dims;
     let layers = window::cell_layers(x.algo, grid.dims);
-    // Cell layers per range: the window holds them plus up to 4 ghost layers.
+    // Cell layers per range: the window holds them plus up to window::GHOST_LAYERS more.
     let plane = nx * ny * 4;
-    let depth = (window_bytes / plane).saturating_sub(4).max(1);
+    let depth = (window_bytes / plane).saturating_sub(window::GHOST_LAYERS).max(1);
     let mut joiner = Joiner::with_budget(budget.clone());
     let mut start = 0;
     while start < layers {

@@ -38,6 +38,7 @@ use glam::DVec3;
 use super::field::Field;
 use super::slabs::{self, Join, Part};
 use super::{dc_qef, dual, mc, mc33, mt, nets, ExtractOptions, Mesh, MeshBudget, MeshError};
+use crate::field::interpolant::STENCIL;
 use crate::field::{Grid, PointField};
 use crate::vocab::{Inside, MeshAlgorithm, SharpSettings};
 
@@ -129,10 +130,15 @@ pub fn point_layers(algo: MeshAlgorithm, dims: [usize; 3], cells: Range<usize>) 
     // quad split reads (the dual methods); the normals on the plane between, which average
     // the cells on both sides, up to layer b + 1 too (the QEF of `dual-contouring-qef` reads
     // them at the crossings of the next range's first cells, one padded layer further up).
-    let lo = cells.start.saturating_sub(padding(algo) + 1);
-    let hi = cells.end + 2;
+    // (Each of those cells reads its stencil: trilinear, its own two point layers.)
+    let lo = cells.start.saturating_sub(padding(algo) + STENCIL.below + 1);
+    let hi = cells.end + STENCIL.above + 1;
     lo..hi.min(dims[2])
 }
+
+/// The most point layers [`point_layers`] holds beyond its cell layers: the padding (1 at most),
+/// the ghost layer below and the one above, and the stencil's reach (trilinear: 4 in all).
+pub const GHOST_LAYERS: usize = 1 + STENCIL.below + STENCIL.above + 2;
 
 /// The `k`-th of `n` consecutive, nearly equal shares of `layers` cell layers (the first
 /// `layers % n` one layer deeper; empty when `n > layers` and `k >= layers`).

@@ -131,3 +131,24 @@ fn a_window_short_of_its_layers_and_bad_words_are_errors() {
     assert!(SlabMesh::from_words(&words[..words.len() - 1]).is_none());
     assert!(SlabMesh::from_words(&words[..3]).is_none());
 }
+
+#[test]
+fn point_layers_are_the_old_trilinear_formula() {
+    // Written for 2 points per axis before it was read from the stencil: a - pad - 1 .. b + 2.
+    for algo in MeshAlgorithm::ALL {
+        let pad = padding(algo);
+        for nz in 2..12usize {
+            let dims = [3, 3, nz];
+            let layers = cell_layers(algo, dims);
+            for a in 0..layers {
+                for b in a + 1..=layers {
+                    let old = a.saturating_sub(pad + 1)..(b + 2).min(nz);
+                    let new = point_layers(algo, dims, a..b);
+                    assert_eq!(new, old, "{} nz {nz} cells {a}..{b}", algo.name());
+                    assert!(new.len() <= b - a + GHOST_LAYERS);
+                }
+            }
+        }
+    }
+    assert_eq!(GHOST_LAYERS, 4);
+}

@@ -30,6 +30,12 @@ pub const BRICK: usize = shaders::consts::BRICK as usize;
 /// Bricks per superbrick edge.
 pub const SUPER: usize = shaders::consts::SUPER as usize;
 
+// bricks.comp reads each brick's stencil with build.rs's numbers; they must be Rust's.
+const _: () = assert!(
+    shaders::consts::STENCIL_BELOW as usize == crate::field::interpolant::STENCIL.below
+        && shaders::consts::STENCIL_ABOVE as usize == crate::field::interpolant::STENCIL.above
+);
+
 /// Workgroup size of `bricks.comp` along each axis.
 const GROUP: u32 = shaders::consts::BRICKS_GROUP;
 

@@ -4,7 +4,7 @@
 
 use glam::DVec3;
 
-use super::trilinear::{cell_corners, gradient};
+use super::trilinear::cell_corners;
 use crate::field::interpolant::{Kernel, Trilinear};
 use crate::field::Grid;
 
@@ -27,7 +27,7 @@ pub fn value_at(grid: &Grid, u: DVec3) -> f64 {
 pub fn gradient_at(grid: &Grid, u: DVec3) -> DVec3 {
     let c = cell_of(grid, u);
     let f = u - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
-    gradient(&cell_corners(grid, c), f) / grid.spacing()
+    Trilinear::gradient(&cell_corners(grid, c), f) / grid.spacing()
 }
 
 /// `render.normals = "smooth"` (GPU: `smooth_gradient` in `shaders/include/field.glsl`): the

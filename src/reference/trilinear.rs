@@ -1,5 +1,7 @@
-//! The trilinear interpolant of a [`Grid`], in `f64`: value and gradient, per cell and at world
-//! points. Every CPU reference evaluates the field through these functions.
+//! The trilinear interpolant of a [`Grid`], in `f64`, at world points: the spaces, [`locate`], and
+//! the value and gradient at a point, around `field::interpolant::trilinear`'s per-cell
+//! arithmetic (the one value and gradient, CPU and GPU). Every CPU reference evaluates the field
+//! through these functions.
 //!
 //! # Spaces
 //!
@@ -20,14 +22,16 @@
 //! which returns `a` and `b` bit for bit at `w = 0` and `w = 1`. So two cells sharing a face give
 //! bitwise identical values at a point of that face, provided both see the same non-snapped local
 //! coordinates and the crossed coordinate is exactly 0 in one and exactly 1 in the other. The
-//! analytic tracer relies on this (see `analytic`); a GPU port must keep the same order.
+//! analytic tracer relies on this (see `analytic`); the GPU keeps the same order
+//! (`shaders/include/interpolant.glsl`, `precise`).
 //!
 //! # Gradients at faces
 //!
 //! The interpolant is only C0 across cells: on a shared face the two cells' gradients differ in
 //! the component normal to the face. [`locate`] picks the cell `clamp(floor(q), 0, n - 2)`, so a
 //! point on an interior face belongs to the cell on its + side. Callers that know which cell a
-//! point belongs to (a ray tracer does) should use [`gradient`] with that cell instead.
+//! point belongs to (a ray tracer does) should use [`Trilinear::gradient`] with that cell
+//! instead: the one gradient, CPU and GPU (`field::interpolant::trilinear::gradient`).
 
 use glam::DVec3;
 
@@ -45,60 +49,6 @@ pub fn lerp3(a: DVec3, b: DVec3, w: f64) -> DVec3 {
 /// The 8 corner values of cell `cell`, widened to `f64`, in corner order.
 pub fn cell_corners(grid: &Grid, cell: [usize; 3]) -> [f64; 8] {
     grid.corners(cell[0], cell[1], cell[2]).map(f64::from)
-}
-
-/// Gradient of the trilinear interpolant of `c` at cell-local `q`, in cell-local units (value
-/// per cell). Each component is the bilinear interpolation of the 4 edge differences along that
-/// axis.
-#[inline]
-pub fn gradient(c: &[f64; 8], q: DVec3) -> DVec3 {
-    let bilerp =
-        |a: f64, b: f64, cc: f64, d: f64, u: f64, v: f64| lerp(lerp(a, b, u), lerp(cc, d, u), v);
-    DVec3::new(
-        bilerp(c[1] - c[0], c[3] - c[2], c[5] - c[4], c[7] - c[6], q.y, q.z),
-        bilerp(c[2] - c[0], c[3] - c[1], c[6] - c[4], c[7] - c[5], q.x, q.z),
-        bilerp(c[4] - c[0], c[5] - c[1], c[6] - c[2], c[7] - c[3], q.x, q.y),
-    )
-}
-
-/// The interpolant of a cell in the monomial basis:
-/// `f = a0 + ax x + ay y + az z + axy x y + axz x z + ayz y z + axyz x y z` (cell-local).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Monomial {
-    pub a0: f64,
-    pub ax: f64,
-    pub ay: f64,
-    pub az: f64,
-    pub axy: f64,
-    pub axz: f64,
-    pub ayz: f64,
-    pub axyz: f64,
-}
-
-impl Monomial {
-    /// Coefficients of the interpolant of corners `c` (corner order).
-    pub fn from_corners(c: &[f64; 8]) -> Self {
-        Monomial {
-            a0: c[0],
-            ax: c[1] - c[0],
-            ay: c[2] - c[0],
-            az: c[4] - c[0],
-            axy: (c[3] - c[2]) - (c[1] - c[0]),
-            axz: (c[5] - c[4]) - (c[1] - c[0]),
-            ayz: (c[6] - c[4]) - (c[2] - c[0]),
-            axyz: ((c[7] - c[6]) - (c[5] - c[4])) - ((c[3] - c[2]) - (c[1] - c[0])),
-        }
-    }
-
-    /// Mixed second derivatives `(f_yz, f_xz, f_xy)` at cell-local `q` (the diagonal of the
-    /// Hessian is zero).
-    pub fn mixed(&self, q: DVec3) -> DVec3 {
-        DVec3::new(
-            self.ayz + self.axyz * q.x,
-            self.axz + self.axyz * q.y,
-            self.axy + self.axyz * q.z,
-        )
-    }
 }
 
 /// Index-space coordinates of world point `p` (may lie outside the box).
@@ -134,7 +84,7 @@ pub fn value_at(grid: &Grid, p: DVec3) -> Option<f64> {
 
 /// World-space gradient of the field in cell `cell` at cell-local `q` (value per world unit).
 pub fn world_gradient(grid: &Grid, cell: [usize; 3], q: DVec3) -> DVec3 {
-    gradient(&cell_corners(grid, cell), q) / grid.spacing()
+    Trilinear::gradient(&cell_corners(grid, cell), q) / grid.spacing()
 }
 
 /// World-space gradient at world point `p` (in the cell [`locate`] picks), `None` outside the
@@ -147,6 +97,7 @@ pub fn gradient_at(grid: &Grid, p: DVec3) -> Option<DVec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::reference::analytic::cubic::Monomial;
 
     fn xorshift(state: &mut u64) -> f64 {
         *state ^= *state << 13;
@@ -180,7 +131,7 @@ mod tests {
                 + m.ayz * q.y * q.z
                 + m.axyz * q.x * q.y * q.z;
             assert!((mono - trilerp(&c, q)).abs() < 1e-14);
-            let g = gradient(&c, q);
+            let g = Trilinear::gradient(&c, q);
             let mg = DVec3::new(
                 m.ax + m.axy * q.y + m.axz * q.z + m.axyz * q.y * q.z,
                 m.ay + m.axy * q.x + m.ayz * q.z + m.axyz * q.x * q.z,

@@ -13,6 +13,7 @@
 //! jumps) and evaluates only the cells it owns, so a hit is found with the same bits as by
 //! one process; `cluster::composite` then picks the nearest hit per pixel.
 
+use crate::field::interpolant::{SMOOTH_NORMAL_REACH, STENCIL};
 use crate::field::Grid;
 use crate::passes::bricks::{brick_counts, BRICK};
 
@@ -51,11 +52,12 @@ impl Block {
         for a in 0..3 {
             b.cells_lo[a] = cells[a] * at[a] / parts[a];
             b.cells_hi[a] = cells[a] * (at[a] + 1) / parts[a];
-            // Points of its cells, and one ghost plane each side inside the grid.
-            let first = b.cells_lo[a].saturating_sub(1);
-            let last = (b.cells_hi[a] + 1).min(dims[a] - 1);
-            b.origin[a] = first;
-            b.extent[a] = last - first + 1;
+            // The points its cells read, and the ghost planes the central differences of smooth
+            // normals read around them (trilinear: one each side), inside the grid.
+            let points =
+                STENCIL.widened(SMOOTH_NORMAL_REACH).points(b.cells_lo[a]..b.cells_hi[a], dims[a]);
+            b.origin[a] = points.start;
+            b.extent[a] = points.len();
         }
         b
     }
@@ -76,7 +78,7 @@ impl Block {
     }
 
     /// Its part of the brick min/max grid of the whole grid (`passes::bricks`' layout and
-    /// definition: brick b covers points b·BRICK ..= min(b·BRICK + BRICK, n - 1) per axis):
+    /// definition: brick b covers the points its cells read, `Stencil::brick_points`):
     /// min and max over the points of its own cells in each brick (missing samples left out:
     /// `field::interpolant::widen`), (+inf, -inf) where it has none. The element-wise min of the
     /// mins and max of the maxes over all ranks is the whole grid's brick grid, since the
@@ -112,9 +114,7 @@ impl Block {
 
 /// The bricks (of `count` along the axis) whose points include point `p`.
 fn bricks_of(p: usize, count: usize) -> impl Iterator<Item = usize> {
-    let b = p / BRICK;
-    let below = (p % BRICK == 0 && b > 0).then(|| b - 1);
-    below.into_iter().chain((b < count).then_some(b))
+    STENCIL.bricks_holding(p, BRICK, count)
 }
 
 /// How many blocks along each axis for `ranks` blocks of `cells`: the factorisation of

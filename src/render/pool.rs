@@ -35,6 +35,7 @@ use std::sync::Arc;
 use ash::vk;
 use rayon::prelude::*;
 
+use crate::field::interpolant::{SMOOTH_NORMAL_REACH, STENCIL};
 use crate::field::mapped::MappedGrid;
 use crate::field::{FieldError, GridLimits};
 use crate::gpu::{Buffer, Context, GpuError, MemoryLocation};
@@ -46,6 +47,15 @@ pub const APRON: usize = shaders::consts::POOL_APRON as usize;
 
 /// Points per edge of a slot.
 pub const SLOT: usize = BRICK + 1 + 2 * APRON;
+
+// The apron covers what a cell of the brick reads beyond the brick's BRICK + 1 points (its
+// stencil) plus the smooth normals' central differences. build.rs keeps the number (the shaders
+// need it at compile time); this holds it to the stencil.
+const _: () = {
+    let s = STENCIL;
+    let beyond = if s.below > s.above - 1 { s.below } else { s.above - 1 };
+    assert!(APRON >= beyond + SMOOTH_NORMAL_REACH);
+};
 
 /// Page table entry of a brick not in the pool.
 pub const NO_PAGE: u32 = shaders::consts::NO_PAGE;

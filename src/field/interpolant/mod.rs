@@ -69,14 +69,42 @@ impl Stencil {
         self.below + self.above + 1
     }
 
+    /// The stencil reaching `r` more points on each side (smooth normals: [`SMOOTH_NORMAL_REACH`]).
+    pub const fn widened(self, r: usize) -> Stencil {
+        Stencil { below: self.below + r, above: self.above + r }
+    }
+
     /// The point indices that cells `cells` read along an axis of `n` points, clamped to the
-    /// grid (a stencil reaching past the boundary reads the boundary point again).
+    /// grid (a stencil reaching past the boundary reads the boundary point again). For an
+    /// empty range `c..c`, the points around the plane `c` (`below` under it, `above` from it).
     pub fn points(self, cells: Range<usize>, n: usize) -> Range<usize> {
         let lo = cells.start.saturating_sub(self.below);
-        let hi = (cells.end.saturating_sub(1) + self.above + 1).min(n);
+        let hi = (cells.end + self.above).min(n);
         lo.min(hi)..hi
     }
+
+    /// The points brick `b` of `size` cells reads along an axis of `n` points (its cells
+    /// `b size .. min((b + 1) size, n - 1)`): the min/max grid's range of a brick is over these
+    /// (`passes::bricks`, `shaders/bricks.comp`, `field::mapped`, `render::block`).
+    pub fn brick_points(self, b: usize, size: usize, n: usize) -> Range<usize> {
+        let cells = n.saturating_sub(1);
+        self.points((b * size).min(cells)..((b + 1) * size).min(cells), n)
+    }
+
+    /// The bricks of `size` cells, `count` of them along the axis, whose points
+    /// ([`Stencil::brick_points`]) include point `p`.
+    pub fn bricks_holding(self, p: usize, size: usize, count: usize) -> Range<usize> {
+        // Brick b reads points b size - below ..< (b + 1) size + above.
+        let first = (p + 1).saturating_sub(self.above).div_ceil(size).saturating_sub(1);
+        let last = ((p + self.below) / size).min(count.saturating_sub(1));
+        first..last + 1
+    }
 }
+
+/// The stencil the grid is read with today: the trilinear interpolant's. Brick ranges, the
+/// pool's apron, the MPI ghost planes, the z-range windows and the GPU extraction's slabs are
+/// sized from it (the GLSL side: `STENCIL_BELOW` / `STENCIL_ABOVE`, build.rs).
+pub const STENCIL: Stencil = Trilinear::STENCIL;
 
 /// What the shaders' smooth normals add to the stencil on each side: central differences of
 /// the point gradients read one point further.
@@ -162,6 +190,59 @@ mod tests {
         assert_eq!(cubic.width(), 4);
         assert_eq!(cubic.points(3..7, 20), 2..9);
         assert_eq!(cubic.points(0..9, 10), 0..10, "clamped at both ends");
+    }
+
+    #[test]
+    fn trilinear_sizes_are_the_old_formulas() {
+        // The sizes were written for 2 points per axis before they were read from the stencil;
+        // these are those formulas, which the trilinear stencil must reproduce exactly.
+        for n in 2..40usize {
+            for size in [1usize, 2, 3, 8] {
+                let count = (n - 1).div_ceil(size);
+                for b in 0..count {
+                    // bricks.comp, field::mapped: b size ..= min(b size + size, n - 1).
+                    assert_eq!(
+                        STENCIL.brick_points(b, size, n),
+                        b * size..(b * size + size).min(n - 1) + 1
+                    );
+                }
+                for p in 0..n {
+                    // render::block: a point on a brick boundary belongs to both bricks.
+                    let b = p / size;
+                    let old: Vec<usize> = (p % size == 0 && b > 0)
+                        .then(|| b - 1)
+                        .into_iter()
+                        .chain((b < count).then_some(b))
+                        .collect();
+                    let new: Vec<usize> = STENCIL.bricks_holding(p, size, count).collect();
+                    assert_eq!(new, old, "n {n} size {size} p {p}");
+                }
+            }
+            for lo in 0..n {
+                for hi in lo..n {
+                    // render::block's ghost planes: lo - 1 ..= min(hi + 1, n - 1).
+                    let p = STENCIL.widened(SMOOTH_NORMAL_REACH).points(lo..hi, n);
+                    assert_eq!((p.start, p.end - 1), (lo.saturating_sub(1), (hi + 1).min(n - 1)));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_cubic_stencil_widens_the_brick_ranges() {
+        let cubic = Stencil { below: 1, above: 2 };
+        assert_eq!(cubic.brick_points(1, 8, 30), 7..18);
+        assert_eq!(cubic.brick_points(0, 8, 30), 0..10);
+        assert_eq!(cubic.brick_points(3, 8, 30), 23..30);
+        for p in 0..30 {
+            for b in 0..4 {
+                assert_eq!(
+                    cubic.bricks_holding(p, 8, 4).contains(&b),
+                    cubic.brick_points(b, 8, 30).contains(&p),
+                    "p {p} b {b}"
+                );
+            }
+        }
     }
 
     #[test]

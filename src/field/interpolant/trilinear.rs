@@ -1,6 +1,7 @@
 //! The trilinear interpolant, the one CPU implementation (f64): the corners source, the CPU
 //! references (`reference::trilinear` re-exports these), the slices and the extractors' normals
-//! all evaluate it here.
+//! all evaluate it here. Its GPU twin is `shaders/include/interpolant.glsl` (`interp_value`,
+//! `interp_gradient`): the same arithmetic in the same order, in f32.
 //!
 //! [`trilerp`] interpolates along x, then y, then z, with [`lerp`]`(a, b, w) = (1 - w) a + w b`
 //! (GLSL's `mix`), which returns `a` and `b` bit for bit at `w = 0` and `w = 1`: a cell's corners
@@ -63,10 +64,12 @@ pub fn trilerp(c: &[f64; 8], q: DVec3) -> f64 {
 }
 
 /// Gradient (index space, value per cell) of the trilinear interpolant of corner values `v` at
-/// cell-local `(x, y, z)` in `[0, 1]³`, as a sum of products: the mesh normals (`mesh::field`)
-/// and the GPU extraction's `cell_gradient` (`shaders/extract/common.glsl`) depend on these
-/// exact bits. (`reference::trilinear::gradient` is the same derivative as a bilerp of edge
-/// differences: equal in exact arithmetic, not bit for bit.)
+/// cell-local `(x, y, z)` in `[0, 1]³`, as a sum of products. This is THE gradient, CPU and GPU:
+/// the mesh normals (`mesh::field`), the CPU references (fixed-step and analytic normals, the
+/// analytic cubic's `c1`) and every shader (`interp_gradient` in
+/// `shaders/include/interpolant.glsl`, the same terms in the same order, `precise`). The form
+/// is this one, not the bilerp of edge differences (equal in exact arithmetic, not bit for bit),
+/// because meshes must keep their bytes and their normals have always been these bits.
 #[inline]
 pub fn gradient(v: &[f64; 8], x: f64, y: f64, z: f64) -> DVec3 {
     let (mx, my, mz) = (1.0 - x, 1.0 - y, 1.0 - z);

@@ -5,6 +5,7 @@
 //! without a device; [`super::driver`] records and submits what it decides.
 
 use super::{inside_threshold, ExtractParams, GpuMeshError, SlabPush};
+use crate::field::interpolant::STENCIL;
 use crate::field::Grid;
 use crate::gpu::GpuError;
 use crate::mesh::MeshError;
@@ -97,6 +98,11 @@ pub fn owned(counters: &[u32]) -> (u64, u64) {
     )
 }
 
+/// Sample layers a slab holds beyond its cell layers: its 2 extra point layers, one more layer
+/// each side for the gradients of the cells around them, and the stencil of those cells
+/// (trilinear: 4).
+const VALUE_LAYERS: usize = 2 + 1 + STENCIL.below + STENCIL.above;
+
 /// Which layers a slab holds and owns. Indices are into the slab's point / cell buffers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SlabPlan {
@@ -124,8 +130,9 @@ impl SlabPlan {
     pub fn new(kind: Kind, z0: usize, z1: usize, cell_layers: usize, lp: usize, lc: usize) -> Self {
         let mut plan = SlabPlan::layers(kind, z0, z1, cell_layers, lp, lc);
         let point_end = plan.point_z0 + plan.points / lp;
-        plan.value_z0 = plan.point_z0.saturating_sub(1);
-        plan.values = ((point_end + 1).min(cell_layers + 1) - plan.value_z0) * lp;
+        // The cells on either side of the point layers (the gradients), with their stencils.
+        plan.value_z0 = plan.point_z0.saturating_sub(1 + STENCIL.below);
+        plan.values = ((point_end + STENCIL.above).min(cell_layers + 1) - plan.value_z0) * lp;
         plan
     }
 
@@ -285,8 +292,8 @@ impl Slabs {
         let limit_bytes = binding_bytes.min(MAX_SCRATCH_BYTES);
         let limit_elems = (limit_bytes / 4) as usize;
         // Slab depth: a slab holds at most `layers + 2` point layers (plus one total) and
-        // `layers + 4` layers of samples.
-        let by_limit = (limit_elems.saturating_sub(1) / lp).saturating_sub(4);
+        // `layers + VALUE_LAYERS` layers of samples.
+        let by_limit = (limit_elems.saturating_sub(1) / lp).saturating_sub(VALUE_LAYERS);
         if by_limit == 0 {
             return Err(GpuError::TooLarge {
                 what: format!("a z layer of {}x{} points", np[0], np[1]),
@@ -316,7 +323,7 @@ impl Slabs {
         ScratchSizes {
             points: (self.layers + 2) * self.lp,
             cells: (self.layers + 1) * self.lc,
-            values: (self.layers + 4) * self.lp,
+            values: (self.layers + VALUE_LAYERS) * self.lp,
         }
     }
 
@@ -412,6 +419,13 @@ mod tests {
 
     const MC: Kind = Kind::Edges { mt: false, mc33: false };
     const DC: Kind = Kind::Dual { pad: 1 };
+
+    /// Written for 2 points per axis before it was read from the stencil (and checked in
+    /// `slabs_own_every_layer_once`: the samples are the point layers and one on either side).
+    #[test]
+    fn trilinear_slabs_hold_the_old_four_sample_layers() {
+        assert_eq!(VALUE_LAYERS, 4);
+    }
 
     /// Every owned point and cell layer of a grid is owned by exactly one slab, whatever the
     /// slab depth.

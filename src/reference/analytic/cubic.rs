@@ -4,8 +4,49 @@
 
 use glam::DVec3;
 
-use crate::reference::trilinear::{gradient, Monomial};
+use crate::field::interpolant::{Kernel, Trilinear};
 use crate::scene::Inside;
+
+/// The trilinear interpolant of a cell in the monomial basis (the root finder's own form: the
+/// cubic's `c2` and `c3` come from it):
+/// `f = a0 + ax x + ay y + az z + axy x y + axz x z + ayz y z + axyz x y z` (cell-local).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Monomial {
+    pub a0: f64,
+    pub ax: f64,
+    pub ay: f64,
+    pub az: f64,
+    pub axy: f64,
+    pub axz: f64,
+    pub ayz: f64,
+    pub axyz: f64,
+}
+
+impl Monomial {
+    /// Coefficients of the interpolant of corners `c` (corner order).
+    pub fn from_corners(c: &[f64; 8]) -> Self {
+        Monomial {
+            a0: c[0],
+            ax: c[1] - c[0],
+            ay: c[2] - c[0],
+            az: c[4] - c[0],
+            axy: (c[3] - c[2]) - (c[1] - c[0]),
+            axz: (c[5] - c[4]) - (c[1] - c[0]),
+            ayz: (c[6] - c[4]) - (c[2] - c[0]),
+            axyz: ((c[7] - c[6]) - (c[5] - c[4])) - ((c[3] - c[2]) - (c[1] - c[0])),
+        }
+    }
+
+    /// Mixed second derivatives `(f_yz, f_xz, f_xy)` at cell-local `q` (the diagonal of the
+    /// Hessian is zero).
+    pub fn mixed(&self, q: DVec3) -> DVec3 {
+        DVec3::new(
+            self.ayz + self.axyz * q.x,
+            self.axz + self.axyz * q.y,
+            self.axy + self.axyz * q.z,
+        )
+    }
+}
 
 /// `g(u) = c[3] u^3 + c[2] u^2 + c[1] u + c[0]` for `u` in `[0, 1]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,7 +75,7 @@ impl Cubic {
         Cubic {
             c: [
                 g_in,
-                gradient(corners, q_in).dot(d),
+                Trilinear::gradient(corners, q_in).dot(d),
                 d.x * d.y * mixed.z + d.x * d.z * mixed.y + d.y * d.z * mixed.x,
                 m.axyz * d.x * d.y * d.z,
             ],

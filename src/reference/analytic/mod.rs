@@ -166,11 +166,11 @@ mod tests;
 
 use glam::DVec3;
 
-use crate::field::interpolant::cell_missing;
+use crate::field::interpolant::{cell_missing, Kernel, Trilinear};
 use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::reference::shade::{nearest_surface, render_with, RayHit};
-use crate::reference::trilinear::{cell_corners, gradient, lerp3, trilerp};
+use crate::reference::trilinear::{cell_corners, lerp3, trilerp};
 use crate::scene::{Inside, Scene};
 use crate::vocab::Clip;
 
@@ -581,7 +581,7 @@ fn walk(
                 let t = segment_t(t_in, t_out, u);
                 if is_hit {
                     let q = lerp3(q_in, q_out, u);
-                    let grad = gradient(&corners, q) / h;
+                    let grad = Trilinear::gradient(&corners, q) / h;
                     let oriented = match inside {
                         Inside::Below => grad,
                         Inside::Above => -grad,

@@ -620,28 +620,13 @@ fn extract_gpu(
 /// mesh's counts go into the budget before it is read back.
 fn extract_on(ctx: Arc<crate::gpu::Context>, job: &Job) -> Result<(Mesh, Backend), Failure> {
     let Job { scene, grid, opts, budget, .. } = *job;
-    if !scene.render.mesh.on_gpu(&scene.render.sharp) {
-        note!(
-            "note: {} is extracted on the CPU (no GPU extraction passes for it{})",
-            scene.render.mesh.name(),
-            if scene.render.mesh == crate::scene::MeshAlgorithm::DualContouringQef {
-                " with hermite = \"source\" or mesh_error"
-            } else {
-                ""
-            }
-        );
-        return Ok((extract_cpu(job)?, Backend::Cpu));
-    }
-    if scene.render.mesh == crate::scene::MeshAlgorithm::Mc33 && !ctx.info.float64 {
-        note!(
-            "note: mc33 is extracted on the CPU ({} has no 64-bit floats, which the \
-             GPU mc33 passes need)",
-            ctx.info.name
-        );
+    let method = scene.render.mesh.method();
+    if let Some(why) = method.cpu_instead(&scene.render.sharp, ctx.info.float64) {
+        note!("{}", why.note(method, &ctx.info.name));
         return Ok((extract_cpu(job)?, Backend::Cpu));
     }
     // The GPU passes read the grid as one 3D image: over the device's extent the CPU extracts
-    // it instead (as for mc33 above), rather than a GPU failure (exit 3) naming no key.
+    // it instead (as for mc33 without 64-bit floats above), rather than a GPU failure (exit 3) naming no key.
     if let Err(e) = scene.field.check_image_extent(ctx.info.max_image_dimension_3d) {
         note!("note: extracted on the CPU ({e})");
         return Ok((extract_cpu(job)?, Backend::Cpu));

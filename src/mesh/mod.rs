@@ -72,6 +72,7 @@ pub mod limits;
 pub mod mapped;
 mod mc;
 mod mc33;
+pub mod method;
 mod mt;
 mod nets;
 mod octree;
@@ -84,9 +85,10 @@ mod tests;
 pub mod window;
 
 pub use limits::{MeshBudget, MeshLimits, MESH_CAP_ENV};
+pub use method::MeshAlgorithm;
 
 use crate::field::{Grid, PointField};
-use crate::vocab::{HermiteNormals, Inside, MeshAlgorithm, SharpSettings};
+use crate::vocab::{HermiteNormals, Inside, SharpSettings};
 
 /// An indexed triangle mesh in world space.
 ///
@@ -384,10 +386,8 @@ const STREAM_DEPTH: usize = 4;
 
 /// Why `x` cannot be extracted piece by piece ([`extract_streamed`]); None when it can.
 pub fn not_streamed(x: &window::Extraction) -> Option<&'static str> {
-    match x.algo {
-        MeshAlgorithm::Mc33 => Some("mc33 (its added vertices follow every edge vertex)"),
-        _ => window::not_in_slabs(x.algo, x.sharp),
-    }
+    let m = x.algo.method();
+    m.not_streamed.or_else(|| (m.not_in_slabs)(x.sharp))
 }
 
 /// [`extract_parallel_with`] of `x`, handed to `sink` piece by piece instead of joined: a

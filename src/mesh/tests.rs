@@ -7,9 +7,10 @@ use crate::field::interpolant::trilinear::{gradient as trilinear_gradient, trile
 
 use super::stats::compute;
 use super::tables::*;
+use super::MeshAlgorithm;
 use super::{extract, ExtractOptions, Mesh};
 use crate::field::Grid;
-use crate::vocab::{Inside, MeshAlgorithm};
+use crate::vocab::Inside;
 
 /// [`trilerp`] at local `(x, y, z)`.
 fn trilinear(v: &[f64; 8], x: f64, y: f64, z: f64) -> f64 {

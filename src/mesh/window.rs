@@ -37,9 +37,10 @@ use glam::DVec3;
 
 use super::field::Field;
 use super::slabs::{self, Join, Part};
+use super::MeshAlgorithm;
 use super::{dc_qef, dual, mc, mc33, mt, nets, ExtractOptions, Mesh, MeshBudget, MeshError};
 use crate::field::{Grid, PointField};
-use crate::vocab::{Inside, MeshAlgorithm, SharpSettings};
+use crate::vocab::{Inside, SharpSettings};
 
 /// The whole grid a window belongs to: its points per axis and its box.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -78,35 +79,18 @@ pub struct Extraction<'a> {
 impl Extraction<'_> {
     /// Whether the mesh keeps its quads: `opts.keep_quads` for the methods that make quads.
     pub fn keeps_quads(&self) -> bool {
-        let dual = matches!(
-            self.algo,
-            MeshAlgorithm::SurfaceNets
-                | MeshAlgorithm::DualContouring
-                | MeshAlgorithm::DualContouringQef
-        );
-        self.opts.keep_quads && dual
+        self.opts.keep_quads && self.algo.method().quads
     }
 }
 
 /// Why `algo` with `sharp` cannot be extracted in z-ranges; None when it can.
 pub fn not_in_slabs(algo: MeshAlgorithm, sharp: &SharpSettings) -> Option<&'static str> {
-    match algo {
-        MeshAlgorithm::ExtendedMc => {
-            Some("extended-mc (its edge flips look at cells of any distance)")
-        }
-        MeshAlgorithm::DualContouringQef if sharp.mesh_error.is_some() => {
-            Some("dual-contouring-qef with mesh_error (its octree spans the whole grid)")
-        }
-        _ => None,
-    }
+    (algo.method().not_in_slabs)(sharp)
 }
 
 /// The padding of the dual methods' cell lattice along z (`dual`).
 fn padding(algo: MeshAlgorithm) -> usize {
-    match algo {
-        MeshAlgorithm::DualContouring | MeshAlgorithm::DualContouringQef => 1,
-        _ => 0,
-    }
+    algo.method().padding
 }
 
 /// The cell layers along z that `algo` numbers on a grid of `dims` points, which ranges of

@@ -5,7 +5,8 @@ use std::path::PathBuf;
 
 use glam::DVec3;
 
-pub use crate::vocab::{Bounds, HermiteNormals, Inside, MeshAlgorithm, SdfShape, SharpSettings};
+pub use crate::mesh::MeshAlgorithm;
+pub use crate::vocab::{Bounds, HermiteNormals, Inside, SdfShape, SharpSettings};
 
 /// A validated scene: everything a render or an extraction needs, nothing unchecked.
 #[derive(Clone, Debug)]

@@ -12,10 +12,11 @@ use isoview::cluster::{Extracted, Points, Ranks};
 use isoview::field::mapped::MappedGrid;
 use isoview::field::{Endian, FieldSource, FieldSpec, Grid, RawSource, Residency, SampleType};
 use isoview::mesh::window::Extraction;
+use isoview::mesh::MeshAlgorithm;
 use isoview::mesh::{self, ExtractOptions, Mesh, MeshBudget, MeshLimits};
 use isoview::render::{Collect, GpuGrid, Renderer};
 use isoview::scene::Method;
-use isoview::vocab::{Bounds, Inside, MeshAlgorithm, Placement, SharpSettings};
+use isoview::vocab::{Bounds, Inside, Placement, SharpSettings};
 
 use crate::common::{gpu, grid_from, scene_for, scratch, Rng};
 

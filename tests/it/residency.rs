@@ -301,8 +301,9 @@ fn pool_errors_are_one_line() {
 #[test]
 fn mapped_extraction_equals_the_whole_grids() {
     use isoview::mesh::window::Extraction;
+    use isoview::mesh::MeshAlgorithm;
     use isoview::mesh::{self, ExtractOptions};
-    use isoview::vocab::{MeshAlgorithm, SharpSettings};
+    use isoview::vocab::SharpSettings;
     let dir = scratch("residency-extract");
     let mut rng = Rng::new(77);
     let sharp = SharpSettings::default();

@@ -11,6 +11,13 @@
 //! [`MeshAlgorithm::method`] here, its module `mesh/<name>.rs`, and its tests
 //! (docs/contributing.md "Adding things").
 
+use std::ops::Range;
+
+use super::field::Field;
+use super::slabs::Part;
+use super::window::Extraction;
+use super::{dcqef, dual, emc, hermite, mc, mc33, mt, nets, octree, Mesh, MeshError};
+use crate::field::PointField;
 use crate::vocab::{HermiteNormals, SharpSettings};
 
 /// `render.mesh`: the extraction method.
@@ -132,7 +139,21 @@ pub struct Method {
     /// Why its slabs, though cut, are not handed out as pieces one by one
     /// (`mesh::extract_streamed`); None: they are.
     pub not_streamed: Option<&'static str>,
+    /// The f64 reference: the whole grid on one thread.
+    pub(crate) reference: fn(&Field, &Extraction) -> Result<Mesh, MeshError>,
+    /// Its slab code, for the threaded, z-range and streamed extractions (equal to the
+    /// reference bit for bit once joined); None: never cut into slabs, and then
+    /// [`Method::not_in_slabs`] always says why.
+    pub(crate) slab: Option<SlabMaker>,
 }
+
+/// A slab of cell layers as a method extracts it, ready to run on any thread (state such as
+/// the QEF rule built once and moved in).
+pub(crate) type SlabFn<'a> = Box<dyn Fn(Range<usize>) -> Result<Part, MeshError> + Sync + 'a>;
+
+/// Builds a method's [`SlabFn`] for a field and its settings.
+pub(crate) type SlabMaker =
+    for<'a> fn(&'a Field<'a>, &'a Extraction<'a>) -> Result<SlabFn<'a>, MeshError>;
 
 impl Method {
     /// Why this method is extracted on the CPU when the GPU is asked for, with `sharp` on a
@@ -164,6 +185,46 @@ impl Method {
     }
 }
 
+/// The Hermite data source of the settings.
+fn hermite<'f, 'g, 's>(
+    f: &'f Field<'g>,
+    sharp: &SharpSettings,
+    source: Option<&'s PointField<'s>>,
+) -> Result<hermite::Hermite<'f, 'g, 's>, MeshError> {
+    let source = match sharp.hermite {
+        HermiteNormals::Trilinear => None,
+        HermiteNormals::Source => Some(source.ok_or(MeshError::NoPointSource)?),
+    };
+    Ok(hermite::Hermite { f, source })
+}
+
+/// `extended-mc` from the settings.
+fn emc<'f, 'g, 's>(
+    f: &'f Field<'g>,
+    sharp: &SharpSettings,
+    source: Option<&'s PointField<'s>>,
+) -> Result<emc::Emc<'f, 'g, 's>, MeshError> {
+    Ok(emc::Emc {
+        hermite: hermite(f, sharp, source)?,
+        threshold: sharp.qef_threshold,
+        clamp: sharp.qef_clamp,
+        cos_feature: sharp.feature_angle_deg.to_radians().cos(),
+    })
+}
+
+/// `dual-contouring-qef`'s vertex rule from the settings.
+fn dc_qef<'f, 'g, 's>(
+    f: &'f Field<'g>,
+    sharp: &SharpSettings,
+    source: Option<&'s PointField<'s>>,
+) -> Result<dcqef::DcQef<'f, 'g, 's>, MeshError> {
+    Ok(dcqef::DcQef {
+        hermite: hermite(f, sharp, source)?,
+        threshold: sharp.qef_threshold,
+        clamp: sharp.qef_clamp,
+    })
+}
+
 /// Settings that never change a method's answer.
 fn never(_: &SharpSettings) -> Option<&'static str> {
     None
@@ -181,6 +242,8 @@ static MARCHING_CUBES: Method = Method {
     gpu_off: never,
     not_in_slabs: never,
     not_streamed: None,
+    reference: |f, _| mc::extract(f),
+    slab: Some(|f, _| Ok(Box::new(move |c| mc::extract_slab(f, c)))),
 };
 
 static MC33: Method = Method {
@@ -195,6 +258,8 @@ static MC33: Method = Method {
     gpu_off: never,
     not_in_slabs: never,
     not_streamed: Some("mc33 (its added vertices follow every edge vertex)"),
+    reference: |f, _| mc33::extract(f),
+    slab: Some(|f, _| Ok(Box::new(move |c| mc33::extract_slab(f, c)))),
 };
 
 static SURFACE_NETS: Method = Method {
@@ -209,6 +274,12 @@ static SURFACE_NETS: Method = Method {
     gpu_off: never,
     not_in_slabs: never,
     not_streamed: None,
+    reference: |f, x| dual::extract(f, dual::Boundary::Open, x.opts, None),
+    // The threaded path's own surface nets (`nets`), the reference's mesh bit for bit.
+    slab: Some(|f, x| {
+        let opts = x.opts;
+        Ok(Box::new(move |c| nets::extract_slab(f, opts, c)))
+    }),
 };
 
 static DUAL_CONTOURING: Method = Method {
@@ -223,6 +294,11 @@ static DUAL_CONTOURING: Method = Method {
     gpu_off: never,
     not_in_slabs: never,
     not_streamed: None,
+    reference: |f, x| dual::extract(f, dual::Boundary::Closed, x.opts, None),
+    slab: Some(|f, x| {
+        let opts = x.opts;
+        Ok(Box::new(move |c| dual::extract_slab(f, dual::Boundary::Closed, opts, None, c)))
+    }),
 };
 
 static MARCHING_TETRAHEDRA: Method = Method {
@@ -237,6 +313,8 @@ static MARCHING_TETRAHEDRA: Method = Method {
     gpu_off: never,
     not_in_slabs: never,
     not_streamed: None,
+    reference: |f, _| mt::extract(f),
+    slab: Some(|f, _| Ok(Box::new(move |c| mt::extract_slab(f, c)))),
 };
 
 static DUAL_CONTOURING_QEF: Method = Method {
@@ -258,6 +336,17 @@ static DUAL_CONTOURING_QEF: Method = Method {
             .map(|_| "dual-contouring-qef with mesh_error (its octree spans the whole grid)")
     },
     not_streamed: None,
+    reference: |f, x| {
+        let q = dc_qef(f, x.sharp, x.source)?;
+        match x.sharp.mesh_error {
+            Some(eps) => octree::extract(&q, eps),
+            None => dual::extract(f, dual::Boundary::Closed, x.opts, Some(&q)),
+        }
+    },
+    slab: Some(|f, x| {
+        let (q, opts) = (dc_qef(f, x.sharp, x.source)?, x.opts);
+        Ok(Box::new(move |c| dual::extract_slab(f, dual::Boundary::Closed, opts, Some(&q), c)))
+    }),
 };
 
 static EXTENDED_MC: Method = Method {
@@ -272,6 +361,8 @@ static EXTENDED_MC: Method = Method {
     gpu_off: never,
     not_in_slabs: |_| Some("extended-mc (its edge flips look at cells of any distance)"),
     not_streamed: None,
+    reference: |f, x| emc(f, x.sharp, x.source)?.extract(),
+    slab: None,
 };
 
 #[cfg(test)]
@@ -287,6 +378,17 @@ mod tests {
             // The mc33 passes are the ones that need shaderFloat64 (`Mc33Passes::new`).
             let m = a.method();
             assert_eq!(m.gpu_float64, m.gpu == Some(GpuPasses::Mc33), "{a:?}");
+            // A method never cut into slabs says why (`window::with_slab`).
+            let d = SharpSettings::default();
+            assert!(m.slab.is_some() || (m.not_in_slabs)(&d).is_some(), "{a:?}");
+        }
+        // The dual methods' padding is the boundary their reference and slabs use.
+        for (a, b) in [
+            (MeshAlgorithm::SurfaceNets, dual::Boundary::Open),
+            (MeshAlgorithm::DualContouring, dual::Boundary::Closed),
+            (MeshAlgorithm::DualContouringQef, dual::Boundary::Closed),
+        ] {
+            assert_eq!(a.method().padding, dual::padding(b), "{a:?}");
         }
     }
 

@@ -88,7 +88,7 @@ pub use limits::{MeshBudget, MeshLimits, MESH_CAP_ENV};
 pub use method::MeshAlgorithm;
 
 use crate::field::{Grid, PointField};
-use crate::vocab::{HermiteNormals, Inside, SharpSettings};
+use crate::vocab::{Inside, SharpSettings};
 
 /// An indexed triangle mesh in world space.
 ///
@@ -253,61 +253,8 @@ pub fn extract_with(
 ) -> Result<Mesh, MeshError> {
     check(grid, iso)?;
     let f = field::Field::new(grid, iso, inside);
-    match algo {
-        MeshAlgorithm::MarchingCubes => mc::extract(&f),
-        MeshAlgorithm::MarchingTetrahedra => mt::extract(&f),
-        MeshAlgorithm::SurfaceNets => dual::extract(&f, dual::Boundary::Open, opts, None),
-        MeshAlgorithm::DualContouring => dual::extract(&f, dual::Boundary::Closed, opts, None),
-        MeshAlgorithm::Mc33 => mc33::extract(&f),
-        MeshAlgorithm::DualContouringQef => {
-            let q = dc_qef(&f, sharp, source)?;
-            match sharp.mesh_error {
-                Some(eps) => octree::extract(&q, eps),
-                None => dual::extract(&f, dual::Boundary::Closed, opts, Some(&q)),
-            }
-        }
-        MeshAlgorithm::ExtendedMc => emc(&f, sharp, source)?.extract(),
-    }
-}
-
-/// The Hermite data source of the settings.
-fn hermite<'f, 'g, 's>(
-    f: &'f field::Field<'g>,
-    sharp: &SharpSettings,
-    source: Option<&'s PointField<'s>>,
-) -> Result<hermite::Hermite<'f, 'g, 's>, MeshError> {
-    let source = match sharp.hermite {
-        HermiteNormals::Trilinear => None,
-        HermiteNormals::Source => Some(source.ok_or(MeshError::NoPointSource)?),
-    };
-    Ok(hermite::Hermite { f, source })
-}
-
-/// `extended-mc` from the settings.
-fn emc<'f, 'g, 's>(
-    f: &'f field::Field<'g>,
-    sharp: &SharpSettings,
-    source: Option<&'s PointField<'s>>,
-) -> Result<emc::Emc<'f, 'g, 's>, MeshError> {
-    Ok(emc::Emc {
-        hermite: hermite(f, sharp, source)?,
-        threshold: sharp.qef_threshold,
-        clamp: sharp.qef_clamp,
-        cos_feature: sharp.feature_angle_deg.to_radians().cos(),
-    })
-}
-
-/// `dual-contouring-qef`'s vertex rule from the settings.
-fn dc_qef<'f, 'g, 's>(
-    f: &'f field::Field<'g>,
-    sharp: &SharpSettings,
-    source: Option<&'s PointField<'s>>,
-) -> Result<dcqef::DcQef<'f, 'g, 's>, MeshError> {
-    Ok(dcqef::DcQef {
-        hermite: hermite(f, sharp, source)?,
-        threshold: sharp.qef_threshold,
-        clamp: sharp.qef_clamp,
-    })
+    let x = window::Extraction { iso, inside, algo, opts, sharp, source };
+    (algo.method().reference)(&f, &x)
 }
 
 /// [`extract`] on all threads of the current `rayon` pool: the grid is cut into slabs of cell

@@ -38,7 +38,7 @@ use glam::DVec3;
 use super::field::Field;
 use super::slabs::{self, Join, Part};
 use super::MeshAlgorithm;
-use super::{dc_qef, dual, mc, mc33, mt, nets, ExtractOptions, Mesh, MeshBudget, MeshError};
+use super::{ExtractOptions, Mesh, MeshBudget, MeshError};
 use crate::field::{Grid, PointField};
 use crate::vocab::{Inside, SharpSettings};
 
@@ -256,24 +256,12 @@ pub(crate) fn with_slab<T, E: From<MeshError>>(
     x: &Extraction,
     run: impl FnOnce(Slab) -> Result<T, E>,
 ) -> Result<T, E> {
-    let opts = x.opts;
-    match x.algo {
-        MeshAlgorithm::MarchingCubes => run(&|c| mc::extract_slab(f, c)),
-        MeshAlgorithm::MarchingTetrahedra => run(&|c| mt::extract_slab(f, c)),
-        MeshAlgorithm::Mc33 => run(&|c| mc33::extract_slab(f, c)),
-        MeshAlgorithm::SurfaceNets => run(&|c| nets::extract_slab(f, opts, c)),
-        MeshAlgorithm::DualContouring => {
-            run(&|c| dual::extract_slab(f, dual::Boundary::Closed, opts, None, c))
-        }
-        MeshAlgorithm::DualContouringQef if x.sharp.mesh_error.is_none() => {
-            let q = dc_qef(f, x.sharp, x.source)?;
-            run(&|c| dual::extract_slab(f, dual::Boundary::Closed, opts, Some(&q), c))
-        }
-        _ => {
-            let why = not_in_slabs(x.algo, x.sharp).unwrap_or("this method");
-            Err(MeshError::NotInSlabs(why).into())
-        }
-    }
+    let m = x.algo.method();
+    let make = match (m.slab, (m.not_in_slabs)(x.sharp)) {
+        (Some(make), None) => make,
+        (_, why) => return Err(MeshError::NotInSlabs(why.unwrap_or(m.name)).into()),
+    };
+    run(&*make(f, x)?)
 }
 
 /// Joins the [`SlabMesh`]es of consecutive z-ranges, pushed from the bottom up, into the

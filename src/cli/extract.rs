@@ -10,8 +10,8 @@
 //! other value names the Vulkan device, as for every other subcommand, and implies `gpu`. With
 //! `--device auto|gpu|cpu` the Vulkan device comes from `ISOVIEW_DEVICE`.
 //!
-//! * `cpu`: the multi-threaded CPU extraction (`mesh::extract_parallel`, all cores, rayon), whose
-//!   mesh is the f64 reference's (`mesh::extract`) bit for bit.
+//! * `cpu`: the multi-threaded CPU extraction (`mesh::extract`, all cores, rayon), whose
+//!   mesh is the f64 reference's (`mesh::reference`) bit for bit.
 //! * `gpu`: the Vulkan compute passes (`passes::extract`) on the Vulkan device.
 //! * `auto` (the default): opens the Vulkan device and extracts on the CPU when its type is CPU
 //!   (lavapipe, where the compute passes are software on the same cores and slower than the
@@ -74,8 +74,8 @@ pub enum Backend {
     Auto,
     /// Vulkan compute (`isoview::passes::extract`).
     Gpu,
-    /// The multi-threaded CPU extraction (`isoview::mesh::extract_parallel`), equal to the f64
-    /// reference `isoview::mesh::extract` bit for bit.
+    /// The multi-threaded CPU extraction (`isoview::mesh::extract`), equal to the f64
+    /// reference `isoview::mesh::reference` bit for bit.
     Cpu,
 }
 
@@ -273,7 +273,7 @@ fn streamed_on_cpu(
     opts: ExtractOptions,
     probed_cpu: Option<&str>,
 ) -> Option<String> {
-    let x = extraction(scene, 0, opts, None);
+    let x = scene.mesh_request(0, None).with_opts(opts);
     let one_piece_at_a_time = format == Format::Ply
         && scene.surface.count == 1
         && scene.clip.count == 0
@@ -314,7 +314,7 @@ fn extract_streamed(
     (why, started): (String, Instant),
 ) -> Result<i32, Failure> {
     let source = crate::field::PointField::from_spec(&scene.field, args.time);
-    let x = extraction(scene, 0, opts, source.as_ref());
+    let x = scene.mesh_request(0, source.as_ref()).with_opts(opts);
     let (vertices, vertices_read) = atomic::scratch(&args.output).map_err(Failure::input)?;
     let (faces, faces_read) = atomic::scratch(&args.output).map_err(Failure::input)?;
     let mut pieces = export::PlyPieces::new(vertices, faces);
@@ -376,7 +376,7 @@ fn extract_mapped(
 ) -> Result<i32, Failure> {
     let mut meshes = Vec::with_capacity(scene.surface.count);
     for k in 0..scene.surface.count {
-        let x = extraction(scene, k, opts, None);
+        let x = scene.mesh_request(k, None).with_opts(opts);
         let window = mesh::mapped::WINDOW_BYTES;
         let mut mesh = mesh::mapped::extract_mapped_within(grid, &x, window, budget)
             .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
@@ -413,7 +413,7 @@ fn extract_ranks(w: &Ranks, grid: Points, how: Split) -> Result<i32, Failure> {
     let mut meshes = Vec::with_capacity(scene.surface.count);
     let (mut own_share, mut gathered) = (std::time::Duration::ZERO, std::time::Duration::ZERO);
     for k in 0..scene.surface.count {
-        let x = extraction(scene, k, opts, source.as_ref());
+        let x = scene.mesh_request(k, source.as_ref()).with_opts(opts);
         let done = w
             .extract(grid, &x, budget)
             .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
@@ -452,24 +452,6 @@ fn extract_ranks(w: &Ranks, grid: Points, how: Split) -> Result<i32, Failure> {
     write_meshes(args, format, meshes, what)
 }
 
-/// Surface `k` of `scene` as the window extraction takes it.
-fn extraction<'a>(
-    scene: &'a Scene,
-    k: usize,
-    opts: ExtractOptions,
-    source: Option<&'a crate::field::PointField<'a>>,
-) -> mesh::window::Extraction<'a> {
-    let s = scene.single_surface(k).surface;
-    mesh::window::Extraction {
-        iso: s.isovalue,
-        inside: s.inside,
-        algo: scene.render.mesh,
-        opts,
-        sharp: &scene.render.sharp,
-        source,
-    }
-}
-
 /// One surface's extraction: the scene (with that surface only), its samples at `time`, and
 /// the count of the mesh held so far, which refuses a mesh past the cap.
 pub struct Job<'a> {
@@ -484,18 +466,9 @@ pub struct Job<'a> {
 /// into the budget as it is done.
 pub fn extract_cpu(job: &Job) -> Result<Mesh, Failure> {
     let Job { scene, grid, time, opts, budget } = *job;
-    let s = &scene.surface;
     let source = crate::field::PointField::from_spec(&scene.field, time);
-    let (algo, sharp) = (scene.render.mesh, &scene.render.sharp);
-    let x = mesh::window::Extraction {
-        iso: s.isovalue,
-        inside: s.inside,
-        algo,
-        opts,
-        sharp,
-        source: source.as_ref(),
-    };
-    mesh::extract_budgeted(grid, &x, budget)
+    let x = scene.mesh_request(0, source.as_ref()).with_opts(opts);
+    mesh::extract(grid, &x, budget)
         .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))
 }
 

@@ -15,8 +15,7 @@ use std::ops::Range;
 
 use super::field::Field;
 use super::slabs::Part;
-use super::window::Extraction;
-use super::{dcqef, dual, emc, hermite, mc, mc33, mt, nets, octree, Mesh, MeshError};
+use super::{dcqef, dual, emc, hermite, mc, mc33, mt, nets, octree, Mesh, MeshError, Request};
 use crate::field::PointField;
 use crate::vocab::{HermiteNormals, SharpSettings};
 
@@ -140,7 +139,7 @@ pub struct Method {
     /// (`mesh::extract_streamed`); None: they are.
     pub not_streamed: Option<&'static str>,
     /// The f64 reference: the whole grid on one thread.
-    pub(crate) reference: fn(&Field, &Extraction) -> Result<Mesh, MeshError>,
+    pub(crate) reference: fn(&Field, &Request) -> Result<Mesh, MeshError>,
     /// Its slab code, for the threaded, z-range and streamed extractions (equal to the
     /// reference bit for bit once joined); None: never cut into slabs, and then
     /// [`Method::not_in_slabs`] always says why.
@@ -153,7 +152,7 @@ pub(crate) type SlabFn<'a> = Box<dyn Fn(Range<usize>) -> Result<Part, MeshError>
 
 /// Builds a method's [`SlabFn`] for a field and its settings.
 pub(crate) type SlabMaker =
-    for<'a> fn(&'a Field<'a>, &'a Extraction<'a>) -> Result<SlabFn<'a>, MeshError>;
+    for<'a> fn(&'a Field<'a>, &'a Request<'a>) -> Result<SlabFn<'a>, MeshError>;
 
 impl Method {
     /// Why this method is extracted on the CPU when the GPU is asked for, with `sharp` on a
@@ -337,14 +336,14 @@ static DUAL_CONTOURING_QEF: Method = Method {
     },
     not_streamed: None,
     reference: |f, x| {
-        let q = dc_qef(f, x.sharp, x.source)?;
+        let q = dc_qef(f, &x.sharp, x.source)?;
         match x.sharp.mesh_error {
             Some(eps) => octree::extract(&q, eps),
             None => dual::extract(f, dual::Boundary::Closed, x.opts, Some(&q)),
         }
     },
     slab: Some(|f, x| {
-        let (q, opts) = (dc_qef(f, x.sharp, x.source)?, x.opts);
+        let (q, opts) = (dc_qef(f, &x.sharp, x.source)?, x.opts);
         Ok(Box::new(move |c| dual::extract_slab(f, dual::Boundary::Closed, opts, Some(&q), c)))
     }),
 };
@@ -361,7 +360,7 @@ static EXTENDED_MC: Method = Method {
     gpu_off: never,
     not_in_slabs: |_| Some("extended-mc (its edge flips look at cells of any distance)"),
     not_streamed: None,
-    reference: |f, x| emc(f, x.sharp, x.source)?.extract(),
+    reference: |f, x| emc(f, &x.sharp, x.source)?.extract(),
     slab: None,
 };
 

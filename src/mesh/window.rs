@@ -15,7 +15,7 @@
 //!   └─────────────┘   SlabMeshes of consecutive ranges, pushed in order -> Joiner -> Mesh
 //! ```
 //!
-//! Why the joined mesh is [`super::extract`]'s bit for bit (see `slabs` for the details):
+//! Why the joined mesh is [`super::reference`]'s bit for bit (see `slabs` for the details):
 //! vertices are numbered in increasing owner id (lattice edge or cell), so a range's vertices
 //! are one contiguous run of the whole mesh's numbering, which starts after the vertices of
 //! the ranges below it. A range numbers its own vertices from 0 and the next range's first
@@ -38,9 +38,9 @@ use glam::DVec3;
 use super::field::Field;
 use super::slabs::{self, Join, Part};
 use super::MeshAlgorithm;
-use super::{ExtractOptions, Mesh, MeshBudget, MeshError};
-use crate::field::{Grid, PointField};
-use crate::vocab::{Inside, SharpSettings};
+use super::{Mesh, MeshBudget, MeshError, Request};
+use crate::field::Grid;
+use crate::vocab::SharpSettings;
 
 /// The whole grid a window belongs to: its points per axis and its box.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -61,25 +61,6 @@ impl Lattice {
     pub fn spacing(&self) -> DVec3 {
         let c = self.dims.map(|n| n.saturating_sub(1) as f64);
         (self.max - self.min) / DVec3::new(c[0], c[1], c[2])
-    }
-}
-
-/// What to extract: the surface, the method and its settings (see [`super::extract_with`]).
-#[derive(Clone, Copy)]
-pub struct Extraction<'a> {
-    pub iso: f64,
-    pub inside: Inside,
-    pub algo: MeshAlgorithm,
-    pub opts: ExtractOptions,
-    pub sharp: &'a SharpSettings,
-    /// The field's source off the grid, for `hermite = "source"`.
-    pub source: Option<&'a PointField<'a>>,
-}
-
-impl Extraction<'_> {
-    /// Whether the mesh keeps its quads: `opts.keep_quads` for the methods that make quads.
-    pub fn keeps_quads(&self) -> bool {
-        self.opts.keep_quads && self.algo.method().quads
     }
 }
 
@@ -196,13 +177,13 @@ pub fn extract_window(
     window: &Grid,
     first: usize,
     lattice: &Lattice,
-    x: &Extraction,
+    x: &Request,
     cells: Range<usize>,
 ) -> Result<SlabMesh, MeshError> {
     if !x.iso.is_finite() {
         return Err(MeshError::BadIsovalue(x.iso));
     }
-    if let Some(why) = not_in_slabs(x.algo, x.sharp) {
+    if let Some(why) = not_in_slabs(x.algo, &x.sharp) {
         return Err(MeshError::NotInSlabs(why));
     }
     if cells.is_empty() {
@@ -238,7 +219,7 @@ pub fn extract_window(
 /// The part of cell layers `cells` of `f`, in slabs of `depth` layers, each added to `budget`.
 pub(crate) fn extract_part(
     f: &Field,
-    x: &Extraction,
+    x: &Request,
     cells: Range<usize>,
     depth: usize,
     budget: &MeshBudget,
@@ -253,11 +234,11 @@ pub(crate) type Slab<'s> = &'s (dyn Fn(Range<usize>) -> Result<Part, MeshError> 
 /// per-slab code, for the joined extraction and the streamed one).
 pub(crate) fn with_slab<T, E: From<MeshError>>(
     f: &Field,
-    x: &Extraction,
+    x: &Request,
     run: impl FnOnce(Slab) -> Result<T, E>,
 ) -> Result<T, E> {
     let m = x.algo.method();
-    let make = match (m.slab, (m.not_in_slabs)(x.sharp)) {
+    let make = match (m.slab, (m.not_in_slabs)(&x.sharp)) {
         (Some(make), None) => make,
         (_, why) => return Err(MeshError::NotInSlabs(why.unwrap_or(m.name)).into()),
     };
@@ -286,7 +267,7 @@ impl Joiner {
     }
 
     /// The mesh of every range pushed, which must together be every cell layer; the quads
-    /// too with `keep_quads` (pass [`Extraction::keeps_quads`]).
+    /// too with `keep_quads` (pass [`Request::keeps_quads`]).
     pub fn finish(self, keep_quads: bool) -> Result<Mesh, MeshError> {
         slabs::finish(self.0.part, keep_quads)
     }

@@ -10,7 +10,7 @@ use super::{Collect, FrameSink, GpuGrid, RenderError, Renderer};
 use crate::field::Grid;
 use crate::frame::{Frame, Pixel};
 use crate::gpu::Buffer;
-use crate::mesh::{self, ExtractOptions, Mesh, MeshBudget, MeshLimits};
+use crate::mesh::{self, Mesh, MeshBudget, MeshLimits};
 use crate::passes::extract::{Extractor, GpuExtractOptions, GpuMesh};
 use crate::passes::mesh_render::{self, MeshInputs, MeshPass, MeshPipelines};
 use crate::passes::Bands;
@@ -28,15 +28,8 @@ pub fn scene_mesh(scene: &Scene, grid: &Grid) -> Result<Mesh, RenderError> {
 /// for bit), each counted as it is done, so a mesh past the cap stops there.
 pub fn scene_mesh_at(scene: &Scene, grid: &Grid, time: f64) -> Result<Mesh, RenderError> {
     let source = crate::field::PointField::from_spec(&scene.field, time);
-    let x = mesh::window::Extraction {
-        iso: scene.surface.isovalue,
-        inside: scene.surface.inside,
-        algo: scene.render.mesh,
-        opts: ExtractOptions::default(),
-        sharp: &scene.render.sharp,
-        source: source.as_ref(),
-    };
-    Ok(mesh::extract_budgeted(grid, &x, &MeshBudget::new(MeshLimits::from_env()?))?)
+    let x = scene.mesh_request(0, source.as_ref());
+    Ok(mesh::extract(grid, &x, &MeshBudget::new(MeshLimits::from_env()?))?)
 }
 
 impl Renderer {

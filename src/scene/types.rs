@@ -41,6 +41,20 @@ impl Scene {
         one
     }
 
+    /// Surface `k` of `surface.isovalues` as `render.mesh` extracts it: its isovalue, the
+    /// inside rule, the method and its sharp-feature settings; `source` is the field's source
+    /// off the grid, for `hermite = "source"`.
+    pub fn mesh_request<'a>(
+        &self,
+        k: usize,
+        source: Option<&'a crate::field::PointField<'a>>,
+    ) -> crate::mesh::Request<'a> {
+        let iso = self.surface.isovalues()[k];
+        crate::mesh::Request::new(iso, self.surface.inside, self.render.mesh)
+            .with_sharp(self.render.sharp)
+            .with_source(source)
+    }
+
     /// A scene over `field` with every other key at the contract's default (for scenes built
     /// in code; files go through [`super::load`]).
     pub fn new(field: crate::field::FieldSpec) -> Scene {

@@ -147,18 +147,15 @@ fn clip_tables_are_read_and_checked() {
 /// of the area: the zone's height over the diameter.
 #[test]
 fn a_clipped_mesh_is_cut_exactly_and_stays_welded() {
-    use isoview::mesh::{self, ExtractOptions};
+    use isoview::mesh;
     use isoview::scene::MeshAlgorithm;
     use std::collections::HashMap;
 
     let r = 0.7;
     let grid = grid_from([40, 40, 40], DVec3::splat(-1.0), DVec3::ONE, |p| p.length() - r);
-    let whole = mesh::extract(
+    let whole = mesh::reference(
         &grid,
-        0.0,
-        Inside::Below,
-        MeshAlgorithm::MarchingCubes,
-        ExtractOptions::default(),
+        &mesh::Request::new(0.0, Inside::Below, MeshAlgorithm::MarchingCubes),
     )
     .unwrap();
     let mut clip = Clip::NONE;

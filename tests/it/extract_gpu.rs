@@ -10,7 +10,7 @@ use std::sync::Arc;
 use glam::DVec3;
 use isoview::field::Grid;
 use isoview::gpu::{Context, Image3d};
-use isoview::mesh::{extract, ExtractOptions, Mesh, QuadSplit};
+use isoview::mesh::{reference, ExtractOptions, Mesh, QuadSplit, Request};
 use isoview::passes::extract::{ExtractStats, Extractor, GpuExtractOptions, GpuMeshError};
 use isoview::scene::{Inside, MeshAlgorithm};
 
@@ -63,7 +63,8 @@ impl Gpu {
 
 fn cpu(c: &Case, algo: MeshAlgorithm, split: QuadSplit) -> Mesh {
     let opts = ExtractOptions { split, keep_quads: false };
-    extract(&c.grid, c.iso, c.inside, algo, opts).expect("CPU extraction")
+    reference(&c.grid, &Request::new(c.iso, c.inside, algo).with_opts(opts))
+        .expect("CPU extraction")
 }
 
 /// Largest position and normal differences, after asserting equal counts and tolerances.
@@ -458,7 +459,6 @@ fn closed_form_plane_and_sphere() {
 /// are allowed up to one cell, and must be under [`QEF_STRADDLE_SHARE`] of all.
 #[gpu_test]
 fn dual_contouring_qef_gpu_equals_cpu_within_the_qef_tolerance() {
-    use isoview::mesh::extract_with;
     use isoview::scene::SharpSettings;
     let mut gpu = Gpu::new();
     let mut rng = Rng::new(1515);
@@ -470,7 +470,11 @@ fn dual_contouring_qef_gpu_equals_cpu_within_the_qef_tolerance() {
         let opts =
             GpuExtractOptions { split: QuadSplit::Fixed, sharp: Some(sharp), ..Default::default() };
         let eopts = ExtractOptions { split: QuadSplit::Fixed, keep_quads: false };
-        let reference = extract_with(&c.grid, c.iso, c.inside, algo, eopts, &sharp, None).unwrap();
+        let reference = reference(
+            &c.grid,
+            &Request::new(c.iso, c.inside, algo).with_opts(eopts).with_sharp(sharp),
+        )
+        .unwrap();
         let (mesh, _) = gpu.run(&c, algo, &opts).unwrap();
         let what = format!("round {round} dims {:?} iso {} {:?}", c.grid.dims, c.iso, c.inside);
         assert_eq!(mesh.vertex_count(), reference.vertex_count(), "{what}");

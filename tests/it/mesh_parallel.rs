@@ -7,7 +7,7 @@
 //! vertex order, positions and normals (compared as bits), triangles and quads.
 
 use glam::DVec3;
-use isoview::mesh::{extract, extract_in_slabs, extract_parallel, ExtractOptions, Mesh, QuadSplit};
+use isoview::mesh::{extract, reference, ExtractOptions, Mesh, MeshBudget, QuadSplit, Request};
 use isoview::scene::{Inside, MeshAlgorithm};
 
 use crate::common::*;
@@ -64,11 +64,20 @@ fn parallel_equals_the_reference_on_random_grids() {
                 c.iso,
                 c.inside
             );
-            let reference = extract(&c.grid, c.iso, c.inside, algo, opts).unwrap();
+            let reference =
+                reference(&c.grid, &Request::new(c.iso, c.inside, algo).with_opts(opts)).unwrap();
             for p in &pools {
                 for depth in DEPTHS {
                     let got = p
-                        .install(|| extract_in_slabs(&c.grid, c.iso, c.inside, algo, opts, depth))
+                        .install(|| {
+                            extract(
+                                &c.grid,
+                                &Request::new(c.iso, c.inside, algo)
+                                    .with_opts(opts)
+                                    .with_slab_depth(depth),
+                                &MeshBudget::unlimited(),
+                            )
+                        })
                         .unwrap();
                     let what =
                         format!("{what}, {} threads, depth {depth:?}", p.current_num_threads());
@@ -97,10 +106,19 @@ fn parallel_equals_the_reference_on_small_grids() {
         for round in 0..40 {
             let c = random_case(&mut rng, 5);
             let opts = options(algo, round);
-            let reference = extract(&c.grid, c.iso, c.inside, algo, opts).unwrap();
+            let reference =
+                reference(&c.grid, &Request::new(c.iso, c.inside, algo).with_opts(opts)).unwrap();
             for depth in [Some(1), Some(2), None] {
                 let got = p
-                    .install(|| extract_in_slabs(&c.grid, c.iso, c.inside, algo, opts, depth))
+                    .install(|| {
+                        extract(
+                            &c.grid,
+                            &Request::new(c.iso, c.inside, algo)
+                                .with_opts(opts)
+                                .with_slab_depth(depth),
+                            &MeshBudget::unlimited(),
+                        )
+                    })
                     .unwrap();
                 let what =
                     format!("{} round {round} dims {:?} depth {depth:?}", algo.name(), c.grid.dims);
@@ -125,8 +143,14 @@ fn parallel_equals_the_reference_on_smooth_fields() {
         for algo in ALGOS {
             for inside in Inside::ALL {
                 let opts = ExtractOptions::default();
-                let reference = extract(grid, 0.0, inside, algo, opts).unwrap();
-                let got = extract_parallel(grid, 0.0, inside, algo, opts).unwrap();
+                let reference =
+                    reference(grid, &Request::new(0.0, inside, algo).with_opts(opts)).unwrap();
+                let got = extract(
+                    grid,
+                    &Request::new(0.0, inside, algo).with_opts(opts),
+                    &MeshBudget::unlimited(),
+                )
+                .unwrap();
                 assert_identical(
                     &got,
                     &reference,
@@ -143,13 +167,29 @@ fn parallel_rejects_what_the_reference_rejects_and_handles_empty_meshes() {
     let grid = grid_from([9, 8, 7], DVec3::ZERO, DVec3::ONE, |p| p.x);
     for algo in ALGOS {
         let opts = ExtractOptions::default();
-        assert!(extract_parallel(&grid, f64::NAN, Inside::Below, algo, opts).is_err());
+        assert!(extract(
+            &grid,
+            &Request::new(f64::NAN, Inside::Below, algo).with_opts(opts),
+            &MeshBudget::unlimited()
+        )
+        .is_err());
         let mut bad = grid.clone();
         bad.values.pop();
-        assert!(extract_parallel(&bad, 0.5, Inside::Below, algo, opts).is_err());
+        assert!(extract(
+            &bad,
+            &Request::new(0.5, Inside::Below, algo).with_opts(opts),
+            &MeshBudget::unlimited()
+        )
+        .is_err());
         for iso in [-1.0, 5.0] {
-            let want = extract(&grid, iso, Inside::Below, algo, opts).unwrap();
-            let got = extract_in_slabs(&grid, iso, Inside::Below, algo, opts, Some(2)).unwrap();
+            let want =
+                reference(&grid, &Request::new(iso, Inside::Below, algo).with_opts(opts)).unwrap();
+            let got = extract(
+                &grid,
+                &Request::new(iso, Inside::Below, algo).with_opts(opts).with_slab_depth(Some(2)),
+                &MeshBudget::unlimited(),
+            )
+            .unwrap();
             assert_identical(&got, &want, &format!("{} iso {iso}", algo.name()));
         }
     }

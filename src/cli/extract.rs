@@ -186,12 +186,7 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: &Ranks) -> Result<i32, Failure> 
                 extract_auto(cli, device, &job)?
             }
         };
-        let mut mesh = mesh;
-        mesh.place(&scene.field.placement);
-        if scene.clip.count > 0 {
-            mesh = mesh.clipped(&scene.clip);
-        }
-        meshes.push(mesh);
+        meshes.push(mesh.in_world(&scene.field.placement, &scene.clip));
         (ran_on, why) = (on, reason);
     }
     let what = Summary { scene: &scene, ran_on, why, started, samples: Some(&grid) };
@@ -378,13 +373,9 @@ fn extract_mapped(
     for k in 0..scene.surface.count {
         let x = scene.mesh_request(k, None).with_opts(opts);
         let window = mesh::mapped::WINDOW_BYTES;
-        let mut mesh = mesh::mapped::extract_mapped_within(grid, &x, window, budget)
+        let mesh = mesh::mapped::extract_mapped_within(grid, &x, window, budget)
             .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
-        mesh.place(&scene.field.placement);
-        if scene.clip.count > 0 {
-            mesh = mesh.clipped(&scene.clip);
-        }
-        meshes.push(mesh);
+        meshes.push(mesh.in_world(&scene.field.placement, &scene.clip));
     }
     let why = format!(
         "; field.residency: streamed from the {}x{}x{} memory-mapped file",
@@ -419,12 +410,7 @@ fn extract_ranks(w: &Ranks, grid: Points, how: Split) -> Result<i32, Failure> {
             .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
         match done {
             Extracted::Whole(mesh, own, joined) => {
-                let mut mesh = *mesh;
-                mesh.place(&scene.field.placement);
-                if scene.clip.count > 0 {
-                    mesh = mesh.clipped(&scene.clip);
-                }
-                meshes.push(mesh);
+                meshes.push(mesh.in_world(&scene.field.placement, &scene.clip));
                 own_share += own;
                 gathered += joined;
             }

@@ -161,7 +161,8 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: &Ranks) -> Result<i32, Failure> 
     // on lavapipe) on its own thread while the field is read or sampled.
     let mut probe = (backend == Backend::Auto && !opts.keep_quads).then(|| {
         let wanted = vulkan_device.clone();
-        std::thread::spawn(move || probe_cpu_device(wanted.as_deref()))
+        let probe = move || crate::gpu::probe(wanted.as_deref()).filter(|p| p.cpu).map(|p| p.name);
+        std::thread::spawn(probe)
     });
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
     let cpu_device = probe.take().and_then(|p| p.join().ok().flatten());
@@ -460,8 +461,8 @@ pub fn extract_cpu(job: &Job) -> Result<Mesh, Failure> {
 
 /// `--device auto`: the CPU extraction when the Vulkan device is a CPU (lavapipe) or there is
 /// none, else the GPU's; returns the mesh, where it ran and the reason, worded for the summary
-/// line. `device` is the Vulkan device wanted and what [`probe_cpu_device`] said of it (the
-/// CPU device's name; None: not a CPU, or not known). When the probe did not settle it, knowing
+/// line. `device` is the Vulkan device wanted and what `gpu::probe` said of it (the CPU
+/// device's name; None: not a CPU, or not known). When the probe did not settle it, knowing
 /// the device type costs opening the device (instance, device and allocator: tens of
 /// milliseconds on lavapipe), which the GPU path needs anyway.
 fn extract_auto(
@@ -500,52 +501,6 @@ fn settled_on_cpu(opts: ExtractOptions, probed_cpu: Option<&str>) -> Option<Stri
         return Some("; auto: --quads needs the CPU extraction".to_string());
     }
     probed_cpu.map(|name| format!("; auto: the Vulkan device {name} is a CPU"))
-}
-
-/// The name of the Vulkan device that `gpu::Context::new` would pick for `wanted` (the first
-/// whose name contains it, case-insensitively, else the best-ranked type: discrete, integrated,
-/// virtual, CPU) if that device's type is CPU; None otherwise or when Vulkan cannot say. Costs
-/// one instance and no device (a few tens of ms on lavapipe; opening the device costs 150–300 ms);
-/// the context's own device type is checked again when this says no.
-//
-// A stopgap in the CLI: this belongs in the gpu crate beside `Context::new`'s selection.
-fn probe_cpu_device(wanted: Option<&str>) -> Option<String> {
-    use ash::vk;
-    // SAFETY: loading the system's libvulkan, as `gpu::Context::new` does.
-    let entry = unsafe { ash::Entry::load() }.ok()?;
-    let app = vk::ApplicationInfo::default()
-        .application_name(c"isoview")
-        .api_version(vk::API_VERSION_1_2);
-    let create = vk::InstanceCreateInfo::default().application_info(&app);
-    // SAFETY: the create info and the strings it points to outlive the call.
-    let instance = unsafe { entry.create_instance(&create, None) }.ok()?;
-    // SAFETY: a valid instance; its physical devices live as long as it does.
-    let devices = unsafe { instance.enumerate_physical_devices() }.unwrap_or_default();
-    let props: Vec<vk::PhysicalDeviceProperties> = devices
-        .iter()
-        // SAFETY: `pd` comes from this instance.
-        .map(|&pd| unsafe { instance.get_physical_device_properties(pd) })
-        .collect();
-    // SAFETY: nothing created from the instance outlives it.
-    unsafe { instance.destroy_instance(None) };
-    let name = |p: &vk::PhysicalDeviceProperties| {
-        p.device_name_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
-    };
-    let rank = |t: vk::PhysicalDeviceType| match t {
-        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
-        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
-        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
-        vk::PhysicalDeviceType::CPU => 3,
-        _ => 4,
-    };
-    let chosen = match wanted {
-        Some(w) => {
-            let w = w.to_lowercase();
-            props.iter().find(|p| name(p).to_lowercase().contains(&w))
-        }
-        None => props.iter().min_by_key(|p| rank(p.device_type)),
-    }?;
-    (chosen.device_type == vk::PhysicalDeviceType::CPU).then(|| name(chosen))
 }
 
 /// Opens the Vulkan device `vulkan_device` (None: isoview's pick).

@@ -8,17 +8,15 @@
 
 use glam::DVec3;
 use isoview::mesh::{extract, reference, ExtractOptions, Mesh, MeshBudget, QuadSplit, Request};
-use isoview::scene::{Inside, MeshAlgorithm};
+use isoview::scene::{Inside, MeshAlgorithm, SharpSettings};
 
 use crate::common::*;
 
-const ALGOS: [MeshAlgorithm; 5] = [
-    MeshAlgorithm::MarchingCubes,
-    MeshAlgorithm::SurfaceNets,
-    MeshAlgorithm::DualContouring,
-    MeshAlgorithm::MarchingTetrahedra,
-    MeshAlgorithm::Mc33,
-];
+/// Every method cut into slabs (asked of its row, so a new one is tested here too).
+fn algos() -> Vec<MeshAlgorithm> {
+    let sharp = SharpSettings::default();
+    MeshAlgorithm::ALL.into_iter().filter(|a| (a.method().not_in_slabs)(&sharp).is_none()).collect()
+}
 
 /// Slab depths tried: thin slabs (every layer a seam), odd depths, the default, one slab.
 const DEPTHS: [Option<usize>; 6] = [Some(1), Some(2), Some(3), Some(7), None, Some(1000)];
@@ -41,7 +39,7 @@ fn assert_identical(got: &Mesh, want: &Mesh, what: &str) {
 }
 
 fn options(algo: MeshAlgorithm, round: usize) -> ExtractOptions {
-    let dual = matches!(algo, MeshAlgorithm::SurfaceNets | MeshAlgorithm::DualContouring);
+    let dual = algo.method().quads;
     ExtractOptions {
         split: if round % 2 == 0 { QuadSplit::Shorter } else { QuadSplit::Fixed },
         keep_quads: dual && round % 3 != 2,
@@ -52,7 +50,7 @@ fn options(algo: MeshAlgorithm, round: usize) -> ExtractOptions {
 fn parallel_equals_the_reference_on_random_grids() {
     let pools = [pool(1), pool(2), pool(5)];
     let mut rng = Rng::new(1729);
-    for algo in ALGOS {
+    for algo in algos() {
         let (mut verts, mut tris, mut compared) = (0, 0, 0);
         for round in 0..10 {
             let c = random_case(&mut rng, 40);
@@ -102,7 +100,7 @@ fn parallel_equals_the_reference_on_random_grids() {
 fn parallel_equals_the_reference_on_small_grids() {
     let p = pool(3);
     let mut rng = Rng::new(7);
-    for algo in ALGOS {
+    for algo in algos() {
         for round in 0..40 {
             let c = random_case(&mut rng, 5);
             let opts = options(algo, round);
@@ -140,7 +138,7 @@ fn parallel_equals_the_reference_on_smooth_fields() {
         }),
     ];
     for (n, grid) in fields.iter().enumerate() {
-        for algo in ALGOS {
+        for algo in algos() {
             for inside in Inside::ALL {
                 let opts = ExtractOptions::default();
                 let reference =
@@ -165,7 +163,7 @@ fn parallel_equals_the_reference_on_smooth_fields() {
 #[test]
 fn parallel_rejects_what_the_reference_rejects_and_handles_empty_meshes() {
     let grid = grid_from([9, 8, 7], DVec3::ZERO, DVec3::ONE, |p| p.x);
-    for algo in ALGOS {
+    for algo in algos() {
         let opts = ExtractOptions::default();
         assert!(extract(
             &grid,

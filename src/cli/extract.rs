@@ -18,6 +18,10 @@
 //!   CPU path), or when there is no usable Vulkan device; else on the GPU. The summary line on
 //!   stderr says which and why.
 //!
+//! The library decides where (`isoview::extract`: once for every surface, one Vulkan context
+//! and one upload of the grid); this file parses the arguments, builds the `extract::Job`,
+//! prints the notes and the summary and writes the file.
+//!
 //! Memory: a PLY of one surface, unclipped, by a method cut into slabs other than mc33,
 //! extracted on the CPU, is written piece by piece as the slabs are done
 //! ([`extract_streamed`]): the peak is a few slabs' meshes (and the positions with `--stats`). Every other mesh is held whole
@@ -36,6 +40,7 @@ use std::time::Instant;
 use super::console::{note, say};
 use super::{Cli, Failure};
 use crate::cluster::{Extracted, Points, Ranks};
+use crate::extract::{self, scene_name, Device, ExtractError, Job, Probe};
 use crate::field::mapped::MappedGrid;
 use crate::field::Grid;
 use crate::mesh::export::{self, Format};
@@ -67,29 +72,8 @@ pub struct ExtractArgs {
     pub quads: bool,
 }
 
-/// Where the extraction runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Backend {
-    /// The CPU when the Vulkan device is a CPU or missing, else the GPU (the default).
-    Auto,
-    /// Vulkan compute (`isoview::passes::extract`).
-    Gpu,
-    /// The multi-threaded CPU extraction (`isoview::mesh::extract`), equal to the f64
-    /// reference `isoview::mesh::reference` bit for bit.
-    Cpu,
-}
-
-impl Backend {
-    pub fn name(self) -> &'static str {
-        match self {
-            Backend::Auto => "auto",
-            Backend::Gpu => "gpu",
-            Backend::Cpu => "cpu",
-        }
-    }
-}
-
-/// Splits the global `--device` value into the backend and the Vulkan device name.
+/// Splits the global `--device` value into where the extraction runs and the Vulkan device
+/// name.
 ///
 /// `device` is the parsed value, `from_command_line` whether it was written on the command line
 /// (rather than read from `ISOVIEW_DEVICE`), `env` the value of `ISOVIEW_DEVICE`.
@@ -97,14 +81,14 @@ pub fn resolve_device(
     device: Option<&str>,
     from_command_line: bool,
     env: Option<&str>,
-) -> (Backend, Option<String>) {
+) -> (Device, Option<String>) {
     let env = env.filter(|e| !e.trim().is_empty()).map(str::to_string);
     match device {
-        Some(d) if from_command_line && d.eq_ignore_ascii_case("cpu") => (Backend::Cpu, env),
-        Some(d) if from_command_line && d.eq_ignore_ascii_case("gpu") => (Backend::Gpu, env),
-        Some(d) if from_command_line && d.eq_ignore_ascii_case("auto") => (Backend::Auto, env),
-        Some(d) => (Backend::Gpu, Some(d.to_string())),
-        None => (Backend::Auto, env),
+        Some(d) if from_command_line && d.eq_ignore_ascii_case("cpu") => (Device::Cpu, env),
+        Some(d) if from_command_line && d.eq_ignore_ascii_case("gpu") => (Device::Gpu, env),
+        Some(d) if from_command_line && d.eq_ignore_ascii_case("auto") => (Device::Auto, env),
+        Some(d) => (Device::Gpu, Some(d.to_string())),
+        None => (Device::Auto, env),
     }
 }
 
@@ -126,11 +110,11 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: &Ranks) -> Result<i32, Failure> 
     })?;
     super::finite("--time", args.time)?;
     let env = std::env::var("ISOVIEW_DEVICE").ok();
-    let (backend, vulkan_device) =
+    let (device, vulkan_device) =
         resolve_device(cli.device.as_deref(), cli.device_from_command_line, env.as_deref());
     let scene = super::load_scene(&args.scene, &args.sets)?;
     super::check_outputs(&[("-o", &args.output)], &scene)?;
-    if let Some(why) = ranks.refuses_extract(&scene, backend == Backend::Gpu) {
+    if let Some(why) = ranks.refuses_extract(&scene, device == Device::Gpu) {
         return super::refuse_on_ranks(ranks, Failure::input(why));
     }
 
@@ -157,47 +141,44 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: &Ranks) -> Result<i32, Failure> 
     {
         return extract_mapped(args, format, &scene, &mapped, opts, started, &budget);
     }
-    // `--device auto` asks Vulkan whether its device is a CPU (loading the drivers: 50–150 ms
-    // on lavapipe) on its own thread while the field is read or sampled.
-    let mut probe = (backend == Backend::Auto && !opts.keep_quads).then(|| {
-        let wanted = vulkan_device.clone();
-        let probe = move || crate::gpu::probe(wanted.as_deref()).filter(|p| p.cpu).map(|p| p.name);
-        std::thread::spawn(probe)
-    });
+    let job = Job {
+        scene: &scene,
+        time: args.time,
+        device,
+        vulkan: crate::gpu::ContextOptions { device: vulkan_device, validation: cli.validation },
+        opts,
+        budget: &budget,
+    };
+    // `--device auto` asks Vulkan whether its device is a CPU on its own thread while the
+    // field is read or sampled.
+    let probe = Probe::start(&job);
     let grid = scene.field.sample(args.time).map_err(Failure::input)?;
-    let cpu_device = probe.take().and_then(|p| p.join().ok().flatten());
-    if let Some(why) = streamed_on_cpu(format, &scene, backend, opts, cpu_device.as_deref()) {
+    let cpu_device = probe.cpu_device();
+    if let Some(why) = extract::streams_on_cpu(&job, format == Format::Ply, cpu_device.as_deref()) {
         return extract_streamed(args, &scene, &grid, opts, &budget, (why, started));
     }
     // Several isovalues: one mesh per surface, merged, each vertex labelled with its surface.
-    let mut meshes = Vec::with_capacity(scene.surface.count);
-    let (mut ran_on, mut why) = (Backend::Cpu, String::new());
-    let time = args.time;
-    for k in 0..scene.surface.count {
-        let one = scene.single_surface(k);
-        let job = Job { scene: &one, grid: &grid, time, opts, budget: &budget };
-        let (mesh, on, reason) = match backend {
-            Backend::Cpu => (extract_cpu(&job)?, Backend::Cpu, String::new()),
-            Backend::Gpu => {
-                let (mesh, ran_on) = extract_gpu(cli, vulkan_device.clone(), &job)?;
-                (mesh, ran_on, String::new())
-            }
-            Backend::Auto => {
-                let device = (vulkan_device.clone(), cpu_device.as_deref());
-                extract_auto(cli, device, &job)?
-            }
-        };
-        meshes.push(mesh.in_world(&scene.field.placement, &scene.clip));
-        (ran_on, why) = (on, reason);
+    let done = extract::surfaces(&job, &grid, cpu_device.as_deref()).map_err(|e| match e {
+        ExtractError::Input(m) => Failure::input(m),
+        ExtractError::Gpu(g) => Failure::gpu(g),
+    })?;
+    for n in &done.notes {
+        note!("{n}");
     }
-    let what = Summary { scene: &scene, ran_on, why, started, samples: Some(&grid) };
-    write_meshes(args, format, meshes, what)
+    let what = Summary {
+        scene: &scene,
+        ran_on: done.ran_on,
+        why: done.why,
+        started,
+        samples: Some(&grid),
+    };
+    write_meshes(args, format, done.meshes, what)
 }
 
 /// What the summary line says besides the mesh's size.
 struct Summary<'a> {
     scene: &'a Scene,
-    ran_on: Backend,
+    ran_on: Device,
     /// Appended to where it ran ("; auto: ...").
     why: String,
     started: Instant,
@@ -255,30 +236,6 @@ fn report(args: &ExtractArgs, what: Summary, size: (usize, usize), elapsed: f64)
              [{lo}, {hi}])",
             scene.surface.isovalue
         );
-    }
-}
-
-/// Where the CPU extraction writes its file piece by piece ([`extract_streamed`]): a PLY of one
-/// surface, unclipped, by a method cut into slabs other than mc33 (`mesh::not_streamed`),
-/// extracted on the CPU as settled before any Vulkan device is opened. Some(the summary line's
-/// reason) when it does.
-fn streamed_on_cpu(
-    format: Format,
-    scene: &Scene,
-    backend: Backend,
-    opts: ExtractOptions,
-    probed_cpu: Option<&str>,
-) -> Option<String> {
-    let x = scene.mesh_request(0, None).with_opts(opts);
-    let one_piece_at_a_time = format == Format::Ply
-        && scene.surface.count == 1
-        && scene.clip.count == 0
-        && mesh::not_streamed(&x).is_none();
-    match backend {
-        _ if !one_piece_at_a_time => None,
-        Backend::Cpu => Some(String::new()),
-        Backend::Auto => settled_on_cpu(opts, probed_cpu),
-        Backend::Gpu => None,
     }
 }
 
@@ -354,7 +311,7 @@ fn extract_streamed(
         let s = stats::compute_from(&positions, &mut triangles, pass).map_err(read_error)?;
         say!("{s}")?;
     }
-    let what = Summary { scene, ran_on: Backend::Cpu, why, started, samples: Some(grid) };
+    let what = Summary { scene, ran_on: Device::Cpu, why, started, samples: Some(grid) };
     report(args, what, (nv, nt), elapsed);
     Ok(0)
 }
@@ -382,7 +339,7 @@ fn extract_mapped(
         "; field.residency: streamed from the {}x{}x{} memory-mapped file",
         grid.dims[0], grid.dims[1], grid.dims[2]
     );
-    let what = Summary { scene, ran_on: Backend::Cpu, why, started, samples: None };
+    let what = Summary { scene, ran_on: Device::Cpu, why, started, samples: None };
     write_meshes(args, format, meshes, what)
 }
 
@@ -435,147 +392,8 @@ fn extract_ranks(w: &Ranks, grid: Points, how: Split) -> Result<i32, Failure> {
         ms(own_share),
         ms(gathered)
     );
-    let what = Summary { scene, ran_on: Backend::Cpu, why, started, samples: None };
+    let what = Summary { scene, ran_on: Device::Cpu, why, started, samples: None };
     write_meshes(args, format, meshes, what)
-}
-
-/// One surface's extraction: the scene (with that surface only), its samples at `time`, and
-/// the count of the mesh held so far, which refuses a mesh past the cap.
-pub struct Job<'a> {
-    pub scene: &'a Scene,
-    pub grid: &'a Grid,
-    pub time: f64,
-    pub opts: ExtractOptions,
-    pub budget: &'a MeshBudget,
-}
-
-/// The CPU extraction on all cores: the f64 reference's mesh, bit for bit, each slab counted
-/// into the budget as it is done.
-pub fn extract_cpu(job: &Job) -> Result<Mesh, Failure> {
-    let Job { scene, grid, time, opts, budget } = *job;
-    let source = crate::field::PointField::from_spec(&scene.field, time);
-    let x = scene.mesh_request(0, source.as_ref()).with_opts(opts);
-    mesh::extract(grid, &x, budget)
-        .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))
-}
-
-/// `--device auto`: the CPU extraction when the Vulkan device is a CPU (lavapipe) or there is
-/// none, else the GPU's; returns the mesh, where it ran and the reason, worded for the summary
-/// line. `device` is the Vulkan device wanted and what `gpu::probe` said of it (the CPU
-/// device's name; None: not a CPU, or not known). When the probe did not settle it, knowing
-/// the device type costs opening the device (instance, device and allocator: tens of
-/// milliseconds on lavapipe), which the GPU path needs anyway.
-fn extract_auto(
-    cli: &Cli,
-    device: (Option<String>, Option<&str>),
-    job: &Job,
-) -> Result<(Mesh, Backend, String), Failure> {
-    let (vulkan_device, probed_cpu) = device;
-    // The cheap probe first: a CPU device needs no device opened.
-    if let Some(why) = settled_on_cpu(job.opts, probed_cpu) {
-        return Ok((extract_cpu(job)?, Backend::Cpu, why));
-    }
-    let ctx = match open_context(cli, vulkan_device) {
-        Ok(ctx) => ctx,
-        Err(e) => {
-            let why = format!("; auto: no usable Vulkan device ({e})");
-            return Ok((extract_cpu(job)?, Backend::Cpu, why));
-        }
-    };
-    // `DeviceInfo::device_type` is the gpu crate's wording of `vk::PhysicalDeviceType::CPU`.
-    if ctx.info.device_type.starts_with("CPU") {
-        let why = format!("; auto: the Vulkan device {} is a CPU", ctx.info.name);
-        drop(ctx);
-        return Ok((extract_cpu(job)?, Backend::Cpu, why));
-    }
-    let why = format!("; auto: the Vulkan device {} is a {}", ctx.info.name, ctx.info.device_type);
-    let (mesh, ran_on) = extract_on(ctx, job)?;
-    Ok((mesh, ran_on, why))
-}
-
-/// `--device auto`: the reason to extract on the CPU when it is settled without opening a
-/// Vulkan device (`--quads`, or the probe found the device to be a CPU), worded for the
-/// summary line; None when the device must be opened to know.
-fn settled_on_cpu(opts: ExtractOptions, probed_cpu: Option<&str>) -> Option<String> {
-    if opts.keep_quads {
-        return Some("; auto: --quads needs the CPU extraction".to_string());
-    }
-    probed_cpu.map(|name| format!("; auto: the Vulkan device {name} is a CPU"))
-}
-
-/// Opens the Vulkan device `vulkan_device` (None: isoview's pick).
-fn open_context(
-    cli: &Cli,
-    vulkan_device: Option<String>,
-) -> Result<std::sync::Arc<crate::gpu::Context>, crate::gpu::GpuError> {
-    crate::gpu::Context::new(&crate::gpu::ContextOptions {
-        device: vulkan_device,
-        validation: cli.validation,
-    })
-}
-
-/// The GPU extraction (compute passes of [`passes::extract`]) on the Vulkan device `vulkan_device`,
-/// read back into a [`Mesh`], and where it ran. `opts.split` is honoured; `opts.keep_quads`
-/// needs the CPU quads, so `--quads` extracts on the CPU, with a note on stderr, as does `mc33`
-/// on a device without `shaderFloat64`.
-fn extract_gpu(
-    cli: &Cli,
-    vulkan_device: Option<String>,
-    job: &Job,
-) -> Result<(Mesh, Backend), Failure> {
-    if job.opts.keep_quads {
-        note!("note: --quads extracts on the CPU (the GPU extraction has no quads)");
-        return Ok((extract_cpu(job)?, Backend::Cpu));
-    }
-    extract_on(open_context(cli, vulkan_device)?, job)
-}
-
-/// The GPU extraction on `ctx` (see [`extract_gpu`]); `opts.keep_quads` must be false. The
-/// mesh's counts go into the budget before it is read back.
-fn extract_on(ctx: Arc<crate::gpu::Context>, job: &Job) -> Result<(Mesh, Backend), Failure> {
-    let Job { scene, grid, opts, budget, .. } = *job;
-    let method = scene.render.mesh.method();
-    if let Some(why) = method.cpu_instead(&scene.render.sharp, ctx.info.float64) {
-        note!("{}", why.note(method, &ctx.info.name));
-        return Ok((extract_cpu(job)?, Backend::Cpu));
-    }
-    // The GPU passes read the grid as one 3D image: over the device's extent the CPU extracts
-    // it instead (as for mc33 without 64-bit floats above), rather than a GPU failure (exit 3) naming no key.
-    if let Err(e) = scene.field.check_image_extent(ctx.info.max_image_dimension_3d) {
-        note!("note: extracted on the CPU ({e})");
-        return Ok((extract_cpu(job)?, Backend::Cpu));
-    }
-    let image =
-        crate::gpu::Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values)?;
-    let gpu_opts = crate::passes::extract::GpuExtractOptions {
-        split: opts.split,
-        sharp: Some(scene.render.sharp),
-        ..Default::default()
-    };
-    let gpu_mesh = crate::passes::extract::Extractor::new(&ctx)
-        .and_then(|mut x| {
-            x.extract(
-                grid,
-                &image,
-                scene.surface.isovalue,
-                scene.surface.inside,
-                scene.render.mesh,
-                &gpu_opts,
-            )
-        })
-        .map_err(|e| match e {
-            crate::passes::extract::GpuMeshError::Gpu(g) => Failure::gpu(g),
-            other => Failure::input(format!("{}: {other}", scene_name(scene))),
-        })?;
-    let counts = (gpu_mesh.vertex_count as usize, gpu_mesh.triangle_count as usize);
-    budget
-        .add(counts.0, counts.1, 0)
-        .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
-    Ok((gpu_mesh.read()?, Backend::Gpu))
-}
-
-fn scene_name(scene: &Scene) -> String {
-    scene.path.as_ref().map_or_else(|| "scene".to_string(), |p| p.display().to_string())
 }
 
 #[cfg(test)]
@@ -583,26 +401,26 @@ mod tests {
     use super::*;
 
     #[test]
-    fn device_words_choose_the_backend_and_other_values_name_the_vulkan_device() {
-        assert_eq!(resolve_device(None, false, None), (Backend::Auto, None));
+    fn device_words_choose_where_it_runs_and_other_values_name_the_vulkan_device() {
+        assert_eq!(resolve_device(None, false, None), (Device::Auto, None));
         assert_eq!(
             resolve_device(None, false, Some("llvmpipe")),
-            (Backend::Auto, Some("llvmpipe".into()))
+            (Device::Auto, Some("llvmpipe".into()))
         );
-        assert_eq!(resolve_device(Some("Auto"), true, None), (Backend::Auto, None));
-        assert_eq!(resolve_device(Some("cpu"), true, None), (Backend::Cpu, None));
+        assert_eq!(resolve_device(Some("Auto"), true, None), (Device::Auto, None));
+        assert_eq!(resolve_device(Some("cpu"), true, None), (Device::Cpu, None));
         assert_eq!(
             resolve_device(Some("GPU"), true, Some("llvmpipe")),
-            (Backend::Gpu, Some("llvmpipe".into()))
+            (Device::Gpu, Some("llvmpipe".into()))
         );
         assert_eq!(
             resolve_device(Some("llvmpipe"), true, None),
-            (Backend::Gpu, Some("llvmpipe".into()))
+            (Device::Gpu, Some("llvmpipe".into()))
         );
         // From ISOVIEW_DEVICE, a value is always a Vulkan device name.
         assert_eq!(
             resolve_device(Some("cpu"), false, Some("cpu")),
-            (Backend::Gpu, Some("cpu".into()))
+            (Device::Gpu, Some("cpu".into()))
         );
     }
 }

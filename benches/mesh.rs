@@ -1,8 +1,8 @@
 //! `cargo bench --bench mesh` (or `./x bench`): isosurface extraction speed on 128³ and 256³
 //! grids (sphere, gyroid, noise): the GPU passes (`passes::extract`, marching cubes, surface nets and
 //! mc33) on the current Vulkan device and the multi-threaded CPU extraction
-//! (`mesh::extract_parallel`, all cores, rayon) against the f64 CPU references
-//! (`mesh::extract`, one thread) and the crates `fast-surface-nets` (surface nets) and
+//! (`mesh::extract`, all cores, rayon) against the f64 CPU references
+//! (`mesh::reference`, one thread) and the crates `fast-surface-nets` (surface nets) and
 //! `isosurface` (marching cubes), all in the same run; then the sharp-feature and adaptive
 //! meshes (CPU) beside uniform dual contouring. Prints markdown tables; never asserts on
 //! time (it asserts that the parallel mesh equals the reference's).

@@ -1,5 +1,5 @@
-//! The multi-threaded CPU extraction (`mesh::extract_parallel`, `mesh::extract_in_slabs`)
-//! against the single-threaded reference (`mesh::extract`): on random grids of 2..40 points
+//! The multi-threaded CPU extraction (`mesh::extract`, with `Request::slab_depth`)
+//! against the single-threaded reference (`mesh::reference`): on random grids of 2..40 points
 //! per axis (non-cubic, a third of the samples from a small set so that samples equal the
 //! isovalue), random and tied isovalues, both inside modes, every algorithm and both quad
 //! splits, on rayon pools of 1, 2 and 5 threads and slabs of 1, 2, 3, 7 layers, the default
@@ -126,7 +126,7 @@ fn parallel_equals_the_reference_on_small_grids() {
     }
 }
 
-/// A sphere and a gyroid on larger non-cubic grids, through `extract_parallel` (the default
+/// A sphere and a gyroid on larger non-cubic grids, through `extract` (the default
 /// slabs on the global pool), as `isoview extract` runs it.
 #[test]
 fn parallel_equals_the_reference_on_smooth_fields() {

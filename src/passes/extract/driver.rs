@@ -294,7 +294,7 @@ impl Extractor {
 
     /// Extracts the isosurface `{x : f(x) = iso}` of `grid` (uploaded as `image`, e.g. a
     /// renderer's `GpuGrid::image`), inside per `inside`, with `algo`; the mesh equals
-    /// `mesh::extract`'s up to f32 rounding of positions and normals (see the module docs).
+    /// `mesh::reference`'s up to f32 rounding of positions and normals (see the module docs).
     pub fn extract(
         &mut self,
         grid: &Grid,

@@ -75,13 +75,15 @@ pub struct Surfaces {
 }
 
 /// Why an extraction failed.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum ExtractError {
     /// The scene's input (its mesh over the cap, a source off the grid missing): one line
     /// naming the scene; exit status 2.
+    #[error("{0}")]
     Input(String),
     /// The GPU failed: exit status 3.
-    Gpu(GpuError),
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
 }
 
 /// `--device auto` asks Vulkan, on a thread of its own while the field is read or sampled,

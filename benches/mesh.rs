@@ -1,8 +1,8 @@
 //! `cargo bench --bench mesh` (or `./x bench`): isosurface extraction speed on 128³ and 256³
 //! grids (sphere, gyroid, noise): the GPU passes (`passes::extract`, marching cubes, surface nets and
 //! mc33) on the current Vulkan device and the multi-threaded CPU extraction
-//! (`mesh::extract_parallel`, all cores, rayon) against the f64 CPU references
-//! (`mesh::extract`, one thread) and the crates `fast-surface-nets` (surface nets) and
+//! (`mesh::extract`, all cores, rayon) against the f64 CPU references
+//! (`mesh::reference`, one thread) and the crates `fast-surface-nets` (surface nets) and
 //! `isosurface` (marching cubes), all in the same run; then the sharp-feature and adaptive
 //! meshes (CPU) beside uniform dual contouring. Prints markdown tables; never asserts on
 //! time (it asserts that the parallel mesh equals the reference's).
@@ -24,7 +24,7 @@ use std::time::Instant;
 use glam::DVec3;
 use isoview::field::{FieldSource, FieldSpec, Grid};
 use isoview::gpu::{Context, ContextOptions, Image3d};
-use isoview::mesh::{extract, extract_parallel, ExtractOptions, Mesh};
+use isoview::mesh::{extract, reference, ExtractOptions, Mesh, MeshBudget, Request};
 use isoview::passes::extract::{Extractor, GpuExtractOptions};
 use isoview::scene::{Bounds, Inside, MeshAlgorithm, SdfShape};
 
@@ -178,8 +178,7 @@ fn main() {
                 [MeshAlgorithm::MarchingCubes, MeshAlgorithm::SurfaceNets, MeshAlgorithm::Mc33];
             for algo in algos.into_iter().filter(|a| picked(a.name())) {
                 let started = Instant::now();
-                let cpu: Mesh =
-                    extract(grid, 0.0, Inside::Below, algo, ExtractOptions::default()).unwrap();
+                let cpu: Mesh = reference(grid, &Request::new(0.0, Inside::Below, algo)).unwrap();
                 let reference = started.elapsed().as_secs_f64();
                 let mut row = |method: String, seconds, gpu_ms, v, t| {
                     rows.push(Row {
@@ -201,7 +200,7 @@ fn main() {
                     cpu.triangle_count(),
                 );
                 let (s, par) = time(|| {
-                    extract_parallel(grid, 0.0, Inside::Below, algo, ExtractOptions::default())
+                    extract(grid, &Request::new(0.0, Inside::Below, algo), &MeshBudget::unlimited())
                         .unwrap()
                 });
                 assert!(par == cpu, "parallel vs reference: {} {field} {n}", algo.name());
@@ -331,8 +330,14 @@ fn scene_rows(path: &std::path::Path) {
     println!("|---|---:|---:|---:|");
     for algo in [MeshAlgorithm::MarchingCubes, MeshAlgorithm::SurfaceNets] {
         let opts = ExtractOptions::default();
-        let (t, m) =
-            time(|| extract_parallel(&grid, s.isovalue, s.inside, algo, opts).expect("extract"));
+        let (t, m) = time(|| {
+            extract(
+                &grid,
+                &Request::new(s.isovalue, s.inside, algo).with_opts(opts),
+                &MeshBudget::unlimited(),
+            )
+            .expect("extract")
+        });
         println!(
             "| {} | {:.1} | {} | {} |",
             algo.name(),
@@ -347,7 +352,6 @@ fn scene_rows(path: &std::path::Path) {
 /// sphere and a box (trilinear Hermite data: the grid alone): threaded where the algorithm
 /// is, ms (median of 3) and triangles.
 fn sharp(sizes: &[usize]) {
-    use isoview::mesh::extract_parallel_with;
     use isoview::scene::SharpSettings;
     println!();
     println!("| field | grid | mesh | ms | triangles | × uniform dual-contouring ms |");
@@ -379,8 +383,12 @@ fn sharp(sizes: &[usize]) {
                     SharpSettings { mesh_error: eps.map(|e| e * cell), ..Default::default() };
                 let opts = ExtractOptions::default();
                 let (s, m) = time(|| {
-                    extract_parallel_with(grid, 0.0, Inside::Below, algo, opts, &sharp, None)
-                        .unwrap()
+                    extract(
+                        grid,
+                        &Request::new(0.0, Inside::Below, algo).with_opts(opts).with_sharp(sharp),
+                        &MeshBudget::unlimited(),
+                    )
+                    .unwrap()
                 });
                 if algo == MeshAlgorithm::DualContouring {
                     base = s;

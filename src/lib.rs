@@ -4,9 +4,11 @@
 //!
 //! ```text
 //!   vocab (Bounds, Inside, ...: plain types every stage speaks)
-//!     <- field (sources -> Grid of f32 samples) <- scene (TOML -> validated Scene)
-//!     <- mesh (CPU extraction references, export)
+//!     <- field (sources -> Grid of f32 samples)
+//!     <- mesh (the extraction methods' registry, CPU extraction references, export)
+//!     <- scene (TOML -> validated Scene)
 //!     <- passes (one GPU pass per file with its shader; extract/driver: the mesh on the GPU)
+//!     <- extract (a scene's surfaces: CPU or GPU chosen once, one context, one upload)
 //!     <- render (Renderer: uploads the grid, runs passes in bands, reads back a Frame)
 //!     <- slice, probe (a pixel's ray through the f64 references)
 //!     <- serve (the live page: HTTP, render thread) <- cli
@@ -20,6 +22,7 @@ pub mod camera;
 pub mod cli;
 pub mod cluster;
 pub mod compare;
+pub mod extract;
 pub mod field;
 pub mod frame;
 /// The Vulkan backend, a crate of its own (`crates/gpu`): it cannot use isoview's modules.

@@ -35,59 +35,6 @@ impl Inside {
     }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MeshAlgorithm {
-    MarchingCubes,
-    Mc33,
-    SurfaceNets,
-    DualContouring,
-    MarchingTetrahedra,
-    /// Dual contouring of Hermite data (Ju et al. 2002): one vertex per active cell at the
-    /// minimiser of its edge planes' quadratic error function (`mesh/dcqef.rs`).
-    DualContouringQef,
-    /// Kobbelt et al.'s feature-sensitive marching cubes (2001) (`mesh/emc.rs`).
-    ExtendedMc,
-}
-
-impl MeshAlgorithm {
-    /// Every algorithm, in the order the contract lists them.
-    pub const ALL: [MeshAlgorithm; 7] = [
-        MeshAlgorithm::MarchingCubes,
-        MeshAlgorithm::Mc33,
-        MeshAlgorithm::SurfaceNets,
-        MeshAlgorithm::DualContouring,
-        MeshAlgorithm::MarchingTetrahedra,
-        MeshAlgorithm::DualContouringQef,
-        MeshAlgorithm::ExtendedMc,
-    ];
-
-    /// The name as written in scene files.
-    pub fn name(self) -> &'static str {
-        match self {
-            MeshAlgorithm::MarchingCubes => "marching-cubes",
-            MeshAlgorithm::Mc33 => "mc33",
-            MeshAlgorithm::SurfaceNets => "surface-nets",
-            MeshAlgorithm::DualContouring => "dual-contouring",
-            MeshAlgorithm::MarchingTetrahedra => "marching-tetrahedra",
-            MeshAlgorithm::DualContouringQef => "dual-contouring-qef",
-            MeshAlgorithm::ExtendedMc => "extended-mc",
-        }
-    }
-
-    /// Whether the GPU extraction passes implement it with these settings
-    /// (`dual-contouring-qef`: uniform, trilinear Hermite data); the others are extracted on
-    /// the CPU (`mesh::extract_with`) wherever a GPU extraction is asked for, with a note.
-    pub fn on_gpu(self, sharp: &SharpSettings) -> bool {
-        match self {
-            MeshAlgorithm::ExtendedMc => false,
-            MeshAlgorithm::DualContouringQef => {
-                sharp.hermite == HermiteNormals::Trilinear && sharp.mesh_error.is_none()
-            }
-            _ => true,
-        }
-    }
-}
-
 /// `render.hermite`: where the sharp-feature meshes take each crossed edge's crossing and
 /// normal from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -20,8 +20,8 @@ use std::time::{Duration, Instant};
 use super::Ranks;
 use crate::field::mapped::MappedGrid;
 use crate::field::Grid;
-use crate::mesh::window::{self, Extraction, Joiner, Lattice, SlabMesh};
-use crate::mesh::{Mesh, MeshBudget};
+use crate::mesh::window::{self, Joiner, Lattice, SlabMesh};
+use crate::mesh::{Mesh, MeshBudget, Request};
 
 /// How a rank's share of an extraction ended.
 pub enum Extracted {
@@ -42,7 +42,7 @@ impl Ranks {
     pub fn extract(
         &self,
         grid: Points,
-        x: &Extraction,
+        x: &Request,
         budget: &Arc<MeshBudget>,
     ) -> Result<Extracted, String> {
         match self {
@@ -101,7 +101,7 @@ impl Points<'_> {
 /// grid's copied out of it.
 pub(super) fn extract_share(
     grid: Points,
-    x: &Extraction,
+    x: &Request,
     cells: std::ops::Range<usize>,
 ) -> Result<SlabMesh, String> {
     let lattice = grid.lattice();

@@ -10,9 +10,20 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use super::Mesh;
-use crate::vocab::Clip;
+use crate::vocab::{Clip, Placement};
 
 impl Mesh {
+    /// This mesh, extracted in the grid's own frame, as `isoview extract` writes it: placed in
+    /// world space ([`Mesh::place`]), then cut by `clip`'s planes (world coordinates). The
+    /// one rule for every extraction the CLI runs (sampled, memory-mapped, across ranks).
+    pub fn in_world(mut self, placement: &Placement, clip: &Clip) -> Mesh {
+        self.place(placement);
+        match clip.count {
+            0 => self,
+            _ => self.clipped(clip),
+        }
+    }
+
     /// This mesh cut by `clip`'s planes (in the mesh's own coordinates). Vertices no triangle
     /// uses any more are dropped; quads are not kept (a clipped quad is no longer one).
     pub fn clipped(&self, clip: &Clip) -> Mesh {

@@ -196,8 +196,8 @@ pub(crate) fn extract(
     slabs::run(layers, layers, opts.keep_quads, |cells| extract_slab(f, boundary, opts, qef, cells))
 }
 
-/// Padding of the grid for `boundary`.
-fn padding(boundary: Boundary) -> usize {
+/// Padding of the grid for `boundary` (the rows of `method` say the same).
+pub(crate) fn padding(boundary: Boundary) -> usize {
     match boundary {
         Boundary::Open => 0,
         Boundary::Closed => 1,

@@ -10,8 +10,8 @@
 
 use std::sync::Arc;
 
-use super::window::{self, Extraction, Joiner, Lattice, SlabMesh};
-use super::{Mesh, MeshBudget, MeshError};
+use super::window::{self, Joiner, Lattice, SlabMesh};
+use super::{Mesh, MeshBudget, MeshError, Request};
 use crate::field::mapped::MappedGrid;
 use crate::field::NanPolicy;
 
@@ -22,7 +22,7 @@ pub const WINDOW_BYTES: usize = 256 << 20;
 /// the layers one cell layer needs).
 pub fn extract_mapped(
     grid: &MappedGrid,
-    x: &Extraction,
+    x: &Request,
     window_bytes: usize,
 ) -> Result<Mesh, MeshError> {
     extract_mapped_within(grid, x, window_bytes, &Arc::new(MeshBudget::unlimited()))
@@ -32,7 +32,7 @@ pub fn extract_mapped(
 /// [`MeshError::OverCap`] (checked per window: a window's own slabs are held until then).
 pub fn extract_mapped_within(
     grid: &MappedGrid,
-    x: &Extraction,
+    x: &Request,
     window_bytes: usize,
     budget: &Arc<MeshBudget>,
 ) -> Result<Mesh, MeshError> {

@@ -2,7 +2,7 @@
 //!
 //! Every algorithm here is the definition that the GPU extraction passes mirror: the same inside
 //! rule, the same edge and cell numbering, the same vertex order, the same winding. A GPU pass
-//! reproduces the output of [`extract`] index for index with the usual
+//! reproduces the output of [`reference`] index for index with the usual
 //! classify → prefix sum → emit pipeline, because every vertex is owned by one lattice edge (or
 //! one cell) and vertices are numbered in increasing edge (or cell) id.
 //!
@@ -56,8 +56,8 @@
 //!
 //! Each module's documentation states its exact rules.
 //!
-//! [`extract`] is the single-threaded reference; [`extract_parallel`] runs the same per-cell
-//! code on slabs of cell layers on all `rayon` threads and joins them into the same mesh, bit
+//! What to extract is a [`Request`]. [`reference`] is the single-threaded reference;
+//! [`extract`] runs the same per-cell code on slabs of cell layers on all `rayon` threads and joins them into the same mesh, bit
 //! for bit (`slabs`).
 
 mod clip;
@@ -72,6 +72,7 @@ pub mod limits;
 pub mod mapped;
 mod mc;
 mod mc33;
+pub mod method;
 mod mt;
 mod nets;
 mod octree;
@@ -84,9 +85,10 @@ mod tests;
 pub mod window;
 
 pub use limits::{MeshBudget, MeshLimits, MESH_CAP_ENV};
+pub use method::MeshAlgorithm;
 
 use crate::field::{Grid, PointField};
-use crate::vocab::{HermiteNormals, Inside, MeshAlgorithm, SharpSettings};
+use crate::vocab::{Inside, SharpSettings};
 
 /// An indexed triangle mesh in world space.
 ///
@@ -179,7 +181,7 @@ pub enum QuadSplit {
     Fixed,
 }
 
-/// Options of [`extract`]; `Default` gives what `isoview extract` uses.
+/// Options of a [`Request`]; `Default` gives what `isoview extract` uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ExtractOptions {
     /// Quad split of `surface-nets` and `dual-contouring`.
@@ -224,158 +226,95 @@ pub enum MeshError {
     NoPointSource,
 }
 
-/// Extracts the isosurface `{x : f(x) = iso}` of `grid`'s trilinear interpolant as an indexed
-/// triangle mesh, inside per `inside`, with algorithm `algo`: the single-threaded reference.
-/// The sharp-feature meshes take the default [`SharpSettings`] (trilinear Hermite data).
-pub fn extract(
-    grid: &Grid,
-    iso: f64,
-    inside: Inside,
-    algo: MeshAlgorithm,
-    opts: ExtractOptions,
-) -> Result<Mesh, MeshError> {
-    extract_with(grid, iso, inside, algo, opts, &SharpSettings::default(), None)
+/// What to extract: the surface, the method and its settings; the one input of every
+/// extraction ([`reference`], [`extract`], [`extract_streamed`], [`window::extract_window`],
+/// [`mapped::extract_mapped`]). [`Request::new`] gives the defaults of the rest.
+#[derive(Clone, Copy)]
+pub struct Request<'a> {
+    pub iso: f64,
+    pub inside: Inside,
+    pub algo: MeshAlgorithm,
+    pub opts: ExtractOptions,
+    /// The sharp-feature meshes' settings; the other methods ignore them.
+    pub sharp: SharpSettings,
+    /// The field's source as a function of world position, which `hermite = "source"` needs
+    /// (else [`MeshError::NoPointSource`]).
+    pub source: Option<&'a PointField<'a>>,
+    /// Cell layers per slab of [`extract`] (tests); None: about 8 slabs per thread, at least 4
+    /// layers. The dual methods count the padded cell layers of `dual-contouring` (one more
+    /// at each end).
+    pub slab_depth: Option<usize>,
 }
 
-/// [`extract`] with the sharp-feature meshes' settings; `source` is the field's source as a
-/// function of world position, which `hermite = "source"` needs (else
-/// [`MeshError::NoPointSource`]). The other algorithms ignore both.
-pub fn extract_with(
-    grid: &Grid,
-    iso: f64,
-    inside: Inside,
-    algo: MeshAlgorithm,
-    opts: ExtractOptions,
-    sharp: &SharpSettings,
-    source: Option<&PointField>,
-) -> Result<Mesh, MeshError> {
-    check(grid, iso)?;
-    let f = field::Field::new(grid, iso, inside);
-    match algo {
-        MeshAlgorithm::MarchingCubes => mc::extract(&f),
-        MeshAlgorithm::MarchingTetrahedra => mt::extract(&f),
-        MeshAlgorithm::SurfaceNets => dual::extract(&f, dual::Boundary::Open, opts, None),
-        MeshAlgorithm::DualContouring => dual::extract(&f, dual::Boundary::Closed, opts, None),
-        MeshAlgorithm::Mc33 => mc33::extract(&f),
-        MeshAlgorithm::DualContouringQef => {
-            let q = dc_qef(&f, sharp, source)?;
-            match sharp.mesh_error {
-                Some(eps) => octree::extract(&q, eps),
-                None => dual::extract(&f, dual::Boundary::Closed, opts, Some(&q)),
-            }
+impl<'a> Request<'a> {
+    /// Surface `iso` with `inside` by `algo`, default options and sharp-feature settings, no
+    /// source.
+    pub fn new(iso: f64, inside: Inside, algo: MeshAlgorithm) -> Self {
+        Request {
+            iso,
+            inside,
+            algo,
+            opts: ExtractOptions::default(),
+            sharp: SharpSettings::default(),
+            source: None,
+            slab_depth: None,
         }
-        MeshAlgorithm::ExtendedMc => emc(&f, sharp, source)?.extract(),
+    }
+
+    pub fn with_opts(self, opts: ExtractOptions) -> Self {
+        Request { opts, ..self }
+    }
+
+    pub fn with_sharp(self, sharp: SharpSettings) -> Self {
+        Request { sharp, ..self }
+    }
+
+    pub fn with_source(self, source: Option<&'a PointField<'a>>) -> Self {
+        Request { source, ..self }
+    }
+
+    pub fn with_slab_depth(self, slab_depth: Option<usize>) -> Self {
+        Request { slab_depth, ..self }
+    }
+
+    /// The method's row.
+    pub fn method(&self) -> &'static method::Method {
+        self.algo.method()
+    }
+
+    /// Whether the mesh keeps its quads: `opts.keep_quads` for the methods that make quads.
+    pub fn keeps_quads(&self) -> bool {
+        self.opts.keep_quads && self.method().quads
     }
 }
 
-/// The Hermite data source of the settings.
-fn hermite<'f, 'g, 's>(
-    f: &'f field::Field<'g>,
-    sharp: &SharpSettings,
-    source: Option<&'s PointField<'s>>,
-) -> Result<hermite::Hermite<'f, 'g, 's>, MeshError> {
-    let source = match sharp.hermite {
-        HermiteNormals::Trilinear => None,
-        HermiteNormals::Source => Some(source.ok_or(MeshError::NoPointSource)?),
-    };
-    Ok(hermite::Hermite { f, source })
+/// The single-threaded f64 reference: the isosurface `{x : f(x) = x.iso}` of `grid`'s
+/// trilinear interpolant as an indexed triangle mesh.
+pub fn reference(grid: &Grid, x: &Request) -> Result<Mesh, MeshError> {
+    check(grid, x.iso)?;
+    let f = field::Field::new(grid, x.iso, x.inside);
+    (x.method().reference)(&f, x)
 }
 
-/// `extended-mc` from the settings.
-fn emc<'f, 'g, 's>(
-    f: &'f field::Field<'g>,
-    sharp: &SharpSettings,
-    source: Option<&'s PointField<'s>>,
-) -> Result<emc::Emc<'f, 'g, 's>, MeshError> {
-    Ok(emc::Emc {
-        hermite: hermite(f, sharp, source)?,
-        threshold: sharp.qef_threshold,
-        clamp: sharp.qef_clamp,
-        cos_feature: sharp.feature_angle_deg.to_radians().cos(),
-    })
-}
-
-/// `dual-contouring-qef`'s vertex rule from the settings.
-fn dc_qef<'f, 'g, 's>(
-    f: &'f field::Field<'g>,
-    sharp: &SharpSettings,
-    source: Option<&'s PointField<'s>>,
-) -> Result<dcqef::DcQef<'f, 'g, 's>, MeshError> {
-    Ok(dcqef::DcQef {
-        hermite: hermite(f, sharp, source)?,
-        threshold: sharp.qef_threshold,
-        clamp: sharp.qef_clamp,
-    })
-}
-
-/// [`extract`] on all threads of the current `rayon` pool: the grid is cut into slabs of cell
-/// layers along z, extracted in parallel by the reference's own per-cell code and joined in
-/// order, so the mesh is [`extract`]'s, bit for bit (same vertex numbering, positions,
-/// normals, triangles and quads). Slab depth: about 8 slabs per thread, at least 4 layers.
-pub fn extract_parallel(
-    grid: &Grid,
-    iso: f64,
-    inside: Inside,
-    algo: MeshAlgorithm,
-    opts: ExtractOptions,
-) -> Result<Mesh, MeshError> {
-    extract_in_slabs(grid, iso, inside, algo, opts, None)
-}
-
-/// [`extract_parallel`] with the sharp-feature settings of [`extract_with`]: equal to
-/// [`extract_with`] bit for bit.
-pub fn extract_parallel_with(
-    grid: &Grid,
-    iso: f64,
-    inside: Inside,
-    algo: MeshAlgorithm,
-    opts: ExtractOptions,
-    sharp: &SharpSettings,
-    source: Option<&PointField>,
-) -> Result<Mesh, MeshError> {
-    extract_in_slabs_with(grid, iso, inside, algo, opts, None, sharp, source)
-}
-
-/// [`extract_parallel`] with slabs of `depth` cell layers (`None`: the default depth). The
-/// dual methods count the padded cell layers of `dual-contouring` (one more at each end).
-pub fn extract_in_slabs(
-    grid: &Grid,
-    iso: f64,
-    inside: Inside,
-    algo: MeshAlgorithm,
-    opts: ExtractOptions,
-    depth: Option<usize>,
-) -> Result<Mesh, MeshError> {
-    let sharp = SharpSettings::default();
-    extract_in_slabs_with(grid, iso, inside, algo, opts, depth, &sharp, None)
-}
-
-/// [`extract_in_slabs`] with the sharp-feature settings of [`extract_with`].
-#[allow(clippy::too_many_arguments)]
-pub fn extract_in_slabs_with(
-    grid: &Grid,
-    iso: f64,
-    inside: Inside,
-    algo: MeshAlgorithm,
-    opts: ExtractOptions,
-    depth: Option<usize>,
-    sharp: &SharpSettings,
-    source: Option<&PointField>,
-) -> Result<Mesh, MeshError> {
-    let x = window::Extraction { iso, inside, algo, opts, sharp, source };
-    in_slabs(grid, &x, depth, &MeshBudget::unlimited())
-}
-
-/// [`extract_parallel_with`] of `x`, counting the mesh into `budget` as it grows: every slab
-/// as it is done, so an extraction past the cap stops with [`MeshError::OverCap`] before the
-/// whole mesh is held. The methods that are not cut into slabs (`extended-mc`,
-/// `dual-contouring-qef` with `mesh_error`) are counted once they are done.
-pub fn extract_budgeted(
-    grid: &Grid,
-    x: &window::Extraction,
-    budget: &MeshBudget,
-) -> Result<Mesh, MeshError> {
-    in_slabs(grid, x, None, budget)
+/// [`reference`]'s mesh, bit for bit (same vertex numbering, positions, normals, triangles
+/// and quads), on all threads of the current `rayon` pool: the grid is cut into slabs of cell
+/// layers along z ([`Request::slab_depth`]), extracted in parallel by the reference's own
+/// per-cell code and joined in order. Every slab is counted into `budget` as it is done, so
+/// an extraction past the cap stops with [`MeshError::OverCap`] before the whole mesh is
+/// held; the methods that are not cut into slabs (`extended-mc`, `dual-contouring-qef` with
+/// `mesh_error`) run the reference and are counted once they are done.
+pub fn extract(grid: &Grid, x: &Request, budget: &MeshBudget) -> Result<Mesh, MeshError> {
+    check(grid, x.iso)?;
+    if (x.method().not_in_slabs)(&x.sharp).is_some() {
+        // Not cut into slabs (see `emc`, `octree`): the reference itself.
+        let mesh = reference(grid, x)?;
+        budget.add_mesh(&mesh)?;
+        return Ok(mesh);
+    }
+    let f = field::Field::new(grid, x.iso, x.inside);
+    let layers = window::cell_layers(x.algo, grid.dims);
+    let depth = x.slab_depth.unwrap_or_else(|| slabs::default_depth(layers));
+    slabs::finish(window::extract_part(&f, x, 0..layers, depth, budget)?, x.keeps_quads())
 }
 
 /// Slab depth of [`extract_streamed`]: the least of [`slabs::default_depth`], so that a batch
@@ -383,23 +322,21 @@ pub fn extract_budgeted(
 const STREAM_DEPTH: usize = 4;
 
 /// Why `x` cannot be extracted piece by piece ([`extract_streamed`]); None when it can.
-pub fn not_streamed(x: &window::Extraction) -> Option<&'static str> {
-    match x.algo {
-        MeshAlgorithm::Mc33 => Some("mc33 (its added vertices follow every edge vertex)"),
-        _ => window::not_in_slabs(x.algo, x.sharp),
-    }
+pub fn not_streamed(x: &Request) -> Option<&'static str> {
+    let m = x.method();
+    m.not_streamed.or_else(|| (m.not_in_slabs)(&x.sharp))
 }
 
-/// [`extract_parallel_with`] of `x`, handed to `sink` piece by piece instead of joined: a
+/// [`extract`] of `x`, handed to `sink` piece by piece instead of joined: a
 /// piece is the mesh of a slab of cell layers, slabs in order, one slab per thread at a time,
 /// so memory holds a few slabs' meshes, never the whole. Each piece's `positions` and
 /// `normals` are the next vertices of the whole mesh, its `indices` (and `quads` when kept)
 /// the next faces, numbered in the whole mesh: the pieces concatenated are
-/// [`extract_parallel_with`]'s mesh, bit for bit. [`MeshError::NotInSlabs`] for what
+/// [`extract`]'s mesh, bit for bit. [`MeshError::NotInSlabs`] for what
 /// [`not_streamed`] names.
 pub fn extract_streamed<E: From<MeshError>>(
     grid: &Grid,
-    x: &window::Extraction,
+    x: &Request,
     mut sink: impl FnMut(Mesh) -> Result<(), E>,
 ) -> Result<(), E> {
     if let Some(why) = not_streamed(x) {
@@ -420,27 +357,6 @@ pub fn extract_streamed<E: From<MeshError>>(
             })
         })
     })
-}
-
-/// [`extract_in_slabs_with`] of `x` under `budget` (see [`extract_budgeted`]).
-fn in_slabs(
-    grid: &Grid,
-    x: &window::Extraction,
-    depth: Option<usize>,
-    budget: &MeshBudget,
-) -> Result<Mesh, MeshError> {
-    let window::Extraction { iso, inside, algo, opts, sharp, source } = *x;
-    check(grid, iso)?;
-    let f = field::Field::new(grid, iso, inside);
-    if window::not_in_slabs(algo, sharp).is_some() {
-        // Not cut into slabs (see `emc`, `octree`): the reference itself.
-        let mesh = extract_with(grid, iso, inside, algo, opts, sharp, source)?;
-        budget.add_mesh(&mesh)?;
-        return Ok(mesh);
-    }
-    let layers = window::cell_layers(algo, grid.dims);
-    let depth = depth.unwrap_or_else(|| slabs::default_depth(layers));
-    slabs::finish(window::extract_part(&f, x, 0..layers, depth, budget)?, x.keeps_quads())
 }
 
 /// Rejects a non-finite isovalue and a grid whose samples do not match its dimensions.

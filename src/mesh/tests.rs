@@ -7,9 +7,10 @@ use crate::field::interpolant::trilinear::{gradient as trilinear_gradient, trile
 
 use super::stats::compute;
 use super::tables::*;
-use super::{extract, ExtractOptions, Mesh};
+use super::MeshAlgorithm;
+use super::{reference, Mesh, Request};
 use crate::field::Grid;
-use crate::vocab::{Inside, MeshAlgorithm};
+use crate::vocab::Inside;
 
 /// [`trilerp`] at local `(x, y, z)`.
 fn trilinear(v: &[f64; 8], x: f64, y: f64, z: f64) -> f64 {
@@ -181,7 +182,7 @@ fn single_cell_exhaustive(algo: MeshAlgorithm) {
                 values.iter_mut().for_each(|v| *v = -*v);
             }
             let g = grid([2, 2, 2], values);
-            let m = extract(&g, 0.0, inside, algo, ExtractOptions::default()).unwrap();
+            let m = reference(&g, &Request::new(0.0, inside, algo)).unwrap();
             let crossed = (0..12)
                 .filter(|&e| {
                     let (c, axis) = MC_EDGES[e];
@@ -256,7 +257,7 @@ fn two_cells_exhaustive(algo: MeshAlgorithm) {
         let hi = DVec3::new(dims[0] as f64 - 1.0, dims[1] as f64 - 1.0, dims[2] as f64 - 1.0);
         for mask in 0..4096u32 {
             let g = grid(dims, values_for(mask, 12, &mut rng));
-            let m = extract(&g, 0.0, Inside::Below, algo, ExtractOptions::default()).unwrap();
+            let m = reference(&g, &Request::new(0.0, Inside::Below, algo)).unwrap();
             let s = compute(&m);
             assert!(boundary_edges_on_box(&m, hi), "{algo:?} axis {axis} mask {mask}: crack");
             assert_eq!(s.inconsistent_edges, 0, "{algo:?} axis {axis} mask {mask}");
@@ -281,7 +282,7 @@ fn dc_closes_every_single_cell_pattern() {
     for mask in 1..256u32 {
         let g = grid([2, 2, 2], values_for(mask, 8, &mut rng));
         let algo = MeshAlgorithm::DualContouring;
-        let m = extract(&g, 0.0, Inside::Below, algo, ExtractOptions::default()).unwrap();
+        let m = reference(&g, &Request::new(0.0, Inside::Below, algo)).unwrap();
         let s = compute(&m);
         assert_eq!(s.boundary_edges, 0, "mask {mask}");
         assert_eq!(s.inconsistent_edges, 0, "mask {mask}");
@@ -315,16 +316,14 @@ fn equal_to_isovalue_is_outside() {
     values[0] = -1.0;
     let g = grid([2, 2, 2], values);
     for algo in [MeshAlgorithm::MarchingCubes, MeshAlgorithm::MarchingTetrahedra] {
-        let m = extract(&g, 0.0, Inside::Below, algo, ExtractOptions::default()).unwrap();
+        let m = reference(&g, &Request::new(0.0, Inside::Below, algo)).unwrap();
         assert!(m.triangle_count() >= 1, "{algo:?}");
         let [a, b, c] = m.triangle(0).map(|v| p64(&m, v));
         assert!((b - a).cross(c - a).dot(DVec3::ONE) > 0.0, "{algo:?}");
     }
     // Everything at the isovalue: nothing inside, no surface.
     let g = grid([2, 2, 2], vec![0.0; 8]);
-    let m =
-        extract(&g, 0.0, Inside::Below, MeshAlgorithm::MarchingCubes, ExtractOptions::default())
-            .unwrap();
+    let m = reference(&g, &Request::new(0.0, Inside::Below, MeshAlgorithm::MarchingCubes)).unwrap();
     assert_eq!(m.triangle_count(), 0);
 }
 
@@ -382,14 +381,8 @@ fn mc33_topology_matches_the_trilinear_interpolant() {
             }
         }
         let g = grid([n, n, n], values);
-        let m = extract(
-            &g,
-            0.0,
-            Inside::Below,
-            MeshAlgorithm::MarchingTetrahedra,
-            ExtractOptions::default(),
-        )
-        .unwrap();
+        let m = reference(&g, &Request::new(0.0, Inside::Below, MeshAlgorithm::MarchingTetrahedra))
+            .unwrap();
         components_and_euler(&m)
     };
     let mut rng = Rng(2024);
@@ -424,28 +417,21 @@ fn mc33_topology_matches_the_trilinear_interpolant() {
             skipped += 1;
             continue;
         }
-        let reference = fine(&v32, 17);
-        if reference != fine(&v32, 33) {
+        let want = fine(&v32, 17);
+        if want != fine(&v32, 33) {
             skipped += 1;
             continue;
         }
         checked += 1;
-        let m = extract(&g1, 0.0, Inside::Below, MeshAlgorithm::Mc33, ExtractOptions::default())
-            .unwrap();
+        let m = reference(&g1, &Request::new(0.0, Inside::Below, MeshAlgorithm::Mc33)).unwrap();
         let got = components_and_euler(&m);
-        assert_eq!(got, reference, "values {v32:?}");
+        assert_eq!(got, want, "values {v32:?}");
         if got.0 as i64 != got.1 {
             tunnels += 1;
         }
-        let mc = extract(
-            &g1,
-            0.0,
-            Inside::Below,
-            MeshAlgorithm::MarchingCubes,
-            ExtractOptions::default(),
-        )
-        .unwrap();
-        if components_and_euler(&mc) != reference {
+        let mc = reference(&g1, &Request::new(0.0, Inside::Below, MeshAlgorithm::MarchingCubes))
+            .unwrap();
+        if components_and_euler(&mc) != want {
             mc_wrong += 1;
         }
     }

@@ -15,7 +15,7 @@
 //!   └─────────────┘   SlabMeshes of consecutive ranges, pushed in order -> Joiner -> Mesh
 //! ```
 //!
-//! Why the joined mesh is [`super::extract`]'s bit for bit (see `slabs` for the details):
+//! Why the joined mesh is [`super::reference`]'s bit for bit (see `slabs` for the details):
 //! vertices are numbered in increasing owner id (lattice edge or cell), so a range's vertices
 //! are one contiguous run of the whole mesh's numbering, which starts after the vertices of
 //! the ranges below it. A range numbers its own vertices from 0 and the next range's first
@@ -37,10 +37,11 @@ use glam::DVec3;
 
 use super::field::Field;
 use super::slabs::{self, Join, Part};
-use super::{dc_qef, dual, mc, mc33, mt, nets, ExtractOptions, Mesh, MeshBudget, MeshError};
+use super::MeshAlgorithm;
+use super::{Mesh, MeshBudget, MeshError, Request};
 use crate::field::interpolant::STENCIL;
-use crate::field::{Grid, PointField};
-use crate::vocab::{Inside, MeshAlgorithm, SharpSettings};
+use crate::field::Grid;
+use crate::vocab::SharpSettings;
 
 /// The whole grid a window belongs to: its points per axis and its box.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -64,50 +65,14 @@ impl Lattice {
     }
 }
 
-/// What to extract: the surface, the method and its settings (see [`super::extract_with`]).
-#[derive(Clone, Copy)]
-pub struct Extraction<'a> {
-    pub iso: f64,
-    pub inside: Inside,
-    pub algo: MeshAlgorithm,
-    pub opts: ExtractOptions,
-    pub sharp: &'a SharpSettings,
-    /// The field's source off the grid, for `hermite = "source"`.
-    pub source: Option<&'a PointField<'a>>,
-}
-
-impl Extraction<'_> {
-    /// Whether the mesh keeps its quads: `opts.keep_quads` for the methods that make quads.
-    pub fn keeps_quads(&self) -> bool {
-        let dual = matches!(
-            self.algo,
-            MeshAlgorithm::SurfaceNets
-                | MeshAlgorithm::DualContouring
-                | MeshAlgorithm::DualContouringQef
-        );
-        self.opts.keep_quads && dual
-    }
-}
-
 /// Why `algo` with `sharp` cannot be extracted in z-ranges; None when it can.
 pub fn not_in_slabs(algo: MeshAlgorithm, sharp: &SharpSettings) -> Option<&'static str> {
-    match algo {
-        MeshAlgorithm::ExtendedMc => {
-            Some("extended-mc (its edge flips look at cells of any distance)")
-        }
-        MeshAlgorithm::DualContouringQef if sharp.mesh_error.is_some() => {
-            Some("dual-contouring-qef with mesh_error (its octree spans the whole grid)")
-        }
-        _ => None,
-    }
+    (algo.method().not_in_slabs)(sharp)
 }
 
 /// The padding of the dual methods' cell lattice along z (`dual`).
 fn padding(algo: MeshAlgorithm) -> usize {
-    match algo {
-        MeshAlgorithm::DualContouring | MeshAlgorithm::DualContouringQef => 1,
-        _ => 0,
-    }
+    algo.method().padding
 }
 
 /// The cell layers along z that `algo` numbers on a grid of `dims` points, which ranges of
@@ -218,13 +183,13 @@ pub fn extract_window(
     window: &Grid,
     first: usize,
     lattice: &Lattice,
-    x: &Extraction,
+    x: &Request,
     cells: Range<usize>,
 ) -> Result<SlabMesh, MeshError> {
     if !x.iso.is_finite() {
         return Err(MeshError::BadIsovalue(x.iso));
     }
-    if let Some(why) = not_in_slabs(x.algo, x.sharp) {
+    if let Some(why) = not_in_slabs(x.algo, &x.sharp) {
         return Err(MeshError::NotInSlabs(why));
     }
     if cells.is_empty() {
@@ -260,7 +225,7 @@ pub fn extract_window(
 /// The part of cell layers `cells` of `f`, in slabs of `depth` layers, each added to `budget`.
 pub(crate) fn extract_part(
     f: &Field,
-    x: &Extraction,
+    x: &Request,
     cells: Range<usize>,
     depth: usize,
     budget: &MeshBudget,
@@ -275,27 +240,15 @@ pub(crate) type Slab<'s> = &'s (dyn Fn(Range<usize>) -> Result<Part, MeshError> 
 /// per-slab code, for the joined extraction and the streamed one).
 pub(crate) fn with_slab<T, E: From<MeshError>>(
     f: &Field,
-    x: &Extraction,
+    x: &Request,
     run: impl FnOnce(Slab) -> Result<T, E>,
 ) -> Result<T, E> {
-    let opts = x.opts;
-    match x.algo {
-        MeshAlgorithm::MarchingCubes => run(&|c| mc::extract_slab(f, c)),
-        MeshAlgorithm::MarchingTetrahedra => run(&|c| mt::extract_slab(f, c)),
-        MeshAlgorithm::Mc33 => run(&|c| mc33::extract_slab(f, c)),
-        MeshAlgorithm::SurfaceNets => run(&|c| nets::extract_slab(f, opts, c)),
-        MeshAlgorithm::DualContouring => {
-            run(&|c| dual::extract_slab(f, dual::Boundary::Closed, opts, None, c))
-        }
-        MeshAlgorithm::DualContouringQef if x.sharp.mesh_error.is_none() => {
-            let q = dc_qef(f, x.sharp, x.source)?;
-            run(&|c| dual::extract_slab(f, dual::Boundary::Closed, opts, Some(&q), c))
-        }
-        _ => {
-            let why = not_in_slabs(x.algo, x.sharp).unwrap_or("this method");
-            Err(MeshError::NotInSlabs(why).into())
-        }
-    }
+    let m = x.algo.method();
+    let make = match (m.slab, (m.not_in_slabs)(&x.sharp)) {
+        (Some(make), None) => make,
+        (_, why) => return Err(MeshError::NotInSlabs(why.unwrap_or(m.name)).into()),
+    };
+    run(&*make(f, x)?)
 }
 
 /// Joins the [`SlabMesh`]es of consecutive z-ranges, pushed from the bottom up, into the
@@ -320,7 +273,7 @@ impl Joiner {
     }
 
     /// The mesh of every range pushed, which must together be every cell layer; the quads
-    /// too with `keep_quads` (pass [`Extraction::keeps_quads`]).
+    /// too with `keep_quads` (pass [`Request::keeps_quads`]).
     pub fn finish(self, keep_quads: bool) -> Result<Mesh, MeshError> {
         slabs::finish(self.0.part, keep_quads)
     }

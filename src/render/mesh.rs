@@ -10,11 +10,11 @@ use super::{Collect, FrameSink, GpuGrid, RenderError, Renderer};
 use crate::field::Grid;
 use crate::frame::{Frame, Pixel};
 use crate::gpu::Buffer;
-use crate::mesh::{self, ExtractOptions, Mesh, MeshBudget, MeshLimits};
+use crate::mesh::{self, Mesh, MeshBudget, MeshLimits};
 use crate::passes::extract::{Extractor, GpuExtractOptions, GpuMesh};
 use crate::passes::mesh_render::{self, MeshInputs, MeshPass, MeshPipelines};
 use crate::passes::Bands;
-use crate::scene::{MeshAlgorithm, Scene};
+use crate::scene::Scene;
 
 /// The mesh of `scene`'s surface over `grid`, extracted on the CPU (the reference of what
 /// `render.method = "mesh"` draws) at time 0.
@@ -28,22 +28,16 @@ pub fn scene_mesh(scene: &Scene, grid: &Grid) -> Result<Mesh, RenderError> {
 /// for bit), each counted as it is done, so a mesh past the cap stops there.
 pub fn scene_mesh_at(scene: &Scene, grid: &Grid, time: f64) -> Result<Mesh, RenderError> {
     let source = crate::field::PointField::from_spec(&scene.field, time);
-    let x = mesh::window::Extraction {
-        iso: scene.surface.isovalue,
-        inside: scene.surface.inside,
-        algo: scene.render.mesh,
-        opts: ExtractOptions::default(),
-        sharp: &scene.render.sharp,
-        source: source.as_ref(),
-    };
-    Ok(mesh::extract_budgeted(grid, &x, &MeshBudget::new(MeshLimits::from_env()?))?)
+    let x = scene.mesh_request(0, source.as_ref());
+    Ok(mesh::extract(grid, &x, &MeshBudget::new(MeshLimits::from_env()?))?)
 }
 
 impl Renderer {
     /// Extracts the scene's mesh from the uploaded grid on the GPU (the mesh stays on the
-    /// device) and draws it. On a device without `shaderFloat64`, which the mc33 passes need,
-    /// `mc33` is extracted on the CPU and uploaded, as are the algorithms without GPU passes
-    /// ([`MeshAlgorithm::on_gpu`]). The picture goes to `sink` band by band.
+    /// device) and draws it. Where the method's GPU passes do not run it
+    /// (`mesh::method::Method::cpu_instead`: none for it, or mc33 on a device without
+    /// `shaderFloat64`) it is extracted on the CPU and uploaded. The picture goes to `sink`
+    /// band by band.
     pub(super) fn render_scene_mesh(
         &mut self,
         scene: &Scene,
@@ -73,8 +67,8 @@ impl Renderer {
             sink.begin(width, height, &info)?;
             return sink.band(crate::passes::Band { row_offset: 0, rows: height }, &pixels);
         }
-        let cpu = !scene.render.mesh.on_gpu(&scene.render.sharp)
-            || (scene.render.mesh == MeshAlgorithm::Mc33 && !self.ctx.info.float64);
+        let method = scene.render.mesh.method();
+        let cpu = method.cpu_instead(&scene.render.sharp, self.ctx.info.float64).is_some();
         let mesh = if cpu {
             mesh_render::upload(&self.ctx, &scene_mesh_at(scene, grid, time)?)?
         } else {

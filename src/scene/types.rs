@@ -5,7 +5,8 @@ use std::path::PathBuf;
 
 use glam::DVec3;
 
-pub use crate::vocab::{Bounds, HermiteNormals, Inside, MeshAlgorithm, SdfShape, SharpSettings};
+pub use crate::mesh::MeshAlgorithm;
+pub use crate::vocab::{Bounds, HermiteNormals, Inside, SdfShape, SharpSettings};
 
 /// A validated scene: everything a render or an extraction needs, nothing unchecked.
 #[derive(Clone, Debug)]
@@ -38,6 +39,20 @@ impl Scene {
         one.surface.count = 1;
         one.surface.colors = Some([color; MAX_SURFACES]);
         one
+    }
+
+    /// Surface `k` of `surface.isovalues` as `render.mesh` extracts it: its isovalue, the
+    /// inside rule, the method and its sharp-feature settings; `source` is the field's source
+    /// off the grid, for `hermite = "source"`.
+    pub fn mesh_request<'a>(
+        &self,
+        k: usize,
+        source: Option<&'a crate::field::PointField<'a>>,
+    ) -> crate::mesh::Request<'a> {
+        let iso = self.surface.isovalues()[k];
+        crate::mesh::Request::new(iso, self.surface.inside, self.render.mesh)
+            .with_sharp(self.render.sharp)
+            .with_source(source)
     }
 
     /// A scene over `field` with every other key at the contract's default (for scenes built

@@ -480,12 +480,13 @@ fn sharp(t: &View) -> Result<SharpSettings> {
 /// `render.hermite = "source"` needs a source that can be evaluated off the grid;
 /// `render.mesh_error` is the adaptive `dual-contouring-qef`'s.
 fn check_hermite(t: &View, render: &RenderSettings, field: &FieldSpec) -> Result<()> {
-    if render.sharp.mesh_error.is_some() && render.mesh != MeshAlgorithm::DualContouringQef {
+    if render.sharp.mesh_error.is_some() && !render.mesh.method().adaptive {
         return Err(t.err(
             SceneErrorKind::Value,
             "mesh_error",
             format!(
-                "the adaptive octree is built for mesh = \"dual-contouring-qef\", not \"{}\"",
+                "the adaptive octree is built for mesh = {}, not \"{}\"",
+                crate::mesh::method::Method::names_where(|m| m.adaptive),
                 render.mesh.name()
             ),
         ));

@@ -105,6 +105,113 @@ fn type_name(t: vk::PhysicalDeviceType) -> &'static str {
     }
 }
 
+/// A physical device with a compute queue: what [`Context::new`] and [`probe`] choose among.
+#[derive(Clone)]
+struct Candidate {
+    pd: vk::PhysicalDevice,
+    props: vk::PhysicalDeviceProperties,
+    /// Its first queue family with compute.
+    family: u32,
+    name: String,
+    timestamp_bits: u32,
+}
+
+/// Every physical device of `instance` that has a compute queue (the others cannot run a
+/// pass). Err(NoDevice) when there is none.
+fn candidates(instance: &ash::Instance) -> Result<Vec<Candidate>, GpuError> {
+    // SAFETY: valid instance.
+    let physicals =
+        unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
+    let mut candidates = Vec::new();
+    for &pd in &physicals {
+        // SAFETY: pd comes from this instance.
+        let props = unsafe { instance.get_physical_device_properties(pd) };
+        // SAFETY: as above.
+        let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+        let Some(family) =
+            families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+        else {
+            continue;
+        };
+        let name = props
+            .device_name_as_c_str()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let timestamp_bits = families[family].timestamp_valid_bits;
+        candidates.push(Candidate { pd, props, family: family as u32, name, timestamp_bits });
+    }
+    if candidates.is_empty() {
+        return Err(GpuError::NoDevice);
+    }
+    Ok(candidates)
+}
+
+/// The one device selection: the first candidate whose name contains `wanted`
+/// (case-insensitively), else the best-ranked type (discrete, integrated, virtual, CPU).
+fn choose<'c>(
+    candidates: &'c [Candidate],
+    wanted: Option<&str>,
+) -> Result<&'c Candidate, GpuError> {
+    match wanted {
+        Some(wanted) => {
+            let w = wanted.to_lowercase();
+            candidates.iter().find(|c| c.name.to_lowercase().contains(&w)).ok_or_else(|| {
+                GpuError::DeviceNotFound {
+                    wanted: wanted.to_string(),
+                    available: candidates
+                        .iter()
+                        .map(|c| c.name.clone())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                }
+            })
+        }
+        None => candidates
+            .iter()
+            .min_by_key(|c| type_rank(c.props.device_type))
+            .ok_or(GpuError::NoDevice),
+    }
+}
+
+/// What [`probe`] found out about the device [`Context::new`] would open.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Probed {
+    pub name: String,
+    /// As [`DeviceInfo::device_type`] words it.
+    pub device_type: &'static str,
+    /// Its type is CPU (a software implementation such as lavapipe).
+    pub cpu: bool,
+}
+
+/// The device that [`Context::new`] would open for `wanted` (the same selection: a device
+/// with a compute queue, named by `wanted` or else the best-ranked type), found with an
+/// instance only, no device: a few tens of ms on lavapipe, where opening the device costs
+/// 150–300 ms. None when Vulkan cannot say (no loader, no instance, no such device); the
+/// context then reports why when it is opened.
+pub fn probe(wanted: Option<&str>) -> Option<Probed> {
+    // SAFETY: loading the system's libvulkan, as `Context::new` does.
+    let entry = unsafe { ash::Entry::load() }.ok()?;
+    let app = vk::ApplicationInfo::default()
+        .application_name(c"isoview")
+        .api_version(vk::API_VERSION_1_2);
+    let create = vk::InstanceCreateInfo::default().application_info(&app);
+    // SAFETY: the create info and the strings it points to outlive the call.
+    let instance = unsafe { entry.create_instance(&create, None) }.ok()?;
+    let probed = candidates(&instance).ok().and_then(|all| {
+        let c = choose(&all, wanted).ok()?;
+        let t = c.props.device_type;
+        Some(Probed {
+            name: c.name.clone(),
+            device_type: type_name(t),
+            cpu: t == vk::PhysicalDeviceType::CPU,
+        })
+    });
+    // SAFETY: nothing was created from the instance, and the physical devices' handles are
+    // not used after this.
+    unsafe { instance.destroy_instance(None) };
+    probed
+}
+
 fn version_string(v: u32) -> String {
     format!(
         "{}.{}.{}",
@@ -220,54 +327,9 @@ impl Context {
         instance: &ash::Instance,
         options: &ContextOptions,
     ) -> Result<(vk::PhysicalDevice, ash::Device, u32, DeviceInfo), GpuError> {
-        // SAFETY: valid instance.
-        let physicals =
-            unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
-        let mut candidates = Vec::new();
-        for &pd in &physicals {
-            // SAFETY: pd comes from this instance.
-            let props = unsafe { instance.get_physical_device_properties(pd) };
-            let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
-            let Some(family) =
-                families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
-            else {
-                continue;
-            };
-            let name = props
-                .device_name_as_c_str()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            candidates.push((
-                pd,
-                props,
-                family as u32,
-                name,
-                families[family].timestamp_valid_bits,
-            ));
-        }
-        if candidates.is_empty() {
-            return Err(GpuError::NoDevice);
-        }
-        let chosen = match &options.device {
-            Some(wanted) => {
-                let w = wanted.to_lowercase();
-                candidates.iter().find(|c| c.3.to_lowercase().contains(&w)).ok_or_else(|| {
-                    GpuError::DeviceNotFound {
-                        wanted: wanted.clone(),
-                        available: candidates
-                            .iter()
-                            .map(|c| c.3.clone())
-                            .collect::<Vec<_>>()
-                            .join(", "),
-                    }
-                })?
-            }
-            None => candidates
-                .iter()
-                .min_by_key(|c| type_rank(c.1.device_type))
-                .ok_or(GpuError::NoDevice)?,
-        };
-        let (pd, props, family, name, ts_bits) = chosen.clone();
+        let candidates = candidates(instance)?;
+        let chosen = choose(&candidates, options.device.as_deref())?;
+        let Candidate { pd, props, family, name, timestamp_bits: ts_bits } = chosen.clone();
 
         let mut driver = vk::PhysicalDeviceDriverProperties::default();
         let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
@@ -426,5 +488,38 @@ impl Drop for Context {
             }
             self.instance.destroy_instance(None);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn candidate(name: &str, t: vk::PhysicalDeviceType) -> Candidate {
+        let props = vk::PhysicalDeviceProperties { device_type: t, ..Default::default() };
+        let (pd, family, timestamp_bits) = (vk::PhysicalDevice::null(), 0, 0);
+        Candidate { pd, props, family, name: name.to_string(), timestamp_bits }
+    }
+
+    /// The selection `Context::new` and `probe` share: a name contained case-insensitively,
+    /// else the best-ranked type; an unknown name lists what there is.
+    #[test]
+    fn choose_takes_the_named_device_else_the_best_ranked_type() {
+        let all = [
+            candidate("llvmpipe (LLVM 15)", vk::PhysicalDeviceType::CPU),
+            candidate("Intel UHD", vk::PhysicalDeviceType::INTEGRATED_GPU),
+            candidate("NVIDIA H200", vk::PhysicalDeviceType::DISCRETE_GPU),
+        ];
+        assert_eq!(choose(&all, None).unwrap().name, "NVIDIA H200");
+        assert_eq!(choose(&all, Some("LLVMPIPE")).unwrap().name, "llvmpipe (LLVM 15)");
+        assert_eq!(choose(&all, Some("i")).unwrap().name, "llvmpipe (LLVM 15)");
+        match choose(&all, Some("radeon")) {
+            Err(GpuError::DeviceNotFound { wanted, available }) => {
+                assert_eq!(wanted, "radeon");
+                assert_eq!(available, "llvmpipe (LLVM 15), Intel UHD, NVIDIA H200");
+            }
+            _ => panic!("an unknown name is refused"),
+        }
+        assert!(matches!(choose(&[], None), Err(GpuError::NoDevice)));
     }
 }

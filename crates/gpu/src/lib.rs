@@ -18,7 +18,7 @@ mod pipeline;
 mod record;
 
 pub use buffer::Buffer;
-pub use context::{validation_messages, Context, ContextOptions, DeviceInfo};
+pub use context::{probe, validation_messages, Context, ContextOptions, DeviceInfo, Probed};
 pub use error::GpuError;
 pub use gpu_allocator::MemoryLocation;
 pub use image::Image3d;

@@ -15,8 +15,8 @@ use mpi::topology::Communicator;
 use super::World;
 use crate::cluster::mesh::extract_share;
 use crate::cluster::{Extracted, Points};
-use crate::mesh::window::{self, Extraction, Joiner, SlabMesh};
-use crate::mesh::MeshBudget;
+use crate::mesh::window::{self, Joiner, SlabMesh};
+use crate::mesh::{MeshBudget, Request};
 use crate::scene::Scene;
 
 /// Words per message: MPI counts are `int`, and a bounded message keeps buffers modest.
@@ -30,7 +30,7 @@ impl World {
     pub fn extract(
         &self,
         grid: Points,
-        x: &Extraction,
+        x: &Request,
         budget: &Arc<MeshBudget>,
     ) -> Result<Extracted, String> {
         let (n, rank) = (self.size(), self.rank());

@@ -85,8 +85,9 @@ use crate::field::Grid;
 use crate::gpu::{
     Buffer, Context, GpuError, Image3d, MemoryLocation, Recorder, Stage, Timer, Tracker,
 };
+use crate::mesh::MeshAlgorithm;
 use crate::mesh::{Mesh, QuadSplit};
-use crate::vocab::{Inside, MeshAlgorithm};
+use crate::vocab::Inside;
 
 /// A mesh on the device, for the mesh renderer: positions `(x, y, z, 1)` and normals
 /// `(x, y, z, 0)` as vec4 per vertex (world space, normals unit and inside → outside), indices
@@ -160,7 +161,7 @@ impl GpuMesh {
 pub struct GpuExtractOptions {
     /// `dual-contouring-qef`'s settings (None: the defaults); only `qef_threshold` and
     /// `qef_clamp` are used: trilinear Hermite data on a uniform grid is what the passes do
-    /// ([`MeshAlgorithm::on_gpu`]).
+    /// (`mesh::method::Method::gpu_off`).
     pub sharp: Option<crate::vocab::SharpSettings>,
     /// Quad split of `surface-nets` and `dual-contouring`. [`QuadSplit::Fixed`] reproduces the
     /// CPU reference bit for bit; [`QuadSplit::Shorter`] compares f32 diagonals, so near ties
@@ -293,7 +294,7 @@ impl Extractor {
 
     /// Extracts the isosurface `{x : f(x) = iso}` of `grid` (uploaded as `image`, e.g. a
     /// renderer's `GpuGrid::image`), inside per `inside`, with `algo`; the mesh equals
-    /// `mesh::extract`'s up to f32 rounding of positions and normals (see the module docs).
+    /// `mesh::reference`'s up to f32 rounding of positions and normals (see the module docs).
     pub fn extract(
         &mut self,
         grid: &Grid,
@@ -312,23 +313,28 @@ impl Extractor {
             .into());
         }
         let sharp = opts.sharp.unwrap_or_default();
-        if !algo.on_gpu(&sharp) {
-            return Err(GpuMeshError::CpuOnly(algo.name()));
+        let m = algo.method();
+        let passes = match (m.gpu, (m.gpu_off)(&sharp)) {
+            (Some(passes), None) => passes,
+            _ => return Err(GpuMeshError::CpuOnly(m.name)),
+        };
+        let kind = Kind::of(passes, m.padding);
+        if m.gpu_float64 && !self.ctx.info.float64 {
+            return Err(GpuMeshError::Unsupported(m.name));
         }
-        let kind = Kind::new(algo).ok_or(GpuMeshError::CpuOnly(algo.name()))?;
         if kind.mc33() {
             if self.passes.mc33.is_none() {
                 self.passes.mc33 = Mc33Passes::new(&self.ctx)?;
             }
             if self.passes.mc33.is_none() {
-                return Err(GpuMeshError::Unsupported("mc33"));
+                return Err(GpuMeshError::Unsupported(m.name));
             }
         }
         let range = self.ctx.info.max_storage_buffer_range;
         let binding_bytes = opts.max_binding_bytes.unwrap_or(range).min(range);
         let mut slabs = Slabs::new(kind, grid.dims, binding_bytes, opts.max_slab_layers)?;
         let mut params = plan::params(grid, iso, inside, kind.pad());
-        if algo == MeshAlgorithm::DualContouringQef {
+        if m.sharp {
             // dual.glsl's `qef_on`: bit 0 on, bit 1 clamp; w: the threshold's bits.
             params.iso_bits[2] = 1 | (u32::from(sharp.qef_clamp) << 1);
             params.iso_bits[3] = (sharp.qef_threshold as f32).to_bits();

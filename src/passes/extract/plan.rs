@@ -8,8 +8,9 @@ use super::{inside_threshold, ExtractParams, GpuMeshError, SlabPush};
 use crate::field::interpolant::STENCIL;
 use crate::field::Grid;
 use crate::gpu::GpuError;
+use crate::mesh::method::GpuPasses;
 use crate::mesh::MeshError;
-use crate::vocab::{Inside, MeshAlgorithm};
+use crate::vocab::Inside;
 
 /// Largest scratch buffer of a slab, in bytes, on devices whose binding limit is larger.
 pub const MAX_SCRATCH_BYTES: u64 = 256 << 20;
@@ -31,18 +32,15 @@ pub enum Kind {
 }
 
 impl Kind {
-    /// None for the algorithms the passes do not implement ([`MeshAlgorithm::on_gpu`]).
-    pub fn new(algo: MeshAlgorithm) -> Option<Self> {
-        Some(match algo {
-            MeshAlgorithm::MarchingCubes => Kind::Edges { mt: false, mc33: false },
-            MeshAlgorithm::MarchingTetrahedra => Kind::Edges { mt: true, mc33: false },
-            MeshAlgorithm::SurfaceNets => Kind::Dual { pad: 0 },
-            MeshAlgorithm::DualContouring | MeshAlgorithm::DualContouringQef => {
-                Kind::Dual { pad: 1 }
-            }
-            MeshAlgorithm::Mc33 => Kind::Edges { mt: false, mc33: true },
-            MeshAlgorithm::ExtendedMc => return None,
-        })
+    /// How the passes run a method's [`GpuPasses`], with `pad` layers of outside points
+    /// around the grid (its `Method::padding`).
+    pub fn of(passes: GpuPasses, pad: usize) -> Self {
+        match passes {
+            GpuPasses::MarchingCubes => Kind::Edges { mt: false, mc33: false },
+            GpuPasses::Tetrahedra => Kind::Edges { mt: true, mc33: false },
+            GpuPasses::Mc33 => Kind::Edges { mt: false, mc33: true },
+            GpuPasses::Dual => Kind::Dual { pad },
+        }
     }
 
     pub fn mc33(self) -> bool {
@@ -576,7 +574,7 @@ mod tests {
         assert_eq!(owned(&[u32::MAX, 4, 1, 1]), (5, 0));
         assert_eq!(MC.counts(4, 6), counts(4, 6));
         assert_eq!(DC.counts(4, 6), counts(6, 8));
-        let mc33 = Kind::new(MeshAlgorithm::Mc33).unwrap().counts(4, 6);
+        let mc33 = Kind::of(GpuPasses::Mc33, 0).counts(4, 6);
         assert_eq!(mc33, SlabCounts { vertices: 4, crossed: 6, ..Default::default() });
     }
 }

@@ -11,11 +11,11 @@ use glam::DVec3;
 use isoview::cluster::{Extracted, Points, Ranks};
 use isoview::field::mapped::MappedGrid;
 use isoview::field::{Endian, FieldSource, FieldSpec, Grid, RawSource, Residency, SampleType};
-use isoview::mesh::window::Extraction;
+use isoview::mesh::MeshAlgorithm;
 use isoview::mesh::{self, ExtractOptions, Mesh, MeshBudget, MeshLimits};
 use isoview::render::{Collect, GpuGrid, Renderer};
 use isoview::scene::Method;
-use isoview::vocab::{Bounds, Inside, MeshAlgorithm, Placement, SharpSettings};
+use isoview::vocab::{Bounds, Inside, Placement, SharpSettings};
 
 use crate::common::{gpu, grid_from, scene_for, scratch, Rng};
 
@@ -77,10 +77,14 @@ fn one_process_extracts_the_one_process_mesh() {
         let iso = rng.range(0.5, 0.75);
         let inside = [Inside::Below, Inside::Above][c % 2];
         let opts = ExtractOptions { keep_quads: c % 2 == 0, ..Default::default() };
-        let whole =
-            mesh::extract_parallel_with(&grid, iso, inside, algo, opts, &sharp, None).unwrap();
+        let whole = mesh::extract(
+            &grid,
+            &mesh::Request::new(iso, inside, algo).with_opts(opts).with_sharp(sharp),
+            &mesh::MeshBudget::unlimited(),
+        )
+        .unwrap();
         assert!(whole.triangle_count() > 50, "{algo:?}: too few triangles");
-        let x = Extraction { iso, inside, algo, opts, sharp: &sharp, source: None };
+        let x = mesh::Request::new(iso, inside, algo).with_opts(opts).with_sharp(sharp);
         for points in [Points::Sampled(&grid), Points::Mapped(&mapped)] {
             let budget = Arc::new(MeshBudget::unlimited());
             let mesh = whole_mesh(Ranks::Single.extract(points, &x, &budget));
@@ -94,15 +98,7 @@ fn one_process_extracts_the_one_process_mesh() {
 #[test]
 fn one_process_extraction_keeps_the_mesh_cap() {
     let grid = sphere([24, 24, 24]);
-    let sharp = SharpSettings::default();
-    let x = Extraction {
-        iso: 0.6,
-        inside: Inside::Below,
-        algo: MeshAlgorithm::MarchingCubes,
-        opts: ExtractOptions::default(),
-        sharp: &sharp,
-        source: None,
-    };
+    let x = mesh::Request::new(0.6, Inside::Below, MeshAlgorithm::MarchingCubes);
     let budget = Arc::new(MeshBudget::new(MeshLimits { max_bytes: 1024 }));
     match Ranks::Single.extract(Points::Sampled(&grid), &x, &budget) {
         Err(e) => assert!(e.contains("over the cap of"), "{e}"),

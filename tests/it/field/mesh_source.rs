@@ -8,7 +8,7 @@ use glam::DVec3;
 use isoview::field::{FieldSource, Grid, GridLimits, TriangleMesh};
 use isoview::mesh::export::{self, Format};
 use isoview::mesh::stats;
-use isoview::mesh::{extract, ExtractOptions, Mesh};
+use isoview::mesh::{reference, Mesh, Request};
 use isoview::reference::fixed_step;
 use isoview::render::Renderer;
 use isoview::scene::{self, Inside, MeshAlgorithm, Method, Scene, SceneError};
@@ -40,7 +40,7 @@ fn sample(s: &Scene) -> Grid {
 /// The marching-cubes mesh of a sphere of radius `r` sampled on an n^3 SDF grid over [-1, 1]^3.
 fn sphere_mesh(r: f64, n: usize) -> Mesh {
     let g = grid_from([n, n, n], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - r);
-    extract(&g, 0.0, Inside::Below, MeshAlgorithm::Mc33, ExtractOptions::default()).unwrap()
+    reference(&g, &Request::new(0.0, Inside::Below, MeshAlgorithm::Mc33)).unwrap()
 }
 
 fn save(mesh: &Mesh, path: &Path) {
@@ -135,16 +135,14 @@ fn resampling_round_trip_stays_watertight() {
         (ring * ring + p.y * p.y).sqrt() - 0.25
     });
     let torus =
-        extract(&torus, 0.0, Inside::Below, MeshAlgorithm::MarchingCubes, Default::default())
-            .unwrap();
+        reference(&torus, &Request::new(0.0, Inside::Below, MeshAlgorithm::MarchingCubes)).unwrap();
     for (name, mesh, euler) in [("torus.stl", torus, 0), ("sphere.obj", sphere_mesh(0.7, 20), 2)] {
         save(&mesh, &d.join(name));
         let s =
             load(&d, &format!("source = \"mesh\"\npath = \"{name}\"\nresolution = 30")).unwrap();
         let grid = sample(&s);
         for algo in [MeshAlgorithm::Mc33, MeshAlgorithm::MarchingTetrahedra] {
-            let again =
-                extract(&grid, 0.0, Inside::Below, algo, ExtractOptions::default()).unwrap();
+            let again = reference(&grid, &Request::new(0.0, Inside::Below, algo)).unwrap();
             let st = stats::compute(&again);
             assert!(st.is_closed_manifold(), "{name} {}: {st}", algo.name());
             assert_eq!(st.euler_characteristic, euler, "{name} {}: {st}", algo.name());

@@ -300,9 +300,9 @@ fn pool_errors_are_one_line() {
 /// every method it splits, with ranges wholly outside joined without being extracted.
 #[test]
 fn mapped_extraction_equals_the_whole_grids() {
-    use isoview::mesh::window::Extraction;
+    use isoview::mesh::MeshAlgorithm;
     use isoview::mesh::{self, ExtractOptions};
-    use isoview::vocab::{MeshAlgorithm, SharpSettings};
+    use isoview::vocab::SharpSettings;
     let dir = scratch("residency-extract");
     let mut rng = Rng::new(77);
     let sharp = SharpSettings::default();
@@ -328,9 +328,13 @@ fn mapped_extraction_equals_the_whole_grids() {
         let iso = rng.range(0.5, 0.8);
         let inside = [Inside::Below, Inside::Above][c % 2];
         let opts = ExtractOptions::default();
-        let whole =
-            mesh::extract_parallel_with(&grid, iso, inside, algo, opts, &sharp, None).unwrap();
-        let x = Extraction { iso, inside, algo, opts, sharp: &sharp, source: None };
+        let whole = mesh::extract(
+            &grid,
+            &mesh::Request::new(iso, inside, algo).with_opts(opts).with_sharp(sharp),
+            &mesh::MeshBudget::unlimited(),
+        )
+        .unwrap();
+        let x = mesh::Request::new(iso, inside, algo).with_opts(opts).with_sharp(sharp);
         // Windows of about 5 point layers: many ranges, most of the upper ones skipped.
         let window = 5 * grid.dims[0] * grid.dims[1] * 4;
         let from_map = isoview::mesh::mapped::extract_mapped(&mapped, &x, window).unwrap();

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use isoview::field::TriangleMesh;
-use isoview::mesh::{extract, stats, ExtractOptions};
+use isoview::mesh::{reference, stats, Request};
 use isoview::output::exr;
 use isoview::scene;
 
@@ -37,8 +37,7 @@ fn extract_writes_every_format_with_the_library_s_mesh() {
     let scene_path = write(&dir, "sphere.toml", SPHERE);
     let s = scene::load(Path::new(&scene_path), &[]).unwrap();
     let grid = s.field.sample(0.0).unwrap();
-    let want =
-        extract(&grid, 0.0, s.surface.inside, s.render.mesh, ExtractOptions::default()).unwrap();
+    let want = reference(&grid, &Request::new(0.0, s.surface.inside, s.render.mesh)).unwrap();
     for ext in ["ply", "obj", "stl"] {
         let out = dir.join(format!("sphere.{ext}"));
         let o = isoview(
@@ -72,7 +71,7 @@ fn stats_device_and_overrides() {
     let text = String::from_utf8_lossy(&o.stdout);
     let s = scene::load(Path::new(&scene_path), &[]).unwrap();
     let grid = s.field.sample(0.0).unwrap();
-    let mesh = extract(&grid, 0.0, s.surface.inside, s.render.mesh, Default::default()).unwrap();
+    let mesh = reference(&grid, &Request::new(0.0, s.surface.inside, s.render.mesh)).unwrap();
     assert_eq!(text.trim_end(), stats::compute(&mesh).to_string());
     for needle in [
         "vertices:",

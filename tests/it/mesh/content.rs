@@ -11,7 +11,7 @@
 
 use glam::DVec3;
 use isoview::field::{Grid, PointField};
-use isoview::mesh::{extract_in_slabs_with, extract_with, ExtractOptions, Mesh, QuadSplit};
+use isoview::mesh::{extract, reference, ExtractOptions, Mesh, MeshBudget, QuadSplit, Request};
 use isoview::scene::{HermiteNormals, Inside, MeshAlgorithm, SharpSettings};
 
 use crate::common::{assert_fingerprints, fnv, FNV_START};
@@ -203,10 +203,24 @@ fn outcomes() -> Vec<(String, u64)> {
         .iter()
         .map(|c| {
             let (g, opts, sharp) = (c.grid, c.opts, &c.sharp);
-            let m = extract_with(g, c.iso, c.inside, c.algo, opts, sharp, c.source).unwrap();
-            let threaded =
-                extract_in_slabs_with(g, c.iso, c.inside, c.algo, opts, Some(2), sharp, c.source)
-                    .unwrap();
+            let m = reference(
+                g,
+                &Request::new(c.iso, c.inside, c.algo)
+                    .with_opts(opts)
+                    .with_sharp(*sharp)
+                    .with_source(c.source),
+            )
+            .unwrap();
+            let threaded = extract(
+                g,
+                &Request::new(c.iso, c.inside, c.algo)
+                    .with_opts(opts)
+                    .with_sharp(*sharp)
+                    .with_source(c.source)
+                    .with_slab_depth(Some(2)),
+                &MeshBudget::unlimited(),
+            )
+            .unwrap();
             assert!(m == threaded, "{}: the slab path differs from the reference", c.name);
             assert!(!m.indices.is_empty(), "{}: an empty mesh fingerprints nothing", c.name);
             (c.name.clone(), fingerprint(&m))

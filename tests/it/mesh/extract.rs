@@ -8,7 +8,7 @@ use glam::DVec3;
 use isoview::field::Grid;
 use isoview::mesh::export::{self, Format};
 use isoview::mesh::stats::{self, MeshStats};
-use isoview::mesh::{extract, ExtractOptions, Mesh, QuadSplit};
+use isoview::mesh::{reference, ExtractOptions, Mesh, QuadSplit, Request};
 use isoview::scene::{Inside, MeshAlgorithm};
 
 const ALL: [MeshAlgorithm; 5] = [
@@ -92,7 +92,7 @@ fn boundary_outside(g: &Grid, iso: f64, inside: Inside) -> bool {
 }
 
 fn run(g: &Grid, iso: f64, inside: Inside, algo: MeshAlgorithm) -> (Mesh, MeshStats) {
-    let m = extract(g, iso, inside, algo, ExtractOptions::default()).unwrap();
+    let m = reference(g, &Request::new(iso, inside, algo)).unwrap();
     let s = stats::compute(&m);
     (m, s)
 }
@@ -221,11 +221,11 @@ fn extraction_is_deterministic_and_inside_rule_symmetric() {
     let mut neg = g.clone();
     neg.values.iter_mut().for_each(|v| *v = -*v);
     for algo in ALL {
-        let a = extract(&g, 0.1, Inside::Below, algo, ExtractOptions::default()).unwrap();
-        let b = extract(&g, 0.1, Inside::Below, algo, ExtractOptions::default()).unwrap();
+        let a = reference(&g, &Request::new(0.1, Inside::Below, algo)).unwrap();
+        let b = reference(&g, &Request::new(0.1, Inside::Below, algo)).unwrap();
         assert_eq!(a, b, "{}", algo.name());
         // Same inside set through the other rule: the same mesh, normals included.
-        let c = extract(&neg, -0.1, Inside::Above, algo, ExtractOptions::default()).unwrap();
+        let c = reference(&neg, &Request::new(-0.1, Inside::Above, algo)).unwrap();
         assert_eq!(a, c, "{}", algo.name());
     }
 }
@@ -236,7 +236,7 @@ fn quads_and_split_rules() {
     for algo in [MeshAlgorithm::SurfaceNets, MeshAlgorithm::DualContouring] {
         for split in [QuadSplit::Shorter, QuadSplit::Fixed] {
             let opts = ExtractOptions { split, keep_quads: true };
-            let m = extract(&g, 0.5, Inside::Above, algo, opts).unwrap();
+            let m = reference(&g, &Request::new(0.5, Inside::Above, algo).with_opts(opts)).unwrap();
             let quads = m.quads.as_ref().unwrap();
             assert_eq!(quads.len() / 4 * 2, m.triangle_count());
             for (q, tris) in quads.chunks_exact(4).zip(m.indices.chunks_exact(6)) {
@@ -364,8 +364,7 @@ fn marching_cubes_matches_scikit_image() {
 
 fn round_trip_mesh() -> Mesh {
     let g = blobs(3, 16);
-    extract(&g, 0.5, Inside::Above, MeshAlgorithm::MarchingTetrahedra, ExtractOptions::default())
-        .unwrap()
+    reference(&g, &Request::new(0.5, Inside::Above, MeshAlgorithm::MarchingTetrahedra)).unwrap()
 }
 
 #[test]
@@ -400,7 +399,11 @@ fn ply_round_trip() {
 fn ply_and_obj_write_quads() {
     let g = blobs(3, 12);
     let opts = ExtractOptions { keep_quads: true, ..Default::default() };
-    let m = extract(&g, 0.5, Inside::Above, MeshAlgorithm::DualContouring, opts).unwrap();
+    let m = reference(
+        &g,
+        &Request::new(0.5, Inside::Above, MeshAlgorithm::DualContouring).with_opts(opts),
+    )
+    .unwrap();
     let mut bytes = Vec::new();
     export::write(&m, Format::Obj, &mut bytes).unwrap();
     let text = String::from_utf8(bytes).unwrap();

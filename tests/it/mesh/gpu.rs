@@ -10,7 +10,7 @@ use std::sync::Arc;
 use glam::DVec3;
 use isoview::field::Grid;
 use isoview::gpu::{Context, Image3d};
-use isoview::mesh::{extract, ExtractOptions, Mesh, QuadSplit};
+use isoview::mesh::{reference, ExtractOptions, Mesh, QuadSplit, Request};
 use isoview::passes::extract::{ExtractStats, Extractor, GpuExtractOptions, GpuMeshError};
 use isoview::scene::{Inside, MeshAlgorithm};
 
@@ -63,7 +63,8 @@ impl Gpu {
 
 fn cpu(c: &Case, algo: MeshAlgorithm, split: QuadSplit) -> Mesh {
     let opts = ExtractOptions { split, keep_quads: false };
-    extract(&c.grid, c.iso, c.inside, algo, opts).expect("CPU extraction")
+    reference(&c.grid, &Request::new(c.iso, c.inside, algo).with_opts(opts))
+        .expect("CPU extraction")
 }
 
 /// Largest position and normal differences, after asserting equal counts and tolerances.
@@ -458,7 +459,6 @@ fn closed_form_plane_and_sphere() {
 /// are allowed up to one cell, and must be under [`QEF_STRADDLE_SHARE`] of all.
 #[gpu_test]
 fn dual_contouring_qef_gpu_equals_cpu_within_the_qef_tolerance() {
-    use isoview::mesh::extract_with;
     use isoview::scene::SharpSettings;
     let mut gpu = Gpu::new();
     let mut rng = Rng::new(1515);
@@ -470,7 +470,11 @@ fn dual_contouring_qef_gpu_equals_cpu_within_the_qef_tolerance() {
         let opts =
             GpuExtractOptions { split: QuadSplit::Fixed, sharp: Some(sharp), ..Default::default() };
         let eopts = ExtractOptions { split: QuadSplit::Fixed, keep_quads: false };
-        let reference = extract_with(&c.grid, c.iso, c.inside, algo, eopts, &sharp, None).unwrap();
+        let reference = reference(
+            &c.grid,
+            &Request::new(c.iso, c.inside, algo).with_opts(eopts).with_sharp(sharp),
+        )
+        .unwrap();
         let (mesh, _) = gpu.run(&c, algo, &opts).unwrap();
         let what = format!("round {round} dims {:?} iso {} {:?}", c.grid.dims, c.iso, c.inside);
         assert_eq!(mesh.vertex_count(), reference.vertex_count(), "{what}");
@@ -563,4 +567,74 @@ fn smooth_case(rng: &mut Rng) -> Case {
         }
     }
     Case { grid, iso: 0.0, inside: Inside::Below }
+}
+
+/// A scene of three isovalues of a gyroid by `mesh`.
+fn three_surfaces(mesh: &str) -> isoview::scene::Scene {
+    let text = format!(
+        "[field]\nsource = \"sdf\"\nshape = \"gyroid\"\nscale = 5.0\nthickness = 0.1\n\
+         resolution = [21, 19, 17]\n[surface]\nisovalues = [-0.05, 0.0, 0.08]\n\
+         [render]\nmesh = \"{mesh}\"\n"
+    );
+    isoview::scene::from_str(&text, "three", std::path::Path::new("."), &[]).expect("scene")
+}
+
+fn job<'a>(
+    scene: &'a isoview::scene::Scene,
+    device: isoview::extract::Device,
+    budget: &'a isoview::mesh::MeshBudget,
+) -> isoview::extract::Job<'a> {
+    isoview::extract::Job {
+        scene,
+        time: 0.0,
+        device,
+        vulkan: isoview::gpu::ContextOptions::default(),
+        opts: ExtractOptions::default(),
+        budget,
+    }
+}
+
+/// `isoview::extract::surfaces` on the GPU: one context, one upload, one `Extractor` for the
+/// three surfaces, and each mesh the one a single-surface extraction of that isovalue gives
+/// (bit for bit: the same passes on the same device), in the order of the isovalues.
+#[gpu_test]
+fn several_surfaces_share_one_context_and_one_upload() {
+    use isoview::extract::{surfaces, Device};
+    let mut gpu = Gpu::new();
+    for mesh in ["marching-cubes", "dual-contouring"] {
+        let scene = three_surfaces(mesh);
+        let grid = scene.field.sample(0.0).unwrap();
+        let budget = isoview::mesh::MeshBudget::unlimited();
+        let done = surfaces(&job(&scene, Device::Gpu, &budget), &grid, None).unwrap();
+        assert_eq!(done.ran_on, Device::Gpu, "{mesh}");
+        assert_eq!((done.why.as_str(), done.notes.len()), ("", 0), "{mesh}");
+        assert_eq!(done.meshes.len(), 3);
+        for (k, iso) in scene.surface.isovalues().into_iter().enumerate() {
+            let c = Case { grid: grid.clone(), iso, inside: scene.surface.inside };
+            let (want, _) = gpu.run(&c, scene.render.mesh, &GpuExtractOptions::default()).unwrap();
+            assert!(want.triangle_count() > 100, "{mesh} surface {k}: too small to compare");
+            assert_eq!(done.meshes[k], want, "{mesh} surface {k}");
+        }
+    }
+}
+
+/// A method without GPU passes asked for on the GPU: the CPU extracts every surface, the
+/// reference's meshes, and the note is given once for the three of them.
+#[gpu_test]
+fn a_cpu_only_method_on_the_gpu_notes_it_once() {
+    use isoview::extract::{surfaces, Device};
+    let scene = three_surfaces("extended-mc");
+    let grid = scene.field.sample(0.0).unwrap();
+    let budget = isoview::mesh::MeshBudget::unlimited();
+    let done = surfaces(&job(&scene, Device::Gpu, &budget), &grid, None).unwrap();
+    assert_eq!(done.ran_on, Device::Cpu);
+    assert_eq!(
+        done.notes,
+        ["note: extended-mc is extracted on the CPU (no GPU extraction passes for it)"]
+    );
+    for (k, iso) in scene.surface.isovalues().into_iter().enumerate() {
+        let x = Request::new(iso, scene.surface.inside, scene.render.mesh)
+            .with_sharp(scene.render.sharp);
+        assert_eq!(done.meshes[k], reference(&grid, &x).unwrap(), "surface {k}");
+    }
 }

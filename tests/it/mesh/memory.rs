@@ -37,8 +37,11 @@ fn library_bytes(scene_path: &str, format: Format) -> Vec<u8> {
     for k in 0..s.surface.count {
         let one = s.single_surface(k);
         let (algo, opts) = (one.render.mesh, ExtractOptions::default());
-        let mut m =
-            mesh::extract(&grid, one.surface.isovalue, one.surface.inside, algo, opts).unwrap();
+        let mut m = mesh::reference(
+            &grid,
+            &mesh::Request::new(one.surface.isovalue, one.surface.inside, algo).with_opts(opts),
+        )
+        .unwrap();
         m.place(&s.field.placement);
         if s.clip.count > 0 {
             m = m.clipped(&s.clip);
@@ -225,7 +228,11 @@ fn a_ply_of_one_surface_streams_past_the_cap() {
         let s = scene::load(Path::new(&scene_path), std::slice::from_ref(&set)).unwrap();
         let grid = s.field.sample(0.0).unwrap();
         let opts = ExtractOptions { keep_quads: !quads.is_empty(), ..Default::default() };
-        let m = mesh::extract(&grid, 0.1, s.surface.inside, s.render.mesh, opts).unwrap();
+        let m = mesh::reference(
+            &grid,
+            &mesh::Request::new(0.1, s.surface.inside, s.render.mesh).with_opts(opts),
+        )
+        .unwrap();
         assert!(m.triangle_count() > 100_000, "{method}");
         let mut want = Vec::new();
         export::write(&m, Format::Ply, &mut want).unwrap();
@@ -261,7 +268,12 @@ fn a_streamed_ply_s_peak_is_not_the_mesh_s() {
 fn egg_crate_mesh(n: usize) -> Mesh {
     let s = scene::from_str(&egg_crate(n, ISO, ""), "crate.toml", Path::new("."), &[]).unwrap();
     let grid = s.field.sample(0.0).unwrap();
-    mesh::extract_parallel(&grid, 0.1, s.surface.inside, s.render.mesh, Default::default()).unwrap()
+    mesh::extract(
+        &grid,
+        &mesh::Request::new(0.1, s.surface.inside, s.render.mesh),
+        &mesh::MeshBudget::unlimited(),
+    )
+    .unwrap()
 }
 
 /// The peak resident memory (KiB) of `isoview args` with `env`, and its stdout: the child's

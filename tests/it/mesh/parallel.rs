@@ -1,5 +1,5 @@
-//! The multi-threaded CPU extraction (`mesh::extract_parallel`, `mesh::extract_in_slabs`)
-//! against the single-threaded reference (`mesh::extract`): on random grids of 2..40 points
+//! The multi-threaded CPU extraction (`mesh::extract`, with `Request::slab_depth`)
+//! against the single-threaded reference (`mesh::reference`): on random grids of 2..40 points
 //! per axis (non-cubic, a third of the samples from a small set so that samples equal the
 //! isovalue), random and tied isovalues, both inside modes, every algorithm and both quad
 //! splits, on rayon pools of 1, 2 and 5 threads and slabs of 1, 2, 3, 7 layers, the default
@@ -7,18 +7,16 @@
 //! vertex order, positions and normals (compared as bits), triangles and quads.
 
 use glam::DVec3;
-use isoview::mesh::{extract, extract_in_slabs, extract_parallel, ExtractOptions, Mesh, QuadSplit};
-use isoview::scene::{Inside, MeshAlgorithm};
+use isoview::mesh::{extract, reference, ExtractOptions, Mesh, MeshBudget, QuadSplit, Request};
+use isoview::scene::{Inside, MeshAlgorithm, SharpSettings};
 
 use crate::common::*;
 
-const ALGOS: [MeshAlgorithm; 5] = [
-    MeshAlgorithm::MarchingCubes,
-    MeshAlgorithm::SurfaceNets,
-    MeshAlgorithm::DualContouring,
-    MeshAlgorithm::MarchingTetrahedra,
-    MeshAlgorithm::Mc33,
-];
+/// Every method cut into slabs (asked of its row, so a new one is tested here too).
+fn algos() -> Vec<MeshAlgorithm> {
+    let sharp = SharpSettings::default();
+    MeshAlgorithm::ALL.into_iter().filter(|a| (a.method().not_in_slabs)(&sharp).is_none()).collect()
+}
 
 /// Slab depths tried: thin slabs (every layer a seam), odd depths, the default, one slab.
 const DEPTHS: [Option<usize>; 6] = [Some(1), Some(2), Some(3), Some(7), None, Some(1000)];
@@ -41,7 +39,7 @@ fn assert_identical(got: &Mesh, want: &Mesh, what: &str) {
 }
 
 fn options(algo: MeshAlgorithm, round: usize) -> ExtractOptions {
-    let dual = matches!(algo, MeshAlgorithm::SurfaceNets | MeshAlgorithm::DualContouring);
+    let dual = algo.method().quads;
     ExtractOptions {
         split: if round % 2 == 0 { QuadSplit::Shorter } else { QuadSplit::Fixed },
         keep_quads: dual && round % 3 != 2,
@@ -52,7 +50,7 @@ fn options(algo: MeshAlgorithm, round: usize) -> ExtractOptions {
 fn parallel_equals_the_reference_on_random_grids() {
     let pools = [pool(1), pool(2), pool(5)];
     let mut rng = Rng::new(1729);
-    for algo in ALGOS {
+    for algo in algos() {
         let (mut verts, mut tris, mut compared) = (0, 0, 0);
         for round in 0..10 {
             let c = random_case(&mut rng, 40);
@@ -64,11 +62,20 @@ fn parallel_equals_the_reference_on_random_grids() {
                 c.iso,
                 c.inside
             );
-            let reference = extract(&c.grid, c.iso, c.inside, algo, opts).unwrap();
+            let reference =
+                reference(&c.grid, &Request::new(c.iso, c.inside, algo).with_opts(opts)).unwrap();
             for p in &pools {
                 for depth in DEPTHS {
                     let got = p
-                        .install(|| extract_in_slabs(&c.grid, c.iso, c.inside, algo, opts, depth))
+                        .install(|| {
+                            extract(
+                                &c.grid,
+                                &Request::new(c.iso, c.inside, algo)
+                                    .with_opts(opts)
+                                    .with_slab_depth(depth),
+                                &MeshBudget::unlimited(),
+                            )
+                        })
                         .unwrap();
                     let what =
                         format!("{what}, {} threads, depth {depth:?}", p.current_num_threads());
@@ -93,14 +100,23 @@ fn parallel_equals_the_reference_on_random_grids() {
 fn parallel_equals_the_reference_on_small_grids() {
     let p = pool(3);
     let mut rng = Rng::new(7);
-    for algo in ALGOS {
+    for algo in algos() {
         for round in 0..40 {
             let c = random_case(&mut rng, 5);
             let opts = options(algo, round);
-            let reference = extract(&c.grid, c.iso, c.inside, algo, opts).unwrap();
+            let reference =
+                reference(&c.grid, &Request::new(c.iso, c.inside, algo).with_opts(opts)).unwrap();
             for depth in [Some(1), Some(2), None] {
                 let got = p
-                    .install(|| extract_in_slabs(&c.grid, c.iso, c.inside, algo, opts, depth))
+                    .install(|| {
+                        extract(
+                            &c.grid,
+                            &Request::new(c.iso, c.inside, algo)
+                                .with_opts(opts)
+                                .with_slab_depth(depth),
+                            &MeshBudget::unlimited(),
+                        )
+                    })
                     .unwrap();
                 let what =
                     format!("{} round {round} dims {:?} depth {depth:?}", algo.name(), c.grid.dims);
@@ -110,7 +126,7 @@ fn parallel_equals_the_reference_on_small_grids() {
     }
 }
 
-/// A sphere and a gyroid on larger non-cubic grids, through `extract_parallel` (the default
+/// A sphere and a gyroid on larger non-cubic grids, through `extract` (the default
 /// slabs on the global pool), as `isoview extract` runs it.
 #[test]
 fn parallel_equals_the_reference_on_smooth_fields() {
@@ -122,11 +138,17 @@ fn parallel_equals_the_reference_on_smooth_fields() {
         }),
     ];
     for (n, grid) in fields.iter().enumerate() {
-        for algo in ALGOS {
+        for algo in algos() {
             for inside in Inside::ALL {
                 let opts = ExtractOptions::default();
-                let reference = extract(grid, 0.0, inside, algo, opts).unwrap();
-                let got = extract_parallel(grid, 0.0, inside, algo, opts).unwrap();
+                let reference =
+                    reference(grid, &Request::new(0.0, inside, algo).with_opts(opts)).unwrap();
+                let got = extract(
+                    grid,
+                    &Request::new(0.0, inside, algo).with_opts(opts),
+                    &MeshBudget::unlimited(),
+                )
+                .unwrap();
                 assert_identical(
                     &got,
                     &reference,
@@ -141,15 +163,31 @@ fn parallel_equals_the_reference_on_smooth_fields() {
 #[test]
 fn parallel_rejects_what_the_reference_rejects_and_handles_empty_meshes() {
     let grid = grid_from([9, 8, 7], DVec3::ZERO, DVec3::ONE, |p| p.x);
-    for algo in ALGOS {
+    for algo in algos() {
         let opts = ExtractOptions::default();
-        assert!(extract_parallel(&grid, f64::NAN, Inside::Below, algo, opts).is_err());
+        assert!(extract(
+            &grid,
+            &Request::new(f64::NAN, Inside::Below, algo).with_opts(opts),
+            &MeshBudget::unlimited()
+        )
+        .is_err());
         let mut bad = grid.clone();
         bad.values.pop();
-        assert!(extract_parallel(&bad, 0.5, Inside::Below, algo, opts).is_err());
+        assert!(extract(
+            &bad,
+            &Request::new(0.5, Inside::Below, algo).with_opts(opts),
+            &MeshBudget::unlimited()
+        )
+        .is_err());
         for iso in [-1.0, 5.0] {
-            let want = extract(&grid, iso, Inside::Below, algo, opts).unwrap();
-            let got = extract_in_slabs(&grid, iso, Inside::Below, algo, opts, Some(2)).unwrap();
+            let want =
+                reference(&grid, &Request::new(iso, Inside::Below, algo).with_opts(opts)).unwrap();
+            let got = extract(
+                &grid,
+                &Request::new(iso, Inside::Below, algo).with_opts(opts).with_slab_depth(Some(2)),
+                &MeshBudget::unlimited(),
+            )
+            .unwrap();
             assert_identical(&got, &want, &format!("{} iso {iso}", algo.name()));
         }
     }

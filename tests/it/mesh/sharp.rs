@@ -11,7 +11,7 @@ use std::path::Path;
 use glam::{DMat3, DVec3};
 use isoview::field::{Grid, GridLimits, PointField};
 use isoview::mesh::stats;
-use isoview::mesh::{extract_in_slabs_with, extract_with, ExtractOptions, Mesh};
+use isoview::mesh::{extract, reference, ExtractOptions, Mesh, MeshBudget, Request};
 use isoview::scene::{self, HermiteNormals, Inside, MeshAlgorithm, SharpSettings};
 
 /// Grid points per axis of the test grids over [-1, 1]³, and the cell size.
@@ -76,7 +76,7 @@ fn mesh_of(f: &'static Sdf, algo: MeshAlgorithm, hermite: HermiteNormals) -> Mes
     let g = sample(f, N);
     let src = PointField { eval: Box::new(f), lipschitz: None };
     let sharp = SharpSettings { hermite, ..Default::default() };
-    extract_with(&g, 0.0, Inside::Below, algo, ExtractOptions::default(), &sharp, Some(&src))
+    reference(&g, &Request::new(0.0, Inside::Below, algo).with_sharp(sharp).with_source(Some(&src)))
         .unwrap()
 }
 
@@ -238,12 +238,9 @@ fn closed_and_oriented(m: &Mesh, what: &str) {
 /// one, stops short of it).
 fn surface_points(f: &'static Sdf) -> Vec<DVec3> {
     let fine = sample(f, 3 * (N - 1) + 1);
-    let m = isoview::mesh::extract(
+    let m = isoview::mesh::reference(
         &fine,
-        0.0,
-        Inside::Below,
-        MeshAlgorithm::MarchingCubes,
-        ExtractOptions::default(),
+        &isoview::mesh::Request::new(0.0, Inside::Below, MeshAlgorithm::MarchingCubes),
     )
     .unwrap();
     m.positions
@@ -452,19 +449,24 @@ fn slabs_equal_the_reference() {
                 let sharp = SharpSettings { hermite, qef_clamp, ..Default::default() };
                 let opts = ExtractOptions::default();
                 let algo = MeshAlgorithm::DualContouringQef;
-                let one =
-                    extract_with(&g, 0.0, Inside::Below, algo, opts, &sharp, Some(&src)).unwrap();
+                let one = reference(
+                    &g,
+                    &Request::new(0.0, Inside::Below, algo)
+                        .with_opts(opts)
+                        .with_sharp(sharp)
+                        .with_source(Some(&src)),
+                )
+                .unwrap();
                 closed_and_oriented(&one, "blobs");
                 for depth in [1, 3, 7] {
-                    let s = extract_in_slabs_with(
+                    let s = extract(
                         &g,
-                        0.0,
-                        Inside::Below,
-                        algo,
-                        opts,
-                        Some(depth),
-                        &sharp,
-                        Some(&src),
+                        &Request::new(0.0, Inside::Below, algo)
+                            .with_opts(opts)
+                            .with_sharp(sharp)
+                            .with_source(Some(&src))
+                            .with_slab_depth(Some(depth)),
+                        &MeshBudget::unlimited(),
                     )
                     .unwrap();
                     assert_eq!(s, one, "depth {depth}, {hermite:?}, clamp {qef_clamp}");
@@ -479,8 +481,7 @@ fn hermite_source_needs_a_point_source() {
     let g = sample(&the_box, 8);
     let sharp = SharpSettings { hermite: HermiteNormals::Source, ..Default::default() };
     let algo = MeshAlgorithm::DualContouringQef;
-    let e = extract_with(&g, 0.0, Inside::Below, algo, ExtractOptions::default(), &sharp, None)
-        .unwrap_err();
+    let e = reference(&g, &Request::new(0.0, Inside::Below, algo).with_sharp(sharp)).unwrap_err();
     assert!(e.to_string().contains("hermite = \"source\""), "{e}");
 }
 
@@ -589,29 +590,33 @@ fn emc_without_features_is_marching_cubes() {
     let g = sample(sphere, 21);
     let sharp = SharpSettings { feature_angle_deg: 60.0, ..Default::default() };
     let opts = ExtractOptions::default();
-    let e = extract_with(&g, 0.0, Inside::Below, MeshAlgorithm::ExtendedMc, opts, &sharp, None)
-        .unwrap();
-    let mc =
-        isoview::mesh::extract(&g, 0.0, Inside::Below, MeshAlgorithm::MarchingCubes, opts).unwrap();
-    assert_eq!(e, mc);
-    let t = isoview::mesh::extract_parallel_with(
+    let e = reference(
         &g,
-        0.0,
-        Inside::Below,
-        MeshAlgorithm::ExtendedMc,
-        opts,
-        &SharpSettings::default(),
-        None,
+        &Request::new(0.0, Inside::Below, MeshAlgorithm::ExtendedMc)
+            .with_opts(opts)
+            .with_sharp(sharp),
     )
     .unwrap();
-    let r = extract_with(
+    let mc = isoview::mesh::reference(
         &g,
-        0.0,
-        Inside::Below,
-        MeshAlgorithm::ExtendedMc,
-        opts,
-        &SharpSettings::default(),
-        None,
+        &isoview::mesh::Request::new(0.0, Inside::Below, MeshAlgorithm::MarchingCubes)
+            .with_opts(opts),
+    )
+    .unwrap();
+    assert_eq!(e, mc);
+    let t = isoview::mesh::extract(
+        &g,
+        &isoview::mesh::Request::new(0.0, Inside::Below, MeshAlgorithm::ExtendedMc)
+            .with_opts(opts)
+            .with_sharp(SharpSettings::default()),
+        &isoview::mesh::MeshBudget::unlimited(),
+    )
+    .unwrap();
+    let r = reference(
+        &g,
+        &Request::new(0.0, Inside::Below, MeshAlgorithm::ExtendedMc)
+            .with_opts(opts)
+            .with_sharp(SharpSettings::default()),
     )
     .unwrap();
     assert_eq!(t, r);
@@ -628,8 +633,22 @@ fn adaptive(f: &'static Sdf, eps: f64, hermite: HermiteNormals) -> (Mesh, Mesh) 
     let uniform = SharpSettings { hermite, ..Default::default() };
     let sharp = SharpSettings { mesh_error: Some(eps), ..uniform };
     (
-        extract_with(&g, 0.0, Inside::Below, algo, opts, &sharp, Some(&src)).unwrap(),
-        extract_with(&g, 0.0, Inside::Below, algo, opts, &uniform, Some(&src)).unwrap(),
+        reference(
+            &g,
+            &Request::new(0.0, Inside::Below, algo)
+                .with_opts(opts)
+                .with_sharp(sharp)
+                .with_source(Some(&src)),
+        )
+        .unwrap(),
+        reference(
+            &g,
+            &Request::new(0.0, Inside::Below, algo)
+                .with_opts(opts)
+                .with_sharp(uniform)
+                .with_source(Some(&src)),
+        )
+        .unwrap(),
     )
 }
 
@@ -759,14 +778,9 @@ fn readme_figures() {
                 ..Default::default()
             };
             let t = std::time::Instant::now();
-            let m = extract_with(
+            let m = reference(
                 &grid,
-                0.0,
-                Inside::Below,
-                algo,
-                ExtractOptions::default(),
-                &sharp,
-                Some(src),
+                &Request::new(0.0, Inside::Below, algo).with_sharp(sharp).with_source(Some(src)),
             )
             .unwrap();
             let ms = t.elapsed().as_secs_f64() * 1e3;

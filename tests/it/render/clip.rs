@@ -147,18 +147,15 @@ fn clip_tables_are_read_and_checked() {
 /// of the area: the zone's height over the diameter.
 #[test]
 fn a_clipped_mesh_is_cut_exactly_and_stays_welded() {
-    use isoview::mesh::{self, ExtractOptions};
+    use isoview::mesh;
     use isoview::scene::MeshAlgorithm;
     use std::collections::HashMap;
 
     let r = 0.7;
     let grid = grid_from([40, 40, 40], DVec3::splat(-1.0), DVec3::ONE, |p| p.length() - r);
-    let whole = mesh::extract(
+    let whole = mesh::reference(
         &grid,
-        0.0,
-        Inside::Below,
-        MeshAlgorithm::MarchingCubes,
-        ExtractOptions::default(),
+        &mesh::Request::new(0.0, Inside::Below, MeshAlgorithm::MarchingCubes),
     )
     .unwrap();
     let mut clip = Clip::NONE;
@@ -208,4 +205,29 @@ fn a_clipped_mesh_is_cut_exactly_and_stays_welded() {
     assert!(o.status.success(), "{}", stderr(&o));
     let m = isoview::field::TriangleMesh::read(std::path::Path::new(&ply)).unwrap();
     assert!(!m.triangles.is_empty() && m.positions.iter().all(|p| p.y <= -0.2 + 1e-6));
+}
+
+/// `Mesh::in_world`, the one place + clip of `isoview extract`: the mesh placed (here a
+/// mirroring placement, which also reverses the winding) and then cut in world coordinates;
+/// with no plane, only placed.
+#[test]
+fn in_world_places_then_clips() {
+    use isoview::mesh;
+    use isoview::scene::MeshAlgorithm;
+
+    let grid = grid_from([12, 12, 12], DVec3::splat(-1.0), DVec3::ONE, |p| p.length() - 0.6);
+    let x = mesh::Request::new(0.0, Inside::Below, MeshAlgorithm::MarchingCubes);
+    let m = mesh::reference(&grid, &x).unwrap();
+    let axes = [DVec3::Y, DVec3::X, DVec3::Z]; // swaps x and y: a mirror
+    let placement = Placement::from_axes(DVec3::new(0.3, 0.0, 0.0), axes).unwrap();
+    assert!(placement.mirrors());
+    let mut placed = m.clone();
+    placed.place(&placement);
+    assert_ne!(placed, m);
+    assert_eq!(m.clone().in_world(&placement, &Clip::NONE), placed);
+    let mut clip = Clip::NONE;
+    clip.push(DVec3::X, 0.35);
+    let got = m.in_world(&placement, &clip);
+    assert_eq!(got, placed.clipped(&clip));
+    assert!(got.triangle_count() < placed.triangle_count());
 }

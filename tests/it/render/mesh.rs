@@ -7,7 +7,7 @@ use glam::DVec3;
 use isoview::camera::Camera;
 use isoview::field::Grid;
 use isoview::frame::Pixel;
-use isoview::mesh::{extract, ExtractOptions, Mesh};
+use isoview::mesh::{reference, Mesh, Request};
 use isoview::passes::mesh_render;
 use isoview::reference::{analytic, field, mesh as reference};
 use isoview::render::{GpuGrid, Renderer};
@@ -115,12 +115,9 @@ fn mesh_render_matches_reference_on_random_meshes_and_cameras() {
         scene.surface.inside = if case % 2 == 0 { Inside::Below } else { Inside::Above };
         scene.render.shading = [Shading::Lambert, Shading::Normal, Shading::Cells][case % 3];
         scene.render.mesh = MeshAlgorithm::ALL[case % 5];
-        let mesh = extract(
+        let mesh = reference(
             &grid,
-            scene.surface.isovalue,
-            scene.surface.inside,
-            scene.render.mesh,
-            ExtractOptions::default(),
+            &Request::new(scene.surface.isovalue, scene.surface.inside, scene.render.mesh),
         )
         .unwrap();
         let pixels = render_mesh(&mut renderer, &scene, &grid, &mesh);
@@ -244,8 +241,8 @@ fn tall_images_render_the_mesh_in_bands_identically() {
     let frame = Renderer::new(&ctx).unwrap().render(&scene, &grid, 0.0).unwrap();
     assert_eq!(frame.pixels.len(), 4096 * 600);
     // Rows at the ends of each band (256 rows each) against the reference.
-    let mesh = extract(&grid, 0.0, Inside::Below, MeshAlgorithm::MarchingCubes, Default::default())
-        .unwrap();
+    let mesh =
+        reference(&grid, &Request::new(0.0, Inside::Below, MeshAlgorithm::MarchingCubes)).unwrap();
     let cam = Camera::new(&scene.camera, &scene.image);
     let boxes: Vec<_> = (0..mesh.triangle_count())
         .map(|t| {

@@ -13,7 +13,7 @@ use glam::{DVec2, DVec3};
 use isoview::field::interpolant::cell_missing;
 use isoview::field::Grid;
 use isoview::frame::Pixel;
-use isoview::mesh::{extract, extract_with, ExtractOptions, Mesh, QuadSplit};
+use isoview::mesh::{reference, ExtractOptions, Mesh, QuadSplit, Request};
 use isoview::reference::analytic::{self, AnalyticOptions};
 use isoview::reference::fixed_step;
 use isoview::render::Renderer;
@@ -174,7 +174,8 @@ fn in_missing(u: DVec3, open: bool) -> bool {
 fn mesh_of(grid: &Grid, algo: MeshAlgorithm, mesh_error: Option<f64>) -> Mesh {
     let opts = ExtractOptions { split: QuadSplit::Fixed, keep_quads: false };
     let sharp = SharpSettings { mesh_error, ..SharpSettings::default() };
-    extract_with(grid, 0.0, Inside::Below, algo, opts, &sharp, None).unwrap()
+    reference(grid, &Request::new(0.0, Inside::Below, algo).with_opts(opts).with_sharp(sharp))
+        .unwrap()
 }
 
 #[test]
@@ -258,7 +259,7 @@ fn a_finite_grid_meshes_as_before_and_an_all_missing_one_is_empty() {
     let mut none = sphere();
     none.values.iter_mut().for_each(|v| *v = f32::NAN);
     for algo in MeshAlgorithm::ALL {
-        let m = extract(&none, 0.0, Inside::Below, algo, ExtractOptions::default()).unwrap();
+        let m = reference(&none, &Request::new(0.0, Inside::Below, algo)).unwrap();
         assert_eq!((m.vertex_count(), m.triangle_count()), (0, 0), "{}", algo.name());
     }
     // -inf is missing too, though it compares below every isovalue.
@@ -449,7 +450,8 @@ fn gpu_extraction_equals_cpu_with_missing_samples() {
             let inside = Inside::ALL[round % 2];
             let what = format!("{} round {round} dims {:?}", algo.name(), grid.dims);
             let cpu_opts = ExtractOptions { split: QuadSplit::Fixed, keep_quads: false };
-            let reference = extract(&grid, iso, inside, algo, cpu_opts).unwrap();
+            let reference =
+                reference(&grid, &Request::new(iso, inside, algo).with_opts(cpu_opts)).unwrap();
             let image =
                 Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values).unwrap();
             let mesh =

@@ -170,7 +170,11 @@ fn a_placed_mesh_keeps_its_normals_outward() {
         let pl = placement(DVec3::new(0.3, 1.0, -0.4), 0.9, DVec3::new(1.0, 2.0, 3.0), mirror);
         for algorithm in MeshAlgorithm::ALL {
             let opts = ExtractOptions { keep_quads: true, ..Default::default() };
-            let m = mesh::extract(&grid, 0.0, Inside::Below, algorithm, opts).unwrap();
+            let m = mesh::reference(
+                &grid,
+                &mesh::Request::new(0.0, Inside::Below, algorithm).with_opts(opts),
+            )
+            .unwrap();
             let mut w = m.clone();
             w.place(&pl);
             assert_eq!(w.vertex_count(), m.vertex_count());

@@ -186,30 +186,27 @@ pub fn build(
     let super_shape = SuperShape { supers: i(supers, SUPER), bricks: i(counts, 0) };
     let timer = Timer::new(ctx)?;
     ctx.record(&pipeline.name, &mut Tracker::default(), |rec| {
-        if let Some(t) = &timer {
-            t.begin(rec.cmd());
-        }
-        // One invocation per brick, GROUP³ bricks per workgroup.
-        rec.dispatch(&Compute {
-            pipeline,
-            set: &set,
-            push: bytemuck::bytes_of(&shape),
-            groups: grid_groups(counts.map(|c| c as u32), [GROUP; 3]),
-            reads: &[],
-            writes: &[&bricks],
-        });
-        // Then one per superbrick, reading the bricks' ranges the first pass wrote.
-        rec.dispatch(&Compute {
-            pipeline: &pipelines.supers,
-            set: &super_set,
-            push: bytemuck::bytes_of(&super_shape),
-            groups: grid_groups(supers.map(|c| c as u32), [GROUP; 3]),
-            reads: &[],
-            writes: &[&bricks],
-        });
-        if let Some(t) = &timer {
-            t.end(rec.cmd());
-        }
+        rec.timed(timer.as_ref(), |rec| {
+            // One invocation per brick, GROUP³ bricks per workgroup.
+            rec.dispatch(&Compute {
+                pipeline,
+                set: &set,
+                push: bytemuck::bytes_of(&shape),
+                groups: grid_groups(counts.map(|c| c as u32), [GROUP; 3]),
+                reads: &[],
+                writes: &[&bricks],
+            });
+            // Then one per superbrick, reading the bricks' ranges the first pass wrote.
+            rec.dispatch(&Compute {
+                pipeline: &pipelines.supers,
+                set: &super_set,
+                push: bytemuck::bytes_of(&super_shape),
+                groups: grid_groups(supers.map(|c| c as u32), [GROUP; 3]),
+                reads: &[],
+                writes: &[&bricks],
+            });
+            Ok(())
+        })?;
         rec.copy(&bricks, (n_bricks * 8) as u64, &host, 0, (n_supers * 8) as u64);
         rec.host_read(&host);
         // The ray passes of later submissions read the bricks.

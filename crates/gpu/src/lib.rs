@@ -3,6 +3,8 @@
 //! debug names, [`ComputePipeline`]s from SPIR-V, one-shot command submission with timestamp
 //! queries, and a [`Recorder`] that derives barriers from the buffers each command declares it
 //! reads and writes (plus the workgroup arithmetic, [`grid_groups`] and [`spread_groups`]).
+//! [`Context::record`] is the only public way to record GPU work: every command goes through
+//! the recorder's barrier tracker (raw command buffers, copies and fills stay inside the crate).
 //!
 //! Ownership and drop order: every resource holds an `Arc<Context>` and frees its own
 //! allocation in `Drop`; the context drops the allocator, then the device, then the instance,
@@ -22,10 +24,8 @@ pub use context::{validation_messages, Context, ContextOptions, DeviceInfo};
 pub use error::GpuError;
 pub use gpu_allocator::MemoryLocation;
 pub use image::Image3d;
-pub use pipeline::{
-    copy_buffer, fill_buffer, memory_barrier, record_readback, ComputePipeline, Dispatch, Resource,
-    Timer,
-};
+pub(crate) use pipeline::{copy_buffer, fill_buffer};
+pub use pipeline::{ComputePipeline, Dispatch, Resource, Timer};
 pub use record::{
     grid_groups, spread_groups, Access, Barrier, Compute, Recorder, Stage, Tracker, MAX_GROUPS_X,
 };

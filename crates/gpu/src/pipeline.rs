@@ -238,8 +238,15 @@ impl ComputePipeline {
         Ok(dispatch)
     }
 
-    /// Records a dispatch of `groups` workgroups with `push` constants.
-    pub fn record(&self, cmd: vk::CommandBuffer, set: &Dispatch, push: &[u8], groups: [u32; 3]) {
+    /// Records a dispatch of `groups` workgroups with `push` constants (through
+    /// [`Recorder::dispatch`](crate::Recorder::dispatch), which adds its barriers).
+    pub(crate) fn record(
+        &self,
+        cmd: vk::CommandBuffer,
+        set: &Dispatch,
+        push: &[u8],
+        groups: [u32; 3],
+    ) {
         let device = &self.ctx.device;
         debug_assert_eq!(push.len() as u32, self.push_bytes);
         // SAFETY: cmd is recording; pipeline, layout and set are valid.
@@ -279,30 +286,8 @@ impl Drop for Dispatch {
     }
 }
 
-/// Records a compute→transfer/host or compute→compute memory barrier on all buffers.
-pub fn memory_barrier(
-    ctx: &Context,
-    cmd: vk::CommandBuffer,
-    src: (vk::PipelineStageFlags, vk::AccessFlags),
-    dst: (vk::PipelineStageFlags, vk::AccessFlags),
-) {
-    let b = [vk::MemoryBarrier::default().src_access_mask(src.1).dst_access_mask(dst.1)];
-    // SAFETY: cmd is recording.
-    unsafe {
-        ctx.device.cmd_pipeline_barrier(
-            cmd,
-            src.0,
-            dst.0,
-            vk::DependencyFlags::empty(),
-            &b,
-            &[],
-            &[],
-        )
-    };
-}
-
 /// Records a copy of `bytes` bytes between buffers.
-pub fn copy_buffer(
+pub(crate) fn copy_buffer(
     ctx: &Context,
     cmd: vk::CommandBuffer,
     src: &Buffer,
@@ -318,7 +303,7 @@ pub fn copy_buffer(
 
 /// Records a fill of `bytes` bytes of `dst` from `offset` with the 32-bit word `value` (offset
 /// and size multiples of 4).
-pub fn fill_buffer(
+pub(crate) fn fill_buffer(
     ctx: &Context,
     cmd: vk::CommandBuffer,
     dst: &Buffer,
@@ -328,31 +313,6 @@ pub fn fill_buffer(
 ) {
     // SAFETY: cmd is recording and the buffer is valid; callers keep the range inside it.
     unsafe { ctx.device.cmd_fill_buffer(cmd, dst.raw, offset, bytes, value) };
-}
-
-/// Records the copy of a compute pass's output (`bytes` from the start of `src`) into the
-/// host-visible `dst`, with the barriers that make compute writes visible to the copy and the
-/// copy visible to the host after the submission's fence.
-pub fn record_readback(
-    ctx: &Context,
-    cmd: vk::CommandBuffer,
-    src: &Buffer,
-    dst: &Buffer,
-    bytes: u64,
-) {
-    memory_barrier(
-        ctx,
-        cmd,
-        (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
-        (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
-    );
-    copy_buffer(ctx, cmd, src, 0, dst, 0, bytes);
-    memory_barrier(
-        ctx,
-        cmd,
-        (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
-        (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
-    );
 }
 
 /// A pair of timestamps around recorded work.
@@ -373,7 +333,8 @@ impl Timer {
         Ok(Some(Timer { pool, ctx: ctx.clone() }))
     }
 
-    pub fn begin(&self, cmd: vk::CommandBuffer) {
+    /// Writes the first timestamp (through [`Recorder::timed`](crate::Recorder::timed)).
+    pub(crate) fn begin(&self, cmd: vk::CommandBuffer) {
         // SAFETY: cmd is recording; the pool has 2 queries.
         unsafe {
             self.ctx.device.cmd_reset_query_pool(cmd, self.pool, 0, 2);
@@ -386,7 +347,8 @@ impl Timer {
         }
     }
 
-    pub fn end(&self, cmd: vk::CommandBuffer) {
+    /// Writes the second timestamp.
+    pub(crate) fn end(&self, cmd: vk::CommandBuffer) {
         // SAFETY: cmd is recording.
         unsafe {
             self.ctx.device.cmd_write_timestamp(

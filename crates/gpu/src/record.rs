@@ -25,7 +25,7 @@
 use ash::vk;
 use std::collections::HashMap;
 
-use super::{Buffer, ComputePipeline, Context, Dispatch, GpuError};
+use super::{Buffer, ComputePipeline, Context, Dispatch, GpuError, Timer};
 
 /// Most workgroups along one dispatch axis that every Vulkan device accepts.
 pub const MAX_GROUPS_X: u32 = 65535;
@@ -214,13 +214,24 @@ pub struct Recorder<'a> {
 }
 
 impl<'a> Recorder<'a> {
-    pub fn new(ctx: &'a Context, cmd: vk::CommandBuffer, tracker: &'a mut Tracker) -> Self {
+    pub(crate) fn new(ctx: &'a Context, cmd: vk::CommandBuffer, tracker: &'a mut Tracker) -> Self {
         Recorder { ctx, cmd, tracker }
     }
 
-    /// The command buffer, for what records itself (timestamps).
-    pub fn cmd(&self) -> vk::CommandBuffer {
-        self.cmd
+    /// Records `record` between the two timestamps of `timer` (none: just `record`); read the
+    /// time with [`Timer::elapsed_ms`] once the submission completed.
+    pub fn timed<F>(&mut self, timer: Option<&Timer>, record: F) -> Result<(), GpuError>
+    where
+        F: FnOnce(&mut Recorder) -> Result<(), GpuError>,
+    {
+        if let Some(t) = timer {
+            t.begin(self.cmd);
+        }
+        record(self)?;
+        if let Some(t) = timer {
+            t.end(self.cmd);
+        }
+        Ok(())
     }
 
     fn barrier(&mut self, accesses: &[Access]) {

@@ -241,16 +241,7 @@ impl Scratch<'_> {
     where
         F: FnOnce(&mut Recorder) -> Result<(), GpuError>,
     {
-        ctx.record(pass, &mut run.tracker, |rec| {
-            if let Some(t) = &self.timer {
-                t.begin(rec.cmd());
-            }
-            record(rec)?;
-            if let Some(t) = &self.timer {
-                t.end(rec.cmd());
-            }
-            Ok(())
-        })?;
+        ctx.record(pass, &mut run.tracker, |rec| rec.timed(self.timer.as_ref(), record))?;
         if let (Some(t), Some(ms)) = (&self.timer, run.stats.gpu_ms.as_mut()) {
             *ms += t.elapsed_ms()?;
         }

@@ -6,7 +6,7 @@
 //! workgroup size against the constant its dispatch divides by.
 
 use isoview::frame::Pixel;
-use isoview::gpu::{vk, Buffer, ComputePipeline, MemoryLocation, Resource};
+use isoview::gpu::{vk, Buffer, Compute, ComputePipeline, MemoryLocation, Resource, Tracker};
 use isoview::render::params::RenderParams;
 use isoview::shaders;
 
@@ -49,8 +49,17 @@ fn shared_structs_have_the_same_layout_on_the_gpu() {
     let set = pipeline
         .bind(&[Resource::Uniform(&ubo), Resource::Storage(&bits), Resource::Storage(&px)])
         .unwrap();
-    ctx.submit("layout probe", |cmd| {
-        pipeline.record(cmd, &set, &[], [1, 1, 1]);
+    ctx.record("layout probe", &mut Tracker::default(), |rec| {
+        rec.dispatch(&Compute {
+            pipeline: &pipeline,
+            set: &set,
+            push: &[],
+            groups: [1, 1, 1],
+            reads: &[&ubo],
+            writes: &[&bits, &px],
+        });
+        rec.host_read(&bits);
+        rec.host_read(&px);
         Ok(())
     })
     .unwrap();

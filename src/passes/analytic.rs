@@ -38,7 +38,7 @@ pub struct Walk {
     /// `BRICK_LEVELS`: the levels of the min/max grid the walk jumps with, 1 (bricks) or 2 (and
     /// superbricks).
     pub levels: u32,
-    /// `SURFACE_COUNT`: the surfaces (isovalues), 1 to `SURFACES`; `RenderParams.view.w`.
+    /// `SURFACE_COUNT`: the surfaces (isovalues), 1 to `SURFACES`; `RenderParams.surfaces`.
     pub surfaces: u32,
 }
 

@@ -6,7 +6,7 @@
 //! Per band, one submission: the passes that write the band's pixels to the start of
 //! [`Bands::out`] (timed with GPU timestamps where the device has them), the copy of the band
 //! into a host-visible buffer, then the host reads it. Barriers come from the passes'
-//! declared reads and writes (`gpu::Recorder`).
+//! bindings (`gpu::Binding`, `gpu::Recorder`).
 
 use std::sync::Arc;
 

@@ -6,7 +6,7 @@
 //! workgroup size against the constant its dispatch divides by.
 
 use isoview::frame::Pixel;
-use isoview::gpu::{vk, Buffer, Compute, ComputePipeline, MemoryLocation, Resource, Tracker};
+use isoview::gpu::{vk, Binding, Buffer, ComputePipeline, MemoryLocation, Resource, Tracker};
 use isoview::render::params::RenderParams;
 use isoview::shaders;
 
@@ -38,11 +38,7 @@ fn shared_structs_have_the_same_layout_on_the_gpu() {
         &ctx,
         "layout probe",
         shaders::TEST_LAYOUT_PROBE,
-        &[
-            vk::DescriptorType::UNIFORM_BUFFER,
-            vk::DescriptorType::STORAGE_BUFFER,
-            vk::DescriptorType::STORAGE_BUFFER,
-        ],
+        &[Binding::Uniform, Binding::Write, Binding::Write],
         0,
     )
     .unwrap();
@@ -50,14 +46,7 @@ fn shared_structs_have_the_same_layout_on_the_gpu() {
         .bind(&[Resource::Uniform(&ubo), Resource::Storage(&bits), Resource::Storage(&px)])
         .unwrap();
     ctx.record("layout probe", &mut Tracker::default(), |rec| {
-        rec.dispatch(&Compute {
-            pipeline: &pipeline,
-            set: &set,
-            push: &[],
-            groups: [1, 1, 1],
-            reads: &[&ubo],
-            writes: &[&bits, &px],
-        });
+        rec.dispatch(&pipeline, &set, &[], [1, 1, 1]);
         rec.host_read(&bits);
         rec.host_read(&px);
         Ok(())

@@ -58,24 +58,20 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
     // passes/bricks.rs): the points a cell reads before its lower corner and after it.
     ("STENCIL_BELOW", 0, Glsl::Int, "Points a cell reads before its lower corner, per axis."),
     ("STENCIL_ABOVE", 1, Glsl::Int, "Points a cell reads after its lower corner, per axis."),
-    // `RenderParams.method.x`.
-    ("METHOD_FIXED_STEP", 0, Glsl::Uint, "RenderParams.method.x of fixed-step ray marching."),
-    ("METHOD_ANALYTIC", 1, Glsl::Uint, "RenderParams.method.x of the exact ray tracer."),
-    ("METHOD_MESH", 2, Glsl::Uint, "RenderParams.method.x of the mesh render."),
-    // `RenderParams.method.y`.
-    ("SHADE_LAMBERT", 0, Glsl::Uint, "RenderParams.method.y: lambert shading."),
-    ("SHADE_NORMAL", 1, Glsl::Uint, "RenderParams.method.y: normal shading."),
-    ("SHADE_DEPTH", 2, Glsl::Uint, "RenderParams.method.y: depth shading."),
-    ("SHADE_STEPS", 3, Glsl::Uint, "RenderParams.method.y: steps shading."),
-    ("SHADE_CELLS", 4, Glsl::Uint, "RenderParams.method.y: cells shading."),
-    ("SHADE_SOLID", 5, Glsl::Uint, "RenderParams.method.y: solid shading."),
+    // `RenderParams.shading`.
+    ("SHADE_LAMBERT", 0, Glsl::Uint, "RenderParams.shading: lambert shading."),
+    ("SHADE_NORMAL", 1, Glsl::Uint, "RenderParams.shading: normal shading."),
+    ("SHADE_DEPTH", 2, Glsl::Uint, "RenderParams.shading: depth shading."),
+    ("SHADE_STEPS", 3, Glsl::Uint, "RenderParams.shading: steps shading."),
+    ("SHADE_CELLS", 4, Glsl::Uint, "RenderParams.shading: cells shading."),
+    ("SHADE_SOLID", 5, Glsl::Uint, "RenderParams.shading: solid shading."),
     // `RenderParams.clip` (Rust: `vocab::Clip::MAX_PLANES`).
     ("CLIP_PLANES", 12, Glsl::Uint, "Clip planes RenderParams holds."),
     // `RenderParams.surfaces` (Rust: `scene::MAX_SURFACES`).
     ("SURFACES", 8, Glsl::Uint, "Surfaces (isovalues) RenderParams holds."),
-    // `RenderParams.view.y`.
-    ("NORMALS_TRILINEAR", 0, Glsl::Uint, "RenderParams.view.y: the trilinear gradient."),
-    ("NORMALS_SMOOTH", 1, Glsl::Uint, "RenderParams.view.y: interpolated point gradients."),
+    // `RenderParams.normals`.
+    ("NORMALS_TRILINEAR", 0, Glsl::Uint, "RenderParams.normals: the trilinear gradient."),
+    ("NORMALS_SMOOTH", 1, Glsl::Uint, "RenderParams.normals: interpolated point gradients."),
     // `SlabPush.mode` of classify.comp.
     ("MODE_MC", 0, Glsl::Uint, "classify.comp mode: marching cubes."),
     ("MODE_MT", 1, Glsl::Uint, "classify.comp mode: marching tetrahedra."),

@@ -7,9 +7,9 @@
 //   of its derivative, a crossing wherever the inside predicate changes between consecutive
 //   split points (values at cell faces: the same from both cells), refined by Newton kept in
 //   the bracket; 7. hit attributes.
-// With `render.count_crossings` (`P.analytic.w`) the walk goes on after the hit to count every
-// crossing (the `crossings` channel; only the wanted one, `P.analytic.x`, the k-th, is refined);
-// without it the walk stops at the wanted crossing and `crossings` is -1 (no channel).
+// With `render.count_crossings` (`P.count_crossings`) the walk goes on after the hit to count
+// every crossing (the `crossings` channel; only the wanted one, `P.crossing`, the k-th, is
+// refined); without it the walk stops at the wanted crossing and `crossings` is -1 (no channel).
 //
 // Outputs: the hit's colour (shade()), normal, depth (the ray's t: distance, dir being a unit
 // vector), position, cell; `crossings`, every crossing with t > 0 inside the box; `steps`, the
@@ -17,7 +17,7 @@
 // pass is one cell, as the reference's `cells_visited`; with skipping a brick crossed in one jump
 // is one pass, and a ray whose remaining span lies in an empty brick stops there.
 //
-// Empty-space skipping (`P.analytic.y`): `bricks[]` holds the [min, max] of the corner values of
+// Empty-space skipping (`P.skip`): `bricks[]` holds the [min, max] of the corner values of
 // each brick of BRICK^3 cells (built by bricks.comp). When the walk enters a cell whose brick is
 // clearly on one side of every isovalue, it jumps to the cell of the brick where the ray leaves
 // it (`leave_brick`), landing in exactly the cell and t the cell-by-cell walk reaches there; a
@@ -87,7 +87,7 @@ float tmax_of(int a, int c, vec3 o, vec3 d) {
     return uintBitsToFloat(0x7f800000u);
 }
 
-// Surface k's inside threshold (surface 0's is P.surface.x).
+// Surface k's inside threshold (surface 0's is P.threshold).
 float threshold(uint k) {
     return P.thresholds[k / 4u][k % 4u];
 }
@@ -98,7 +98,7 @@ float threshold(uint k) {
 // walk's loop even when never taken (~15% on the 256^3 gyroid).
 layout(constant_id = 0) const int BRICK_LEVELS = 1;
 
-// The number of surfaces (P.view.w), also a specialization constant: the loops over surfaces in
+// The number of surfaces (P.surfaces), also a specialization constant: the loops over surfaces in
 // the walk (brick, superbrick and cell tests, the crossings) then have a constant trip count and
 // constant indices into P.thresholds; with the uniform count they cost llvmpipe about a third
 // of the 256^3 gyroid's render (574 -> 394 ms) and a sixth of the torus's.
@@ -122,13 +122,13 @@ bool range_is_empty(vec2 mm) {
 
 // Bricks per axis: ceil(cells / BRICK).
 ivec3 brick_counts() {
-    return (P.dims.xyz - 2) / BRICK + 1;
+    return (P.dims - 2) / BRICK + 1;
 }
 
 // Whether no crossing of any surface can lie in the brick of `cell`.
 bool brick_is_empty(ivec3 cell) {
-    // BRICK (P.analytic.z) as the constant: llvmpipe has no vector integer division, and a
-    // division by a variable costs it one scalar division per lane.
+    // BRICK as a constant (RenderParams has no brick size): llvmpipe has no vector integer
+    // division, and a division by a variable costs it one scalar division per lane.
     ivec3 nb = brick_counts();
     ivec3 b = cell / BRICK;
     return range_is_empty(bricks[(b.z * nb.y + b.y) * nb.x + b.x]);
@@ -209,7 +209,7 @@ vec3 carried(bvec3 crossed, vec3 q, vec3 d) {
 // 6.6 Steps every axis of `crossed` into the next cell and its next plane; false when that
 // leaves the grid.
 bool step_cells(bvec3 crossed, inout ivec3 cell, inout vec3 tmax, vec3 o, vec3 d) {
-    ivec3 ncell = P.dims.xyz - 1;
+    ivec3 ncell = P.dims - 1;
     bool left_box = false;
     for (int a = 0; a < 3; a++) {
         if (crossed[a]) {
@@ -305,18 +305,18 @@ bool cell_all_clear(Corners k) {
 uint cell_crossings(Corners corners, vec3 q_in, vec3 q_out, float f_in, float f_out, float t_in,
                     float t_out, bool found, inout uint crossings, inout uint exact_mask,
                     inout vec4 brackets[SURFACES]) {
-    bool below = P.surface.y > 0.0;
+    bool below = P.inside_sign > 0.0;
     uint surfaces = SURFACE_COUNT;
     bool several = surfaces > 1u;
-    uint wanted = max(P.analytic.x, 1u);  // 1 with several surfaces (scene validation)
-    bool count_all = P.analytic.w != 0u;
+    uint wanted = max(P.crossing, 1u);  // 1 with several surfaces (scene validation)
+    bool count_all = P.count_crossings != 0u;
     vec4 shape = cubic_along(corners, q_in, q_out, 0.0);
     float r0, r1;
     int nd = derivative_roots(shape, r0, r1);
     uint cell_mask = 0u;
     for (uint k = 0u; k < surfaces; k++) {
         float iso = threshold(k);
-        if (P.analytic.y != 0u && cell_is_clear(corners, iso)) continue;
+        if (P.skip != 0u && cell_is_clear(corners, iso)) continue;
         float g_in = f_in - iso;
         float g_out = f_out - iso;
         vec4 cubic = vec4(g_in, shape.yzw);
@@ -371,7 +371,7 @@ uint cell_crossings(Corners corners, vec3 q_in, vec3 q_out, float f_in, float f_
 // blocks), and the image is bit for bit the one of the whole grid, skipping on or off.
 bool owned(ivec3 cell) {
     bool in_block =
-        all(greaterThanEqual(cell, P.block_lo.xyz)) && all(lessThan(cell, P.block_hi.xyz));
+        all(greaterThanEqual(cell, P.block_lo)) && all(lessThan(cell, P.block_hi));
 #ifdef GRID_POOL
     return in_block && resident(cell);
 #else
@@ -381,8 +381,8 @@ bool owned(ivec3 cell) {
 
 void main() {
     uvec2 px_local = gl_GlobalInvocationID.xy;
-    if (px_local.x >= P.image.w || px_local.y >= band.rows) return;
-    uvec2 px = uvec2(px_local.x, px_local.y + band.row_offset) * P.image.z;
+    if (px_local.x >= P.picture_width || px_local.y >= band.rows) return;
+    uvec2 px = uvec2(px_local.x, px_local.y + band.row_offset) * P.stride;
     vec3 eye;  // the ray's origin: the eye, or its pixel on the orthographic image plane
     vec3 dir;
     camera_ray(px, eye, dir);
@@ -395,25 +395,25 @@ void main() {
     r.position = vec3(0.0);
     r.steps = 0.0;
     r.cell = ivec3(-1);
-    r.crossings = P.analytic.w != 0u ? 0 : -1;  // -1: not counted (render.count_crossings)
+    r.crossings = P.count_crossings != 0u ? 0 : -1;  // -1: not counted (render.count_crossings)
     r.surface = -1;
     r.value = uintBitsToFloat(0x7fc00000u);  // NaN: no [color] value
     r.pad0 = 0u;
     r.pad1 = 0u;
 
-    bool below = P.surface.y > 0.0;
+    bool below = P.inside_sign > 0.0;
     uint surfaces = SURFACE_COUNT;
     bool several = surfaces > 1u;
-    uint wanted = max(P.analytic.x, 1u);  // 1 with several surfaces (scene validation)
-    bool count_all = P.analytic.w != 0u;
+    uint wanted = max(P.crossing, 1u);  // 1 with several surfaces (scene validation)
+    bool count_all = P.count_crossings != 0u;
 
     // 1. Index space (the eye's index-space position comes from the CPU, in f64; an
     // orthographic ray's origin is offset from it in the image plane).
-    ivec3 ncell = P.dims.xyz - 1;
+    ivec3 ncell = P.dims - 1;
     vec3 n = vec3(ncell);
-    vec3 o = P.eye_grid.xyz;
-    if (camera_orthographic()) o += pixel_offset(px) * P.inv_spacing.xyz;
-    vec3 d = dir * P.inv_spacing.xyz;
+    vec3 o = P.eye_grid;
+    if (camera_orthographic()) o += pixel_offset(px) * P.inv_spacing;
+    vec3 d = dir * P.inv_spacing;
     bool usable = !any(isnan(o)) && !any(isinf(o)) && !any(isnan(d)) && !any(isinf(d))
         && d != vec3(0.0);
 
@@ -447,7 +447,7 @@ void main() {
     }
     t_exit = min(t_exit, c_hi);
     if (!usable || !(t_enter <= t_exit && t_exit > 0.0 && t_exit < INF)) {
-        pixels[px_local.y * P.image.w + px_local.x] = r;
+        pixels[px_local.y * P.picture_width + px_local.x] = r;
         return;
     }
     float t_lo = max(t_enter, 0.0);
@@ -479,7 +479,7 @@ void main() {
     // zero-length segments inside a brick): plane numerators c - o distinct and ordered
     // (|o| < 2^20), quotients finite and normal (2^-90 < |d| < 2^90). Always true for cameras within a million cells
     // of the grid; other rays walk cell by cell.
-    bool may_jump = P.analytic.y != 0u && all(lessThan(abs(o), vec3(1048576.0)));
+    bool may_jump = P.skip != 0u && all(lessThan(abs(o), vec3(1048576.0)));
     for (int a = 0; a < 3; a++) {
         float m = abs(d[a]);
         if (m != 0.0 && !(m > 8.0779356694631609e-28 && m < 1.2379400392853803e27)) may_jump = false;
@@ -511,7 +511,7 @@ void main() {
     // both cells sharing the face (interp_value), and the entry point is the previous exit point,
     // computed from the t the cell is entered at, except while every segment so far had length
     // 0 (a ray starting on a plane), when it is carried from step 4's (`known`).
-    bool skip = P.analytic.y != 0u;
+    bool skip = P.skip != 0u;
     bool known = true;        // q_in is `q_known` (step 4's, carried through zero-length cells)
     vec3 q_known = q_in;
     bvec3 entered = bvec3(false);  // the axes whose planes the walk crossed into `cell`
@@ -612,7 +612,7 @@ void main() {
             vec4 b = brackets[k];
             vec4 cubic = vec4(hit_f_in - threshold(k), shape.yzw);
             float u = (exact_mask & (1u << k)) != 0u
-                ? b.x : refine_root(cubic, below, b.x, b.y, b.z, b.w, P.method.w);
+                ? b.x : refine_root(cubic, below, b.x, b.y, b.z, b.w, P.newton_steps);
             float t = segment_t(hit_t_in, hit_t_out, u);
             if (t < hit_t) {
                 hit_t = t;
@@ -623,7 +623,7 @@ void main() {
         vec3 hit_q = vec3(lerp1(hit_q_in.x, hit_q_out.x, hit_u),
                           lerp1(hit_q_in.y, hit_q_out.y, hit_u),
                           lerp1(hit_q_in.z, hit_q_out.z, hit_u));
-        vec3 grad = interp_gradient(k8, hit_q) * P.inv_spacing.xyz;
+        vec3 grad = interp_gradient(k8, hit_q) * P.inv_spacing;
         vec3 oriented = below ? grad : -grad;
         float len = length(oriented);
         r.normal = len > 0.0 && !isinf(len) ? oriented / len : -dir;
@@ -637,5 +637,5 @@ void main() {
     }
     r.steps = float(found ? visited : passes);
     r.crossings = count_all ? int(crossings) : -1;
-    pixels[px_local.y * P.image.w + px_local.x] = r;
+    pixels[px_local.y * P.picture_width + px_local.x] = r;
 }

@@ -40,9 +40,9 @@ layout(push_constant) uniform Push {
 // eye-relative point q at depth z > 0 along the view (orthographic: no division by depth).
 vec2 to_pixel(vec3 q, float z) {
     if (camera_orthographic()) z = 1.0;
-    float sx = dot(q, P.right.xyz) / (dot(P.right.xyz, P.right.xyz) * z);
-    float sy = dot(q, P.up.xyz) / (dot(P.up.xyz, P.up.xyz) * z);
-    return vec2((sx + 1.0) * 0.5 * float(P.image.x) - 0.5, (1.0 - sy) * 0.5 * float(P.image.y) - 0.5);
+    float sx = dot(q, P.right) / (dot(P.right, P.right) * z);
+    float sy = dot(q, P.up) / (dot(P.up, P.up) * z);
+    return vec2((sx + 1.0) * 0.5 * float(P.width) - 0.5, (1.0 - sy) * 0.5 * float(P.height) - 0.5);
 }
 
 void main() {
@@ -51,26 +51,26 @@ void main() {
     vec3 A = positions[indices[3u * tri]].xyz;
     vec3 B = positions[indices[3u * tri + 1u]].xyz;
     vec3 C = positions[indices[3u * tri + 2u]].xyz;
-    vec3 o = P.eye.xyz;
+    vec3 o = P.eye;
 
     // Bounding box in pixels, clamped to the band.
     int x0 = 0;
-    int x1 = int(P.image.x) - 1;
+    int x1 = int(P.width) - 1;
     int y0 = int(pc.row_offset);
     int y1 = int(pc.row_offset + pc.rows) - 1;
     vec3 qa = A - o;
     vec3 qb = B - o;
     vec3 qc = C - o;
-    float za = dot(qa, P.forward.xyz);
-    float zb = dot(qb, P.forward.xyz);
-    float zc = dot(qc, P.forward.xyz);
+    float za = dot(qa, P.forward);
+    float zb = dot(qb, P.forward);
+    float zc = dot(qc, P.forward);
     if (za <= 0.0 && zb <= 0.0 && zc <= 0.0) return;  // wholly behind the eye
     if (min(za, min(zb, zc)) > 0.0) {
         vec2 pa = to_pixel(qa, za);
         vec2 pb = to_pixel(qb, zb);
         vec2 pc2 = to_pixel(qc, zc);
-        vec2 lo = clamp(min(pa, min(pb, pc2)), vec2(-2.0), vec2(P.image.xy) + 1.0);
-        vec2 hi = clamp(max(pa, max(pb, pc2)), vec2(-2.0), vec2(P.image.xy) + 1.0);
+        vec2 lo = clamp(min(pa, min(pb, pc2)), vec2(-2.0), vec2(P.width, P.height) + 1.0);
+        vec2 hi = clamp(max(pa, max(pb, pc2)), vec2(-2.0), vec2(P.width, P.height) + 1.0);
         x0 = max(x0, int(floor(lo.x)) - 1);
         x1 = min(x1, int(ceil(hi.x)) + 1);
         y0 = max(y0, int(floor(lo.y)) - 1);
@@ -79,7 +79,7 @@ void main() {
 
     for (int y = y0; y <= y1; y++) {
         for (int x = x0; x <= x1; x++) {
-            uint i = uint(y - int(pc.row_offset)) * P.image.x + uint(x);
+            uint i = uint(y - int(pc.row_offset)) * P.width + uint(x);
             vec3 ro;
             vec3 d;
             camera_ray(uvec2(x, y), ro, d);

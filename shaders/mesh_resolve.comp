@@ -40,9 +40,9 @@ const uint64_t NO_HIT = 0xFFFFFFFFFFFFFFFFul;
 
 void main() {
     uvec2 local = gl_GlobalInvocationID.xy;
-    if (local.x >= P.image.x || local.y >= band.rows) return;
+    if (local.x >= P.width || local.y >= band.rows) return;
     uvec2 px = uvec2(local.x, local.y + band.row_offset);
-    uint i = local.y * P.image.x + local.x;
+    uint i = local.y * P.width + local.x;
     vec3 o;
     vec3 d;
     camera_ray(px, o, d);
@@ -54,8 +54,8 @@ void main() {
     r.position = vec3(0.0);
     r.steps = float(counts[2u * i]);
     r.cell = ivec3(-1);
-    // Counted only when asked for (`render.count_crossings`, P.analytic.w); -1: no channel.
-    r.crossings = P.analytic.w != 0u ? int(counts[2u * i + 1u]) : -1;
+    // Counted only when asked for (`render.count_crossings`, P.count_crossings); -1: no channel.
+    r.crossings = P.count_crossings != 0u ? int(counts[2u * i + 1u]) : -1;
     // One surface per pass: several isovalues are drawn one after the other and composited
     // on the host (`render::mesh`), which sets `surface`.
     r.surface = -1;
@@ -87,7 +87,7 @@ void main() {
         r.position = hit;
         r.normal = n;
         r.cell = cell_of(u);
-        r.rgba = vec4(shade(n, d, t, r.steps, u, r.cell, P.color.rgb), 1.0);
+        r.rgba = vec4(shade(n, d, t, r.steps, u, r.cell, P.color), 1.0);
     }
     pixels[i] = r;
 }

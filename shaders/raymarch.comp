@@ -46,8 +46,8 @@ const int REFINE_BISECTIONS = 8;
 
 void main() {
     uvec2 local = gl_GlobalInvocationID.xy;
-    if (local.x >= P.image.w || local.y >= band.rows) return;
-    uvec2 px = uvec2(local.x, local.y + band.row_offset) * P.image.z;
+    if (local.x >= P.picture_width || local.y >= band.rows) return;
+    uvec2 px = uvec2(local.x, local.y + band.row_offset) * P.stride;
     vec3 o;
     vec3 d;
     camera_ray(px, o, d);
@@ -67,9 +67,9 @@ void main() {
 
     float t0, t1;
     if (clip_box(o, d, t0, t1) && clip_interval(o, d, t0, t1)) {
-        uint n = P.method.z;
+        uint n = P.steps;
         CellCache cache = cache_empty();
-        uint surfaces = P.view.w;
+        uint surfaces = P.surfaces;
         float ta = t0;
         float fa = field_cached(cache, to_grid(o + d * t0));
         uint ina = inside_mask(fa);
@@ -152,5 +152,5 @@ void main() {
         }
         r.steps = float(count);
     }
-    pixels[local.y * P.image.w + local.x] = r;
+    pixels[local.y * P.picture_width + local.x] = r;
 }

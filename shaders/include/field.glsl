@@ -16,15 +16,15 @@
 // THE inside rule (Rust: `Inside::contains`): strictly below (or above) is inside; equal is
 // outside.
 // The inside predicate against one surface's threshold (P.thresholds; surface 0's is
-// P.surface.x).
+// P.threshold).
 bool inside_of(float v, float threshold) {
-    return P.surface.y > 0.0 ? v < threshold : v > threshold;
+    return P.inside_sign > 0.0 ? v < threshold : v > threshold;
 }
 
-// Bit k set: v is inside surface k (k < P.view.w).
+// Bit k set: v is inside surface k (k < P.surfaces).
 uint inside_mask(float v) {
     uint m = 0u;
-    for (uint k = 0u; k < P.view.w; k++) {
+    for (uint k = 0u; k < P.surfaces; k++) {
         if (inside_of(v, P.thresholds[k / 4u][k % 4u])) m |= 1u << k;
     }
     return m;
@@ -36,7 +36,7 @@ const int SLOT = BRICK + 1 + 2 * POOL_APRON;
 
 // The page table entry of the brick holding `cell`: its slot in the pool, or NO_PAGE.
 uint page_of(ivec3 cell) {
-    ivec3 nb = (P.dims.xyz - 2) / BRICK + 1;  // bricks per axis: ceil(cells / BRICK)
+    ivec3 nb = (P.dims - 2) / BRICK + 1;  // bricks per axis: ceil(cells / BRICK)
     ivec3 b = cell / BRICK;
     return pages[(b.z * nb.y + b.y) * nb.x + b.x];
 }
@@ -53,7 +53,7 @@ float cell_value(ivec3 c, ivec3 p) {
     uint slot = page_of(c);
     ivec3 b = c / BRICK;
     if (slot == NO_PAGE) {
-        ivec3 nb = (P.dims.xyz - 2) / BRICK + 1;
+        ivec3 nb = (P.dims - 2) / BRICK + 1;
         return bricks[(b.z * nb.y + b.y) * nb.x + b.x].x;
     }
     // Clamped: a smooth normal on a brick's far face reads one point past the apron with
@@ -75,26 +75,26 @@ float cell_value(ivec3 c, ivec3 p) {
 // The value at grid point p (global indices; u_grid may hold only a block of the grid, from
 // P.block_origin on), read for cell c (any cell: the image holds every point).
 float cell_value(ivec3 c, ivec3 p) {
-    return texelFetch(u_grid, p - P.block_origin.xyz, 0).r;
+    return texelFetch(u_grid, p - P.block_origin, 0).r;
 }
 #endif
 
 // World position -> continuous grid coordinates, clamped into the box.
 vec3 to_grid(vec3 pos) {
-    return clamp((pos - P.box_min.xyz) * P.inv_spacing.xyz, vec3(0.0), vec3(P.dims.xyz - 1));
+    return clamp((pos - P.box_min) * P.inv_spacing, vec3(0.0), vec3(P.dims - 1));
 }
 
 // The cell holding grid coordinates u: floor, clamped so the last grid plane belongs to the
 // last cell.
 ivec3 cell_of(vec3 u) {
-    return clamp(ivec3(floor(u)), ivec3(0), P.dims.xyz - 2);
+    return clamp(ivec3(floor(u)), ivec3(0), P.dims - 2);
 }
 
 #ifdef GRID_POOL
 // One page lookup for the 8 corners (they are all in c's slot).
 Corners cell_corners(ivec3 c) {
     Corners k;
-    ivec3 nb = (P.dims.xyz - 2) / BRICK + 1;
+    ivec3 nb = (P.dims - 2) / BRICK + 1;
     ivec3 b = c / BRICK;
     int brick = (b.z * nb.y + b.y) * nb.x + b.x;
     uint slot = pages[brick];
@@ -180,7 +180,7 @@ float field_at(vec3 u) {
 // where the gradient vanishes.
 vec3 normal_at(vec3 u, vec3 fallback) {
     ivec3 c = cell_of(u);
-    vec3 g = interp_gradient(cell_corners(c), u - vec3(c)) * P.inv_spacing.xyz * P.surface.y;
+    vec3 g = interp_gradient(cell_corners(c), u - vec3(c)) * P.inv_spacing * P.inside_sign;
     float len = length(g);
     return len > 0.0 ? g / len : fallback;
 }
@@ -189,7 +189,7 @@ vec3 normal_at(vec3 u, vec3 fallback) {
 // grid point p by central differences in index units, one-sided on the box's faces (its points
 // read for cell c).
 vec3 point_gradient(ivec3 c, ivec3 p) {
-    ivec3 last = P.dims.xyz - 1;
+    ivec3 last = P.dims - 1;
     vec3 g;
     for (int a = 0; a < 3; a++) {
         ivec3 e = ivec3(0);
@@ -213,15 +213,15 @@ vec3 smooth_gradient(ivec3 via, vec3 u) {
     for (int n = 0; n < 8; n++) {
         g[n] = point_gradient(via, c + ivec3(n & 1, (n >> 1) & 1, n >> 2));
     }
-    return interp_value3(g, u - vec3(c)) * P.inv_spacing.xyz;
+    return interp_value3(g, u - vec3(c)) * P.inv_spacing;
 }
 
 // The normal the scene asks for at grid coordinates u (a hit found in cell `via`), given the
 // exact one: unchanged for "trilinear"; for "smooth" the interpolated point gradient, inside to
 // outside, or `exact` where it vanishes.
 vec3 scene_normal(vec3 u, ivec3 via, vec3 exact) {
-    if (P.view.y != NORMALS_SMOOTH) return exact;
-    vec3 g = smooth_gradient(via, u) * P.surface.y;
+    if (P.normals != NORMALS_SMOOTH) return exact;
+    vec3 g = smooth_gradient(via, u) * P.inside_sign;
     float len = length(g);
     return len > 0.0 && !isinf(len) ? g / len : exact;
 }

@@ -16,13 +16,13 @@ vec3 heat(float x) {
 // Colour of a hit: unit normal n, unit ray direction dir, distance depth, `steps` visited,
 // grid coordinates u of the hit and its cell, the surface's colour `base`.
 vec3 shade(vec3 n, vec3 dir, float depth, float steps, vec3 u, ivec3 cell, vec3 base) {
-    switch (P.method.y) {
+    switch (P.shading) {
     case SHADE_NORMAL:
         return n * 0.5 + 0.5;
     case SHADE_DEPTH:
-        return vec3(1.0 - clamp((depth - P.surface.z) / (P.surface.w - P.surface.z), 0.0, 1.0));
+        return vec3(1.0 - clamp((depth - P.depth_near) / (P.depth_far - P.depth_near), 0.0, 1.0));
     case SHADE_STEPS:
-        return heat(steps / P.debug.x);
+        return heat(steps / P.steps_scale);
     case SHADE_CELLS: {
         vec3 f = u - vec3(cell);
         vec3 edge = min(f, 1.0 - f);

@@ -1,5 +1,5 @@
 #version 450
-// Layout test (tests/it/layout.rs): copies every member of RenderParams back as raw bits, and
+// Layout test (tests/it/gpu/layout.rs): copies every member of RenderParams back as raw bits, and
 // writes a Pixel whose float/int members hold 1, 2, 3, ... in declaration order, so the Rust
 // mirrors of both structs can be checked against what GLSL sees.
 
@@ -11,35 +11,43 @@ layout(local_size_x = 1) in;
 #include "pixel.glsl"
 
 layout(std140, binding = 0) uniform Params { RenderParams P; };
-layout(std430, binding = 1) buffer Bits { uvec4 bits[]; };
+layout(std430, binding = 1) buffer Bits { uint bits[]; };
 layout(std430, binding = 2) buffer Pixels { Pixel pixels[]; };
 
+// Appends a member's bits at the next words: the members are written back to back in
+// declaration order, so the output is the Rust layout only if GLSL puts each named member at
+// the Rust offset and nothing between them.
+uint at = 0u;
+void put(uint v) { bits[at++] = v; }
+void put(int v) { put(uint(v)); }
+void put(float v) { put(floatBitsToUint(v)); }
+void put(ivec3 v) { put(v.x); put(v.y); put(v.z); }
+void put(vec3 v) { put(v.x); put(v.y); put(v.z); }
+void put(vec4 v) { put(v.xyz); put(v.w); }
+
 void main() {
-    bits[0] = floatBitsToUint(P.eye);
-    bits[1] = floatBitsToUint(P.forward);
-    bits[2] = floatBitsToUint(P.right);
-    bits[3] = floatBitsToUint(P.up);
-    bits[4] = floatBitsToUint(P.box_min);
-    bits[5] = floatBitsToUint(P.box_max);
-    bits[6] = floatBitsToUint(P.inv_spacing);
-    bits[7] = floatBitsToUint(P.background);
-    bits[8] = floatBitsToUint(P.color);
-    bits[9] = uvec4(P.dims);
-    bits[10] = P.image;
-    bits[11] = P.method;
-    bits[12] = floatBitsToUint(P.surface);
-    bits[13] = floatBitsToUint(P.debug);
-    bits[14] = floatBitsToUint(P.eye_grid);
-    bits[15] = P.analytic;
-    bits[16] = P.view;
-    bits[17] = uvec4(P.block_lo);
-    bits[18] = uvec4(P.block_hi);
-    bits[19] = uvec4(P.block_origin);
-    for (int i = 0; i < CLIP_PLANES; i++) bits[20 + i] = floatBitsToUint(P.clip[i]);
-    for (int i = 0; i < SURFACES / 4; i++)
-        bits[20 + CLIP_PLANES + i] = floatBitsToUint(P.thresholds[i]);
-    for (int i = 0; i < SURFACES; i++)
-        bits[20 + CLIP_PLANES + SURFACES / 4 + i] = floatBitsToUint(P.surface_color[i]);
+    put(P.eye); put(P.pad0);
+    put(P.forward); put(P.pad1);
+    put(P.right); put(P.pad2);
+    put(P.up); put(P.pad3);
+    put(P.box_min); put(P.pad4);
+    put(P.box_max); put(P.pad5);
+    put(P.inv_spacing); put(P.pad6);
+    put(P.eye_grid); put(P.pad7);
+    put(P.dims); put(P.pad8);
+    put(P.block_lo); put(P.pad9);
+    put(P.block_hi); put(P.pad10);
+    put(P.block_origin); put(P.pad11);
+    put(P.background);
+    put(P.color); put(P.pad12);
+    put(P.width); put(P.height); put(P.stride); put(P.picture_width);
+    put(P.shading); put(P.steps); put(P.newton_steps); put(P.normals);
+    put(P.threshold); put(P.inside_sign); put(P.depth_near); put(P.depth_far);
+    put(P.steps_scale); put(P.crossing); put(P.skip); put(P.count_crossings);
+    put(P.orthographic); put(P.clip_count); put(P.surfaces); put(P.pad13);
+    for (int i = 0; i < CLIP_PLANES; i++) put(P.clip[i]);
+    for (int i = 0; i < SURFACES / 4; i++) put(P.thresholds[i]);
+    for (int i = 0; i < SURFACES; i++) put(P.surface_color[i]);
 
     Pixel p;
     p.rgba = vec4(1.0, 2.0, 3.0, 4.0);

@@ -12,19 +12,12 @@
 
 use std::sync::Arc;
 
-use ash::vk;
-
-use crate::gpu::{ComputePipeline, Context, GpuError};
+use crate::gpu::{Binding, ComputePipeline, Context, GpuError};
 use crate::shaders;
 
-/// Params (uniform), grid (3D image), pixels (storage), colormap (storage), bricks (storage).
-pub const BINDINGS: [vk::DescriptorType; 5] = [
-    vk::DescriptorType::UNIFORM_BUFFER,
-    vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-];
+/// Params, grid, pixels (written), colormap, bricks.
+pub const BINDINGS: [Binding; 5] =
+    [Binding::Uniform, Binding::Sampled, Binding::Write, Binding::Read, Binding::Read];
 
 pub fn pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, GpuError> {
     build(ctx, "analytic (image)", shaders::ANALYTIC, &BINDINGS, walk)
@@ -38,7 +31,7 @@ pub struct Walk {
     /// `BRICK_LEVELS`: the levels of the min/max grid the walk jumps with, 1 (bricks) or 2 (and
     /// superbricks).
     pub levels: u32,
-    /// `SURFACE_COUNT`: the surfaces (isovalues), 1 to `SURFACES`; `RenderParams.view.w`.
+    /// `SURFACE_COUNT`: the surfaces (isovalues), 1 to `SURFACES`; `RenderParams.surfaces`.
     pub surfaces: u32,
 }
 
@@ -47,7 +40,7 @@ fn build(
     ctx: &Arc<Context>,
     name: &str,
     spirv: &[u8],
-    bindings: &[vk::DescriptorType],
+    bindings: &[Binding],
     walk: Walk,
 ) -> Result<ComputePipeline, GpuError> {
     ComputePipeline::with_constants(
@@ -73,13 +66,8 @@ pub fn pool_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, 
 }
 
 /// Bindings of the `GRID_BUFFER` variant: as [`BINDINGS`] with the grid as a storage buffer.
-pub const BUFFER_BINDINGS: [vk::DescriptorType; 5] = [
-    vk::DescriptorType::UNIFORM_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-];
+pub const BUFFER_BINDINGS: [Binding; 5] =
+    [Binding::Uniform, Binding::Read, Binding::Write, Binding::Read, Binding::Read];
 
 /// The `GRID_BUFFER` variant, the default for a whole grid: the grid's points in a storage
 /// buffer (a device copy of its image), which llvmpipe reads with far fewer instructions than

@@ -6,7 +6,7 @@
 //! Per band, one submission: the passes that write the band's pixels to the start of
 //! [`Bands::out`] (timed with GPU timestamps where the device has them), the copy of the band
 //! into a host-visible buffer, then the host reads it. Barriers come from the passes'
-//! declared reads and writes (`gpu::Recorder`).
+//! bindings (`gpu::Binding`, `gpu::Recorder`).
 
 use std::sync::Arc;
 
@@ -150,13 +150,7 @@ impl<P: Pod> Bands<P> {
             let count = (rows * self.width) as usize;
             let bytes = count as u64 * std::mem::size_of::<P>() as u64;
             ctx.record(pass, &mut Tracker::default(), |rec| {
-                if let Some(t) = &timer {
-                    t.begin(rec.cmd());
-                }
-                record(rec, band)?;
-                if let Some(t) = &timer {
-                    t.end(rec.cmd());
-                }
+                rec.timed(timer.as_ref(), |rec| record(rec, band))?;
                 rec.readback(&self.out, &self.readback, bytes);
                 Ok(())
             })?;

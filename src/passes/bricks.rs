@@ -19,7 +19,7 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::field::interpolant::widen;
 use crate::gpu::{
-    grid_groups, Buffer, Compute, ComputePipeline, Context, GpuError, Image3d, MemoryLocation,
+    grid_groups, Binding, Buffer, ComputePipeline, Context, GpuError, Image3d, MemoryLocation,
     Resource, Timer, Tracker,
 };
 use crate::shaders;
@@ -134,14 +134,15 @@ pub fn pipelines(ctx: &Arc<Context>) -> Result<Pipelines, GpuError> {
             ctx,
             "bricks",
             shaders::BRICKS,
-            &[vk::DescriptorType::COMBINED_IMAGE_SAMPLER, vk::DescriptorType::STORAGE_BUFFER],
+            &[Binding::Sampled, Binding::Write],
             std::mem::size_of::<Shape>() as u32,
         )?,
         supers: ComputePipeline::new(
             ctx,
             "superbricks",
             shaders::SUPERBRICKS,
-            &[vk::DescriptorType::STORAGE_BUFFER],
+            // Reads the bricks' ranges, writes the superbricks' (one buffer).
+            &[Binding::ReadWrite],
             std::mem::size_of::<SuperShape>() as u32,
         )?,
     })
@@ -192,30 +193,15 @@ pub fn build(
     let super_shape = SuperShape { supers: i(supers, SUPER), bricks: i(counts, 0) };
     let timer = Timer::new(ctx)?;
     ctx.record(&pipeline.name, &mut Tracker::default(), |rec| {
-        if let Some(t) = &timer {
-            t.begin(rec.cmd());
-        }
-        // One invocation per brick, GROUP³ bricks per workgroup.
-        rec.dispatch(&Compute {
-            pipeline,
-            set: &set,
-            push: bytemuck::bytes_of(&shape),
-            groups: grid_groups(counts.map(|c| c as u32), [GROUP; 3]),
-            reads: &[],
-            writes: &[&bricks],
-        });
-        // Then one per superbrick, reading the bricks' ranges the first pass wrote.
-        rec.dispatch(&Compute {
-            pipeline: &pipelines.supers,
-            set: &super_set,
-            push: bytemuck::bytes_of(&super_shape),
-            groups: grid_groups(supers.map(|c| c as u32), [GROUP; 3]),
-            reads: &[],
-            writes: &[&bricks],
-        });
-        if let Some(t) = &timer {
-            t.end(rec.cmd());
-        }
+        rec.timed(timer.as_ref(), |rec| {
+            // One invocation per brick, GROUP³ bricks per workgroup.
+            let groups = grid_groups(counts.map(|c| c as u32), [GROUP; 3]);
+            rec.dispatch(pipeline, &set, bytemuck::bytes_of(&shape), groups);
+            // Then one per superbrick, reading the bricks' ranges the first pass wrote.
+            let groups = grid_groups(supers.map(|c| c as u32), [GROUP; 3]);
+            rec.dispatch(&pipelines.supers, &super_set, bytemuck::bytes_of(&super_shape), groups);
+            Ok(())
+        })?;
         rec.copy(&bricks, (n_bricks * 8) as u64, &host, 0, (n_supers * 8) as u64);
         rec.host_read(&host);
         // The ray passes of later submissions read the bricks.

@@ -24,7 +24,7 @@ use bytemuck::{Pod, Zeroable};
 
 use super::Band;
 use crate::gpu::{
-    grid_groups, spread_groups, Buffer, Compute, ComputePipeline, Context, Dispatch, GpuError,
+    grid_groups, spread_groups, Binding, Buffer, ComputePipeline, Context, Dispatch, GpuError,
     Image3d, MemoryLocation, Recorder, Resource,
 };
 use crate::mesh::Mesh;
@@ -103,22 +103,18 @@ impl MeshPipelines {
                 instead: "use another device (--device) or method".into(),
             });
         }
-        use vk::DescriptorType as D;
+        use Binding::{Read, ReadWrite, Uniform};
+        // params, positions, indices; the visibility and count buffers (atomics).
         let raster = ComputePipeline::new(
             ctx,
             "mesh_raster",
             shaders::MESH_RASTER,
-            &[
-                D::UNIFORM_BUFFER,
-                D::STORAGE_BUFFER,
-                D::STORAGE_BUFFER,
-                D::STORAGE_BUFFER,
-                D::STORAGE_BUFFER,
-            ],
+            &[Uniform, Read, Read, ReadWrite, ReadWrite],
             std::mem::size_of::<RasterPush>() as u32,
         )?;
+        // The ray passes' bindings, then positions, normals, indices, visibility and counts.
         let mut resolve_bindings = crate::passes::raymarch::RAY_BINDINGS.to_vec();
-        resolve_bindings.extend([D::STORAGE_BUFFER; 5]);
+        resolve_bindings.extend([Read; 5]);
         let resolve = ComputePipeline::new(
             ctx,
             "mesh_resolve",
@@ -203,7 +199,7 @@ impl<'a> MeshPass<'a> {
     /// per triangle, none without triangles), resolve (one per pixel, [`RESOLVE_GROUP`]² per
     /// workgroup).
     pub fn record(&self, rec: &mut Recorder, width: u32, band: Band) -> Result<(), GpuError> {
-        let (i, mesh) = (&self.inputs, self.inputs.mesh);
+        let mesh = self.inputs.mesh;
         rec.fill(&self.vis, 0, self.vis.size, NO_HIT_WORD);
         rec.fill(&self.counts, 0, self.counts.size, 0);
         if mesh.triangle_count > 0 {
@@ -214,31 +210,10 @@ impl<'a> MeshPass<'a> {
                 triangle_count: mesh.triangle_count,
                 threads_x,
             };
-            rec.dispatch(&Compute {
-                pipeline: &self.pipes.raster,
-                set: &self.raster,
-                push: bytemuck::bytes_of(&push),
-                groups,
-                reads: &[i.params, &mesh.positions, &mesh.indices],
-                writes: &[&self.vis, &self.counts],
-            });
+            rec.dispatch(&self.pipes.raster, &self.raster, bytemuck::bytes_of(&push), groups);
         }
-        rec.dispatch(&Compute {
-            pipeline: &self.pipes.resolve,
-            set: &self.resolve,
-            push: bytemuck::bytes_of(&band),
-            groups: grid_groups([width, band.rows, 1], [RESOLVE_GROUP, RESOLVE_GROUP, 1]),
-            reads: &[
-                i.params,
-                i.colormap,
-                &mesh.positions,
-                &mesh.normals,
-                &mesh.indices,
-                &self.vis,
-                &self.counts,
-            ],
-            writes: &[i.pixels],
-        });
+        let groups = grid_groups([width, band.rows, 1], [RESOLVE_GROUP, RESOLVE_GROUP, 1]);
+        rec.dispatch(&self.pipes.resolve, &self.resolve, bytemuck::bytes_of(&band), groups);
         Ok(())
     }
 }

@@ -1,8 +1,8 @@
 //! GPU passes: each owns its compute shader (named alike in `shaders/`) and records its
 //! dispatch. A pass reads as name → shader → bindings → push constants → dispatch: it is bound
-//! once from typed inputs, then records itself into a `gpu::Recorder` with its workgroups, its
-//! push constants and the buffers it reads and writes, from which the recorder derives the
-//! barriers. [`Bands`] runs the per-pixel passes (ray, mesh, slice) band by band.
+//! once from typed inputs, then records itself into a `gpu::Recorder` with its workgroups and
+//! push constants; its pipeline's `gpu::Binding`s say what it reads and writes, from which the
+//! recorder derives the barriers. [`Bands`] runs the per-pixel passes (ray, mesh, slice) band by band.
 
 pub mod analytic;
 pub mod band;

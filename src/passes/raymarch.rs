@@ -5,11 +5,9 @@
 
 use std::sync::Arc;
 
-use ash::vk;
-
 use super::Band;
 use crate::gpu::{
-    grid_groups, Buffer, Compute, ComputePipeline, Context, Dispatch, GpuError, Image3d, Recorder,
+    grid_groups, Binding, Buffer, ComputePipeline, Context, Dispatch, GpuError, Image3d, Recorder,
     Resource,
 };
 use crate::shaders;
@@ -17,14 +15,9 @@ use crate::shaders;
 /// Workgroup size of the ray shaders (`local_size_x/y`).
 pub const GROUP: u32 = shaders::consts::RAY_GROUP;
 
-/// Bindings shared by the ray passes: params (uniform), grid (3D image), pixels (storage),
-/// colormap (storage).
-pub const RAY_BINDINGS: [vk::DescriptorType; 4] = [
-    vk::DescriptorType::UNIFORM_BUFFER,
-    vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-];
+/// Bindings shared by the ray passes: params, grid, pixels (written), colormap.
+pub const RAY_BINDINGS: [Binding; 4] =
+    [Binding::Uniform, Binding::Sampled, Binding::Write, Binding::Read];
 
 pub fn pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
     ComputePipeline::new(
@@ -37,15 +30,9 @@ pub fn pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
 }
 
 /// Bindings of the `GRID_POOL` variants of both ray passes (`field.residency = "active"`):
-/// params (uniform), pool, pixels, colormap, bricks, page table (storage).
-pub const POOL_BINDINGS: [vk::DescriptorType; 6] = [
-    vk::DescriptorType::UNIFORM_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-];
+/// params, pool, pixels (written), colormap, bricks, page table.
+pub const POOL_BINDINGS: [Binding; 6] =
+    [Binding::Uniform, Binding::Read, Binding::Write, Binding::Read, Binding::Read, Binding::Read];
 
 /// The `GRID_POOL` variant of this pass.
 pub fn pool_pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
@@ -85,7 +72,8 @@ pub struct RayInputs<'a> {
 pub struct RayPass<'a> {
     pipeline: &'a ComputePipeline,
     set: Dispatch,
-    inputs: RayInputs<'a>,
+    /// Keeps the bound buffers borrowed while the set refers to them.
+    _inputs: RayInputs<'a>,
 }
 
 impl<'a> RayPass<'a> {
@@ -114,7 +102,7 @@ impl<'a> RayPass<'a> {
             ],
         };
         let set = pipeline.bind(&resources)?;
-        Ok(RayPass { pipeline, set, inputs })
+        Ok(RayPass { pipeline, set, _inputs: inputs })
     }
 
     /// The pass's name (its pipeline's).
@@ -125,20 +113,7 @@ impl<'a> RayPass<'a> {
     /// Records the band: one invocation per pixel, [`GROUP`]² pixels per workgroup, the band as
     /// push constants.
     pub fn record(&self, rec: &mut Recorder, width: u32, band: Band) {
-        let i = &self.inputs;
-        let mut reads = vec![i.params, i.colormap];
-        match i.grid {
-            GridInput::Image(_) => reads.extend(i.bricks),
-            GridInput::Points(points) => reads.extend([points].into_iter().chain(i.bricks)),
-            GridInput::Pool { pool, pages, bricks } => reads.extend([pool, pages, bricks]),
-        }
-        rec.dispatch(&Compute {
-            pipeline: self.pipeline,
-            set: &self.set,
-            push: bytemuck::bytes_of(&band),
-            groups: grid_groups([width, band.rows, 1], [GROUP, GROUP, 1]),
-            reads: &reads,
-            writes: &[i.pixels],
-        });
+        let groups = grid_groups([width, band.rows, 1], [GROUP, GROUP, 1]);
+        rec.dispatch(self.pipeline, &self.set, bytemuck::bytes_of(&band), groups);
     }
 }

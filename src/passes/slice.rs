@@ -5,12 +5,11 @@
 
 use std::sync::Arc;
 
-use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
 use super::Band;
 use crate::gpu::{
-    grid_groups, Buffer, Compute, ComputePipeline, Context, Dispatch, GpuError, Image3d, Recorder,
+    grid_groups, Binding, Buffer, ComputePipeline, Context, Dispatch, GpuError, Image3d, Recorder,
     Resource,
 };
 use crate::shaders;
@@ -20,14 +19,14 @@ pub const GROUP: u32 = shaders::consts::SLICE_GROUP;
 
 /// params (uniform), grid (3D image), pixels, colormap, tile starts, tile segment lists,
 /// segments (storage).
-pub const BINDINGS: [vk::DescriptorType; 7] = [
-    vk::DescriptorType::UNIFORM_BUFFER,
-    vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
+pub const BINDINGS: [Binding; 7] = [
+    Binding::Uniform,
+    Binding::Sampled,
+    Binding::Write,
+    Binding::Read,
+    Binding::Read,
+    Binding::Read,
+    Binding::Read,
 ];
 
 /// std140 mirror of `struct SliceParams` in the shader (vec4 members only, so std140 = C
@@ -93,7 +92,8 @@ pub struct SliceInputs<'a> {
 pub struct SlicePass<'a> {
     pipeline: &'a ComputePipeline,
     set: Dispatch,
-    inputs: SliceInputs<'a>,
+    /// Keeps the bound buffers borrowed while the set refers to them.
+    _inputs: SliceInputs<'a>,
 }
 
 impl<'a> SlicePass<'a> {
@@ -108,7 +108,7 @@ impl<'a> SlicePass<'a> {
             Resource::Storage(i.tile_segments),
             Resource::Storage(i.segments),
         ])?;
-        Ok(SlicePass { pipeline, set, inputs })
+        Ok(SlicePass { pipeline, set, _inputs: inputs })
     }
 
     /// The pass's name (its pipeline's).
@@ -119,14 +119,7 @@ impl<'a> SlicePass<'a> {
     /// Records the band: one invocation per pixel, [`GROUP`]² pixels (one contour tile) per
     /// workgroup, the band as push constants.
     pub fn record(&self, rec: &mut Recorder, width: u32, band: Band) {
-        let i = &self.inputs;
-        rec.dispatch(&Compute {
-            pipeline: self.pipeline,
-            set: &self.set,
-            push: bytemuck::bytes_of(&band),
-            groups: grid_groups([width, band.rows, 1], [GROUP, GROUP, 1]),
-            reads: &[i.params, i.colormap, i.tile_starts, i.tile_segments, i.segments],
-            writes: &[i.pixels],
-        });
+        let groups = grid_groups([width, band.rows, 1], [GROUP, GROUP, 1]);
+        rec.dispatch(self.pipeline, &self.set, bytemuck::bytes_of(&band), groups);
     }
 }

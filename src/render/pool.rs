@@ -38,7 +38,7 @@ use rayon::prelude::*;
 use crate::field::interpolant::{SMOOTH_NORMAL_REACH, STENCIL};
 use crate::field::mapped::MappedGrid;
 use crate::field::{FieldError, GridLimits};
-use crate::gpu::{Buffer, Context, GpuError, MemoryLocation};
+use crate::gpu::{Buffer, Context, GpuError, MemoryLocation, Tracker};
 use crate::passes::bricks::{brick_counts, clear_by, BRICK, SKIP_MARGIN};
 use crate::shaders;
 
@@ -231,8 +231,10 @@ impl Pool {
             staging.write(&slots.concat())?;
             let offset = (c * chunk) as u64 * slot_bytes;
             let bytes = bricks.len() as u64 * slot_bytes;
-            ctx.submit("upload brick pool", |cmd| {
-                crate::gpu::copy_buffer(ctx, cmd, &staging, 0, &pool, offset, bytes);
+            ctx.record("upload brick pool", &mut Tracker::default(), |rec| {
+                rec.copy(&staging, 0, &pool, offset, bytes);
+                // The ray passes of later submissions read the pool.
+                rec.release();
                 Ok(())
             })?;
         }

@@ -68,7 +68,7 @@ impl Renderer {
             self.last_bricks_ms = built.ms;
         }
         let mut walk = || {
-            let surfaces = params.view[3];
+            let surfaces = params.surfaces;
             let thresholds = params.surface_thresholds();
             let supers = gpu_grid.supers.get().map_or(&[][..], |s| &s[..]);
             let chosen =
@@ -101,13 +101,13 @@ impl Renderer {
         let ctx = &self.ctx;
         let (width, height) =
             Progressive::picture_size(stride, scene.image.width, scene.image.height);
-        params.image[2] = stride;
-        params.image[3] = width;
+        params.stride = stride;
+        params.picture_width = width;
         if let Some(b) = &gpu_grid.block {
             if scene.render.method != Method::Analytic {
                 return Err(RenderError::Unsupported("fixed-step (on a block of the grid)"));
             }
-            let i = |v: [usize; 3]| [v[0] as i32, v[1] as i32, v[2] as i32, 0];
+            let i = |v: [usize; 3]| v.map(|c| c as i32);
             (params.block_lo, params.block_hi) = (i(b.cells_lo), i(b.cells_hi));
             params.block_origin = i(b.origin);
         }

@@ -94,8 +94,10 @@ impl Buffer {
             MemoryLocation::GpuOnly,
         )?;
         if bytes > 0 {
-            ctx.submit(&format!("upload {name}"), |cmd| {
-                super::copy_buffer(ctx, cmd, &staging, 0, &buffer, 0, bytes);
+            ctx.record(&format!("upload {name}"), &mut super::Tracker::default(), |rec| {
+                rec.copy(&staging, 0, &buffer, 0, bytes);
+                // Later submissions read the buffer without knowing of this copy.
+                rec.release();
                 Ok(())
             })?;
         }

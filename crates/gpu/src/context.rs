@@ -417,8 +417,9 @@ impl Context {
     }
 
     /// Records commands with `record`, submits them and waits. `pass` names the work in errors
-    /// (a lost device is reported with the name of the pass that was running).
-    pub fn submit<F>(&self, pass: &str, record: F) -> Result<(), GpuError>
+    /// (a lost device is reported with the name of the pass that was running). Crate-private:
+    /// outside it, work is recorded through [`Context::record`], whose tracker adds barriers.
+    pub(crate) fn submit<F>(&self, pass: &str, record: F) -> Result<(), GpuError>
     where
         F: FnOnce(vk::CommandBuffer) -> Result<(), GpuError>,
     {

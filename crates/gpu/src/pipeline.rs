@@ -6,14 +6,48 @@ use super::error::{GpuError, VkContext};
 use super::guard::Cleanup;
 use super::{Buffer, Context, Image3d};
 
-/// A compute pipeline: shader module, descriptor set layout (one set, bindings 0..n in order)
-/// and push-constant range.
+/// What a shader does with one binding, declared once when its pipeline is made. The
+/// descriptor type follows from it, and so do the accesses each dispatch reports to the
+/// barrier tracker, so a pass cannot bind a buffer without its barriers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Binding {
+    /// A uniform buffer, read.
+    Uniform,
+    /// A 3D image with its sampler, read (images are read-only here).
+    Sampled,
+    /// A storage buffer the shader only reads.
+    Read,
+    /// A storage buffer the shader only writes.
+    Write,
+    /// A storage buffer the shader reads and writes.
+    ReadWrite,
+}
+
+impl Binding {
+    fn descriptor(self) -> vk::DescriptorType {
+        match self {
+            Binding::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
+            Binding::Sampled => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+            Binding::Read | Binding::Write | Binding::ReadWrite => {
+                vk::DescriptorType::STORAGE_BUFFER
+            }
+        }
+    }
+
+    /// Whether the shader may write what is bound here.
+    fn writes(self) -> bool {
+        matches!(self, Binding::Write | Binding::ReadWrite)
+    }
+}
+
+/// A compute pipeline: shader module, descriptor set layout (one set, bindings 0..n in order,
+/// each with its [`Binding`]) and push-constant range.
 pub struct ComputePipeline {
     pub name: String,
     pub raw: vk::Pipeline,
     pub layout: vk::PipelineLayout,
     set_layout: vk::DescriptorSetLayout,
-    kinds: Vec<vk::DescriptorType>,
+    bindings: Vec<Binding>,
     push_bytes: u32,
     ctx: Arc<Context>,
 }
@@ -30,19 +64,22 @@ pub enum Resource<'a> {
 pub struct Dispatch {
     set: vk::DescriptorSet,
     pool: vk::DescriptorPool,
-    /// The buffers bound, so that a recorder can check that a pass declares each one as a
-    /// read or a write.
-    pub(crate) buffers: Vec<(vk::Buffer, String)>,
+    /// The pipeline it was bound for.
+    pub(crate) pipeline: vk::Pipeline,
+    /// Each buffer bound, once, and whether the shader may write it (through any of its
+    /// bindings): the accesses of every dispatch with this set.
+    pub(crate) buffers: Vec<(vk::Buffer, bool)>,
     ctx: Arc<Context>,
 }
 
 impl ComputePipeline {
-    /// Builds a pipeline from SPIR-V bytes. `bindings[i]` is the descriptor type of binding `i`.
+    /// Builds a pipeline from SPIR-V bytes. `bindings[i]` is what the shader does with
+    /// binding `i`.
     pub fn new(
         ctx: &Arc<Context>,
         name: &str,
         spirv: &[u8],
-        bindings: &[vk::DescriptorType],
+        bindings: &[Binding],
         push_bytes: u32,
     ) -> Result<Self, GpuError> {
         Self::with_constants(ctx, name, spirv, bindings, push_bytes, &[])
@@ -56,7 +93,7 @@ impl ComputePipeline {
         ctx: &Arc<Context>,
         name: &str,
         spirv: &[u8],
-        bindings: &[vk::DescriptorType],
+        bindings: &[Binding],
         push_bytes: u32,
         constants: &[u32],
     ) -> Result<Self, GpuError> {
@@ -72,10 +109,10 @@ impl ComputePipeline {
         let layout_bindings: Vec<_> = bindings
             .iter()
             .enumerate()
-            .map(|(i, &ty)| {
+            .map(|(i, b)| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(i as u32)
-                    .descriptor_type(ty)
+                    .descriptor_type(b.descriptor())
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
@@ -130,20 +167,21 @@ impl ComputePipeline {
                 raw,
                 layout,
                 set_layout,
-                kinds: bindings.to_vec(),
+                bindings: bindings.to_vec(),
                 push_bytes,
                 ctx: ctx.clone(),
             })
         }
     }
 
-    /// Allocates and fills a descriptor set with `resources` (one per binding, in order).
+    /// Allocates and fills a descriptor set with `resources` (one per binding, in order), each
+    /// checked against its binding's kind.
     pub fn bind(&self, resources: &[Resource]) -> Result<Dispatch, GpuError> {
-        if resources.len() != self.kinds.len() {
+        if resources.len() != self.bindings.len() {
             return Err(GpuError::Bug(format!(
                 "pipeline `{}` takes {} bindings, got {}",
                 self.name,
-                self.kinds.len(),
+                self.bindings.len(),
                 resources.len()
             )));
         }
@@ -154,18 +192,19 @@ impl ComputePipeline {
         };
         // Checked before anything is created.
         for (i, r) in resources.iter().enumerate() {
-            if kind(r) != self.kinds[i] {
+            if kind(r) != self.bindings[i].descriptor() {
                 return Err(GpuError::Bug(format!(
-                    "pipeline `{}` binding {i} wants {:?}, got {:?}",
+                    "pipeline `{}` binding {i} is {:?} ({:?}), got {:?}",
                     self.name,
-                    self.kinds[i],
+                    self.bindings[i],
+                    self.bindings[i].descriptor(),
                     kind(r)
                 )));
             }
         }
         let device = &self.ctx.device;
         let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
-        for &ty in &self.kinds {
+        for ty in self.bindings.iter().map(|b| b.descriptor()) {
             match sizes.iter_mut().find(|s| s.ty == ty) {
                 Some(s) => s.descriptor_count += 1,
                 None => sizes.push(vk::DescriptorPoolSize { ty, descriptor_count: 1 }),
@@ -180,15 +219,18 @@ impl ComputePipeline {
             )
         }
         .vk("vkCreateDescriptorPool")?;
-        let buffers = resources
-            .iter()
-            .filter_map(|r| match r {
-                Resource::Storage(b) | Resource::Uniform(b) => Some((b.raw, b.name.clone())),
+        let buffers =
+            accesses(resources.iter().zip(&self.bindings).filter_map(|(r, &binding)| match r {
+                Resource::Storage(b) | Resource::Uniform(b) => Some((b.raw, binding)),
                 Resource::Sampled(_) => None,
-            })
-            .collect();
-        let mut dispatch =
-            Dispatch { set: vk::DescriptorSet::null(), pool, buffers, ctx: self.ctx.clone() };
+            }));
+        let mut dispatch = Dispatch {
+            set: vk::DescriptorSet::null(),
+            pool,
+            pipeline: self.raw,
+            buffers,
+            ctx: self.ctx.clone(),
+        };
         let layouts = [self.set_layout];
         // SAFETY: pool and layout are valid.
         let set = unsafe {
@@ -238,8 +280,15 @@ impl ComputePipeline {
         Ok(dispatch)
     }
 
-    /// Records a dispatch of `groups` workgroups with `push` constants.
-    pub fn record(&self, cmd: vk::CommandBuffer, set: &Dispatch, push: &[u8], groups: [u32; 3]) {
+    /// Records a dispatch of `groups` workgroups with `push` constants (through
+    /// [`Recorder::dispatch`](crate::Recorder::dispatch), which adds its barriers).
+    pub(crate) fn record(
+        &self,
+        cmd: vk::CommandBuffer,
+        set: &Dispatch,
+        push: &[u8],
+        groups: [u32; 3],
+    ) {
         let device = &self.ctx.device;
         debug_assert_eq!(push.len() as u32, self.push_bytes);
         // SAFETY: cmd is recording; pipeline, layout and set are valid.
@@ -261,6 +310,19 @@ impl ComputePipeline {
     }
 }
 
+/// Each bound buffer once, with whether the shader may write it: a buffer bound twice is
+/// written if either binding writes it.
+fn accesses(bound: impl Iterator<Item = (vk::Buffer, Binding)>) -> Vec<(vk::Buffer, bool)> {
+    let mut out: Vec<(vk::Buffer, bool)> = Vec::new();
+    for (raw, binding) in bound {
+        match out.iter_mut().find(|(b, _)| *b == raw) {
+            Some((_, write)) => *write |= binding.writes(),
+            None => out.push((raw, binding.writes())),
+        }
+    }
+    out
+}
+
 impl Drop for ComputePipeline {
     fn drop(&mut self) {
         // SAFETY: no submission is in flight (submissions wait on their fence).
@@ -279,30 +341,8 @@ impl Drop for Dispatch {
     }
 }
 
-/// Records a compute→transfer/host or compute→compute memory barrier on all buffers.
-pub fn memory_barrier(
-    ctx: &Context,
-    cmd: vk::CommandBuffer,
-    src: (vk::PipelineStageFlags, vk::AccessFlags),
-    dst: (vk::PipelineStageFlags, vk::AccessFlags),
-) {
-    let b = [vk::MemoryBarrier::default().src_access_mask(src.1).dst_access_mask(dst.1)];
-    // SAFETY: cmd is recording.
-    unsafe {
-        ctx.device.cmd_pipeline_barrier(
-            cmd,
-            src.0,
-            dst.0,
-            vk::DependencyFlags::empty(),
-            &b,
-            &[],
-            &[],
-        )
-    };
-}
-
 /// Records a copy of `bytes` bytes between buffers.
-pub fn copy_buffer(
+pub(crate) fn copy_buffer(
     ctx: &Context,
     cmd: vk::CommandBuffer,
     src: &Buffer,
@@ -318,7 +358,7 @@ pub fn copy_buffer(
 
 /// Records a fill of `bytes` bytes of `dst` from `offset` with the 32-bit word `value` (offset
 /// and size multiples of 4).
-pub fn fill_buffer(
+pub(crate) fn fill_buffer(
     ctx: &Context,
     cmd: vk::CommandBuffer,
     dst: &Buffer,
@@ -328,31 +368,6 @@ pub fn fill_buffer(
 ) {
     // SAFETY: cmd is recording and the buffer is valid; callers keep the range inside it.
     unsafe { ctx.device.cmd_fill_buffer(cmd, dst.raw, offset, bytes, value) };
-}
-
-/// Records the copy of a compute pass's output (`bytes` from the start of `src`) into the
-/// host-visible `dst`, with the barriers that make compute writes visible to the copy and the
-/// copy visible to the host after the submission's fence.
-pub fn record_readback(
-    ctx: &Context,
-    cmd: vk::CommandBuffer,
-    src: &Buffer,
-    dst: &Buffer,
-    bytes: u64,
-) {
-    memory_barrier(
-        ctx,
-        cmd,
-        (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
-        (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ),
-    );
-    copy_buffer(ctx, cmd, src, 0, dst, 0, bytes);
-    memory_barrier(
-        ctx,
-        cmd,
-        (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
-        (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
-    );
 }
 
 /// A pair of timestamps around recorded work.
@@ -373,7 +388,8 @@ impl Timer {
         Ok(Some(Timer { pool, ctx: ctx.clone() }))
     }
 
-    pub fn begin(&self, cmd: vk::CommandBuffer) {
+    /// Writes the first timestamp (through [`Recorder::timed`](crate::Recorder::timed)).
+    pub(crate) fn begin(&self, cmd: vk::CommandBuffer) {
         // SAFETY: cmd is recording; the pool has 2 queries.
         unsafe {
             self.ctx.device.cmd_reset_query_pool(cmd, self.pool, 0, 2);
@@ -386,7 +402,8 @@ impl Timer {
         }
     }
 
-    pub fn end(&self, cmd: vk::CommandBuffer) {
+    /// Writes the second timestamp.
+    pub(crate) fn end(&self, cmd: vk::CommandBuffer) {
         // SAFETY: cmd is recording.
         unsafe {
             self.ctx.device.cmd_write_timestamp(
@@ -419,5 +436,21 @@ impl Drop for Timer {
     fn drop(&mut self) {
         // SAFETY: no submission using the pool is in flight.
         unsafe { self.ctx.device.destroy_query_pool(self.pool, None) };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ash::vk::Handle;
+
+    #[test]
+    fn a_buffer_bound_twice_is_one_access_written_if_either_binding_writes() {
+        let (a, b) = (vk::Buffer::from_raw(1), vk::Buffer::from_raw(2));
+        let bound =
+            [(a, Binding::Uniform), (b, Binding::Read), (a, Binding::Write), (b, Binding::Read)];
+        assert_eq!(accesses(bound.into_iter()), [(a, true), (b, false)]);
+        let bound = [(a, Binding::ReadWrite), (a, Binding::Read)];
+        assert_eq!(accesses(bound.into_iter()), [(a, true)]);
     }
 }

@@ -1,8 +1,9 @@
 //! Recording work whose barriers follow from what each command declares it reads and writes.
 //!
-//! A pass hands the [`Recorder`] a [`Compute`]: pipeline, bound set, push constants, workgroups,
-//! and the buffers its shader reads and writes. Fills and copies declare theirs by their
-//! arguments. The [`Tracker`] remembers, per buffer, the stage of the last write and which
+//! A pass hands [`Recorder::dispatch`] its pipeline, bound set, push constants and workgroups;
+//! what the shader reads and writes follows from the set and the pipeline's
+//! [`Binding`](crate::Binding)s, declared once with the pipeline. Fills and copies declare
+//! theirs by their arguments. The [`Tracker`] remembers, per buffer, the stage of the last write and which
 //! stages have read it since; before each command the recorder inserts the one global memory
 //! barrier the command needs, or none:
 //!
@@ -25,7 +26,7 @@
 use ash::vk;
 use std::collections::HashMap;
 
-use super::{Buffer, ComputePipeline, Context, Dispatch, GpuError};
+use super::{Buffer, ComputePipeline, Context, Dispatch, GpuError, Timer};
 
 /// Most workgroups along one dispatch axis that every Vulkan device accepts.
 pub const MAX_GROUPS_X: u32 = 65535;
@@ -194,18 +195,6 @@ impl Tracker {
     }
 }
 
-/// One compute dispatch as a pass declares it.
-pub struct Compute<'a> {
-    pub pipeline: &'a ComputePipeline,
-    pub set: &'a Dispatch,
-    pub push: &'a [u8],
-    pub groups: [u32; 3],
-    /// Buffers the shader only reads.
-    pub reads: &'a [&'a Buffer],
-    /// Buffers the shader writes (and may read).
-    pub writes: &'a [&'a Buffer],
-}
-
 /// Records commands into one command buffer with the barriers their declared accesses need.
 pub struct Recorder<'a> {
     ctx: &'a Context,
@@ -214,13 +203,24 @@ pub struct Recorder<'a> {
 }
 
 impl<'a> Recorder<'a> {
-    pub fn new(ctx: &'a Context, cmd: vk::CommandBuffer, tracker: &'a mut Tracker) -> Self {
+    pub(crate) fn new(ctx: &'a Context, cmd: vk::CommandBuffer, tracker: &'a mut Tracker) -> Self {
         Recorder { ctx, cmd, tracker }
     }
 
-    /// The command buffer, for what records itself (timestamps).
-    pub fn cmd(&self) -> vk::CommandBuffer {
-        self.cmd
+    /// Records `record` between the two timestamps of `timer` (none: just `record`); read the
+    /// time with [`Timer::elapsed_ms`] once the submission completed.
+    pub fn timed<F>(&mut self, timer: Option<&Timer>, record: F) -> Result<(), GpuError>
+    where
+        F: FnOnce(&mut Recorder) -> Result<(), GpuError>,
+    {
+        if let Some(t) = timer {
+            t.begin(self.cmd);
+        }
+        record(self)?;
+        if let Some(t) = timer {
+            t.end(self.cmd);
+        }
+        Ok(())
     }
 
     fn barrier(&mut self, accesses: &[Access]) {
@@ -249,26 +249,26 @@ impl<'a> Recorder<'a> {
         };
     }
 
-    /// Records `c` after the barrier its reads and writes need. Debug builds check that every
-    /// buffer bound in `c.set` is declared as a read or a write (an undeclared one would miss
-    /// its barriers).
-    pub fn dispatch(&mut self, c: &Compute) {
-        if cfg!(debug_assertions) {
-            let declared = |raw: vk::Buffer| c.reads.iter().chain(c.writes).any(|b| b.raw == raw);
-            for (raw, name) in &c.set.buffers {
-                assert!(
-                    declared(*raw),
-                    "pass `{}` binds buffer `{name}` but declares neither a read nor a write of it",
-                    c.pipeline.name
-                );
-            }
-        }
-        let access = |b: &&Buffer, write| Access { buffer: b.raw, stage: Stage::Compute, write };
-        let accesses: Vec<Access> = (c.reads.iter().map(|b| access(b, false)))
-            .chain(c.writes.iter().map(|b| access(b, true)))
+    /// Records a dispatch of `pipeline` with `set` (bound for it), `push` constants and
+    /// `groups` workgroups, after the barrier it needs: every buffer in `set` is accessed as
+    /// its binding says ([`Binding`](crate::Binding), declared with the pipeline).
+    pub fn dispatch(
+        &mut self,
+        pipeline: &ComputePipeline,
+        set: &Dispatch,
+        push: &[u8],
+        groups: [u32; 3],
+    ) {
+        assert!(
+            set.pipeline == pipeline.raw,
+            "pass `{}` dispatched with a set bound for another pipeline",
+            pipeline.name
+        );
+        let accesses: Vec<Access> = (set.buffers.iter())
+            .map(|&(buffer, write)| Access { buffer, stage: Stage::Compute, write })
             .collect();
         self.barrier(&accesses);
-        c.pipeline.record(self.cmd, c.set, c.push, c.groups);
+        pipeline.record(self.cmd, set, push, groups);
     }
 
     /// Records a fill of `bytes` bytes of `dst` from `offset` with the 32-bit word `value`

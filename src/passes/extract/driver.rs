@@ -242,16 +242,7 @@ impl Scratch<'_> {
     where
         F: FnOnce(&mut Recorder) -> Result<(), GpuError>,
     {
-        ctx.record(pass, &mut run.tracker, |rec| {
-            if let Some(t) = &self.timer {
-                t.begin(rec.cmd());
-            }
-            record(rec)?;
-            if let Some(t) = &self.timer {
-                t.end(rec.cmd());
-            }
-            Ok(())
-        })?;
+        ctx.record(pass, &mut run.tracker, |rec| rec.timed(self.timer.as_ref(), record))?;
         if let (Some(t), Some(ms)) = (&self.timer, run.stats.gpu_ms.as_mut()) {
             *ms += t.elapsed_ms()?;
         }
@@ -479,8 +470,8 @@ impl Extractor {
             rec.fill(&s.cell_scan, slab.cells as u64 * 4, 4, 0);
             values.record(rec, slab.push(slab.values, slab.value_z0, 0, 0))?;
             classify.record(rec, slab.push(slab.points, slab.point_z0, 0, mode))?;
-            s.point_scanner.record(rec, p, &s.point_scan, slab.points as u64 + 1)?;
-            s.cell_scanner.record(rec, p, &s.cell_scan, slab.cells as u64 + 1)?;
+            s.point_scanner.record(rec, p, slab.points as u64 + 1)?;
+            s.cell_scanner.record(rec, p, slab.cells as u64 + 1)?;
             let counters = [
                 (&s.point_scan, slab.owned_point),
                 (&s.point_scan, slab.owned_point_end),
@@ -520,8 +511,8 @@ impl Extractor {
             rec.fill(&s.tri_scan, crossed * 4, 4, 0);
             rec.fill(&s.added_scan, crossed * 4, 4, 0);
             count.record(rec, slab.push(crossed as usize, slab.z0, 0, 0))?;
-            tri_scanner.record(rec, p, &s.tri_scan, crossed + 1)?;
-            added_scanner.record(rec, p, &s.added_scan, crossed + 1)?;
+            tri_scanner.record(rec, p, crossed + 1)?;
+            added_scanner.record(rec, p, crossed + 1)?;
             let at = crossed as usize;
             record_counters(rec, &[(&s.tri_scan, at), (&s.added_scan, at)], &s.readback);
             Ok(())

@@ -26,10 +26,11 @@
 //! whose scanned count range holds it) by bisection of the scan, so their work follows the
 //! output, not the grid.
 //!
-//! Every extraction pass binds the same twelve resources ([`EXTRACT_BINDINGS`], given by
+//! Every extraction pass binds the same twelve resources ([`bindings`], given by
 //! [`ExtractIo`]) and takes [`SlabPush`]; a pass that does not use a binding still gets a
-//! (dummy) buffer there. Each [`ExtractPass`] declares which of them it writes (the table
-//! above); it reads the others, and the recorder derives the barriers between passes from that.
+//! (dummy) buffer there. Each [`ExtractPass`] declares with its pipeline which of them it
+//! writes (the table above); it reads the others, and the recorder derives the barriers
+//! between passes from that.
 
 pub mod driver;
 pub mod params;
@@ -40,7 +41,7 @@ pub mod scan;
 pub use driver::{extract, ExtractStats, Extractor, GpuExtractOptions, GpuMesh};
 pub use params::{classify_mode, inside_threshold, ExtractParams, ExtractTables, SlabPush};
 pub use pass::{
-    BoundExtract, ExtractIo, ExtractPass, ExtractPasses, Mc33Passes, Slot, EXTRACT_BINDINGS, GROUP,
+    bindings, BoundExtract, ExtractIo, ExtractPass, ExtractPasses, Mc33Passes, Slot, GROUP,
 };
 pub use scan::{Scan, ScanPush, SCAN_BLOCK};
 

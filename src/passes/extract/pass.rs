@@ -1,16 +1,14 @@
 //! The extraction passes ([`ExtractPasses`], [`Mc33Passes`]): each a shader, the twelve
-//! bindings every pass shares ([`EXTRACT_BINDINGS`], filled from [`ExtractIo`]) and the
-//! bindings it writes ([`Slot`]); [`BoundExtract::record`] dispatches one over its items and
-//! hands the recorder its reads and writes, from which the barriers between passes follow.
+//! bindings every pass shares ([`bindings`], filled from [`ExtractIo`]) and the ones it writes
+//! ([`Slot`]), declared with its pipeline; [`BoundExtract::record`] dispatches one over its
+//! items, and the recorder derives the barriers between passes from those declarations.
 
 use std::sync::Arc;
-
-use ash::vk;
 
 use super::params::SlabPush;
 use super::scan::ScanPush;
 use crate::gpu::{
-    spread_groups, Buffer, Compute, ComputePipeline, Context, Dispatch, GpuError, Image3d,
+    spread_groups, Binding, Buffer, ComputePipeline, Context, Dispatch, GpuError, Image3d,
     Recorder, Resource,
 };
 use crate::shaders;
@@ -18,23 +16,35 @@ use crate::shaders;
 /// Workgroup size of the extraction passes (`local_size_x`).
 pub const GROUP: u32 = shaders::consts::EXTRACT_GROUP;
 
-/// Bindings of every extraction pass, in order: params (uniform), grid (3D image), point masks,
-/// point scan, cell scan, tables, positions, normals, indices, values, added scan, triangle scan
-/// (storage).
-pub const EXTRACT_BINDINGS: [vk::DescriptorType; 12] = [
-    vk::DescriptorType::UNIFORM_BUFFER,
-    vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
+/// The storage bindings of every extraction pass in binding order (after params and grid), as
+/// the [`Slot`] a pass may write (`None`: the tables, only read).
+const STORAGE: [Option<Slot>; 10] = [
+    Some(Slot::PointMask),
+    Some(Slot::PointScan),
+    Some(Slot::CellScan),
+    None,
+    Some(Slot::Positions),
+    Some(Slot::Normals),
+    Some(Slot::Indices),
+    Some(Slot::Values),
+    Some(Slot::AddedScan),
+    Some(Slot::TriScan),
 ];
+
+/// Bindings of an extraction pass that writes `writes`, in order: params, grid, point masks,
+/// point scan, cell scan, tables, positions, normals, indices, values, added scan, triangle
+/// scan; the ones in `writes` are read and written, the others read.
+pub fn bindings(writes: &[Slot]) -> [Binding; 12] {
+    let mut b = [Binding::Read; 12];
+    b[0] = Binding::Uniform;
+    b[1] = Binding::Sampled;
+    for (i, slot) in STORAGE.iter().enumerate() {
+        if slot.is_some_and(|s| writes.contains(&s)) {
+            b[2 + i] = Binding::ReadWrite;
+        }
+    }
+    b
+}
 
 /// A buffer binding of the extraction passes that some pass writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,7 +60,7 @@ pub enum Slot {
     TriScan,
 }
 
-/// The resources of an extraction pass, in the roles of [`EXTRACT_BINDINGS`].
+/// The resources of an extraction pass, in the roles of [`bindings`].
 #[derive(Clone, Copy)]
 pub struct ExtractIo<'a> {
     pub params: &'a Buffer,
@@ -68,21 +78,7 @@ pub struct ExtractIo<'a> {
 }
 
 impl<'a> ExtractIo<'a> {
-    fn slot(&self, slot: Slot) -> &'a Buffer {
-        match slot {
-            Slot::PointMask => self.point_mask,
-            Slot::PointScan => self.point_scan,
-            Slot::CellScan => self.cell_scan,
-            Slot::Positions => self.positions,
-            Slot::Normals => self.normals,
-            Slot::Indices => self.indices,
-            Slot::Values => self.values,
-            Slot::AddedScan => self.added_scan,
-            Slot::TriScan => self.tri_scan,
-        }
-    }
-
-    /// The storage buffers, in binding order.
+    /// The storage buffers, in binding order ([`STORAGE`]).
     fn storage(&self) -> [&'a Buffer; 10] {
         [
             self.point_mask,
@@ -99,17 +95,17 @@ impl<'a> ExtractIo<'a> {
     }
 }
 
-/// One extraction pass: its pipeline and the bindings it writes.
+/// One extraction pass: its pipeline, made with the bindings it writes.
 pub struct ExtractPass {
     pub pipeline: ComputePipeline,
-    writes: &'static [Slot],
 }
 
 /// An extraction pass bound to its resources.
 pub struct BoundExtract<'a> {
     pass: &'a ExtractPass,
     set: Dispatch,
-    io: ExtractIo<'a>,
+    /// Keeps the bound buffers borrowed while the set refers to them.
+    _io: ExtractIo<'a>,
 }
 
 impl ExtractPass {
@@ -117,17 +113,17 @@ impl ExtractPass {
         ctx: &Arc<Context>,
         name: &str,
         spirv: &[u8],
-        writes: &'static [Slot],
+        writes: &[Slot],
     ) -> Result<Self, GpuError> {
         let push = std::mem::size_of::<SlabPush>() as u32;
-        let pipeline = ComputePipeline::new(ctx, name, spirv, &EXTRACT_BINDINGS, push)?;
-        Ok(ExtractPass { pipeline, writes })
+        let pipeline = ComputePipeline::new(ctx, name, spirv, &bindings(writes), push)?;
+        Ok(ExtractPass { pipeline })
     }
 
     pub fn bind<'a>(&'a self, io: ExtractIo<'a>) -> Result<BoundExtract<'a>, GpuError> {
         let mut resources = vec![Resource::Uniform(io.params), Resource::Sampled(io.grid)];
         resources.extend(io.storage().map(Resource::Storage));
-        Ok(BoundExtract { pass: self, set: self.pipeline.bind(&resources)?, io })
+        Ok(BoundExtract { pass: self, set: self.pipeline.bind(&resources)?, _io: io })
     }
 }
 
@@ -140,18 +136,7 @@ impl BoundExtract<'_> {
         }
         let groups = spread_groups(u64::from(push.count).div_ceil(u64::from(GROUP)))?;
         push.groups_x = groups[0];
-        let writes: Vec<&Buffer> = self.pass.writes.iter().map(|&w| self.io.slot(w)).collect();
-        let mut reads = vec![self.io.params];
-        let written = |b: &&Buffer| writes.iter().any(|w| w.raw == b.raw);
-        reads.extend(self.io.storage().into_iter().filter(|b| !written(b)));
-        rec.dispatch(&Compute {
-            pipeline: &self.pass.pipeline,
-            set: &self.set,
-            push: bytemuck::bytes_of(&push),
-            groups,
-            reads: &reads,
-            writes: &writes,
-        });
+        rec.dispatch(&self.pass.pipeline, &self.set, bytemuck::bytes_of(&push), groups);
         Ok(())
     }
 }
@@ -176,7 +161,10 @@ impl ExtractPasses {
     pub fn new(ctx: &Arc<Context>) -> Result<Self, GpuError> {
         use Slot::*;
         let extract = |name, spirv, writes| ExtractPass::new(ctx, name, spirv, writes);
-        let scan_bindings = [vk::DescriptorType::STORAGE_BUFFER; 2];
+        // (level l, level l + 1): scan scans level l in place and writes its block sums one
+        // level up; scan add adds level l + 1's scanned sums to level l.
+        let scan_bindings = [Binding::ReadWrite, Binding::Write];
+        let add_bindings = [Binding::ReadWrite, Binding::Read];
         let scan_push = std::mem::size_of::<ScanPush>() as u32;
         Ok(ExtractPasses {
             values: extract("extract values", shaders::EXTRACT_VALUES, &[Values])?,
@@ -210,7 +198,7 @@ impl ExtractPasses {
                 ctx,
                 "extract scan add",
                 shaders::EXTRACT_SCAN_ADD,
-                &scan_bindings,
+                &add_bindings,
                 scan_push,
             )?,
         })

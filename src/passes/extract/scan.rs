@@ -10,8 +10,8 @@ use bytemuck::{Pod, Zeroable};
 
 use super::pass::ExtractPasses;
 use crate::gpu::{
-    spread_groups, Buffer, Compute, ComputePipeline, Context, Dispatch, GpuError, MemoryLocation,
-    Recorder, Resource,
+    spread_groups, Buffer, ComputePipeline, Context, Dispatch, GpuError, MemoryLocation, Recorder,
+    Resource,
 };
 use crate::shaders;
 
@@ -30,8 +30,8 @@ pub struct ScanPush {
 /// blocks of [`SCAN_BLOCK`], the block sums scanned the same way level by level until one block
 /// remains, then `scan add` back down. Holds the block-sum buffers and descriptor sets.
 pub struct Scan {
-    /// Block-sum buffers, level 1 up.
-    levels: Vec<Buffer>,
+    /// Block-sum buffers, level 1 up: held for the sets, which bind them.
+    _levels: Vec<Buffer>,
     /// Per level: (scan set, add set) over (level l, level l + 1).
     sets: Vec<(Dispatch, Dispatch)>,
     capacity: u64,
@@ -62,16 +62,15 @@ impl Scan {
             let bind = [Resource::Storage(lower), Resource::Storage(upper)];
             sets.push((passes.scan.bind(&bind)?, passes.scan_add.bind(&bind)?));
         }
-        Ok(Scan { levels, sets, capacity })
+        Ok(Scan { _levels: levels, sets, capacity })
     }
 
-    /// Records the scan of the first `len` elements (`len <= capacity`) of `data` (the buffer
-    /// the scan was made for).
+    /// Records the scan of the first `len` elements (`len <= capacity`) of the buffer the scan
+    /// was made for.
     pub fn record(
         &self,
         rec: &mut Recorder,
         passes: &ExtractPasses,
-        data: &Buffer,
         len: u64,
     ) -> Result<(), GpuError> {
         if len > self.capacity {
@@ -84,16 +83,13 @@ impl Scan {
             return Ok(());
         }
         let lens = level_lengths(len);
-        let level = |l: usize| if l == 0 { data } else { &self.levels[l - 1] };
         // Up: scan each level with more than one element, writing block sums one level up.
         for (l, &n) in lens[..lens.len() - 1].iter().enumerate() {
-            let (set, rw) = (&self.sets[l].0, [level(l), level(l + 1)]);
-            Self::dispatch(rec, &passes.scan, set, n, &[], &rw)?;
+            Self::dispatch(rec, &passes.scan, &self.sets[l].0, n)?;
         }
         // Down: add the scanned sums of level l + 1 to level l (a single block's offset is 0).
         for l in (0..lens.len().saturating_sub(2)).rev() {
-            let set = &self.sets[l].1;
-            Self::dispatch(rec, &passes.scan_add, set, lens[l], &[level(l + 1)], &[level(l)])?;
+            Self::dispatch(rec, &passes.scan_add, &self.sets[l].1, lens[l])?;
         }
         Ok(())
     }
@@ -104,8 +100,6 @@ impl Scan {
         pipeline: &ComputePipeline,
         set: &Dispatch,
         len: u64,
-        reads: &[&Buffer],
-        writes: &[&Buffer],
     ) -> Result<(), GpuError> {
         let groups = spread_groups(len.div_ceil(SCAN_BLOCK))?;
         let count = u32::try_from(len).map_err(|_| GpuError::TooLarge {
@@ -114,7 +108,7 @@ impl Scan {
         })?;
         let push = ScanPush { groups_x: groups[0], count };
         let push = bytemuck::bytes_of(&push);
-        rec.dispatch(&Compute { pipeline, set, push, groups, reads, writes });
+        rec.dispatch(pipeline, set, push, groups);
         Ok(())
     }
 }

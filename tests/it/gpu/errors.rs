@@ -4,8 +4,8 @@
 //! counts as a validation message.
 
 use isoview::gpu::{
-    validation_messages, vk, Buffer, ComputePipeline, Context, ContextOptions, GpuError, Image3d,
-    MemoryLocation, Resource,
+    validation_messages, vk, Binding, Buffer, ComputePipeline, Context, ContextOptions, GpuError,
+    Image3d, MemoryLocation, Resource,
 };
 use isoview::shaders;
 
@@ -58,11 +58,7 @@ fn failed_constructors_name_their_cause_and_leak_nothing() {
         &ctx,
         "layout probe",
         shaders::TEST_LAYOUT_PROBE,
-        &[
-            vk::DescriptorType::UNIFORM_BUFFER,
-            vk::DescriptorType::STORAGE_BUFFER,
-            vk::DescriptorType::STORAGE_BUFFER,
-        ],
+        &[Binding::Uniform, Binding::Write, Binding::Write],
         0,
     )
     .unwrap();
@@ -74,7 +70,10 @@ fn failed_constructors_name_their_cause_and_leak_nothing() {
         .err()
         .unwrap();
     assert!(matches!(e, GpuError::Bug(_)), "{e:?}");
-    assert!(e.to_string().contains("binding 0 wants UNIFORM_BUFFER"), "{e}");
+    assert!(
+        e.to_string().contains("binding 0 is Uniform (UNIFORM_BUFFER), got STORAGE_BUFFER"),
+        "{e}"
+    );
     let e = b.read::<u32>(65).err().unwrap();
     assert!(matches!(e, GpuError::Bug(_)), "{e:?}");
 

@@ -1,12 +1,12 @@
-//! The structs shared with GLSL. A GPU round trip: what the shader sees of `RenderParams`, and
-//! where its writes of `Pixel` land (output buffers start filled with a sentinel so a member
-//! the shader never wrote differs from one written as 0). And, without a GPU, SPIR-V
+//! The structs shared with GLSL. A GPU round trip: what the shader sees of each member of
+//! `RenderParams`, and where its writes of `Pixel` land (output buffers start filled with a
+//! sentinel so a member the shader never wrote differs from one written as 0). And, without a GPU, SPIR-V
 //! reflection of every shader: each of the 10 Rust mirrors against its GLSL declaration in
 //! every shader that has one (members, offsets, sizes, scalar types), and every shader's
 //! workgroup size against the constant its dispatch divides by.
 
 use isoview::frame::Pixel;
-use isoview::gpu::{vk, Buffer, ComputePipeline, MemoryLocation, Resource};
+use isoview::gpu::{vk, Binding, Buffer, ComputePipeline, MemoryLocation, Resource, Tracker};
 use isoview::render::params::RenderParams;
 use isoview::shaders;
 
@@ -38,26 +38,35 @@ fn shared_structs_have_the_same_layout_on_the_gpu() {
         &ctx,
         "layout probe",
         shaders::TEST_LAYOUT_PROBE,
-        &[
-            vk::DescriptorType::UNIFORM_BUFFER,
-            vk::DescriptorType::STORAGE_BUFFER,
-            vk::DescriptorType::STORAGE_BUFFER,
-        ],
+        &[Binding::Uniform, Binding::Write, Binding::Write],
         0,
     )
     .unwrap();
     let set = pipeline
         .bind(&[Resource::Uniform(&ubo), Resource::Storage(&bits), Resource::Storage(&px)])
         .unwrap();
-    ctx.submit("layout probe", |cmd| {
-        pipeline.record(cmd, &set, &[], [1, 1, 1]);
+    ctx.record("layout probe", &mut Tracker::default(), |rec| {
+        rec.dispatch(&pipeline, &set, &[], [1, 1, 1]);
+        rec.host_read(&bits);
+        rec.host_read(&px);
         Ok(())
     })
     .unwrap();
 
+    // Member by member: the probe writes each one's bits back to back in declaration order.
     let seen: Vec<u32> = bits.read(words).unwrap();
     let sent: &[u32] = bytemuck::cast_slice(std::slice::from_ref(&params));
-    assert_eq!(seen, sent, "RenderParams as GLSL reads it");
+    let (_, size, fields) = render_params();
+    assert_eq!(fields.iter().map(|f| f.size).sum::<usize>(), size, "fields cover the struct");
+    let wrong: Vec<String> = fields
+        .iter()
+        .filter_map(|f| {
+            let words = f.offset / 4..(f.offset + f.size) / 4;
+            let (got, want) = (&seen[words.clone()], &sent[words]);
+            (got != want).then(|| format!("{}: GLSL read {got:x?}, Rust wrote {want:x?}", f.name))
+        })
+        .collect();
+    assert!(wrong.is_empty(), "RenderParams as GLSL reads it:\n{}", wrong.join("\n"));
 
     let pixels: Vec<Pixel> = px.read(2).unwrap();
     let untouched: &[u32] = bytemuck::cast_slice(std::slice::from_ref(&pixels[0]));
@@ -261,6 +270,62 @@ macro_rules! rust_struct {
     }};
 }
 
+/// `RenderParams`, every named member (each `padN` too: GLSL declares them).
+fn render_params() -> Mirror {
+    rust_struct!(RenderParams {
+        eye,
+        pad0,
+        forward,
+        pad1,
+        right,
+        pad2,
+        up,
+        pad3,
+        box_min,
+        pad4,
+        box_max,
+        pad5,
+        inv_spacing,
+        pad6,
+        eye_grid,
+        pad7,
+        dims,
+        pad8,
+        block_lo,
+        pad9,
+        block_hi,
+        pad10,
+        block_origin,
+        pad11,
+        background,
+        color,
+        pad12,
+        width,
+        height,
+        stride,
+        picture_width,
+        shading,
+        steps,
+        newton_steps,
+        normals,
+        threshold,
+        inside_sign,
+        depth_near,
+        depth_far,
+        steps_scale,
+        crossing,
+        skip,
+        count_crossings,
+        orthographic,
+        clip_count,
+        surfaces,
+        pad13,
+        clip,
+        thresholds,
+        surface_color
+    })
+}
+
 /// Compares one Rust mirror with one GLSL struct; returns the differences found.
 fn differences(rust: &Mirror, glsl: &(Vec<Member>, u32), shader: &str) -> Vec<String> {
     let (name, size, fields) = rust;
@@ -309,36 +374,7 @@ fn every_shared_struct_matches_its_glsl_in_every_shader() {
     let any = |_: &str| true;
     // (Rust mirror, GLSL struct name, which shaders, how many at least must declare it).
     let specs: Vec<Spec> = vec![
-        (
-            rust_struct!(RenderParams {
-                eye,
-                forward,
-                right,
-                up,
-                box_min,
-                box_max,
-                inv_spacing,
-                background,
-                color,
-                dims,
-                image,
-                method,
-                surface,
-                debug,
-                eye_grid,
-                analytic,
-                view,
-                block_lo,
-                block_hi,
-                block_origin,
-                clip,
-                thresholds,
-                surface_color
-            }),
-            "RenderParams",
-            &any,
-            5,
-        ),
+        (render_params(), "RenderParams", &any, 5),
         (
             rust_struct!(Pixel {
                 rgba,

@@ -385,7 +385,7 @@ fn scan_is_an_exclusive_prefix_sum() {
         let scan = Scan::new(&ctx, &passes, "test", &buf, len as u64 + 7).unwrap();
         ctx.record("scan test", &mut Tracker::default(), |rec| {
             rec.copy(&up, 0, &buf, 0, bytes);
-            scan.record(rec, &passes, &buf, len as u64)?;
+            scan.record(rec, &passes, len as u64)?;
             rec.readback(&buf, &down, bytes);
             Ok(())
         })

@@ -26,7 +26,7 @@
 use glam::DVec3;
 use isoview::field::Grid;
 use isoview::frame::{Frame, Pixel};
-use isoview::gpu::{copy_buffer, vk, Buffer, MemoryLocation};
+use isoview::gpu::{vk, Buffer, MemoryLocation, Tracker};
 use isoview::passes::bricks;
 use isoview::reference::analytic::{self, cubic::Cubic, CellVisit};
 use isoview::reference::field::{to_grid, value_at};
@@ -852,8 +852,8 @@ fn brick_grid_holds_each_bricks_min_and_max() {
             MemoryLocation::GpuToCpu,
         )
         .unwrap();
-        ctx.submit("read bricks", |cmd| {
-            copy_buffer(&ctx, cmd, built, 0, &readback, 0, built.size);
+        ctx.record("read bricks", &mut Tracker::default(), |rec| {
+            rec.readback(built, &readback, built.size);
             Ok(())
         })
         .unwrap();

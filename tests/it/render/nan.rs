@@ -385,7 +385,7 @@ fn gpu_ray_methods_match_the_references_with_missing_samples() {
 
 #[gpu_test]
 fn gpu_brick_ranges_leave_missing_samples_out() {
-    use isoview::gpu::{copy_buffer, vk, Buffer, MemoryLocation};
+    use isoview::gpu::{vk, Buffer, MemoryLocation, Tracker};
     use isoview::passes::bricks;
     use isoview::render::GpuGrid;
     let ctx = gpu();
@@ -414,8 +414,8 @@ fn gpu_brick_ranges_leave_missing_samples_out() {
             MemoryLocation::GpuToCpu,
         )
         .unwrap();
-        ctx.submit("read bricks", |cmd| {
-            copy_buffer(&ctx, cmd, built, 0, &readback, 0, built.size);
+        ctx.record("read bricks", &mut Tracker::default(), |rec| {
+            rec.readback(built, &readback, built.size);
             Ok(())
         })
         .unwrap();

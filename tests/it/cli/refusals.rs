@@ -6,7 +6,7 @@
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
-use crate::common::{assert_fails, scratch, stderr, write};
+use crate::common::{assert_fails, scratch, stderr, with_memory_limit, write};
 
 const SPHERE: &str = r#"
 [image]
@@ -700,20 +700,6 @@ fn tev_with_nobody_listening_still_writes_the_files_then_exits_2() {
     assert_fails(&o, 2, &["isoview: tev at ", &address, "the render's files were written"]);
     assert!(isoview::output::exr::read(Path::new(&out)).is_ok(), "the EXR is written");
     assert!(Path::new(&png).exists(), "the PNG is written");
-}
-
-/// Runs `cmd` under an address-space limit of `gib` GiB (what `ulimit -v` sets).
-fn with_memory_limit(cmd: &mut Command, gib: u64) {
-    // SAFETY: setrlimit is async-signal-safe; the closure touches nothing else.
-    unsafe {
-        std::os::unix::process::CommandExt::pre_exec(cmd, move || {
-            let limit = libc::rlimit { rlim_cur: gib << 30, rlim_max: gib << 30 };
-            if libc::setrlimit(libc::RLIMIT_AS, &limit) != 0 {
-                return Err(std::io::Error::last_os_error());
-            }
-            Ok(())
-        });
-    }
 }
 
 #[test]

@@ -95,6 +95,22 @@ fn stdout_closed_early_stops_quietly_with_exit_0() {
     assert_fails(&o, 2, &["cannot write to stdout: No space left on device"]);
 }
 
+/// Fifth attack pass: `compare A B > /dev/full` exited with its verdict (0) and printed
+/// nothing, the table lost without a word. A full disk is one line and exit 2, as for every
+/// verb; a reader that has gone still leaves the verdict's status.
+#[test]
+fn compare_to_a_full_stdout_fails_with_one_line() {
+    let dir = scratch("rio-compare-full");
+    let a = dir.join("a.exr");
+    isoview::output::exr::write_frame(&a, &crate::cli::output::test_frame(9, 7)).unwrap();
+    let sa = a.display().to_string();
+    let full = Stdio::from(std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap());
+    let o = run(&["compare", &sa, &sa], full, Stdio::piped());
+    assert_fails(&o, 2, &["isoview: cannot write to stdout: No space left on device"]);
+    let o = run(&["compare", &sa, &sa], reader_gone(), Stdio::piped());
+    assert_eq!((o.status.code(), stderr(&o).as_str()), (Some(0), ""));
+}
+
 #[test]
 fn help_and_version_follow_the_stdout_rules() {
     let dir = scratch("rio-help");

@@ -594,10 +594,7 @@ fn open_context(
     cli: &Cli,
     vulkan_device: Option<String>,
 ) -> Result<std::sync::Arc<crate::gpu::Context>, crate::gpu::GpuError> {
-    crate::gpu::Context::new(&crate::gpu::ContextOptions {
-        device: vulkan_device,
-        validation: cli.validation,
-    })
+    cli.open_gpu(vulkan_device)
 }
 
 /// The GPU extraction (compute passes of [`passes::extract`]) on the Vulkan device `vulkan_device`,

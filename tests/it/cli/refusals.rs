@@ -795,3 +795,21 @@ fn probe_slice_names_the_option_the_plane_came_from() {
     );
     assert!(!stderr(&o).contains("--at"), "{}", stderr(&o));
 }
+
+/// Fifth attack pass: `--device` and `ISOVIEW_DEVICE` were echoed whole (a 10,000-character
+/// value gave a 10 KB line); like every value a message repeats, they are cut at 60
+/// characters (control characters escaped as before).
+#[gpu_test]
+fn a_long_device_name_is_cut_in_the_message() {
+    let long = format!("{}\u{1b}[31m", "a".repeat(10_000));
+    let cut = format!("\"{}…\"", "a".repeat(isoview::vocab::ECHO_CHARS));
+    let o = isoview_output(&["info", "--device", &long]);
+    assert_fails(&o, 3, &["isoview: no Vulkan device matches ", &cut, "; available: "]);
+    assert!(stderr(&o).len() < 400, "{} bytes", stderr(&o).len());
+    let o = isoview().arg("info").env("ISOVIEW_DEVICE", &long).output().unwrap();
+    assert_fails(&o, 3, &["no Vulkan device matches ", &cut]);
+    assert!(stderr(&o).len() < 400, "{} bytes", stderr(&o).len());
+    // Short values are quoted whole, control characters escaped.
+    let o = isoview_output(&["info", "--device", "a\nb"]);
+    assert_fails(&o, 3, &["no Vulkan device matches \"a\\nb\""]);
+}

@@ -749,3 +749,28 @@ fn a_request_queued_behind_busy_workers_is_served() {
     drop(slow);
     alive(&server);
 }
+
+/// Fifth attack pass: an unknown `/api/` route was answered 405 ("not supported"), as if the
+/// route existed with other methods. 404 for a route that does not exist; 405 only for a known
+/// route asked with the wrong method.
+#[gpu_test]
+fn an_unknown_api_route_is_404_and_a_wrong_method_405() {
+    let server = small_server();
+    let ask = |line: &str| {
+        let request = format!(
+            "{line} HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Isoview-Token: {}\r\n\r\n",
+            server.token
+        );
+        exchange(&server, request.as_bytes())
+    };
+    let (status, body) = ask("GET /api/nosuch");
+    assert_eq!(status, 404, "{body}");
+    assert!(body.contains("/api/nosuch: no such page"), "{body}");
+    assert_eq!(ask("POST /api/").0, 404);
+    assert_eq!(ask("GET /api/stats/x").0, 404);
+    for line in ["PUT /api/state", "DELETE /", "GET /api/tev", "POST /api/stats"] {
+        let (status, body) = ask(line);
+        assert_eq!(status, 405, "{line}: {body}");
+        assert!(body.contains("not supported"), "{line}: {body}");
+    }
+}

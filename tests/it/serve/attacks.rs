@@ -290,6 +290,25 @@ fn a_missing_allow_dir_is_refused_at_start() {
     let o =
         isoview(&["serve", &file, "--port", "0", "--allow-dir", missing.to_str().unwrap()], &[]);
     crate::common::assert_fails(&o, 2, &["--allow-dir", "no-such-folder", "file not found"]);
+    // Fifth attack pass: a regular file, a FIFO or a device node was taken without a word
+    // (the option names a folder; a typo went unnoticed).
+    let fifo = dir.join("pipe");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    for (path, kind) in [
+        (file.as_str(), "a regular file"),
+        (fifo.to_str().unwrap(), "a FIFO"),
+        ("/dev/null", "a character device"),
+    ] {
+        // Under `timeout`: a server that starts runs until killed (exit 124, a failure).
+        let o = std::process::Command::new("timeout")
+            .args(["30", env!("CARGO_BIN_EXE_isoview"), "serve", &file, "--port", "0"])
+            .args(["--allow-dir", path])
+            .env_remove("ISOVIEW_DEVICE")
+            .output()
+            .unwrap();
+        crate::common::assert_fails(&o, 2, &["--allow-dir ", ": is ", kind, ", not a folder"]);
+    }
 }
 
 /// exmex's own messages print its tokens with `Debug` (function addresses): never shown.

@@ -303,11 +303,7 @@ impl Clip {
 /// become a 10 MB message). Every message that repeats a user's value passes it through here.
 pub fn echo(value: &str) -> String {
     let mut out = String::new();
-    for (n, c) in value.chars().enumerate() {
-        if n == ECHO_CHARS {
-            out.push('…');
-            break;
-        }
+    for c in echo_cut(value).chars() {
         if c.is_control() {
             out.extend(c.escape_default());
         } else {
@@ -315,6 +311,15 @@ pub fn echo(value: &str) -> String {
         }
     }
     out
+}
+
+/// [`echo`]'s cut alone (the first [`ECHO_CHARS`] characters, then `…`), for a message that
+/// escapes the value itself (a `{:?}` in another crate's error: `isoview-gpu`'s device name).
+pub fn echo_cut(value: &str) -> std::borrow::Cow<'_, str> {
+    match value.char_indices().nth(ECHO_CHARS) {
+        Some((at, _)) => format!("{}…", &value[..at]).into(),
+        None => value.into(),
+    }
 }
 
 /// How many characters of a user's value [`echo`] keeps.

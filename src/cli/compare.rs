@@ -134,7 +134,12 @@ pub fn run_with(args: &CompareArgs, out: &mut dyn Write, err: &mut dyn Write) ->
         Ok(r) => r,
         Err(e) => return fail(err, &e),
     };
-    let _ = write!(out, "{report}");
+    // A reader that has gone leaves the verdict's status; any other failure (a full disk)
+    // is one line and exit 2, as for every verb (console's rule).
+    let written = write!(out, "{report}").and_then(|()| out.flush());
+    if let Some(line) = written.err().as_ref().and_then(super::console::stdout_failure) {
+        return fail(err, &line);
+    }
     if let Some(e) = output_error {
         return fail(err, &e);
     }

@@ -36,9 +36,15 @@ pub fn say_line(args: fmt::Arguments) -> Result<(), Failure> {
 fn stdout_written(written: std::io::Result<()>) -> Result<(), Failure> {
     match written {
         Ok(()) => Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(Failure::stopped()),
-        Err(e) => Err(Failure::input(format!("cannot write to stdout: {e}"))),
+        Err(e) => Err(stdout_failure(&e).map_or_else(Failure::stopped, Failure::input)),
     }
+}
+
+/// The failure line for a write to stdout that failed with `e`, or `None` when the reader
+/// has gone (stop quietly; see the module docs). `compare`, which prints through a writer
+/// it is given, uses it too.
+pub(super) fn stdout_failure(e: &std::io::Error) -> Option<String> {
+    (e.kind() != std::io::ErrorKind::BrokenPipe).then(|| format!("cannot write to stdout: {e}"))
 }
 
 /// Prints what clap stopped the command line with and returns the exit status. `--help` and

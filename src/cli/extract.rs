@@ -160,7 +160,7 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: &Ranks) -> Result<i32, Failure> 
     // Several isovalues: one mesh per surface, merged, each vertex labelled with its surface.
     let done = extract::surfaces(&job, &grid, cpu_device.as_deref()).map_err(|e| match e {
         ExtractError::Input(m) => Failure::input(m),
-        ExtractError::Gpu(g) => Failure::gpu(g),
+        ExtractError::Gpu(g) => Failure::gpu(super::cut_device(g)),
     })?;
     for n in &done.notes {
         note!("{n}");

@@ -113,10 +113,24 @@ pub enum Command {
 
 impl Cli {
     pub fn gpu(&self) -> Result<Arc<Context>, Failure> {
-        Ok(Context::new(&ContextOptions {
-            device: self.device.clone(),
-            validation: self.validation,
-        })?)
+        Ok(self.open_gpu(self.device.clone())?)
+    }
+
+    /// Opens the Vulkan device whose name contains `device` (None: isoview's pick).
+    pub fn open_gpu(&self, device: Option<String>) -> Result<Arc<Context>, GpuError> {
+        Context::new(&ContextOptions { device, validation: self.validation }).map_err(cut_device)
+    }
+}
+
+/// A GPU error as the command line prints it: the name asked for (--device, ISOVIEW_DEVICE) is
+/// the user's value, cut as every message cuts one (the error's `{:?}` escapes it); matching
+/// used it whole. Every verb's device errors pass here, `extract`'s from the library included.
+pub(crate) fn cut_device(e: GpuError) -> GpuError {
+    match e {
+        GpuError::DeviceNotFound { wanted, available } => {
+            GpuError::DeviceNotFound { wanted: crate::vocab::echo_cut(&wanted).into(), available }
+        }
+        e => e,
     }
 }
 

@@ -62,7 +62,9 @@ mod stream;
 
 pub use flip::{FlipStats, PIXELS_PER_DEGREE};
 pub use output::{write_diff_exr, write_heat_map_png};
-pub use stream::{band_rows, compare_files, compare_files_in_bands, flip_halo, Outputs};
+pub use stream::{
+    band_rows, compare_files, compare_files_in_bands, flip_halo, Outputs, PERCENTILE_BATCH,
+};
 
 use std::fmt;
 use std::path::{Path, PathBuf};

@@ -31,7 +31,9 @@
 //!   passes in an unlinked temporary file ([`std::env::temp_dir`]): disk, not memory.
 //!
 //! Memory: a band of [`band_rows`] rows plus halos of the channels read, FLIP's working
-//! images for those rows (about 100 bytes a pixel), and 512 KiB per percentile.
+//! images for those rows (about 100 bytes a pixel), and 1.5 MiB per percentile searched in a
+//! pass: FLIP's four, and the relative-error ones of at most [`PERCENTILE_BATCH`] channels, so
+//! an EXR with thousands of channels takes more passes, not more memory.
 
 use std::path::Path;
 
@@ -55,6 +57,11 @@ use crate::output::OutputError;
 pub const BAND_PIXELS: usize = 1 << 19;
 pub const MIN_BAND_ROWS: usize = 32;
 pub const MAX_BAND_ROWS: usize = 256;
+
+/// Channels whose relative-error percentile is searched in one pass (each holds 1.5 MiB of
+/// tables while searched); the others wait for a later pass. 64 covers isoview's own EXRs (a
+/// dozen channels or so) in the passes they always took.
+pub const PERCENTILE_BATCH: usize = 64;
 
 /// The band height [`compare_files`] uses for images `width` pixels wide.
 pub fn band_rows(width: usize) -> usize {
@@ -217,6 +224,8 @@ struct Pass<'s> {
     acc: Option<&'s mut Vec<Acc>>,
     /// Per channel, the relative-error percentile being searched (`None` once found or empty).
     rel: &'s mut [Option<Select>],
+    /// Which of `rel` this pass searches ([`batch`]).
+    rel_now: &'s [bool],
     /// FLIP percentiles being searched, and the running FLIP sum (pass 1).
     flip_sel: &'s mut [Select],
     flip_sum: Option<&'s mut f64>,
@@ -371,10 +380,12 @@ impl<'t, S: Source> Run<'t, S> {
             ratio: Vec::new(),
             flip: flip_ok.then(Vec::new),
         });
+        let mut rel_now = batch(&rel);
         {
             let pass = Pass {
                 acc: Some(&mut acc),
                 rel: &mut rel,
+                rel_now: &rel_now,
                 flip_sel: &mut flip_sel,
                 flip_sum: Some(&mut flip_sum),
                 need_channels: true,
@@ -400,7 +411,7 @@ impl<'t, S: Source> Run<'t, S> {
                 s.set_rank(nearest_rank(0.99, a.finite));
             }
         }
-        end_pass(&mut rel, &mut flip_sel)?;
+        end_pass(&mut rel, &rel_now, &mut flip_sel)?;
 
         let flip_mean = flip_ok.then(|| (flip_sum / n as f64) as f32);
         let mut report = self.report(&acc, &totals, flip_mean);
@@ -416,9 +427,11 @@ impl<'t, S: Source> Run<'t, S> {
             let need_flip =
                 flip_sel.iter().any(|s| !s.done()) || (write && writers.diff.is_some() && flip_ok);
             let need_channels = write || rel.iter().flatten().any(|s| !s.done());
+            rel_now = batch(&rel);
             let pass = Pass {
                 acc: None,
                 rel: &mut rel,
+                rel_now: &rel_now,
                 flip_sel: &mut flip_sel,
                 flip_sum: None,
                 need_channels,
@@ -436,7 +449,7 @@ impl<'t, S: Source> Run<'t, S> {
                 }
                 Ok(())
             })?;
-            end_pass(&mut rel, &mut flip_sel)?;
+            end_pass(&mut rel, &rel_now, &mut flip_sel)?;
             write = false;
         }
         let output_error = writers.finish();
@@ -459,8 +472,26 @@ fn nearest_rank(p: f64, n: usize) -> u64 {
     (((p * n as f64).ceil() as usize).clamp(1, n.max(1)) - 1) as u64
 }
 
-fn end_pass(rel: &mut [Option<Select>], flip: &mut [Select]) -> Result<(), CompareError> {
-    for s in rel.iter_mut().flatten().chain(flip.iter_mut()) {
+/// The first [`PERCENTILE_BATCH`] relative-error percentiles still searched: those one pass
+/// searches.
+fn batch(rel: &[Option<Select>]) -> Vec<bool> {
+    let mut left = PERCENTILE_BATCH;
+    rel.iter()
+        .map(|s| {
+            let now = left > 0 && s.as_ref().is_some_and(|s| !s.done());
+            left -= usize::from(now);
+            now
+        })
+        .collect()
+}
+
+fn end_pass(
+    rel: &mut [Option<Select>],
+    rel_now: &[bool],
+    flip: &mut [Select],
+) -> Result<(), CompareError> {
+    let rel = rel.iter_mut().zip(rel_now).filter(|(_, &now)| now).filter_map(|(s, _)| s.as_mut());
+    for s in rel.chain(flip.iter_mut()) {
         s.end().map_err(|e| CompareError::Output(OutputError::invalid(Path::new("compare"), e)))?;
     }
     Ok(())
@@ -552,7 +583,9 @@ impl<S: Source> Run<'_, S> {
         if pass.need_flip {
             self.spill.rewind()?;
         }
-        pass.rel.iter_mut().flatten().for_each(Select::begin);
+        let rel_now = pass.rel_now;
+        let rel = pass.rel.iter_mut().zip(rel_now).filter(|(_, &now)| now);
+        rel.filter_map(|(s, _)| s.as_mut()).for_each(Select::begin);
         pass.flip_sel.iter_mut().for_each(Select::begin);
         let mut y0 = 0;
         while y0 < self.h {
@@ -596,7 +629,7 @@ impl<S: Source> Run<'_, S> {
             for (k, p) in self.plans.iter().enumerate() {
                 let (pa, pb) = (self.a.rows(p.a, y0, y1), self.b.rows(p.b, y0, y1));
                 let mut acc = pass.acc.as_deref_mut().map(|v| &mut v[k]);
-                let mut sel = pass.rel[k].as_mut();
+                let mut sel = pass.rel[k].as_mut().filter(|_| pass.rel_now[k]);
                 for j in 0..len {
                     let (x, y) = (pa[j], pb[j]);
                     let d = difference(x, y);

@@ -37,9 +37,11 @@ impl DataAccess {
     /// [`DataAccess::Within`], its canonical form (links and `..` resolved, so nothing escapes
     /// between this check and the read) when that lies within a root, else the refusal.
     ///
-    /// A file that does not exist is judged by its canonical folder, and a path whose folder
-    /// cannot be resolved is refused with the same words as one outside the roots, so the
-    /// answer does not tell which files exist outside them.
+    /// A file that does not exist is judged by its nearest folder that does (canonical, with
+    /// the missing names below it: `nodir/x.npy` in an allowed folder passes and the reader
+    /// says the file is missing), and a path that cannot be resolved so (a `..` below a
+    /// missing folder) is refused with the same words as one outside the roots, so the answer
+    /// does not tell which files exist outside them.
     pub fn admit(&self, path: &Path) -> Result<PathBuf, String> {
         let DataAccess::Within(roots) = self else {
             return Ok(path.to_path_buf());
@@ -48,11 +50,19 @@ impl DataAccess {
         let resolved = match std::fs::canonicalize(path) {
             Ok(p) => p,
             Err(_) => {
-                let (Some(parent), Some(name)) = (path.parent(), path.file_name()) else {
-                    return Err(refused());
-                };
-                let parent = if parent.as_os_str().is_empty() { Path::new(".") } else { parent };
-                std::fs::canonicalize(parent).map_err(|_| refused())?.join(name)
+                // Up to the nearest folder that resolves, keeping the names below it.
+                let mut missing = Vec::new();
+                let mut at = path;
+                loop {
+                    let (Some(parent), Some(name)) = (at.parent(), at.file_name()) else {
+                        return Err(refused());
+                    };
+                    missing.push(name);
+                    at = if parent.as_os_str().is_empty() { Path::new(".") } else { parent };
+                    if let Ok(folder) = std::fs::canonicalize(at) {
+                        break missing.iter().rev().fold(folder, |p, name| p.join(name));
+                    }
+                }
             }
         };
         if roots.iter().any(|root| resolved.starts_with(root)) {
@@ -87,6 +97,11 @@ mod tests {
         assert_eq!(access.admit(&inside.join("sub/a.raw")).unwrap(), canon.join("sub/a.raw"));
         // A missing file in an allowed folder passes (the reader then says it is missing).
         assert_eq!(access.admit(&inside.join("nope.raw")).unwrap(), canon.join("nope.raw"));
+        // So does one in a missing folder inside it (fifth attack pass: "outside the folders
+        // ... start the server with --allow-dir", which could not help).
+        for missing in ["nodir/x.raw", "nodir/deeper/x.raw", "sub/nodir/x.raw"] {
+            assert_eq!(access.admit(&inside.join(missing)).unwrap(), canon.join(missing));
+        }
         for bad in [
             dir.join("secret.raw"),
             inside.join("../secret.raw"),

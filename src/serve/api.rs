@@ -23,6 +23,23 @@ const INDEX_HTML: &str = include_str!("page/index.html");
 const APP_JS: &str = include_str!("page/app.js");
 const STYLE_CSS: &str = include_str!("page/style.css");
 
+/// Every path [`App::route`] answers: another method on one of them is 405, any other path 404.
+const ROUTES: &[&str] = &[
+    "/",
+    "/index.html",
+    "/app.js",
+    "/style.css",
+    "/api/state",
+    "/api/frame",
+    "/api/aov",
+    "/api/probe",
+    "/api/slice",
+    "/api/exr",
+    "/api/tev",
+    "/api/scene.toml",
+    "/api/stats",
+];
+
 /// How long a request waits for a frame or a slice before answering 503.
 pub const WAIT: Duration = Duration::from_secs(120);
 /// How long a long-poll (`/api/frame?after=`) waits before answering 204 No Content.
@@ -149,7 +166,7 @@ impl App {
             ("POST", "/api/tev") => body.read().and_then(|b| self.tev(&b)),
             ("GET", "/api/scene.toml") => self.scene_toml(),
             ("GET", "/api/stats") => Ok(Reply::json(&json!(self.board.stats()))),
-            (_, path) if path == "/" || path.starts_with("/api/") => {
+            (_, path) if ROUTES.contains(&path) => {
                 Err(Reply::error(405, format!("{} {path}: not supported", shorten(&method))))
             }
             (_, path) => Err(Reply::error(404, format!("{}: no such page", shorten(path)))),

@@ -1,8 +1,9 @@
 //! HTTP/1.1 on a `TcpStream`, bounded: the request head (request line and headers) is read
 //! into a buffer of at most [`MAX_HEAD`] bytes and parsed by `httparse`; a body is read only
 //! when a route asks for it (after the token check), at most [`MAX_BODY`] bytes. Every read
-//! has a deadline; a head's counts from the connection's accept and is read in turns of
-//! [`HEAD_TURN`] ([`HeadReader`]), so a client that sends nothing holds no thread. One request
+//! has a deadline; a head's counts from the connection's accept (a head that waited out the
+//! deadline in the queue still gets one turn) and is read in turns of [`HEAD_TURN`]
+//! ([`HeadReader`]), so a client that sends nothing holds no thread. One request
 //! per connection: each answer says `Connection: close`.
 //!
 //! ```text
@@ -262,10 +263,16 @@ impl HeadReader {
         HeadReader { buf: Vec::new(), len: 0, deadline: accepted + HEAD_TIMEOUT }
     }
 
-    /// Reads for at most `turn` (never past the deadline): the head, `Pending` when the turn
-    /// ended first, or the reply for a head that is too long, malformed or late.
+    /// Reads for at most `turn` (not past the deadline, unless it passed before this turn):
+    /// the head, `Pending` when the turn ended first, or the reply for a head that is too
+    /// long, malformed or late.
     pub fn read(&mut self, wire: &mut impl Wire, turn: Duration) -> Result<HeadProgress, Reply> {
-        let until = self.deadline.min(Instant::now() + turn);
+        let now = Instant::now();
+        // A deadline that passed while the connection waited in the queue (every worker
+        // busy) was the server's delay, not the client's: one last turn reads what has
+        // arrived, so a whole head is served; only a turn that ends past the deadline without
+        // one gives 408. A client that sends nothing gains at most that one turn.
+        let until = if now >= self.deadline { now + turn } else { self.deadline.min(now + turn) };
         if self.buf.is_empty() {
             self.buf = vec![0u8; MAX_HEAD];
         }

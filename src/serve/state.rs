@@ -40,6 +40,21 @@ impl Policy {
             .flatten()
             .filter_map(|spec: &FieldSpec| spec.source.data_path())
             .map(Path::to_path_buf);
+        // `--allow-dir` names a folder: a file, FIFO or device given by mistake is refused
+        // rather than taken silently (a missing one is `DataAccess::within`'s "file not found").
+        for dir in allow_dirs {
+            let kind = std::fs::metadata(dir).ok().and_then(|m| {
+                if m.is_file() {
+                    Some("a regular file")
+                } else {
+                    crate::vocab::special_file(&m).filter(|_| !m.is_dir())
+                }
+            });
+            if let Some(kind) = kind {
+                let shown = crate::vocab::echo(&dir.display().to_string());
+                return Err(format!("--allow-dir {shown}: is {kind}, not a folder"));
+            }
+        }
         let roots = std::iter::once(folder).chain(allow_dirs.iter().cloned()).chain(own);
         let access = DataAccess::within(roots).map_err(|e| format!("--allow-dir {e}"))?;
         Ok(Policy { access, max_pixels })

@@ -128,6 +128,20 @@ pub fn isoview(args: &[&str], env: &[(&str, &str)]) -> std::process::Output {
     cmd.output().expect("run isoview")
 }
 
+/// Runs `cmd` under an address-space limit of `gib` GiB (what `ulimit -v` sets).
+pub fn with_memory_limit(cmd: &mut std::process::Command, gib: u64) {
+    // SAFETY: setrlimit is async-signal-safe; the closure touches nothing else.
+    unsafe {
+        std::os::unix::process::CommandExt::pre_exec(cmd, move || {
+            let limit = libc::rlimit { rlim_cur: gib << 30, rlim_max: gib << 30 };
+            if libc::setrlimit(libc::RLIMIT_AS, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+}
+
 /// A finished run's stderr as text.
 pub fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

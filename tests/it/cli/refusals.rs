@@ -6,7 +6,7 @@
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
-use crate::common::{assert_fails, scratch, stderr, write};
+use crate::common::{assert_fails, scratch, stderr, with_memory_limit, write};
 
 const SPHERE: &str = r#"
 [image]
@@ -93,6 +93,22 @@ fn stdout_closed_early_stops_quietly_with_exit_0() {
     let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
     let o = run(&["stats", &scene], Stdio::from(full), Stdio::piped());
     assert_fails(&o, 2, &["cannot write to stdout: No space left on device"]);
+}
+
+/// Fifth attack pass: `compare A B > /dev/full` exited with its verdict (0) and printed
+/// nothing, the table lost without a word. A full disk is one line and exit 2, as for every
+/// verb; a reader that has gone still leaves the verdict's status.
+#[test]
+fn compare_to_a_full_stdout_fails_with_one_line() {
+    let dir = scratch("rio-compare-full");
+    let a = dir.join("a.exr");
+    isoview::output::exr::write_frame(&a, &crate::cli::output::test_frame(9, 7)).unwrap();
+    let sa = a.display().to_string();
+    let full = Stdio::from(std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap());
+    let o = run(&["compare", &sa, &sa], full, Stdio::piped());
+    assert_fails(&o, 2, &["isoview: cannot write to stdout: No space left on device"]);
+    let o = run(&["compare", &sa, &sa], reader_gone(), Stdio::piped());
+    assert_eq!((o.status.code(), stderr(&o).as_str()), (Some(0), ""));
 }
 
 #[test]
@@ -702,20 +718,6 @@ fn tev_with_nobody_listening_still_writes_the_files_then_exits_2() {
     assert!(Path::new(&png).exists(), "the PNG is written");
 }
 
-/// Runs `cmd` under an address-space limit of `gib` GiB (what `ulimit -v` sets).
-fn with_memory_limit(cmd: &mut Command, gib: u64) {
-    // SAFETY: setrlimit is async-signal-safe; the closure touches nothing else.
-    unsafe {
-        std::os::unix::process::CommandExt::pre_exec(cmd, move || {
-            let limit = libc::rlimit { rlim_cur: gib << 30, rlim_max: gib << 30 };
-            if libc::setrlimit(libc::RLIMIT_AS, &limit) != 0 {
-                return Err(std::io::Error::last_os_error());
-            }
-            Ok(())
-        });
-    }
-}
-
 #[test]
 fn a_slice_picture_over_the_pixel_cap_is_refused_before_it_is_drawn() {
     // Fourth attack pass: a plane 1000 times wider than high with only slice.height = 16384
@@ -792,4 +794,33 @@ fn probe_slice_names_the_option_the_plane_came_from() {
         &["isoview: --slice x=5: the plane x = 5 misses the grid box (x from -1 to 1)"],
     );
     assert!(!stderr(&o).contains("--at"), "{}", stderr(&o));
+}
+
+/// Fifth attack pass: `--device` and `ISOVIEW_DEVICE` were echoed whole (a 10,000-character
+/// value gave a 10 KB line); like every value a message repeats, they are cut at 60
+/// characters (control characters escaped as before).
+#[gpu_test]
+fn a_long_device_name_is_cut_in_the_message() {
+    let long = format!("{}\u{1b}[31m", "a".repeat(10_000));
+    let cut = format!("\"{}…\"", "a".repeat(isoview::vocab::ECHO_CHARS));
+    let o = isoview_output(&["info", "--device", &long]);
+    assert_fails(&o, 3, &["isoview: no Vulkan device matches ", &cut, "; available: "]);
+    assert!(stderr(&o).len() < 400, "{} bytes", stderr(&o).len());
+    let o = isoview().arg("info").env("ISOVIEW_DEVICE", &long).output().unwrap();
+    assert_fails(&o, 3, &["no Vulkan device matches ", &cut]);
+    assert!(stderr(&o).len() < 400, "{} bytes", stderr(&o).len());
+    // `extract --device gpu` opens its device in the library (isoview::extract): cut the same.
+    let dir = scratch("long-device");
+    let ply = dir.join("m.ply");
+    let o = isoview()
+        .args(["extract", "scenes/sphere.toml", "--device", "gpu", "-o"])
+        .arg(&ply)
+        .env("ISOVIEW_DEVICE", &long)
+        .output()
+        .unwrap();
+    assert_fails(&o, 3, &["no Vulkan device matches ", &cut]);
+    assert!(stderr(&o).len() < 400, "{} bytes", stderr(&o).len());
+    // Short values are quoted whole, control characters escaped.
+    let o = isoview_output(&["info", "--device", "a\nb"]);
+    assert_fails(&o, 3, &["no Vulkan device matches \"a\\nb\""]);
 }

@@ -290,6 +290,25 @@ fn a_missing_allow_dir_is_refused_at_start() {
     let o =
         isoview(&["serve", &file, "--port", "0", "--allow-dir", missing.to_str().unwrap()], &[]);
     crate::common::assert_fails(&o, 2, &["--allow-dir", "no-such-folder", "file not found"]);
+    // Fifth attack pass: a regular file, a FIFO or a device node was taken without a word
+    // (the option names a folder; a typo went unnoticed).
+    let fifo = dir.join("pipe");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    for (path, kind) in [
+        (file.as_str(), "a regular file"),
+        (fifo.to_str().unwrap(), "a FIFO"),
+        ("/dev/null", "a character device"),
+    ] {
+        // Under `timeout`: a server that starts runs until killed (exit 124, a failure).
+        let o = std::process::Command::new("timeout")
+            .args(["30", env!("CARGO_BIN_EXE_isoview"), "serve", &file, "--port", "0"])
+            .args(["--allow-dir", path])
+            .env_remove("ISOVIEW_DEVICE")
+            .output()
+            .unwrap();
+        crate::common::assert_fails(&o, 2, &["--allow-dir ", ": is ", kind, ", not a folder"]);
+    }
 }
 
 /// exmex's own messages print its tokens with `Debug` (function addresses): never shown.
@@ -716,4 +735,61 @@ fn the_page_sees_why_a_nested_npy_header_is_refused() {
     assert!(e.contains("deep.npy") && e.contains("nests brackets deeper than 16"), "{e}");
     assert!(e.contains("at header byte ") && !e.contains("SECRET"), "{e}");
     alive(&server);
+}
+
+/// Fifth attack pass: a whole request queued while the 8 workers were busy (here 8 POSTs
+/// whose bodies never come, each holding a worker for the 10 s body deadline) was answered
+/// "408 the request head did not arrive in time" when a worker freed: the head's 5 s counted
+/// from accept and had passed in the queue. A head waiting in the socket is now read and
+/// served; only a turn that reads past the deadline without a whole head gives 408.
+#[gpu_test]
+fn a_request_queued_behind_busy_workers_is_served() {
+    let server = small_server();
+    alive(&server);
+    let slow: Vec<TcpStream> = (0..8)
+        .map(|_| {
+            let mut s = TcpStream::connect(&server.addr).unwrap();
+            let head = format!(
+                "POST /api/state HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Isoview-Token: {}\r\n\
+                 Content-Length: 1000\r\n\r\n{{\"set\"",
+                server.token
+            );
+            s.write_all(head.as_bytes()).unwrap();
+            s
+        })
+        .collect();
+    std::thread::sleep(Duration::from_millis(500));
+    let request = format!(
+        "GET /api/stats HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Isoview-Token: {}\r\n\r\n",
+        server.token
+    );
+    let (status, body) = exchange(&server, request.as_bytes());
+    assert_eq!(status, 200, "{body}");
+    drop(slow);
+    alive(&server);
+}
+
+/// Fifth attack pass: an unknown `/api/` route was answered 405 ("not supported"), as if the
+/// route existed with other methods. 404 for a route that does not exist; 405 only for a known
+/// route asked with the wrong method.
+#[gpu_test]
+fn an_unknown_api_route_is_404_and_a_wrong_method_405() {
+    let server = small_server();
+    let ask = |line: &str| {
+        let request = format!(
+            "{line} HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Isoview-Token: {}\r\n\r\n",
+            server.token
+        );
+        exchange(&server, request.as_bytes())
+    };
+    let (status, body) = ask("GET /api/nosuch");
+    assert_eq!(status, 404, "{body}");
+    assert!(body.contains("/api/nosuch: no such page"), "{body}");
+    assert_eq!(ask("POST /api/").0, 404);
+    assert_eq!(ask("GET /api/stats/x").0, 404);
+    for line in ["PUT /api/state", "DELETE /", "GET /api/tev", "POST /api/stats"] {
+        let (status, body) = ask(line);
+        assert_eq!(status, 405, "{line}: {body}");
+        assert!(body.contains("not supported"), "{line}: {body}");
+    }
 }

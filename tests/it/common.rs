@@ -291,3 +291,27 @@ pub fn assert_fingerprints(got: &[(String, u64)], expected: &[(&str, u64)], reco
         expected.len()
     );
 }
+
+/// The first `count` elements of a device-local buffer, copied to a host-visible one through
+/// the barrier tracker (`Context::record`): how a test looks at what a pass left on the GPU.
+pub fn read_device_buffer<T: bytemuck::Pod>(
+    ctx: &Arc<Context>,
+    buffer: &isoview::gpu::Buffer,
+    count: usize,
+) -> Vec<T> {
+    let bytes = (count * std::mem::size_of::<T>()) as u64;
+    let readback = isoview::gpu::Buffer::new(
+        ctx,
+        "test readback",
+        bytes,
+        isoview::gpu::vk::BufferUsageFlags::TRANSFER_DST,
+        isoview::gpu::MemoryLocation::GpuToCpu,
+    )
+    .unwrap();
+    ctx.record("test readback", &mut isoview::gpu::Tracker::default(), |rec| {
+        rec.readback(buffer, &readback, bytes);
+        Ok(())
+    })
+    .unwrap();
+    readback.read(count).unwrap()
+}

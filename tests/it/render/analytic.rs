@@ -26,7 +26,6 @@
 use glam::DVec3;
 use isoview::field::Grid;
 use isoview::frame::{Frame, Pixel};
-use isoview::gpu::{vk, Buffer, MemoryLocation, Tracker};
 use isoview::passes::bricks;
 use isoview::reference::analytic::{self, cubic::Cubic, CellVisit};
 use isoview::reference::field::{to_grid, value_at};
@@ -844,22 +843,9 @@ fn brick_grid_holds_each_bricks_min_and_max() {
         let scene = scene_for(&grid, random_eye(&mut rng, &grid, false), 8, Method::Analytic);
         renderer.render_uploaded(&scene, &grid, &gpu_grid, 0.0).unwrap();
         let built = gpu_grid.bricks().expect("built by the analytic render");
-        let readback = Buffer::new(
-            &ctx,
-            "bricks readback",
-            built.size,
-            vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuToCpu,
-        )
-        .unwrap();
-        ctx.record("read bricks", &mut Tracker::default(), |rec| {
-            rec.readback(built, &readback, built.size);
-            Ok(())
-        })
-        .unwrap();
         let expected = bricks::levels(grid.dims, &bricks::reference(&grid));
         assert_eq!(built.size, 8 * expected.len() as u64);
-        let seen: Vec<[f32; 2]> = readback.read(expected.len()).unwrap();
+        let seen: Vec<[f32; 2]> = read_device_buffer(&ctx, built, expected.len());
         assert_eq!(seen, expected, "dims {dims:?}");
     }
 }

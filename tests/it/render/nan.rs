@@ -385,7 +385,6 @@ fn gpu_ray_methods_match_the_references_with_missing_samples() {
 
 #[gpu_test]
 fn gpu_brick_ranges_leave_missing_samples_out() {
-    use isoview::gpu::{vk, Buffer, MemoryLocation, Tracker};
     use isoview::passes::bricks;
     use isoview::render::GpuGrid;
     let ctx = gpu();
@@ -406,23 +405,10 @@ fn gpu_brick_ranges_leave_missing_samples_out() {
         let scene = scene_for(&grid, random_eye(&mut rng, &grid, false), 8, Method::Analytic);
         renderer.render_uploaded(&scene, &grid, &gpu_grid, 0.0).unwrap();
         let built = gpu_grid.bricks().expect("built by the analytic render");
-        let readback = Buffer::new(
-            &ctx,
-            "bricks readback",
-            built.size,
-            vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuToCpu,
-        )
-        .unwrap();
-        ctx.record("read bricks", &mut Tracker::default(), |rec| {
-            rec.readback(built, &readback, built.size);
-            Ok(())
-        })
-        .unwrap();
         let expected = bricks::levels(grid.dims, &bricks::reference(&grid));
         assert_eq!(expected[0], [f32::INFINITY, f32::NEG_INFINITY]);
         assert!(expected.iter().all(|mm| !mm[0].is_nan() && !mm[1].is_nan()));
-        let seen: Vec<[f32; 2]> = readback.read(expected.len()).unwrap();
+        let seen: Vec<[f32; 2]> = read_device_buffer(&ctx, built, expected.len());
         assert_eq!(seen, expected, "dims {dims:?}");
     }
 }

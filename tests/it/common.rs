@@ -109,6 +109,34 @@ pub fn random_eye(rng: &mut Rng, grid: &Grid, inside: bool) -> DVec3 {
     }
 }
 
+/// `mpirun -np n --oversubscribe isoview args...` with extra environment (as root too: CI runs
+/// as root). Each run gets its own short `TMPDIR`: Open MPI keeps its session folder under
+/// `$TMPDIR/ompi.HOST.UID`, and runs started at once by parallel tests raced on that shared
+/// folder (one removing it while another created its own: "orte_session_dir failed" in CI).
+#[allow(dead_code)] // used only by the MPI tests
+pub fn mpirun(n: usize, args: &[&str], env: &[(&str, &str)]) -> std::process::Output {
+    static RUN: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let run = RUN.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    // Short: Open MPI puts Unix sockets below it (108 bytes at most for a socket path).
+    let tmp = std::path::PathBuf::from(format!("/tmp/iv-mpi-{}-{run}", std::process::id()));
+    std::fs::create_dir_all(&tmp).unwrap();
+    let mut cmd = std::process::Command::new("mpirun");
+    cmd.args(["-np", &n.to_string(), "--oversubscribe", env!("CARGO_BIN_EXE_isoview")])
+        .args(args)
+        .env_remove("ISOVIEW_DEVICE")
+        .env("TMPDIR", &tmp)
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1");
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    let out = cmd
+        .output()
+        .expect("mpirun (apt-get install openmpi-bin) must be on PATH for the MPI tests");
+    let _ = std::fs::remove_dir_all(&tmp);
+    out
+}
+
 /// A fresh scratch folder for one test.
 pub fn scratch(name: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("isoview-it-{name}-{}", std::process::id()));

@@ -6,22 +6,8 @@
 //! for every shipped scene and random grids, every method the ranks split, 1 to 4 ranks.
 //! Without the feature these tests are listed as ignored.
 
+use crate::common::{isoview, mpirun, scratch, stderr, Rng};
 use std::path::Path;
-use std::process::{Command, Output};
-
-use crate::common::{isoview, scratch, stderr, Rng};
-
-/// `mpirun -np n --oversubscribe isoview args...` (as root too: CI runs as root).
-fn mpirun(n: usize, args: &[&str]) -> Output {
-    Command::new("mpirun")
-        .args(["-np", &n.to_string(), "--oversubscribe", env!("CARGO_BIN_EXE_isoview")])
-        .args(args)
-        .env_remove("ISOVIEW_DEVICE")
-        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
-        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
-        .output()
-        .expect("mpirun (apt-get install openmpi-bin) must be on PATH for the MPI tests")
-}
 
 /// Renders `scene` with `sets` in one process and under `mpirun -np n`; the files must be equal.
 fn same_under_mpi(dir: &Path, scene: &str, sets: &[String], n: usize, tag: &str) {
@@ -40,7 +26,7 @@ fn same_under_mpi(dir: &Path, scene: &str, sets: &[String], n: usize, tag: &str)
     let o = isoview(&a.iter().map(String::as_str).collect::<Vec<_>>(), &[]);
     assert!(o.status.success(), "{tag}: {}", stderr(&o));
     let a = with(&split);
-    let o = mpirun(n, &a.iter().map(String::as_str).collect::<Vec<_>>());
+    let o = mpirun(n, &a.iter().map(String::as_str).collect::<Vec<_>>(), &[]);
     assert!(o.status.success(), "{tag} under {n} ranks: {}", stderr(&o));
     let (x, y) = (std::fs::read(&single).unwrap(), std::fs::read(&split).unwrap());
     if x != y {
@@ -133,6 +119,7 @@ fn what_is_not_split_is_refused_in_one_line() {
             "--set",
             "render.method=\"fixed-step\"",
         ],
+        &[],
     );
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     // Rank 0 says it once (mpirun adds lines of its own and may cut into ours, so the message
@@ -172,7 +159,7 @@ fn same_mesh_under_mpi(dir: &Path, scene: &str, extra: &[String], n: usize, tag:
     assert!(o.status.success(), "{tag}: {}", stderr(&o));
     // Without --device: `auto` picks the CPU under MPI.
     let a = args(&split, false);
-    let o = mpirun(n, &a.iter().map(String::as_str).collect::<Vec<_>>());
+    let o = mpirun(n, &a.iter().map(String::as_str).collect::<Vec<_>>(), &[]);
     assert!(o.status.success(), "{tag} under {n} ranks: {}", stderr(&o));
     if n > 1 {
         assert!(stderr(&o).contains(&format!("mpi: {n} ranks")), "{tag}: {}", stderr(&o));
@@ -271,7 +258,7 @@ fn what_extract_does_not_split_is_refused_in_one_line() {
         if i == 2 {
             args.splice(0..0, ["--device", "gpu"]);
         }
-        let o = mpirun(2 + i % 2, &args);
+        let o = mpirun(2 + i % 2, &args, &[]);
         assert_eq!(o.status.code(), Some(2), "{says}: {}", stderr(&o));
         let err = stderr(&o);
         assert_eq!(err.matches("is not split across MPI ranks").count(), 1, "{err}");

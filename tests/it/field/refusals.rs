@@ -426,16 +426,8 @@ fn mpi_renders_a_grid_over_the_cap_by_blocks_under_the_default_residency() {
          [field]\nsource = \"raw\"\npath = \"ball.raw\"\ndims = [72, 72, 72]\ndtype = \"f32\"\n",
     );
     let out = dir.join("ball.exr").display().to_string();
-    let o = std::process::Command::new("mpirun")
-        .args(["-np", "2", "--oversubscribe"])
-        .arg(env!("CARGO_BIN_EXE_isoview"))
-        .args(["render", &scene, "-o", &out])
-        .env("ISOVIEW_MAX_GRID_MIB", "1")
-        .env_remove("ISOVIEW_DEVICE")
-        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
-        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
-        .output()
-        .expect("mpirun (apt-get install openmpi-bin) must be on PATH for the MPI tests");
+    let o =
+        crate::common::mpirun(2, &["render", &scene, "-o", &out], &[("ISOVIEW_MAX_GRID_MIB", "1")]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(Path::new(&out).exists());
 }

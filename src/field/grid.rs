@@ -82,12 +82,10 @@ impl Grid {
         ]
     }
 
-    /// The interpolant (trilinear) at grid coordinates `u`, in f64.
+    /// The interpolant (trilinear) at grid coordinates `u`, in f64 (the sources' field:
+    /// [`Interpolated::value_at`](super::interpolant::Interpolated::value_at)).
     pub fn value_at(&self, u: DVec3) -> f64 {
-        use super::interpolant::{Kernel, Trilinear};
-        let c = self.cell_of(u);
-        let f = u - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
-        let cell = Trilinear::gather(|[i, j, k]| f64::from(self.at(i, j, k)), c);
-        Trilinear::value(&cell, f)
+        use super::interpolant::{Interpolant, Interpolated};
+        Interpolated::new(self, Interpolant::Trilinear).value_at(u)
     }
 }

@@ -4,8 +4,7 @@
 
 use glam::DVec3;
 
-use super::trilinear::cell_corners;
-use crate::field::interpolant::{Kernel, Trilinear};
+use crate::field::interpolant::{Interpolant, Interpolated, Kernel, Trilinear};
 use crate::field::Grid;
 
 /// World position → continuous grid coordinates, clamped into the box ([`Grid::to_grid`]).
@@ -23,11 +22,9 @@ pub fn value_at(grid: &Grid, u: DVec3) -> f64 {
     grid.value_at(u)
 }
 
-/// World-space gradient at grid coordinates `u`.
+/// World-space gradient at grid coordinates `u` ([`Interpolated::gradient_at`]).
 pub fn gradient_at(grid: &Grid, u: DVec3) -> DVec3 {
-    let c = cell_of(grid, u);
-    let f = u - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
-    Trilinear::gradient(&cell_corners(grid, c), f) / grid.spacing()
+    Interpolated::new(grid, Interpolant::Trilinear).gradient_at(u)
 }
 
 /// `render.normals = "smooth"` (GPU: `smooth_gradient` in `shaders/include/field.glsl`): the

@@ -1,33 +1,74 @@
 //! The interpolant: how the field is evaluated between its samples, one home per side (Rust
 //! here; GLSL: `shaders/include/interpolant.glsl`). [`Interpolant`] names one and says what it
 //! reads ([`Stencil`]) and what the methods may rely on ([`Caps`]); [`Kernel`] is its arithmetic
-//! on one cell, statically dispatched in the hot loops. Only the trilinear interpolant exists
-//! today ([`trilinear`], [`Trilinear`]); docs/contributing.md says what adding one touches.
+//! on one cell, statically dispatched in the hot loops, and [`Interpolated`] is a grid read with
+//! a chosen one (the dispatch, one exhaustive `match`). The kernels: [`trilinear`] (the one
+//! every method uses today), [`cubic`] (the uniform cubic B-spline and Catmull-Rom) and
+//! [`nearest`]; `device` (the GPU's texture filtering) has none on the CPU. Only trilinear can
+//! be chosen yet: the `[field] interpolation` key comes with its refusals (issue #26);
+//! docs/contributing.md says what adding one touches.
+//!
+//! Every kernel reads its stencil with the contract's edge clamp: a sample index outside the
+//! grid reads the nearest edge point ([`Kernel::gather`]).
 //!
 //! The missing-data rule below does not depend on the interpolant: a cell is missing when the
-//! samples its interpolant reads (its stencil: the trilinear interpolant's 8 corners) hold one.
+//! samples its interpolant reads (its stencil: the trilinear interpolant's 8 corners, the
+//! cubic ones' 64 samples) hold one.
 
 use std::ops::Range;
 
 use glam::DVec3;
 
+use crate::field::Grid;
+
+pub mod cubic;
+pub mod nearest;
 pub mod trilinear;
 
+pub use cubic::{BSpline, CatmullRom};
+pub use nearest::Nearest;
 pub use trilinear::Trilinear;
 
-/// An interpolant of the sampled field (the next issue's `[field] interpolation` key).
+/// An interpolant of the sampled field (the values of `[field] interpolation`, a key not yet
+/// read: every scene is trilinear today). The definitions are the contract's
+/// (`shared/design/interface.md`): cells as today, point `i` at `min + i (max - min) / (n - 1)`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Interpolant {
+    /// The 8 corners of the cell, linear along each axis ([`Trilinear`]).
     Trilinear,
+    /// The uniform cubic B-spline of the 4×4×4 samples around the cell (approximating, C²;
+    /// [`BSpline`]).
+    CubicBspline,
+    /// The Catmull-Rom spline of the same samples (interpolating, C¹; [`CatmullRom`]).
+    CatmullRom,
+    /// The value of the nearest point, half up ([`Nearest`]).
+    Nearest,
+    /// Whatever the device's texture unit returns for a linear-filtered lookup: only sampled,
+    /// on the GPU (fixed-step), so it has no [`Kernel`].
+    Device,
 }
 
 impl Interpolant {
-    pub const ALL: [Interpolant; 1] = [Interpolant::Trilinear];
+    pub const ALL: [Interpolant; 5] = [
+        Interpolant::Trilinear,
+        Interpolant::CubicBspline,
+        Interpolant::CatmullRom,
+        Interpolant::Nearest,
+        Interpolant::Device,
+    ];
+
+    /// The names a scene gives them, in [`Interpolant::ALL`]'s order.
+    pub const NAMES: [&'static str; 5] =
+        ["trilinear", "cubic-bspline", "catmull-rom", "nearest", "device"];
 
     /// The name a scene gives it.
     pub fn name(self) -> &'static str {
         match self {
-            Interpolant::Trilinear => "trilinear",
+            Interpolant::Trilinear => Self::NAMES[0],
+            Interpolant::CubicBspline => Self::NAMES[1],
+            Interpolant::CatmullRom => Self::NAMES[2],
+            Interpolant::Nearest => Self::NAMES[3],
+            Interpolant::Device => Self::NAMES[4],
         }
     }
 
@@ -35,6 +76,11 @@ impl Interpolant {
     pub fn stencil(self) -> Stencil {
         match self {
             Interpolant::Trilinear => Trilinear::STENCIL,
+            Interpolant::CubicBspline => BSpline::STENCIL,
+            Interpolant::CatmullRom => CatmullRom::STENCIL,
+            Interpolant::Nearest => Nearest::STENCIL,
+            // The texture unit's linear filter reads the cell's 8 corners, as trilinear does.
+            Interpolant::Device => Stencil { below: 0, above: 1 },
         }
     }
 
@@ -42,11 +88,48 @@ impl Interpolant {
     pub fn caps(self) -> Caps {
         match self {
             Interpolant::Trilinear => Caps {
-                ray_cubic: true,
-                linear_edges: true,
+                traced: Traced::Cubic,
+                edges: Edges::Linear,
                 mc33: true,
                 bilinear_planes: true,
-                convex: true,
+                gradient: true,
+                hull: Hull::Convex,
+            },
+            // The B-spline weights and their blossoms are >= 0 (`cubic`'s tests), so both the
+            // value and a segment's Bernstein coefficients stay in the samples' range.
+            Interpolant::CubicBspline => Caps {
+                traced: Traced::Bernstein,
+                edges: Edges::Polynomial,
+                mc33: false,
+                bilinear_planes: false,
+                gradient: true,
+                hull: Hull::Convex,
+            },
+            Interpolant::CatmullRom => Caps {
+                traced: Traced::Bernstein,
+                edges: Edges::Polynomial,
+                mc33: false,
+                bilinear_planes: false,
+                gradient: true,
+                hull: Hull::Net,
+            },
+            // A voxel's value is one sample: within the range of the cell's 8 corners.
+            Interpolant::Nearest => Caps {
+                traced: Traced::Voxels,
+                edges: Edges::Faces,
+                mc33: false,
+                bilinear_planes: false,
+                gradient: false,
+                hull: Hull::Convex,
+            },
+            // The filter's weights are in [0, 1] and sum to 1 (in the device's precision).
+            Interpolant::Device => Caps {
+                traced: Traced::None,
+                edges: Edges::None,
+                mc33: false,
+                bilinear_planes: false,
+                gradient: false,
+                hull: Hull::Convex,
             },
         }
     }
@@ -113,17 +196,58 @@ pub const SMOOTH_NORMAL_REACH: usize = 1;
 /// What an interpolant guarantees, which the methods that rely on it check.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Caps {
-    /// Along a ray segment inside a cell the value is a cubic in the ray parameter (the
-    /// analytic method's root finder).
-    pub ray_cubic: bool,
-    /// Linear along lattice edges: the extractors' crossing `(iso - a) / (b - a)` is exact.
-    pub linear_edges: bool,
+    /// How the analytic method finds a ray's crossings in a cell.
+    pub traced: Traced,
+    /// What the field is along a lattice edge (the extractors' crossings).
+    pub edges: Edges,
     /// MC33's topology tests hold (asymptotic decider, interior test).
     pub mc33: bool,
     /// Bilinear on axis-aligned planes (slice contours).
     pub bilinear_planes: bool,
-    /// Stays within the range of the samples it reads (brick and cell skipping use min/max).
-    pub convex: bool,
+    /// Has a gradient that is the surface's normal ([`Kernel::gradient`]); without one, normals
+    /// come from elsewhere (voxel faces, the device's differences).
+    pub gradient: bool,
+    /// What bounds the values in a cell (brick and cell skipping).
+    pub hull: Hull,
+}
+
+/// How the analytic method traces a cell ([`Caps::traced`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Traced {
+    /// Along a ray segment inside a cell the value is a cubic in the ray parameter (the
+    /// monomial root finder, `reference::analytic::cubic`).
+    Cubic,
+    /// A polynomial of degree <= 9 along a segment, isolated in Bernstein form.
+    Bernstein,
+    /// Piecewise constant: the ray's crossings are voxel faces (a voxel walk).
+    Voxels,
+    /// Only sampled (fixed-step).
+    None,
+}
+
+/// The field along a lattice edge ([`Caps::edges`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Edges {
+    /// Linear: the extractors' crossing `(iso - a) / (b - a)` is exact.
+    Linear,
+    /// A polynomial (a cubic along axis edges): crossings are its roots.
+    Polynomial,
+    /// Piecewise constant: the surface is voxel faces, not crossings on edges.
+    Faces,
+    /// Not known on the CPU.
+    None,
+}
+
+/// What bounds the values of a cell ([`Caps::hull`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Hull {
+    /// The value, and every Bernstein coefficient of a ray segment, stays within the range of
+    /// the samples the cell reads: min/max of the stencil's finite samples is a bound.
+    Convex,
+    /// Not within the samples' range (Catmull-Rom overshoots): within the cell's Bézier net
+    /// ([`Kernel::hull`]), and within the samples' range widened by `KAPPA` (max - min) on
+    /// each side ([`cubic::Weights::KAPPA`]).
+    Net,
 }
 
 /// One interpolant's arithmetic on one cell.
@@ -132,15 +256,141 @@ pub trait Kernel {
     const STENCIL: Stencil;
     /// The samples a cell reads, gathered (trilinear: the 8 corners, in corner order).
     type Cell: Copy;
-    /// The samples of cell `cell` (index of its lower corner), `read` giving the sample at a
-    /// grid point.
-    fn gather(read: impl Fn([usize; 3]) -> f64, cell: [usize; 3]) -> Self::Cell;
+    /// The samples of cell `cell` (index of its lower corner) of a grid of `dims` points,
+    /// `read` giving the sample at a grid point. Each index is clamped to the grid (the
+    /// contract's edge clamp: a stencil reaching past the border reads the border point), so
+    /// `read` only sees points of the grid.
+    fn gather(read: impl Fn([usize; 3]) -> f64, cell: [usize; 3], dims: [usize; 3]) -> Self::Cell;
     /// The value at cell-local `q` in `[0, 1]³`.
     fn value(c: &Self::Cell, q: DVec3) -> f64;
     /// The gradient at cell-local `q`, in value per cell (index space).
     fn gradient(c: &Self::Cell, q: DVec3) -> DVec3;
+    /// `[min, max]` bounding the value over the cell, of finite values only (`[inf, -inf]`
+    /// when none is), as the brick ranges are ([`widen`]): trilinear's corners, a cubic
+    /// interpolant's Bézier net.
+    fn hull(c: &Self::Cell) -> [f64; 2];
     /// Whether the cell is missing ([`is_missing`] over its stencil).
     fn missing(c: &Self::Cell) -> bool;
+    /// Whether the value at cell-local `q` is missing: the cell's [`Kernel::missing`] unless
+    /// the kernel reads fewer samples at a point (nearest reads one).
+    fn missing_at(c: &Self::Cell, q: DVec3) -> bool {
+        let _ = q;
+        Self::missing(c)
+    }
+}
+
+/// Point `c + o - below` along an axis of `n` points, clamped to the grid ([`Kernel::gather`]).
+#[inline]
+pub(crate) fn clamped(c: usize, o: usize, below: usize, n: usize) -> usize {
+    (c + o).saturating_sub(below).min(n - 1)
+}
+
+/// `[min, max]` of the finite `values` (`[inf, -inf]` when none is): a [`Kernel::hull`].
+pub(crate) fn finite_range(values: impl IntoIterator<Item = f64>) -> [f64; 2] {
+    values
+        .into_iter()
+        .filter(|&v| !is_missing(v))
+        .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], v| [lo.min(v), hi.max(v)])
+}
+
+/// The field of `grid` between its samples, read with `interp`: the one place that turns an
+/// [`Interpolant`] into its [`Kernel`]. Coordinates are the grid's index space (`u`, point
+/// `(i, j, k)` at `(i, j, k)`); a point goes to the cell [`Grid::cell_of`] picks (the last
+/// plane belongs to the last cell), at local `u - cell`.
+#[derive(Clone, Copy, Debug)]
+pub struct Interpolated<'g> {
+    pub grid: &'g Grid,
+    pub interp: Interpolant,
+}
+
+/// The samples a cell reads ([`Interpolated::cell_data`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum CellData {
+    /// Trilinear and nearest: the 8 corners, in corner order.
+    Corners([f64; 8]),
+    /// The cubic interpolants: the 4×4×4 samples, offsets `-1..=2`, index `a + 4b + 16c`.
+    Samples(Box<[f64; 64]>),
+}
+
+/// `interpolation = "device"` has no f64 kernel: the device's filtering exists only on the
+/// GPU. No scene can choose it yet (the `[field] interpolation` key does not exist), so nothing
+/// reaches this; the key's commit gives `device` its CPU model or a refusal on each path.
+#[cold]
+fn device_has_no_kernel() -> ! {
+    unreachable!("interpolation = \"device\" has no CPU kernel, and no scene can choose it yet")
+}
+
+/// `$body` with the type `$k` bound to `$interp`'s [`Kernel`]: the one `match` over the
+/// interpolants that [`Interpolated`] dispatches through (no catch-all arm: a new variant
+/// must be given its kernel here).
+macro_rules! with_kernel {
+    ($interp:expr, $k:ident => $body:expr) => {
+        match $interp {
+            Interpolant::Trilinear => {
+                type $k = Trilinear;
+                $body
+            }
+            Interpolant::CubicBspline => {
+                type $k = BSpline;
+                $body
+            }
+            Interpolant::CatmullRom => {
+                type $k = CatmullRom;
+                $body
+            }
+            Interpolant::Nearest => {
+                type $k = Nearest;
+                $body
+            }
+            Interpolant::Device => device_has_no_kernel(),
+        }
+    };
+}
+
+impl<'g> Interpolated<'g> {
+    pub fn new(grid: &'g Grid, interp: Interpolant) -> Self {
+        Interpolated { grid, interp }
+    }
+
+    /// The samples kernel `K` reads for cell `cell`, widened to f64.
+    fn gather<K: Kernel>(&self, cell: [usize; 3]) -> K::Cell {
+        K::gather(|[i, j, k]| f64::from(self.grid.at(i, j, k)), cell, self.grid.dims)
+    }
+
+    /// The cell holding `u` and `u`'s local coordinates in it.
+    fn locate(&self, u: DVec3) -> ([usize; 3], DVec3) {
+        let c = self.grid.cell_of(u);
+        (c, u - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
+    }
+
+    /// The value at grid coordinates `u`.
+    pub fn value_at(&self, u: DVec3) -> f64 {
+        let (c, q) = self.locate(u);
+        with_kernel!(self.interp, K => K::value(&self.gather::<K>(c), q))
+    }
+
+    /// The gradient at grid coordinates `u`, in world units (value per world unit).
+    pub fn gradient_at(&self, u: DVec3) -> DVec3 {
+        let (c, q) = self.locate(u);
+        with_kernel!(self.interp, K => K::gradient(&self.gather::<K>(c), q)) / self.grid.spacing()
+    }
+
+    /// Whether the value at grid coordinates `u` is missing ([`Kernel::missing_at`]).
+    pub fn missing_at(&self, u: DVec3) -> bool {
+        let (c, q) = self.locate(u);
+        with_kernel!(self.interp, K => K::missing_at(&self.gather::<K>(c), q))
+    }
+
+    /// The samples cell `cell` reads.
+    pub fn cell_data(&self, cell: [usize; 3]) -> CellData {
+        match self.interp {
+            Interpolant::Trilinear => CellData::Corners(self.gather::<Trilinear>(cell)),
+            Interpolant::Nearest => CellData::Corners(self.gather::<Nearest>(cell)),
+            Interpolant::CubicBspline => CellData::Samples(Box::new(self.gather::<BSpline>(cell))),
+            Interpolant::CatmullRom => CellData::Samples(Box::new(self.gather::<CatmullRom>(cell))),
+            Interpolant::Device => device_has_no_kernel(),
+        }
+    }
 }
 
 /// THE missing-data rule (`field.nan = "empty"`, the default; GPU: `shaders/include/missing.glsl`):
@@ -177,6 +427,7 @@ pub fn widen(mm: &mut [f32; 2], v: f32) {
 
 #[cfg(test)]
 mod tests {
+    use super::cubic::Weights;
     use super::*;
 
     #[test]
@@ -249,8 +500,98 @@ mod tests {
     fn every_interpolant_has_a_unique_name_and_its_kernels_stencil() {
         for (k, a) in Interpolant::ALL.iter().enumerate() {
             assert!(Interpolant::ALL[..k].iter().all(|b| b.name() != a.name()));
+            assert_eq!(a.name(), Interpolant::NAMES[k]);
         }
         assert_eq!(Interpolant::Trilinear.stencil(), Trilinear::STENCIL);
         assert_eq!(Interpolant::Trilinear.name(), "trilinear");
+        assert_eq!(Interpolant::CubicBspline.name(), cubic::BSplineWeights::NAME);
+        assert_eq!(Interpolant::CatmullRom.name(), cubic::CatmullRomWeights::NAME);
+        let cubic = Stencil { below: 1, above: 2 };
+        assert_eq!(Interpolant::CubicBspline.stencil(), cubic);
+        assert_eq!(Interpolant::CatmullRom.stencil(), cubic);
+        assert_eq!(Interpolant::Nearest.stencil(), Trilinear::STENCIL);
+        assert_eq!(Interpolant::Device.stencil(), Trilinear::STENCIL);
+        // Today's stencil is trilinear's, whatever the other interpolants read.
+        assert_eq!(STENCIL, Trilinear::STENCIL);
+    }
+
+    #[test]
+    fn the_caps_say_which_hull_bounds_the_cell() {
+        // A convex hull is the plain sample range; only Catmull-Rom overshoots it.
+        for i in Interpolant::ALL {
+            let kappa = match i {
+                Interpolant::CatmullRom => cubic::CatmullRomWeights::KAPPA,
+                Interpolant::CubicBspline => cubic::BSplineWeights::KAPPA,
+                Interpolant::Trilinear | Interpolant::Nearest | Interpolant::Device => 0.0,
+            };
+            assert_eq!(i.caps().hull == Hull::Convex, kappa == 0.0, "{}", i.name());
+        }
+        let t = Interpolant::Trilinear.caps();
+        assert_eq!(
+            (t.traced, t.edges, t.mc33, t.bilinear_planes),
+            (Traced::Cubic, Edges::Linear, true, true)
+        );
+        assert!(!Interpolant::Nearest.caps().gradient && !Interpolant::Device.caps().gradient);
+    }
+
+    fn grid(dims: [usize; 3], seed: u64) -> Grid {
+        let mut s = seed;
+        let values = (0..dims.iter().product())
+            .map(|_| {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                (s >> 40) as f32 / (1u32 << 24) as f32 - 0.5
+            })
+            .collect();
+        Grid { dims, min: DVec3::new(-1.0, 0.0, 2.0), max: DVec3::new(1.0, 3.0, 2.5), values }
+    }
+
+    /// Trilinear through [`Interpolated`] is the functions the references call, bit for bit.
+    #[test]
+    fn interpolated_trilinear_is_the_trilinear_functions_bit_for_bit() {
+        let g = grid([5, 4, 6], 9);
+        let f = Interpolated::new(&g, Interpolant::Trilinear);
+        for n in 0..500 {
+            let u = DVec3::new(
+                (n % 17) as f64 * 0.25,
+                (n % 13) as f64 * 0.25,
+                (n % 21) as f64 * 0.25 + 0.125,
+            )
+            .min(DVec3::new(4.0, 3.0, 5.0));
+            let c = g.cell_of(u);
+            let q = u - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+            let corners = g.corners(c[0], c[1], c[2]).map(f64::from);
+            assert_eq!(f.value_at(u).to_bits(), trilinear::trilerp(&corners, q).to_bits());
+            let grad = trilinear::gradient(&corners, q.x, q.y, q.z) / g.spacing();
+            assert_eq!(f.gradient_at(u), grad);
+            assert_eq!(f.cell_data(c), CellData::Corners(corners));
+            assert!(!f.missing_at(u));
+        }
+    }
+
+    #[test]
+    fn interpolated_reads_each_kernels_cell() {
+        let mut g = grid([5, 4, 6], 10);
+        let cubic = Interpolated::new(&g, Interpolant::CatmullRom);
+        let CellData::Samples(s) = cubic.cell_data([0, 2, 4]) else { panic!("64 samples") };
+        // Offsets -1..=2 clamped: sample (0, 0, 0) is point (0, 1, 3); (3, 3, 3) is (2, 3, 5).
+        assert_eq!(s[0], f64::from(g.at(0, 1, 3)));
+        assert_eq!(s[63], f64::from(g.at(2, 3, 5)));
+        let u = DVec3::new(0.3, 2.6, 4.2);
+        let q = u - DVec3::new(0.0, 2.0, 4.0);
+        assert_eq!(cubic.value_at(u), CatmullRom::value(&s, q));
+        // A missing sample in the stencil but outside the 8 corners: missing for the cubic
+        // interpolants only.
+        let i = g.index(2, 1, 3);
+        g.values[i] = f32::NAN;
+        for (interp, missing) in [
+            (Interpolant::Trilinear, false),
+            (Interpolant::Nearest, false),
+            (Interpolant::CubicBspline, true),
+            (Interpolant::CatmullRom, true),
+        ] {
+            assert_eq!(Interpolated::new(&g, interp).missing_at(u), missing, "{}", interp.name());
+        }
     }
 }

@@ -13,7 +13,7 @@
 
 use glam::DVec3;
 
-use super::{cell_missing, Kernel, Stencil};
+use super::{cell_missing, clamped, finite_range, Kernel, Stencil};
 
 /// The trilinear interpolant as a [`Kernel`]: [`trilerp`], [`gradient`] and [`cell_missing`]
 /// on the 8 corners, bit for bit.
@@ -23,9 +23,21 @@ impl Kernel for Trilinear {
     const STENCIL: Stencil = Stencil { below: 0, above: 1 };
     type Cell = [f64; 8];
 
+    /// The 8 corners in corner order. The clamp changes no index of a cell of the grid (its
+    /// upper corner is at most the last point); it makes a 1-point axis read its one point.
     #[inline]
-    fn gather(read: impl Fn([usize; 3]) -> f64, [i, j, k]: [usize; 3]) -> [f64; 8] {
-        std::array::from_fn(|n| read([i + (n & 1), j + (n >> 1 & 1), k + (n >> 2)]))
+    fn gather(
+        read: impl Fn([usize; 3]) -> f64,
+        [i, j, k]: [usize; 3],
+        [nx, ny, nz]: [usize; 3],
+    ) -> [f64; 8] {
+        std::array::from_fn(|n| {
+            read([
+                clamped(i, n & 1, 0, nx),
+                clamped(j, n >> 1 & 1, 0, ny),
+                clamped(k, n >> 2, 0, nz),
+            ])
+        })
     }
 
     #[inline]
@@ -36,6 +48,12 @@ impl Kernel for Trilinear {
     #[inline]
     fn gradient(c: &[f64; 8], q: DVec3) -> DVec3 {
         gradient(c, q.x, q.y, q.z)
+    }
+
+    /// The corners' range: the interpolant is a convex combination of them.
+    #[inline]
+    fn hull(c: &[f64; 8]) -> [f64; 2] {
+        finite_range(*c)
     }
 
     #[inline]
@@ -96,16 +114,21 @@ mod tests {
     #[test]
     fn the_kernel_gathers_in_corner_order_and_is_the_free_functions_bit_for_bit() {
         let read = |[i, j, k]: [usize; 3]| (i * 100 + j * 10 + k) as f64 + 0.25;
-        let c = Trilinear::gather(read, [3, 5, 7]);
+        let c = Trilinear::gather(read, [3, 5, 7], [9, 9, 9]);
         assert_eq!(c, [357.25, 457.25, 367.25, 467.25, 358.25, 458.25, 368.25, 468.25]);
+        // The last cell reads the last points; only an axis of one point is clamped.
+        assert_eq!(Trilinear::gather(read, [3, 5, 7], [5, 7, 9])[7], 468.25);
+        assert_eq!(Trilinear::gather(read, [3, 0, 7], [5, 1, 9])[7], 408.25);
         let c = [0.3, -1.7, 2.9, 0.01, -0.4, 1.3, -2.2, 0.8];
         for q in [DVec3::new(0.1, 0.7, 0.33), DVec3::ZERO, DVec3::ONE, DVec3::new(1.0, 0.5, 0.0)] {
             assert_eq!(Trilinear::value(&c, q).to_bits(), trilerp(&c, q).to_bits());
             assert_eq!(Trilinear::gradient(&c, q), gradient(&c, q.x, q.y, q.z));
         }
         assert!(!Trilinear::missing(&c));
+        assert_eq!(Trilinear::hull(&c), [-2.2, 2.9]);
         let mut holed = c;
         holed[6] = f64::NAN;
         assert!(Trilinear::missing(&holed));
+        assert_eq!(Trilinear::hull(&holed), [-1.7, 2.9], "the hull is over the finite corners");
     }
 }

@@ -65,12 +65,13 @@
 //! separate the zero end from the inside root, down to the depth cap.)
 //!
 //! Zeros are skipped when counting `V` (`[1, 0, -1]` has one variation, `[1, 0, 1]` none); so is
-//! NaN, which only a missing cell could bring and the walk never passes here.
+//! NaN, which only a missing cell could bring, and the walk does not pass missing cells here.
 //!
 //! **Unresolved leaves** (the depth or node cap reached with the node not resolved): a crossing
 //! is counted exactly when the end predicates differ, and then refined inside the leaf (some root
-//! there). In exact arithmetic a leaf at depth 16 is unresolved only when `g` has two roots
-//! within `2^-16` of the segment of each other, or a root that close to a zero end. This widens
+//! there). In exact arithmetic a leaf at depth 16 is unresolved only near two roots of `g` (real,
+//! or a complex pair near the axis) within about `2^-16` of the segment of the leaf, or a root
+//! that close to a zero end. This widens
 //! the trilinear module doc's near-tangency clause ("two crossings a rounding error apart may
 //! appear or vanish together") to `2^-16` of a segment. So a **tangency** (a double root) that is
 //! not exactly at a point of the sequence reports no crossing from either side, while an exact
@@ -78,7 +79,7 @@
 //! contract: touching from inside is two crossings at the same `u`, from outside none.
 //!
 //! **The caps.** Since halving diminishes variations, a level holds at most `floor(9 / 2) = 4`
-//! nodes with `V >= 2`, so with no coefficient exactly 0 there are at most `1 + 2 + 4 * 14 = 59`
+//! nodes with `V >= 2`, so with no node end exactly 0 there are at most `1 + 2 + 4 * 14 = 59`
 //! inner nodes over levels `0..16` and `1 + 2 * 59 = 119` nodes in exact arithmetic. Nodes split
 //! for a zero end hold an exact root at a dyadic point; the children of one with both ends 0
 //! are resolved (no root inside, nonzero apex), so they add little. The budget of 129 (PLAN26's
@@ -98,7 +99,15 @@
 //!
 //! [`Bernstein::from_power`], [`Bernstein::elevate`] and [`Scaled`] (products are convolutions
 //! in scaled form, `b~_j = C(n, j) b_j`) build the segment's polynomial from per-axis ones
-//! (PLAN26 §3.1); the ends of a product are products of ends, exactly.
+//! (PLAN26 §3.1); the ends of a product are the products of the ends (one rounding each).
+//!
+//! # Notes for the `f32` port
+//!
+//! - Halve with `precise` and the operands in this order, so that neighbouring leaves still
+//!   share their ends bit for bit.
+//! - Bound the walk's loop by `BERNSTEIN_NODES + BERNSTEIN_DEPTH` passes (never reached).
+//! - `2^-l` and `k 2^-l` are exact in `f32` for `l <= 16`; `u = lo + s 2^-l` is one rounding.
+//! - `CONVERGED` becomes `4 * FLT_EPSILON`, in the leaf's `s`.
 
 // Used by tests only until the tricubic `RayCell` (PLAN26 commit C3) calls it.
 #![allow(dead_code)]

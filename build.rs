@@ -58,6 +58,20 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
     // passes/bricks.rs): the points a cell reads before its lower corner and after it.
     ("STENCIL_BELOW", 0, Glsl::Int, "Points a cell reads before its lower corner, per axis."),
     ("STENCIL_ABOVE", 1, Glsl::Int, "Points a cell reads after its lower corner, per axis."),
+    // The tricubic interpolants' root isolation (src/reference/analytic/bernstein.rs, which
+    // explains both caps): the walk's deepest level and its node budget per root isolation.
+    (
+        "BERNSTEIN_DEPTH",
+        16,
+        Glsl::Uint,
+        "Deepest level of the Bernstein root isolation: leaves are no shorter than 2^-16 of a segment.",
+    ),
+    (
+        "BERNSTEIN_NODES",
+        129,
+        Glsl::Uint,
+        "Node budget of one Bernstein root isolation (a node past it is a leaf).",
+    ),
     // `RenderParams.shading`.
     ("SHADE_LAMBERT", 0, Glsl::Uint, "RenderParams.shading: lambert shading."),
     ("SHADE_NORMAL", 1, Glsl::Uint, "RenderParams.shading: normal shading."),

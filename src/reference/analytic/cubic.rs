@@ -183,6 +183,19 @@ pub fn refine(
     bracket: (f64, f64),
     g_ends: (f64, f64),
     steps: u32,
+    iterates: Option<&mut Vec<f64>>,
+) -> f64 {
+    refine_with(|u| cubic.eval_with_derivative(u), inside, bracket, g_ends, steps, iterates)
+}
+
+/// [`refine`] over any function: `eval(u)` returns `(g(u), g'(u))`. The tricubic interpolants'
+/// leaves (`bernstein::Leaf::crossing`) call it with de Casteljau on the leaf's coefficients.
+pub fn refine_with(
+    mut eval: impl FnMut(f64) -> (f64, f64),
+    inside: Inside,
+    bracket: (f64, f64),
+    g_ends: (f64, f64),
+    steps: u32,
     mut iterates: Option<&mut Vec<f64>>,
 ) -> f64 {
     let (mut lo, mut hi) = bracket;
@@ -197,7 +210,7 @@ pub fn refine(
         it.push(u);
     }
     for _ in 0..steps {
-        let (g, dg) = cubic.eval_with_derivative(u);
+        let (g, dg) = eval(u);
         if g == 0.0 {
             break;
         }

@@ -159,6 +159,7 @@
 //! ray passes within rounding of an edge); `cells_visited` counts those up to and including the
 //! hit cell (what a shader that stops at the hit visits), or all of them on a miss.
 
+mod bernstein;
 pub mod cubic;
 
 #[cfg(test)]

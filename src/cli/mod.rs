@@ -211,6 +211,12 @@ pub fn number(s: &str) -> Result<f64, String> {
     if v.is_infinite() && !matches!(spelled.as_str(), "inf" | "infinity") {
         return Err("too large: numbers go from about -1.8e308 to 1.8e308".to_string());
     }
+    // A nonzero number too small for f64 reads as 0, which a flag's own check would then
+    // report as "0" although the user typed something else (`--fps 1e-400`).
+    let mantissa = spelled.split('e').next().unwrap_or("");
+    if v == 0.0 && mantissa.bytes().any(|b| (b'1'..=b'9').contains(&b)) {
+        return Err("too close to 0: numbers other than 0 start at about 4.9e-324".to_string());
+    }
     Ok(v)
 }
 

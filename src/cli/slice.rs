@@ -138,7 +138,7 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
         "slice {} = {} ({}x{} px): {closed} closed and {open} open contour(s), {} \
          ambiguous cell(s) by \"{}\" ({} joined){} on {} in {:.0} ms -> {}",
         plane.axis.name(),
-        plane.at,
+        crate::vocab::echo_number(plane.at),
         width,
         height,
         set.stats.ambiguous,

@@ -63,7 +63,8 @@ mod stream;
 pub use flip::{FlipStats, PIXELS_PER_DEGREE};
 pub use output::{write_diff_exr, write_heat_map_png};
 pub use stream::{
-    band_rows, compare_files, compare_files_in_bands, flip_halo, Outputs, PERCENTILE_BATCH,
+    band_rows, compare_files, compare_files_in_bands, flip_halo, Outputs, BAND_BYTES,
+    MAX_IMAGE_BYTES, PERCENTILE_BATCH,
 };
 
 use std::fmt;
@@ -88,6 +89,9 @@ pub enum CompareError {
     ChannelMismatch { a: PathBuf, only_a: Vec<String>, b: PathBuf, only_b: Vec<String> },
     #[error("{}: no channel {channel:?} (it has {})", path.display(), list_or_none(available))]
     MissingChannel { path: PathBuf, channel: String, available: Vec<String> },
+    /// A streamed comparison would hold more than [`MAX_IMAGE_BYTES`] of one image at once.
+    #[error("{}: comparing {channels} channels of rows {width} pixels wide needs {mib} MiB of it at once, over compare's limit of {} MiB an image; compare fewer channels at once (--channels)", path.display(), MAX_IMAGE_BYTES >> 20)]
+    TooLarge { path: PathBuf, channels: usize, width: usize, mib: u64 },
     #[error("{0}")]
     Output(#[from] OutputError),
 }

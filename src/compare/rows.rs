@@ -138,6 +138,20 @@ impl ExrRows {
         self.channels.iter().position(|(n, _)| n == name)
     }
 
+    /// The most rows one block row of a part holds (scan lines per block, or tile height):
+    /// [`ExrRows::load`] reads whole block rows, so it may hold this many rows past those asked.
+    pub fn block_rows(&self) -> usize {
+        self.parts.iter().map(|p| p.block_rows.min(p.height)).max().unwrap_or(1)
+    }
+
+    /// An upper bound of the bytes one block read holds decoded: every channel of its part
+    /// (kept or not, as the block stores them) at 4 bytes a sample, for its part's width.
+    pub fn block_bytes(&self) -> u64 {
+        let part =
+            |p: &Part| (p.block_rows.min(p.height) * p.width) as u64 * p.channels.len() as u64 * 4;
+        self.parts.iter().map(part).max().unwrap_or(0)
+    }
+
     /// Loads only these channels from now on, and starts again at row 0.
     pub fn keep(&mut self, channels: &[usize]) {
         self.kept = (0..self.channels.len()).map(|i| channels.contains(&i)).collect();

@@ -30,7 +30,9 @@
 //! - FLIP is computed once, in pass 1, and its map (4 bytes a pixel) kept for the later
 //!   passes in an unlinked temporary file ([`std::env::temp_dir`]): disk, not memory.
 //!
-//! Memory: a band of [`band_rows`] rows plus halos of the channels read, FLIP's working
+//! Memory: a band of [`band_rows`] rows (fewer for many channels: [`BAND_BYTES`]) plus halos
+//! of the channels read, and the rest of a block row and one block decoded (refused over
+//! [`MAX_IMAGE_BYTES`] an image), FLIP's working
 //! images for those rows (about 100 bytes a pixel), and 1.5 MiB per percentile searched in a
 //! pass: FLIP's four, and the relative-error ones of at most [`PERCENTILE_BATCH`] channels, so
 //! an EXR with thousands of channels takes more passes, not more memory.
@@ -62,6 +64,16 @@ pub const MAX_BAND_ROWS: usize = 256;
 /// tables while searched); the others wait for a later pass. 64 covers isoview's own EXRs (a
 /// dozen channels or so) in the passes they always took.
 pub const PERCENTILE_BATCH: usize = 64;
+
+/// Bytes a band's rows of the channels read take in one image at most: bands of files with
+/// many channels get fewer rows (down to one), so memory does not grow with the channel count.
+/// isoview's own EXRs (a dozen channels) stay far below it at [`MAX_BAND_ROWS`] rows.
+pub const BAND_BYTES: u64 = 64 << 20;
+
+/// Bytes one image of a streamed comparison may hold at once: the band and its halo, the rest
+/// of a block row, and a block decoded. More (rows of very many channels, or very wide) is
+/// refused before anything is read, naming the numbers.
+pub const MAX_IMAGE_BYTES: u64 = 512 << 20;
 
 /// The band height [`compare_files`] uses for images `width` pixels wide.
 pub fn band_rows(width: usize) -> usize {
@@ -104,6 +116,9 @@ pub(super) trait Source {
     fn load(&mut self, lo: usize, hi: usize) -> Result<(), CompareError>;
     /// Rows `y0 .. y1` of channel `c`, row-major; they must be loaded.
     fn rows(&self, c: usize, y0: usize, y1: usize) -> &[f32];
+    /// The most bytes this source holds while bands of `rows` rows (halo included) of `kept`
+    /// channels are read from it; `None` for an image already in memory (nothing to bound).
+    fn held_bytes(&self, rows: usize, kept: usize) -> Option<u64>;
 }
 
 impl Source for ExrRows {
@@ -131,6 +146,16 @@ impl Source for ExrRows {
     fn rows(&self, c: usize, y0: usize, y1: usize) -> &[f32] {
         ExrRows::rows(self, c, y0, y1)
     }
+    fn held_bytes(&self, rows: usize, kept: usize) -> Option<u64> {
+        // Loads run to the end of the block row holding the last row asked for.
+        let held = (rows + self.block_rows()) as u64;
+        Some(held.saturating_mul(row_bytes(self.width, kept)).saturating_add(self.block_bytes()))
+    }
+}
+
+/// Bytes of one row of `kept` channels decoded to `f32`.
+fn row_bytes(width: usize, kept: usize) -> u64 {
+    (width as u64).saturating_mul(kept as u64).saturating_mul(4)
 }
 
 /// An image in memory: every row is always there.
@@ -159,6 +184,9 @@ impl Source for Whole<'_> {
     fn rows(&self, c: usize, y0: usize, y1: usize) -> &[f32] {
         let w = self.0.width;
         &self.0.channels[c].values[y0 * w..y1 * w]
+    }
+    fn held_bytes(&self, _: usize, _: usize) -> Option<u64> {
+        None
     }
 }
 
@@ -317,8 +345,30 @@ impl<'t, S: Source> Run<'t, S> {
         };
         let flip = (t.flip || t.flip_fail.is_some()).then(|| flip_channels(&a, &b));
         let shift_halo = usize::from(t.shift);
-        let flip_rows = if matches!(flip, Some(Ok(_))) { flip_halo(PIXELS_PER_DEGREE) } else { 0 };
+        let flip_ok = matches!(flip, Some(Ok(_)));
+        let flip_rows = if flip_ok { flip_halo(PIXELS_PER_DEGREE) } else { 0 };
+        let halo = shift_halo.max(flip_rows);
         let (w, h) = (a.width(), a.height());
+        // The most channels a pass reads ([`Run::keep`]): bands shrink so their rows of them
+        // fit [`BAND_BYTES`] (the results do not depend on the band height), and what is left
+        // over [`MAX_IMAGE_BYTES`] is refused.
+        let kept = plans.len() + usize::from(coverage.is_some()) + if flip_ok { 3 } else { 0 };
+        let mut band_rows = band_rows;
+        if a.held_bytes(1, 1).is_some() {
+            let fit = BAND_BYTES / row_bytes(w, kept).max(1);
+            band_rows = band_rows.min(usize::try_from(fit).unwrap_or(usize::MAX).max(1));
+        }
+        for s in [&a, &b] {
+            let held = s.held_bytes(band_rows + 2 * halo, kept).unwrap_or(0);
+            if held > MAX_IMAGE_BYTES {
+                return Err(CompareError::TooLarge {
+                    path: s.path().to_path_buf(),
+                    channels: kept,
+                    width: w,
+                    mib: held.div_ceil(1 << 20),
+                });
+            }
+        }
         Ok(Run {
             a,
             b,
@@ -329,7 +379,7 @@ impl<'t, S: Source> Run<'t, S> {
             new_channels,
             coverage,
             flip,
-            halo: shift_halo.max(flip_rows),
+            halo,
             band_rows,
             spill: Spill::default(),
             keep_maps: false,
@@ -1038,5 +1088,67 @@ mod tests {
         assert_eq!(nearest_rank(0.99, 100), 98);
         assert_eq!(nearest_rank(1.0, 7), 6);
         assert_eq!(nearest_rank(0.5, 1), 0);
+    }
+
+    /// An image of `channels` channels, `width` wide, read in blocks of 16 rows: its sizes
+    /// and [`ExrRows`]'s bound on what reading it holds, without any pixels.
+    struct Sized {
+        path: std::path::PathBuf,
+        width: usize,
+        channels: Vec<(String, SampleKind)>,
+    }
+
+    impl Source for Sized {
+        fn path(&self) -> &Path {
+            &self.path
+        }
+        fn width(&self) -> usize {
+            self.width
+        }
+        fn height(&self) -> usize {
+            64
+        }
+        fn channels(&self) -> Vec<(String, SampleKind)> {
+            self.channels.clone()
+        }
+        fn index(&self, name: &str) -> Option<usize> {
+            self.channels.iter().position(|(n, _)| n == name)
+        }
+        fn keep(&mut self, _: &[usize]) {}
+        fn load(&mut self, _: usize, _: usize) -> Result<(), CompareError> {
+            unreachable!("plan only")
+        }
+        fn rows(&self, _: usize, _: usize, _: usize) -> &[f32] {
+            unreachable!("plan only")
+        }
+        fn held_bytes(&self, rows: usize, kept: usize) -> Option<u64> {
+            let block = 16 * row_bytes(self.width, self.channels.len());
+            Some((rows + 16) as u64 * row_bytes(self.width, kept) + block)
+        }
+    }
+
+    fn sized(width: usize, channels: usize) -> Sized {
+        let names = (0..channels).map(|i| (format!("c{i}"), SampleKind::F32)).collect();
+        Sized { path: "wide.exr".into(), width, channels: names }
+    }
+
+    #[test]
+    fn bands_shrink_with_the_channels_and_what_cannot_fit_is_refused() {
+        let t = Thresholds::default();
+        // isoview's own EXRs keep their bands.
+        let run = Run::plan(sized(1920, 12), sized(1920, 12), &t, band_rows(1920)).unwrap();
+        assert_eq!(run.band_rows, MAX_BAND_ROWS);
+        // 512 channels of 512 pixels (1 MiB a row): 64 rows fit BAND_BYTES.
+        let run = Run::plan(sized(512, 512), sized(512, 512), &t, 256).unwrap();
+        assert_eq!(run.band_rows, 64);
+        // One row of 4096 channels of 8192 pixels is 128 MiB: a band of one row and a block of
+        // 16 (with the decoded block: 4 GiB) cannot fit; refused naming the file and numbers.
+        let err = Run::plan(sized(8192, 4096), sized(8192, 4096), &t, 256).err().unwrap();
+        let msg = err.to_string();
+        assert!(
+            msg.starts_with("wide.exr: comparing 4096 channels of rows 8192 pixels wide needs"),
+            "{msg}"
+        );
+        assert!(msg.contains("over compare's limit of 512 MiB an image; compare fewer"), "{msg}");
     }
 }

@@ -82,6 +82,14 @@ pub enum FieldError {
     )]
     TooLarge { what: String, dims: [u64; 3], bytes: u128, cap: u64, hint: &'static str },
 
+    /// The grid's `f32` samples would take more than 2^64 bytes: no cap or residency helps.
+    #[error(
+        "{what}: a grid of {}x{}x{} points needs {} of f32 samples, more than 64-bit memory can \
+         address (16 EiB)",
+        dims[0], dims[1], dims[2], mib(*bytes)
+    )]
+    Unaddressable { what: String, dims: [u64; 3], bytes: u128 },
+
     /// `field.residency = "active"`: the bricks the isovalues need, with the brick tables
     /// (min/max and page table: 12 bytes a brick), would exceed the memory cap.
     #[error(

@@ -55,6 +55,11 @@ impl GridLimits {
     pub fn check(&self, dims: [u64; 3], what: &str) -> Result<usize, FieldError> {
         let points = dims.iter().fold(1u128, |n, &d| n.saturating_mul(d as u128));
         let bytes = points.saturating_mul(4);
+        if bytes > u64::MAX as u128 {
+            // No cap could be raised this far, and no residency reads it in parts: say so
+            // rather than suggest either.
+            return Err(FieldError::Unaddressable { what: what.to_string(), dims, bytes });
+        }
         if bytes > self.max_bytes as u128 {
             return Err(FieldError::TooLarge {
                 what: what.to_string(),
@@ -88,5 +93,32 @@ pub(crate) fn with_hint(e: FieldError, hint: &'static str) -> FieldError {
             FieldError::TooLarge { what, dims, bytes, cap, hint }
         }
         other => other,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Fifth attack pass M4: a (2^32)^3 `.npy` under the default residency was told to raise
+    /// the cap to 302231454903657293676544 MiB (no such setting exists) or to set the
+    /// residency it already had. Past 2^64 bytes neither helps, and the line says so.
+    #[test]
+    fn a_grid_past_64_bit_memory_suggests_nothing() {
+        let unlimited = GridLimits { max_bytes: u64::MAX };
+        let e = unlimited.check([1 << 32; 3], "huge.npy").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "huge.npy: a grid of 4294967296x4294967296x4294967296 points needs \
+             302231454903657293676544 MiB of f32 samples, more than 64-bit memory can address \
+             (16 EiB)"
+        );
+        // Just under 2^64 bytes: the cap can still be raised that far, so it is suggested.
+        let e = GridLimits::default().check([1 << 20, 1 << 20, (1 << 22) - 1], "big.npy");
+        let e = e.unwrap_err().to_string();
+        assert!(e.contains("raise the cap with ISOVIEW_MAX_GRID_MIB="), "{e}");
+        let mib = e.split("ISOVIEW_MAX_GRID_MIB=").nth(1).unwrap().split(' ').next().unwrap();
+        let raised = GridLimits::from_mib_str(mib).expect("the suggested cap can be set");
+        assert!(raised.check([1 << 20, 1 << 20, (1 << 22) - 1], "big.npy").is_ok());
     }
 }

@@ -148,6 +148,7 @@ fn redacted(e: &FieldError) -> Option<String> {
         | FieldError::Truncated { .. }
         | FieldError::SizeMismatch { .. }
         | FieldError::TooLarge { .. }
+        | FieldError::Unaddressable { .. }
         | FieldError::PoolTooLarge { .. }
         | FieldError::TablesTooLarge { .. }
         | FieldError::NonFinite { .. }
@@ -330,7 +331,7 @@ pub fn scene_toml(path: &Path, sets: &[String], time: f64) -> Result<String, Str
         header += &sets.join(" --set ");
     }
     if time != 0.0 {
-        header += &format!(" (render with --time {time})");
+        header += &format!(" (render with --time {})", crate::vocab::echo_number(time));
     }
     Ok(format!("{header}\n\n{body}"))
 }
@@ -345,7 +346,7 @@ pub fn command_line(path: &Path, state: &ViewState) -> String {
         words.push(quote(s));
     }
     if state.time != 0.0 {
-        words.push(format!("--time {}", state.time));
+        words.push(format!("--time {}", crate::vocab::echo_number(state.time)));
     }
     words.join(" ")
 }
@@ -368,5 +369,19 @@ mod tests {
         assert_eq!(quote("surface.isovalue=0.25"), "surface.isovalue=0.25");
         assert_eq!(quote("render.method=\"fixed-step\""), "'render.method=\"fixed-step\"'");
         assert_eq!(quote("a'b"), "'a'\\''b'");
+    }
+
+    /// Fifth attack pass M7: `time: 1e308` wrote a 309-digit `--time` into the saved scene's
+    /// header comment.
+    #[test]
+    fn the_saved_scene_names_a_time_in_short() {
+        let dir = std::env::temp_dir().join(format!("isoview-state-time-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("s.toml");
+        std::fs::write(&path, "[field]\nsource = \"sdf\"\nshape = \"sphere\"\n").unwrap();
+        let text = scene_toml(&path, &[], 1e308).unwrap();
+        let first = text.lines().next().unwrap();
+        assert!(first.ends_with("(render with --time 1e308)"), "{first}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

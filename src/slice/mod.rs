@@ -156,9 +156,10 @@ pub fn check_picture(
 /// The title of a slice's SVG.
 pub fn svg_title(plane: &PlaneGrid, scene_name: &str, isovalue: f64) -> String {
     format!(
-        "isoview slice {} = {} of {scene_name}, isovalue {isovalue}",
+        "isoview slice {} = {} of {scene_name}, isovalue {}",
         plane.axis.name(),
-        plane.at
+        crate::vocab::echo_number(plane.at),
+        crate::vocab::echo_number(isovalue)
     )
 }
 

@@ -635,6 +635,19 @@ fn numbers_are_echoed_short() {
         assert_fails(&o, 2, &[&format!("--fps {fps}: must be a positive number")]);
     }
     assert!(!Path::new(&out).exists());
+    // Fifth attack pass M7: `--fps 1e-400` (below the smallest f64) read as 0 and was refused
+    // as "--fps 0"; the success line of `slice --at 1e-320` wrote a 330-character decimal.
+    let tiny = format!("0.{}1", "0".repeat(20_000));
+    for fps in ["1e-400", tiny.as_str()] {
+        let o = isoview_output(&["render", &scene, "-o", &out, "--frames", "0..1", "--fps", fps]);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains("too close to 0: numbers other than 0 start at about 4.9e-324"));
+        assert!(!err.contains("--fps 0:") && err.len() < 400, "{err}");
+    }
+    let o = isoview_output(&["slice", &scene, "-o", &out, "--axis", "z", "--at", "1e-320"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("slice z = 1e-320 ("), "{}", stderr(&o));
 }
 
 #[test]

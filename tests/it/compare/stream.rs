@@ -369,6 +369,54 @@ fn a_large_compare_stays_in_bounded_memory() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// Fifth attack pass, left over: a band held `band_rows(width)` rows of every compared channel,
+/// so memory grew with width x channel count (512 x 256 with 512 channels: two bands of 256 rows
+/// of 1 MiB, over 512 MiB). Bands now shrink to `BAND_BYTES` of rows, so the peak grows by
+/// about two bands, a block row and a decoded block an image, whatever the channel count.
+#[test]
+fn rows_of_many_channels_compare_in_bounded_memory() {
+    let dir = scratch("cmp-wide-channels");
+    let run = |channels: usize| {
+        let names: Vec<String> = (0..channels).map(|i| format!("c{i:03}")).collect();
+        let (w, h) = (512, 256);
+        let (a, b) = (dir.join(format!("a{channels}.exr")), dir.join(format!("b{channels}.exr")));
+        for (path, bump) in [(&a, 0.0f32), (&b, 0.25)] {
+            let mut s = PlaneStream::create(path, w, h, &names, &[]).unwrap();
+            for y in 0..h {
+                let planes: Vec<Vec<f32>> = (0..channels)
+                    .map(|c| {
+                        let mut row = vec![c as f32; w];
+                        if y == h - 1 && c == channels - 1 {
+                            row[w - 1] += bump; // one pixel of the last channel differs
+                        }
+                        row
+                    })
+                    .collect();
+                let refs: Vec<&[f32]> = planes.iter().map(Vec::as_slice).collect();
+                s.push_rows(&refs).unwrap();
+            }
+            s.finish().unwrap();
+        }
+        let (code, mib) = crate::render::stream::peak_rss_mib(&[
+            "compare",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--no-flip",
+        ]);
+        assert_eq!(code, 1, "{channels} channels: the last channel differs");
+        let _ = (std::fs::remove_file(&a), std::fs::remove_file(&b));
+        mib
+    };
+    let few = run(4);
+    let many = run(512);
+    eprintln!("compare peak RSS {few:.0} MiB with 4 channels, {many:.0} MiB with 512 (512 x 256)");
+    // Per image: 64 MiB of band, 16 more rows of a block row and a block decoded (16 MiB
+    // each); and 64 channels' percentile tables (1.5 MiB each). Bands of 256 rows were 512 MiB.
+    let bound = 2.0 * 96.0 + 96.0 + 100.0;
+    assert!(many - few < bound, "peak RSS grew {:.0} MiB", many - few);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// Fifth attack pass: every channel's relative-error percentile held three 64 Ki-entry tables
 /// (1.5 MiB) at once, so a 1x1 EXR of 5000 channels (129 KB) aborted under a 4 GB limit
 /// ("memory allocation of 524288 bytes failed", SIGABRT). The tables are now built for a

@@ -3,6 +3,13 @@
 //! which files the server reads, so there a data path must resolve into the scene's folder, a
 //! folder given with `--allow-dir`, or be one of the files the scene itself names. The same
 //! rule admits the data file a detached volume header names (`formats::Located::detached`).
+//!
+//! [`DataAccess::admit`] judges a path when the scene is loaded; the readers open it later
+//! (a raw or npy grid when it is sampled, again for each brick read). A folder on the admitted
+//! path swapped for a link in between (by someone who can write in an allowed folder) would
+//! lead the open out of the roots, so every reader opens through [`DataAccess::open`], which
+//! judges the file it opened by the path the kernel holds for it (`/proc/self/fd/N`), not by
+//! the name it was given.
 
 use std::path::{Path, PathBuf};
 
@@ -71,7 +78,50 @@ impl DataAccess {
             Err(refused())
         }
     }
+
+    /// Opens an admitted data file for reading ([`open_data`]); under [`DataAccess::Within`],
+    /// the file opened must still lie within a root, judged by its own path (links already
+    /// followed by the open), else the open is refused with [`Escaped`].
+    pub fn open(&self, path: &Path) -> std::io::Result<std::fs::File> {
+        let file = open_data(path)?;
+        match self {
+            DataAccess::Any => Ok(file),
+            DataAccess::Within(roots) => confirm(file, roots),
+        }
+    }
 }
+
+/// `file` when the path the kernel holds for it (`/proc/self/fd/N`: every link resolved, as
+/// it was opened) lies within one of `roots`. A file whose path cannot be read is refused.
+#[cfg(target_os = "linux")]
+fn confirm(file: std::fs::File, roots: &[PathBuf]) -> std::io::Result<std::fs::File> {
+    use std::os::fd::AsRawFd;
+    let real = std::fs::read_link(format!("/proc/self/fd/{}", file.as_raw_fd()))?;
+    match roots.iter().any(|root| real.starts_with(root)) {
+        true => Ok(file),
+        false => Err(std::io::Error::other(Escaped)),
+    }
+}
+
+/// Elsewhere an open file's path cannot be asked portably: [`DataAccess::admit`]'s check
+/// (links resolved when the scene was loaded) is the only one.
+#[cfg(not(target_os = "linux"))]
+fn confirm(file: std::fs::File, _: &[PathBuf]) -> std::io::Result<std::fs::File> {
+    Ok(file)
+}
+
+/// What [`DataAccess::open`] refuses: a file admitted inside the roots that, opened, lies
+/// outside them (a folder or the file on its path was replaced by a link after the check).
+#[derive(Debug)]
+pub struct Escaped;
+
+impl std::fmt::Display for Escaped {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{OUTSIDE} (it was replaced by a link after it was checked)")
+    }
+}
+
+impl std::error::Error for Escaped {}
 
 /// Opens a data file for reading; a path that is not a regular file (a FIFO, a device, a
 /// socket, a folder) is refused with `is a FIFO (named pipe), not a data file`, whatever

@@ -163,6 +163,11 @@ impl FieldError {
         if let Some(refused) = refused {
             return FieldError::Io { path: path.to_path_buf(), message: refused.to_string() };
         }
+        if let Some(escaped) =
+            err.get_ref().and_then(|e| e.downcast_ref::<super::access::Escaped>())
+        {
+            return FieldError::Io { path: path.to_path_buf(), message: escaped.to_string() };
+        }
         let message = match err.kind() {
             ErrorKind::NotFound => "file not found".to_string(),
             ErrorKind::PermissionDenied => "permission denied".to_string(),

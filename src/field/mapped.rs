@@ -48,16 +48,16 @@ impl MappedGrid {
     /// Opens the file of `spec` when its source is `npy` or `raw` (its size checked against the
     /// dims); None for other sources (they are computed or parsed whole).
     pub fn open(spec: &FieldSpec) -> Result<Option<MappedGrid>, FieldError> {
-        let (path, offset, dtype, endian, order, dims) = match &spec.source {
+        let (path, offset, dtype, endian, order, dims, access) = match &spec.source {
             FieldSource::Npy(n) => {
-                (n.path.clone(), n.data_offset, n.dtype, n.endian, n.order, n.dims)
+                (n.path.clone(), n.data_offset, n.dtype, n.endian, n.order, n.dims, &n.access)
             }
             FieldSource::Raw(r) => {
-                (r.path.clone(), 0, r.dtype, r.endian, StorageOrder::XFastest, r.dims)
+                (r.path.clone(), 0, r.dtype, r.endian, StorageOrder::XFastest, r.dims, &r.access)
             }
             _ => return Ok(None),
         };
-        let file = crate::field::open_data(&path).map_err(|e| FieldError::io(&path, &e))?;
+        let file = access.open(&path).map_err(|e| FieldError::io(&path, &e))?;
         let len = file.metadata().map_err(|e| FieldError::io(&path, &e))?.len();
         samples::check_file_size(&path, len, offset, dims, dtype)?;
         Ok(Some(MappedGrid {

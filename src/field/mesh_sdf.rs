@@ -33,7 +33,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
-use super::FieldError;
+use super::{DataAccess, FieldError};
 use crate::vocab::Bounds;
 
 /// Fraction of the bounding box's longest side added as a margin on every side.
@@ -68,17 +68,22 @@ impl TriangleMesh {
     /// `vertex` x, y, z and `face` vertex_indices / vertex_index, polygons fan-triangulated)
     /// file, by its extension.
     pub fn read(path: &Path) -> Result<TriangleMesh, FieldError> {
-        Self::read_named(path, path)
+        Self::read_named(path, path, &DataAccess::Any)
     }
 
     /// [`TriangleMesh::read`] of `path`, the format told from `named`'s extension: the name
-    /// the scene wrote, where `path` is what `serve` resolved it to (a link's target).
-    pub fn read_named(path: &Path, named: &Path) -> Result<TriangleMesh, FieldError> {
+    /// the scene wrote, where `path` is what `serve` resolved it to (a link's target), opened
+    /// as `access` says.
+    pub fn read_named(
+        path: &Path,
+        named: &Path,
+        access: &DataAccess,
+    ) -> Result<TriangleMesh, FieldError> {
         let bad = |message: String| FieldError::BadMesh { path: path.to_path_buf(), message };
         let ext = named.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
         let mesh = match ext.as_deref() {
             Some("stl") => {
-                let mut file = open(path)?;
+                let mut file = open(path, access)?;
                 let stl = stl_io::read_stl(&mut file)
                     .map_err(|e| bad(format!("not a valid STL file ({})", one_line(&e))))?;
                 TriangleMesh {
@@ -94,8 +99,8 @@ impl TriangleMesh {
                         .collect(),
                 }
             }
-            Some("obj") => read_obj(path)?,
-            Some("ply") => read_ply(path)?,
+            Some("obj") => read_obj(path, access)?,
+            Some("ply") => read_ply(path, access)?,
             _ => {
                 return Err(bad(
                     "unsupported mesh format: the file name must end in .stl, .obj or .ply"
@@ -144,8 +149,8 @@ fn one_line(e: &dyn std::fmt::Display) -> String {
     super::error::one_line(&e.to_string())
 }
 
-fn open(path: &Path) -> Result<std::io::BufReader<std::fs::File>, FieldError> {
-    crate::field::open_data(path).map(std::io::BufReader::new).map_err(|e| FieldError::io(path, &e))
+fn open(path: &Path, access: &DataAccess) -> Result<std::io::BufReader<std::fs::File>, FieldError> {
+    access.open(path).map(std::io::BufReader::new).map_err(|e| FieldError::io(path, &e))
 }
 
 /// Fan-triangulates polygon `face` into `out`.
@@ -155,9 +160,9 @@ fn fan(face: &[u32], out: &mut Vec<[u32; 3]>) {
     }
 }
 
-fn read_obj(path: &Path) -> Result<TriangleMesh, FieldError> {
+fn read_obj(path: &Path, access: &DataAccess) -> Result<TriangleMesh, FieldError> {
     let bad = |message: String| FieldError::BadMesh { path: path.to_path_buf(), message };
-    let mut file = open(path)?;
+    let mut file = open(path, access)?;
     let opts = tobj::LoadOptions { triangulate: true, single_index: false, ..Default::default() };
     // Materials are not needed: every material library resolves to nothing.
     let (models, _) = tobj::load_obj_buf(&mut file, &opts, |_| Ok(Default::default()))
@@ -178,11 +183,11 @@ fn read_obj(path: &Path) -> Result<TriangleMesh, FieldError> {
     Ok(mesh)
 }
 
-fn read_ply(path: &Path) -> Result<TriangleMesh, FieldError> {
+fn read_ply(path: &Path, access: &DataAccess) -> Result<TriangleMesh, FieldError> {
     use ply_rs_bw::parser::Parser;
     use ply_rs_bw::ply::{DefaultElement, Property};
     let bad = |message: String| FieldError::BadMesh { path: path.to_path_buf(), message };
-    let mut file = open(path)?;
+    let mut file = open(path, access)?;
     let ply = Parser::<DefaultElement>::new()
         .read_ply(&mut file)
         .map_err(|e| bad(format!("not a valid PLY file ({})", one_line(&e))))?;
@@ -489,9 +494,10 @@ pub struct MeshSource {
 }
 
 impl MeshSource {
-    /// Reads the mesh file `path`, of the format `named` (the name written) says.
-    pub fn open(path: &Path, named: &Path) -> Result<MeshSource, FieldError> {
-        let mesh = TriangleMesh::read_named(path, named)?;
+    /// Reads the mesh file `path`, of the format `named` (the name written) says, opened as
+    /// `access` says.
+    pub fn open(path: &Path, named: &Path, access: &DataAccess) -> Result<MeshSource, FieldError> {
+        let mesh = TriangleMesh::read_named(path, named, access)?;
         Ok(MeshSource { path: path.to_path_buf(), mesh: Arc::new(mesh) })
     }
 }

@@ -17,7 +17,7 @@ use npyz::{DType, Endianness, NpyHeader, Order, TypeChar};
 
 use super::error::one_line;
 use super::samples::{self, Endian, SampleType, StorageOrder};
-use super::{FieldError, GridLimits};
+use super::{DataAccess, FieldError, GridLimits};
 
 /// Largest header accepted (NumPy itself refuses headers over 10 000 bytes by default).
 const MAX_HEADER_BYTES: usize = 1 << 20;
@@ -63,17 +63,23 @@ pub struct NpySource {
     pub descr: String,
     /// Byte offset of the first sample.
     pub data_offset: u64,
+    /// How `path` is opened: `serve`'s page may only read within its folders.
+    pub access: DataAccess,
 }
 
 impl NpySource {
     /// Parses the header of `path` and checks the grid against `limits` and the file's length,
     /// reading no samples.
-    pub fn open(path: &Path, limits: &GridLimits) -> Result<NpySource, FieldError> {
+    pub fn open(
+        path: &Path,
+        limits: &GridLimits,
+        access: &DataAccess,
+    ) -> Result<NpySource, FieldError> {
         let not_npy = |reason: &str| FieldError::NotNpy {
             path: path.to_path_buf(),
             reason: reason.to_string(),
         };
-        let mut file = crate::field::open_data(path).map_err(|e| FieldError::io(path, &e))?;
+        let mut file = access.open(path).map_err(|e| FieldError::io(path, &e))?;
         let file_len = file.metadata().map_err(|e| FieldError::io(path, &e))?.len();
 
         // Magic, version and header length, read here so a corrupt length cannot make the
@@ -164,6 +170,7 @@ impl NpySource {
             order,
             descr: descr(&dtype),
             data_offset,
+            access: access.clone(),
         })
     }
 
@@ -172,8 +179,7 @@ impl NpySource {
     pub fn read(&self, limits: &GridLimits) -> Result<Vec<f32>, FieldError> {
         let d = self.dims;
         limits.check([d[0] as u64, d[1] as u64, d[2] as u64], &path_str(&self.path))?;
-        let mut file =
-            crate::field::open_data(&self.path).map_err(|e| FieldError::io(&self.path, &e))?;
+        let mut file = self.access.open(&self.path).map_err(|e| FieldError::io(&self.path, &e))?;
         let len = file.metadata().map_err(|e| FieldError::io(&self.path, &e))?.len();
         samples::check_file_size(&self.path, len, self.data_offset, d, self.dtype)?;
         file.seek(SeekFrom::Start(self.data_offset)).map_err(|e| FieldError::io(&self.path, &e))?;

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use super::npy::path_str;
 use super::samples::{self, Endian, SampleType, StorageOrder};
-use super::{FieldError, GridLimits};
+use super::{DataAccess, FieldError, GridLimits};
 
 /// A `.raw` file and how to read it.
 #[derive(Clone, Debug, PartialEq)]
@@ -17,6 +17,8 @@ pub struct RawSource {
     pub dims: [usize; 3],
     pub dtype: SampleType,
     pub endian: Endian,
+    /// How `path` is opened: `serve`'s page may only read within its folders.
+    pub access: DataAccess,
 }
 
 impl RawSource {
@@ -28,7 +30,9 @@ impl RawSource {
         limits.check([d[0] as u64, d[1] as u64, d[2] as u64], &path_str(&self.path))?;
         // Opened to be judged: a folder, FIFO or device is refused by what it is, not by a
         // length of 0 ("truncated").
-        let meta = crate::field::open_data(&self.path)
+        let meta = self
+            .access
+            .open(&self.path)
             .and_then(|f| f.metadata())
             .map_err(|e| FieldError::io(&self.path, &e))?;
         samples::check_file_size(&self.path, meta.len(), 0, d, self.dtype)
@@ -37,8 +41,7 @@ impl RawSource {
     /// Reads the samples, x fastest.
     pub fn read(&self, limits: &GridLimits) -> Result<Vec<f32>, FieldError> {
         self.check(limits)?;
-        let file =
-            crate::field::open_data(&self.path).map_err(|e| FieldError::io(&self.path, &e))?;
+        let file = self.access.open(&self.path).map_err(|e| FieldError::io(&self.path, &e))?;
         samples::read_samples(
             &mut BufReader::new(file),
             &self.path,

@@ -2,7 +2,7 @@
 //! Every route but the assets needs the token; every route needs an allowed `Host`.
 
 use std::path::{Path, PathBuf};
-use std::sync::mpsc::Sender;
+use std::sync::mpsc::{Receiver, Sender, TryRecvError};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -17,7 +17,7 @@ use crate::field::Grid;
 use crate::frame::Channel;
 use crate::output;
 use crate::probe::{self, PixelProbe};
-use crate::slice::{self, export, Axis};
+use crate::slice::{self, export, Axis, SliceImage};
 
 const INDEX_HTML: &str = include_str!("page/index.html");
 const APP_JS: &str = include_str!("page/app.js");
@@ -64,31 +64,70 @@ pub enum Outcome {
     Park(Wait),
 }
 
-/// What a parked `GET /api/frame` waits for.
+/// What a parked request waits for. Every request that waits for a frame or a slice parks:
+/// a wait of seconds (a slow frame) holds a connection slot and a parking place, never one of
+/// the workers, so eight downloads of a frame being drawn do not stop the page's other
+/// requests.
 pub enum Wait {
-    /// `?after=G&level=L`: anything newer than (G, L); 204 after [`LONG_POLL`].
+    /// `/api/frame?after=G&level=L`: anything newer than (G, L); 204 after [`LONG_POLL`].
     Newer(u64, Level),
-    /// No `after`: the full frame (or failure) of generation G or later; 503 after [`WAIT`].
+    /// `/api/frame`: the full frame (or failure) of generation G or later; 503 after [`WAIT`].
     Full(u64),
+    /// The full frame (or failure) of generation G or later, made into `Then`'s answer;
+    /// 503 after [`WAIT`].
+    Use(u64, Then),
+    /// A slice picture from the render thread (which pokes the board when it sends one);
+    /// 503 after [`WAIT`].
+    Slice(Receiver<Result<SliceImage, String>>),
+}
+
+/// What is made of a full frame once it is drawn.
+pub enum Then {
+    /// `GET /api/exr`
+    Exr,
+    /// `GET /api/aov`: these channels, each once.
+    Aov(Vec<Channel>),
+    /// `POST /api/tev`: sent to this address.
+    Tev(String),
+}
+
+/// What a wait found: taken from the board (a few `Arc`s) or the slice's channel, cheap to
+/// take under the board's lock. The reply is made of it by [`App::answer`] on a worker, not on
+/// the parker: encoding an EXR or a PNG, copying the channels or sending the frame to tev (a
+/// network write that can take seconds) on the parker would delay every other parked
+/// request's answer and deadline behind it.
+pub enum Found {
+    Frame(Arc<Rendered>),
+    Failed(Arc<Failed>),
+    Slice(Result<SliceImage, String>),
 }
 
 impl Wait {
     pub fn timeout(&self) -> Duration {
         match self {
             Wait::Newer(..) => LONG_POLL,
-            Wait::Full(_) => WAIT,
+            Wait::Full(_) | Wait::Use(..) | Wait::Slice(_) => WAIT,
         }
     }
 
-    /// The reply, once the board has it.
-    pub fn pick(&self, b: &Published) -> Option<Reply> {
-        let found = match *self {
-            Wait::Newer(after, have) => newer(b, (after, have)),
-            Wait::Full(target) => full_of(b, target),
+    /// What the request waits for, once the board (or the render thread) has it.
+    pub fn pick(&self, b: &Published) -> Option<Found> {
+        let found = match self {
+            Wait::Newer(after, have) => newer(b, (*after, *have)),
+            Wait::Full(target) | Wait::Use(target, _) => full_of(b, *target),
+            Wait::Slice(answer) => {
+                return match answer.try_recv() {
+                    Ok(picture) => Some(Found::Slice(picture)),
+                    Err(TryRecvError::Empty) => None,
+                    Err(TryRecvError::Disconnected) => {
+                        Some(Found::Slice(Err("the render thread is gone".into())))
+                    }
+                }
+            }
         };
         found.map(|f| match f {
-            Ok(r) => frame_reply(&r),
-            Err(f) => failed_reply(&f),
+            Ok(r) => Found::Frame(r),
+            Err(f) => Found::Failed(f),
         })
     }
 
@@ -96,7 +135,10 @@ impl Wait {
     pub fn timed_out(&self) -> Reply {
         match self {
             Wait::Newer(..) => Reply::bytes("text/plain", Vec::new()).with_status(204),
-            Wait::Full(_) => Reply::error(503, "the frame is not ready yet; ask again"),
+            Wait::Full(_) | Wait::Use(..) => {
+                Reply::error(503, "the frame is not ready yet; ask again")
+            }
+            Wait::Slice(_) => Reply::error(503, "the slice is not ready yet; ask again"),
         }
     }
 }
@@ -147,23 +189,21 @@ impl App {
                 "wrong or missing token: open the URL that `isoview serve` printed (it ends in ?token=...)",
             ));
         }
-        if let ("GET", "/api/frame") = (method.as_str(), target.path.as_str()) {
-            return match self.frame(&target) {
-                Ok(outcome) => outcome,
-                Err(reply) => Outcome::Reply(reply),
-            };
-        }
         let result = match (method.as_str(), target.path.as_str()) {
             ("GET", "/") | ("GET", "/index.html") => {
                 Ok(Reply::text("text/html; charset=utf-8", INDEX_HTML))
             }
             ("GET", "/api/state") => self.get_state(),
             ("POST", "/api/state") => body.read().and_then(|b| self.post_state(&b)),
-            ("GET", "/api/aov") => self.aov(&target),
+            // The routes that may wait for a frame or a slice.
+            ("GET", "/api/frame") => return self.frame(&target).unwrap_or_else(Outcome::Reply),
+            ("GET", "/api/aov") => return self.aov(&target).unwrap_or_else(Outcome::Reply),
+            ("GET", "/api/slice") => return self.slice(&target).unwrap_or_else(Outcome::Reply),
+            ("GET", "/api/exr") => return self.wait_for(Wait::Use(self.latest(), Then::Exr)),
+            ("POST", "/api/tev") => {
+                return body.read().and_then(|b| self.tev(&b)).unwrap_or_else(Outcome::Reply)
+            }
             ("GET", "/api/probe") => self.probe(&target),
-            ("GET", "/api/slice") => self.slice(&target),
-            ("GET", "/api/exr") => self.exr(),
-            ("POST", "/api/tev") => body.read().and_then(|b| self.tev(&b)),
             ("GET", "/api/scene.toml") => self.scene_toml(),
             ("GET", "/api/stats") => Ok(Reply::json(&json!(self.board.stats()))),
             (_, path) if ROUTES.contains(&path) => {
@@ -172,6 +212,35 @@ impl App {
             (_, path) => Err(Reply::error(404, format!("{}: no such page", shorten(path)))),
         };
         Outcome::Reply(result.unwrap_or_else(|e| e))
+    }
+
+    /// The generation of the latest state: what a request for "the frame" waits for.
+    fn latest(&self) -> u64 {
+        self.mailbox.generation()
+    }
+
+    /// Answers `wait` now when the board has what it waits for, else parks it.
+    fn wait_for(&self, wait: Wait) -> Outcome {
+        match self.board.look(|b| wait.pick(b)) {
+            Some(found) => Outcome::Reply(self.answer(wait, found)),
+            None => Outcome::Park(wait),
+        }
+    }
+
+    /// The reply to a request that waited for `found`: made on a worker (see [`Found`]).
+    pub fn answer(&self, wait: Wait, found: Found) -> Reply {
+        match (wait, found) {
+            (_, Found::Failed(f)) => failed_reply(&f),
+            (_, Found::Slice(Err(e))) => Reply::error(500, format!("isoview: {e}")),
+            (_, Found::Slice(Ok(picture))) => export::encode_png(Path::new("slice.png"), &picture)
+                .map(|png| Reply::bytes("image/png", png))
+                .unwrap_or_else(|e| Reply::error(500, e)),
+            (Wait::Use(_, Then::Exr), Found::Frame(r)) => exr_reply(&r),
+            (Wait::Use(_, Then::Aov(channels)), Found::Frame(r)) => aov_reply(&r, &channels),
+            (Wait::Use(_, Then::Tev(address)), Found::Frame(r)) => self.tev_reply(&r, &address),
+            // `/api/frame` (a slice's wait finds a picture, never a frame).
+            (_, Found::Frame(r)) => frame_reply(&r),
+        }
     }
 
     /// The latest state, its generation, and the field sampled for it (from the board when
@@ -212,25 +281,12 @@ impl App {
         Ok(Reply::json(&json!({ "generation": generation })))
     }
 
-    /// Waits for the full frame of the latest state (or its failure). This holds the
-    /// request's worker (the channels, EXR and tev need work on the frame after the wait);
-    /// the page asks for them once the frame is shown, so the wait is short.
-    fn full_frame(&self) -> Result<Arc<Rendered>, Reply> {
-        let target = self.mailbox.generation();
-        let found = self.board.wait(WAIT, |b| full_of(b, target));
-        match found {
-            Some(Ok(r)) => Ok(r),
-            Some(Err(f)) => Err(failed_reply(&f)),
-            None => Err(Reply::error(503, "the frame is not ready yet; ask again")),
-        }
-    }
-
     /// `GET /api/frame`: the full frame of the latest state; with `after=G` (and `level=`
     /// what the client has of G, default full), whatever is newer than that, or 204. Answered
     /// at once when the board has it, else parked ([`Wait`]).
     fn frame(&self, target: &Target) -> Result<Outcome, Reply> {
         let wait = match target.get("after") {
-            None => Wait::Full(self.mailbox.generation()),
+            None => Wait::Full(self.latest()),
             Some(after) => {
                 let after: u64 = after.parse().map_err(|_| {
                     Reply::error(400, format!("after={}: not a generation number", shorten(after)))
@@ -244,17 +300,14 @@ impl App {
                 Wait::Newer(after, have)
             }
         };
-        Ok(match self.board.look(|b| wait.pick(b)) {
-            Some(reply) => Outcome::Reply(reply),
-            None => Outcome::Park(wait),
-        })
+        Ok(self.wait_for(wait))
     }
 
     /// `GET /api/aov?ch=Z[,N.X,...]`: the channels of the full frame as little-endian f32
     /// planes, one after the other, row 0 at the top. Each channel is sent once (a name
     /// repeated is dropped), and more names than there are channels are refused before any
     /// work: each plane is the image's size.
-    fn aov(&self, target: &Target) -> Result<Reply, Reply> {
+    fn aov(&self, target: &Target) -> Result<Outcome, Reply> {
         let names: Vec<&str> = target.get("ch").unwrap_or("Z").split(',').collect();
         if names.len() > Channel::ALL.len() {
             return Err(Reply::error(
@@ -279,21 +332,7 @@ impl App {
                 channels.push(c);
             }
         }
-        let r = self.full_frame()?;
-        let mut body = Vec::with_capacity(channels.len() * r.frame.pixels.len() * 4);
-        for c in &channels {
-            for p in &r.frame.pixels {
-                body.extend_from_slice(&c.get(p).to_le_bytes());
-            }
-        }
-        Ok(Reply::bytes("application/octet-stream", body)
-            .header("X-Isoview-Generation", r.generation)
-            .header("X-Isoview-Width", r.frame.width)
-            .header("X-Isoview-Height", r.frame.height)
-            .header(
-                "X-Isoview-Channels",
-                channels.iter().map(|c| c.name()).collect::<Vec<_>>().join(","),
-            ))
+        Ok(self.wait_for(Wait::Use(self.latest(), Then::Aov(channels))))
     }
 
     /// `GET /api/probe?x=&y=`: `probe --json --pixel X,Y` of the latest state.
@@ -311,7 +350,7 @@ impl App {
 
     /// `GET /api/slice?axis=&at=&format=png|json|svg|cells`: what `isoview slice` writes
     /// (`--png`, `--json`, `--svg`) for the latest state; `cells`: the plane's grid values.
-    fn slice(&self, target: &Target) -> Result<Reply, Reply> {
+    fn slice(&self, target: &Target) -> Result<Outcome, Reply> {
         let axis_arg = target.get("axis").unwrap_or("");
         let axis = Axis::parse(axis_arg).ok_or_else(|| {
             Reply::error(400, format!("isoview: --axis {}: expected x, y or z", shorten(axis_arg)))
@@ -329,7 +368,7 @@ impl App {
             )
         })?;
         let (plane, iso) = (&planned.plane, scene.surface.isovalue);
-        match target.get("format").unwrap_or("png") {
+        let reply = match target.get("format").unwrap_or("png") {
             "json" => Ok(Reply::text(
                 "application/json",
                 export::json(plane, &scene.field.placement, iso, &planned.set.contours),
@@ -365,33 +404,18 @@ impl App {
                     .map_err(|_| Reply::error(500, "the render thread is gone"))?
                     .send(task)
                     .map_err(|_| Reply::error(500, "the render thread is gone"))?;
-                let picture = answer
-                    .recv_timeout(WAIT)
-                    .map_err(|_| Reply::error(503, "the slice is not ready yet; ask again"))?
-                    .map_err(|e| Reply::error(500, format!("isoview: {e}")))?;
-                let png = export::encode_png(Path::new("slice.png"), &picture)
-                    .map_err(|e| Reply::error(500, e))?;
-                Ok(Reply::bytes("image/png", png))
+                return Ok(self.wait_for(Wait::Slice(answer)));
             }
             other => Err(Reply::error(
                 400,
                 format!("format={}: expected png, json, svg or cells", shorten(other)),
             )),
-        }
-    }
-
-    /// `GET /api/exr`: the full frame as the EXR `render -o` writes.
-    fn exr(&self) -> Result<Reply, Reply> {
-        let r = self.full_frame()?;
-        let bytes = output::exr::encode_frame(Path::new("frame.exr"), &r.frame)
-            .map_err(|e| Reply::error(500, e))?;
-        Ok(Reply::bytes("image/x-exr", bytes)
-            .header("X-Isoview-Generation", r.generation)
-            .header("Content-Disposition", "attachment; filename=\"isoview.exr\""))
+        };
+        reply.map(Outcome::Reply)
     }
 
     /// `POST /api/tev` (body optional: `{"address": "HOST:PORT"}`): sends the full frame to tev.
-    fn tev(&self, body: &[u8]) -> Result<Reply, Reply> {
+    fn tev(&self, body: &[u8]) -> Result<Outcome, Reply> {
         let address = if body.iter().all(u8::is_ascii_whitespace) {
             output::tev::DEFAULT_ADDRESS.to_string()
         } else {
@@ -405,11 +429,18 @@ impl App {
                 }
             }
         };
-        let r = self.full_frame()?;
+        Ok(self.wait_for(Wait::Use(self.latest(), Then::Tev(address))))
+    }
+
+    /// The full frame sent to tev at `address`.
+    fn tev_reply(&self, r: &Rendered, address: &str) -> Reply {
         let name = format!("isoview serve {} #{}", self.scene_name(), r.generation);
-        output::tev::send_frame(&address, &name, &r.frame)
-            .map_err(|e| Reply::error(502, format!("isoview: {e}")))?;
-        Ok(Reply::json(&json!({ "generation": r.generation, "image": name, "address": address })))
+        match output::tev::send_frame(address, &name, &r.frame) {
+            Ok(()) => Reply::json(
+                &json!({ "generation": r.generation, "image": name, "address": address }),
+            ),
+            Err(e) => Reply::error(502, format!("isoview: {e}")),
+        }
     }
 
     /// `GET /api/scene.toml`: the scene file with the state's overrides written in.
@@ -456,6 +487,34 @@ fn newer(b: &Published, have: (u64, Level)) -> Option<Result<Arc<Rendered>, Arc<
 fn failed_reply(f: &Failed) -> Reply {
     Reply::error(if f.gpu { 500 } else { 400 }, format!("isoview: {}", f.message))
         .header("X-Isoview-Generation", f.generation)
+}
+
+/// `GET /api/exr`: the full frame as the EXR `render -o` writes.
+fn exr_reply(r: &Rendered) -> Reply {
+    match output::exr::encode_frame(Path::new("frame.exr"), &r.frame) {
+        Ok(bytes) => Reply::bytes("image/x-exr", bytes)
+            .header("X-Isoview-Generation", r.generation)
+            .header("Content-Disposition", "attachment; filename=\"isoview.exr\""),
+        Err(e) => Reply::error(500, e),
+    }
+}
+
+/// `GET /api/aov`: `channels` of the frame as little-endian f32 planes.
+fn aov_reply(r: &Rendered, channels: &[Channel]) -> Reply {
+    let mut body = Vec::with_capacity(channels.len() * r.frame.pixels.len() * 4);
+    for c in channels {
+        for p in &r.frame.pixels {
+            body.extend_from_slice(&c.get(p).to_le_bytes());
+        }
+    }
+    Reply::bytes("application/octet-stream", body)
+        .header("X-Isoview-Generation", r.generation)
+        .header("X-Isoview-Width", r.frame.width)
+        .header("X-Isoview-Height", r.frame.height)
+        .header(
+            "X-Isoview-Channels",
+            channels.iter().map(|c| c.name()).collect::<Vec<_>>().join(","),
+        )
 }
 
 fn frame_reply(r: &Rendered) -> Reply {

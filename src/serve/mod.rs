@@ -4,7 +4,7 @@
 //!   server (acceptor, WORKERS threads, parked long-polls) ── http (bounded requests)
 //!        │   ── access (Host, token) ── api (routes)
 //!        │ POST /api/state: load + validate like --set, data files confined ──> mailbox
-//!        │ GET /api/frame (parked), /aov, /exr, /tev: wait on the board
+//!        │ GET /api/frame, /aov, /exr, /tev, slice PNGs: parked until the board has them
 //!        ▼
 //!   render thread (progressive): owns the Renderer, the slice renderer and the uploaded grid;
 //!   coarse frame while the page drags, full frame after a pause, stale frames abandoned

@@ -4,7 +4,8 @@
 //!   POST /api/state ──> Mailbox<ViewState> (latest wins) ──┐ Task::Wake
 //!   GET /api/slice  ──> Task::Slice ───────────────────────┴──> render thread ──> Board
 //!                                                                                 │
-//!   GET /api/frame, /aov, /exr, /tev <── wait on the Board for the generation ────┘
+//!   GET /api/frame, /aov, /exr, /tev <── parked on the Board for the generation ──┘
+//!   (a slice's picture goes back on its channel; the board is poked to wake its parked request)
 //! ```
 //!
 //! For each new state: with `preview` (the page is dragging), a coarse frame first: every
@@ -264,6 +265,8 @@ impl RenderThread {
                 let picture = self.slice(&state, &planned);
                 // The requester may have given up waiting; nothing to do then.
                 let _ = reply.send(picture);
+                // The request is parked: the poke makes the parker look at its channel.
+                self.board.poke();
             }
         }
     }

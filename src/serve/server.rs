@@ -1,14 +1,15 @@
 //! The connections: one acceptor thread, a fixed pool of [`WORKERS`] threads that read, route
-//! and answer requests, and one thread that answers the parked long-polls.
+//! and answer requests, and one thread that watches the parked requests.
 //!
 //! ```text
 //!   accept ── over MAX_CONNECTIONS open: 503, closed ──> (nothing queued)
 //!     │
-//!     ▼ Job::Serve                      Job::Answer (a parked request's reply)
+//!     ▼ Job::Serve                      Job::Answer (a parked request and what it found)
 //!   queue ─────────> WORKERS threads <──────────────────────── parker thread
 //!     ▲                │ read the head for one HEAD_TURN              ▲
 //!     └── not yet ─────┤ (bounded; deadline from accept), route       │
-//!                      │ a long-poll with nothing new yet: park ──────┘ (MAX_PARKED; over
+//!                      │ waits for a frame or slice not there yet:    │
+//!                      │ park ────────────────────────────────────────┘ (MAX_PARKED; over
 //!                      ▼                                               it: 503 at once)
 //!                    reply, close
 //! ```
@@ -16,10 +17,12 @@
 //! A connection whose head has not all arrived after a turn goes to the back of the queue,
 //! so connections that send nothing (or a byte at a time) hold a worker one turn each and
 //! never for their whole timeout: a request beside 60 of them is answered at once. A parked
-//! request holds no thread: the parker waits on the board (or the earliest deadline, or its
-//! next look for clients that hung up) and hands each ready reply back to the queue, so a
-//! slow client's socket never stalls the others. Every open connection (queued, being served
-//! or parked) holds one of the [`MAX_CONNECTIONS`] slots, so memory and threads stay bounded
+//! request (a long-poll, or an EXR, channels, tev send or slice picture waiting for its frame
+//! or picture) holds no thread: the parker waits on the board (or the earliest deadline, or
+//! its next look for clients that hung up) and hands each request whose wait is over back to
+//! the queue, where a worker makes its reply and sends it, so neither an EXR's encoding nor a
+//! slow client's socket stalls the others. Every open connection (queued, being served or
+//! parked) holds one of the [`MAX_CONNECTIONS`] slots, so memory and threads stay bounded
 //! whatever clients do.
 
 use std::io::{ErrorKind, Write};
@@ -29,7 +32,7 @@ use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use super::api::{App, Outcome, Wait};
+use super::api::{App, Found, Outcome, Wait};
 use super::http::{self, HeadProgress, HeadReader, Reply};
 use super::progressive::Board;
 
@@ -37,7 +40,8 @@ use super::progressive::Board;
 pub const WORKERS: usize = 8;
 /// Connections open at once (queued, being answered or parked); more are answered 503.
 pub const MAX_CONNECTIONS: usize = 64;
-/// Long-polls parked at once; more are answered 503 with `Retry-After: 1`.
+/// Requests parked at once (long-polls and requests waiting for a frame or a slice); more are
+/// answered 503 with `Retry-After: 1`.
 pub const MAX_PARKED: usize = 32;
 /// How often the parker looks for parked clients that closed their connection (a tab
 /// closed or reloaded), to free their places before their timeout.
@@ -62,15 +66,18 @@ impl Drop for Slot {
 enum Job {
     /// Read a request from the connection and answer it.
     Serve(Conn),
-    /// Send a parked request's reply.
-    Answer(Conn, Reply),
+    /// Make a parked request's reply from what it found (none: its deadline passed) and send
+    /// it.
+    Answer(Parked, Option<Found>),
 }
 
-/// A long-poll waiting for the board.
+/// A request waiting for the board.
 struct Parked {
     conn: Conn,
     wait: Wait,
     deadline: Instant,
+    /// Body bytes announced and not read (drained after the reply, as for any request).
+    unread: u64,
 }
 
 /// The parked requests.
@@ -140,7 +147,13 @@ fn work(queue: &Mutex<Receiver<Job>>, jobs: &SyncSender<Job>, app: &App, parking
             Err(_) => return,
         };
         match job {
-            Job::Answer(conn, reply) => reply.send(conn.stream, 0),
+            Job::Answer(p, found) => {
+                let reply = match found {
+                    Some(found) => app.answer(p.wait, found),
+                    None => p.wait.timed_out(),
+                };
+                reply.send(p.conn.stream, p.unread)
+            }
             Job::Serve(mut conn) => match conn.head.read(&mut conn.stream, http::HEAD_TURN) {
                 Ok(HeadProgress::Done(head)) => {
                     let mut body = http::Body::new(&mut conn.stream, &head);
@@ -148,7 +161,7 @@ fn work(queue: &Mutex<Receiver<Job>>, jobs: &SyncSender<Job>, app: &App, parking
                     let unread = body.unread();
                     match outcome {
                         Outcome::Reply(reply) => reply.send(conn.stream, unread),
-                        Outcome::Park(wait) => park(app, parking, conn, wait),
+                        Outcome::Park(wait) => park(app, parking, conn, wait, unread),
                     }
                 }
                 // To the back of the queue: the connections behind it get their turn. Cannot
@@ -163,27 +176,29 @@ fn work(queue: &Mutex<Receiver<Job>>, jobs: &SyncSender<Job>, app: &App, parking
     }
 }
 
-/// Parks a long-poll, or answers 503 when [`MAX_PARKED`] are parked already.
-fn park(app: &App, parking: &Parking, conn: Conn, wait: Wait) {
+/// Parks a request, or answers 503 when [`MAX_PARKED`] are parked already.
+fn park(app: &App, parking: &Parking, conn: Conn, wait: Wait, unread: u64) {
     let deadline = Instant::now() + wait.timeout();
     {
         let mut parked = parking.lock();
         if parked.len() >= MAX_PARKED {
             drop(parked);
-            Reply::error(503, format!("over {MAX_PARKED} long-polls waiting; ask again"))
+            Reply::error(503, format!("over {MAX_PARKED} requests waiting for frames; ask again"))
                 .header("Retry-After", 1)
-                .send(conn.stream, 0);
+                .send(conn.stream, unread);
             return;
         }
-        parked.push(Parked { conn, wait, deadline });
+        parked.push(Parked { conn, wait, deadline, unread });
     }
-    // The frame may have been pinned between the route's look at the board and now: wake
-    // the parker so that it looks again.
+    // The frame (or slice) may have come between the route's look and now: wake the parker
+    // so that it looks again.
     app.board.poke();
 }
 
-/// The parker: answers each parked request once the board has what it waits for, or its
-/// deadline passed; every [`HANGUP_CHECK`], drops those whose client has gone.
+/// The parker: hands each parked request to a worker once the board has what it waits for,
+/// or its deadline passed; every [`HANGUP_CHECK`], drops those whose client has gone. It only
+/// looks (what a wait finds is a few `Arc`s or a slice already drawn): the replies are made
+/// on the workers ([`Found`]).
 fn answer_parked(board: &Board, parking: &Parking, jobs: &SyncSender<Job>) {
     let mut seen = 0;
     let mut checked = Instant::now();
@@ -201,20 +216,16 @@ fn answer_parked(board: &Board, parking: &Parking, jobs: &SyncSender<Job>) {
                 let mut i = 0;
                 while i < parked.len() {
                     let p = &parked[i];
-                    let reply = match p.wait.pick(b) {
-                        Some(reply) => Some(reply),
-                        None if p.deadline <= now => Some(p.wait.timed_out()),
-                        None => None,
-                    };
-                    match reply {
-                        Some(reply) => ready.push((parked.swap_remove(i).conn, reply)),
+                    match p.wait.pick(b) {
+                        Some(found) => ready.push((parked.swap_remove(i), Some(found))),
+                        None if p.deadline <= now => ready.push((parked.swap_remove(i), None)),
                         None => i += 1,
                     }
                 }
             });
-            for (conn, reply) in ready {
+            for (p, found) in ready {
                 // Cannot fail (see `run`); if it did, the connection would close unanswered.
-                let _ = jobs.try_send(Job::Answer(conn, reply));
+                let _ = jobs.try_send(Job::Answer(p, found));
             }
             let earliest = parked.iter().map(|p| p.deadline).min();
             let next_check = (!parked.is_empty()).then_some(checked + HANGUP_CHECK);

@@ -19,7 +19,7 @@ use crate::field::samples::{Endian, SampleType};
 use crate::field::FieldError;
 
 pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
-    let file = crate::field::open_data(err.path).map_err(|e| err.io(&e))?;
+    let file = err.access.open(err.path).map_err(|e| err.io(&e))?;
     let mut r = BufReader::new(file).take(MAX_HEADER_BYTES);
     let mut fields: Vec<(usize, String, String)> = Vec::new();
     let mut offset = 0u64;
@@ -144,7 +144,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     };
     let values = if compressed {
         let at = err.at(&path);
-        let mut f = crate::field::open_data(&path).map_err(|e| at.io(&e))?;
+        let mut f = at.access.open(&path).map_err(|e| at.io(&e))?;
         let Start::At(h) = start else { unreachable!("FromEnd is refused when compressed") };
         std::io::Seek::seek(&mut f, std::io::SeekFrom::Start(base + h)).map_err(|e| at.io(&e))?;
         payload::compressed(&at, BufReader::new(f), Encoding::Zlib, 0, ty, endian, dims)?

@@ -218,7 +218,7 @@ pub(crate) fn usable_step(s: f64) -> bool {
 
 /// Reads `path` as `format`.
 pub fn read(path: &Path, format: Format, opts: &ReadOptions) -> Result<Volume, FieldError> {
-    let err = Located { path, format };
+    let err = Located { path, format, access: &opts.access };
     let v = match format {
         Format::Nrrd => nrrd::read(&err, opts)?,
         Format::Nifti => nifti::read(&err, opts)?,
@@ -268,7 +268,7 @@ const PEEK_BYTES: u64 = 64 << 10;
 /// header over the cap is refused without reading gigabytes first.
 pub(crate) fn peek(err: &Located) -> Result<Vec<u8>, FieldError> {
     use std::io::Read;
-    let file = crate::field::open_data(err.path).map_err(|e| err.io(&e))?;
+    let file = err.access.open(err.path).map_err(|e| err.io(&e))?;
     let mut head = Vec::new();
     file.take(PEEK_BYTES).read_to_end(&mut head).map_err(|e| err.io(&e))?;
     Ok(head)
@@ -278,6 +278,8 @@ pub(crate) fn peek(err: &Located) -> Result<Vec<u8>, FieldError> {
 pub(crate) struct Located<'a> {
     pub path: &'a Path,
     pub format: Format,
+    /// How the files it names are opened ([`DataAccess::open`]).
+    pub access: &'a DataAccess,
 }
 
 impl Located<'_> {
@@ -330,8 +332,8 @@ impl Located<'_> {
     }
 
     /// The same error about another file (a detached header's data file).
-    pub fn at<'b>(&self, path: &'b Path) -> Located<'b> {
-        Located { path, format: self.format }
+    pub fn at<'b>(&'b self, path: &'b Path) -> Located<'b> {
+        Located { path, format: self.format, access: self.access }
     }
 }
 

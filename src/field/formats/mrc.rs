@@ -23,7 +23,7 @@ use crate::field::FieldError;
 const HEADER: u64 = 1024;
 
 pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
-    let mut file = crate::field::open_data(err.path).map_err(|e| err.io(&e))?;
+    let mut file = err.access.open(err.path).map_err(|e| err.io(&e))?;
     let len = file.metadata().map_err(|e| err.io(&e))?.len();
     if len < HEADER {
         return Err(err.bad(format!("the file has {len} bytes, less than the 1024-byte header")));

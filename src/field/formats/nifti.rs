@@ -25,7 +25,7 @@ use crate::field::FieldError;
 const HEADER: usize = 348;
 
 pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
-    let file = crate::field::open_data(err.path).map_err(|e| err.io(&e))?;
+    let file = err.access.open(err.path).map_err(|e| err.io(&e))?;
     let gz = err.path.to_string_lossy().to_ascii_lowercase().ends_with(".gz");
     let mut reader: Box<dyn Read> = if gz {
         Box::new(MultiGzDecoder::new(BufReader::new(file)))

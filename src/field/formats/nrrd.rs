@@ -19,7 +19,7 @@ use crate::field::FieldError;
 
 /// Reads an NRRD file (attached or detached data).
 pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
-    let file = crate::field::open_data(err.path).map_err(|e| err.io(&e))?;
+    let file = err.access.open(err.path).map_err(|e| err.io(&e))?;
     let (head, data_offset) = text::header_until_blank_line(err, file, true)?;
     let h = Header::parse(err, &head)?;
     let dims = payload::grid(err, h.sizes, &opts.limits)?;
@@ -44,7 +44,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     };
     let values = if compressed_from > 0 {
         let at = err.at(&data_path);
-        let mut f = crate::field::open_data(&data_path).map_err(|e| at.io(&e))?;
+        let mut f = at.access.open(&data_path).map_err(|e| at.io(&e))?;
         std::io::Seek::seek(&mut f, std::io::SeekFrom::Start(compressed_from))
             .map_err(|e| at.io(&e))?;
         let Start::At(skip) = start else { unreachable!("FromEnd is refused unless raw") };
@@ -370,7 +370,7 @@ fn skip_lines(err: &Located, path: &Path, from: u64, lines: u64) -> Result<u64, 
         return Ok(from);
     }
     let at = err.at(path);
-    let mut f = crate::field::open_data(path).map_err(|e| at.io(&e))?;
+    let mut f = at.access.open(path).map_err(|e| at.io(&e))?;
     std::io::Seek::seek(&mut f, std::io::SeekFrom::Start(from)).map_err(|e| at.io(&e))?;
     let mut r = BufReader::new(f);
     let mut pos = from;

@@ -54,7 +54,7 @@ pub fn from_file(
     dims: [usize; 3],
 ) -> Result<Vec<f32>, FieldError> {
     let at = err.at(path);
-    let mut file = crate::field::open_data(path).map_err(|e| match path == err.path {
+    let mut file = err.access.open(path).map_err(|e| match path == err.path {
         true => at.io(&e),
         // A detached header's data file: name the header too.
         false => err.bad(format!("data file {}", FieldError::io(path, &e))),

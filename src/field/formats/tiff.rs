@@ -21,7 +21,7 @@ pub const MAX_PAGES_COUNTED: u64 = 1 << 16;
 const MORE_PAGES: &str = "; the stack has more pages than that (isoview stopped counting them)";
 
 pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
-    let file = crate::field::open_data(err.path).map_err(|e| err.io(&e))?;
+    let file = err.access.open(err.path).map_err(|e| err.io(&e))?;
     let tiff_err = |e: tiff::TiffError| err.bad(crate::field::error::one_line(&e.to_string()));
     let mut limits = Limits::default();
     limits.decoding_buffer_size = opts.limits.max_bytes as usize;

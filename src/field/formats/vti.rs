@@ -28,7 +28,8 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         err.limits_check(&opts.limits, dims)?;
     }
     let mut bytes = Vec::new();
-    crate::field::open_data(err.path)
+    err.access
+        .open(err.path)
         .and_then(|mut f| std::io::Read::read_to_end(&mut f, &mut bytes))
         .map_err(|e| err.io(&e))?;
     // Raw appended data is binary: parse the XML before it, and find the data after its `_`.

@@ -14,7 +14,7 @@ use crate::field::samples::{Endian, SampleType};
 use crate::field::FieldError;
 
 pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
-    let file = crate::field::open_data(err.path).map_err(|e| err.io(&e))?;
+    let file = err.access.open(err.path).map_err(|e| err.io(&e))?;
     let len = file.metadata().map_err(|e| err.io(&e))?.len();
     let mut r = Cursor { bytes: Vec::new(), at: 0, line: 0 };
     // The whole file: the header is text lines, and its size is bounded by the cap below

@@ -28,7 +28,7 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
         2,
         MAX_RESOLUTION,
     )? as usize;
-    let mesh = MeshSource::open(&path, &named).map_err(|e| p.data_error("path", e))?;
+    let mesh = MeshSource::open(&path, &named, p.access()).map_err(|e| p.data_error("path", e))?;
     let (lo, hi) = mesh.mesh.bounds();
     let (dims, bounds) = mesh_sdf::grid_for(lo, hi, n);
     p.limits()

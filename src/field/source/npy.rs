@@ -16,7 +16,7 @@ pub(super) const INFO: Info = Info {
 
 pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
     let path = params::data_path(p)?;
-    let npy = NpySource::open(&path, p.limits())
+    let npy = NpySource::open(&path, p.limits(), p.access())
         .map_err(|e| p.data_error("path", crate::field::limits::with_residency_hint(e)))?;
     let resolution = npy.dims;
     Ok(Parsed { source: FieldSource::Npy(npy), resolution, bounds: None, placement: None })

@@ -21,7 +21,7 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
         p.choice("dtype", Need::Required("\"u8\", \"u16\", \"i16\", \"f32\" or \"f64\""), &types)?;
     let endians = [("little", Endian::Little), ("big", Endian::Big)];
     let endian = p.choice("endian", Need::Or(Endian::Little), &endians)?;
-    let raw = RawSource { path, dims, dtype, endian };
+    let raw = RawSource { path, dims, dtype, endian, access: p.access().clone() };
     raw.check(p.limits()).map_err(|e| match e {
         FieldError::Io { .. } => p.data_error("path", e),
         // Too large, truncated or too long: the dims are the likeliest mistake.

@@ -409,6 +409,12 @@ async function updateSlice() {
   const q = `/api/slice?axis=${$('slice-axis').value}&at=${$('slice-at').value}`;
   const [png, cells, svg] = await Promise.all([api(q + '&format=png'), api(q + '&format=cells'), api(q + '&format=svg')]);
   if (mine !== sliceToken) return;
+  if (png.status === 503) {
+    // Too many requests wait for pictures (a fast drag): ask again in a moment, if still wanted.
+    await new Promise((ok) => setTimeout(ok, Number(png.headers.get('Retry-After') || 1) * 1000));
+    if (mine === sliceToken) updateSlice();
+    return;
+  }
   if (!png.ok) { $('slice-info').textContent = await errorText(png); return; }
   const url = URL.createObjectURL(await png.blob());
   const img = $('slice-img');

@@ -10,7 +10,9 @@ use std::sync::Arc;
 use glam::DVec3;
 use isoview::cluster::{Extracted, Points, Ranks};
 use isoview::field::mapped::MappedGrid;
-use isoview::field::{Endian, FieldSource, FieldSpec, Grid, RawSource, Residency, SampleType};
+use isoview::field::{
+    DataAccess, Endian, FieldSource, FieldSpec, Grid, RawSource, Residency, SampleType,
+};
 use isoview::mesh::MeshAlgorithm;
 use isoview::mesh::{self, ExtractOptions, Mesh, MeshBudget, MeshLimits};
 use isoview::render::{Collect, GpuGrid, Renderer};
@@ -167,6 +169,7 @@ fn raw_spec(path: &Path, grid: &Grid) -> FieldSpec {
             dims: grid.dims,
             dtype: SampleType::F32,
             endian: Endian::Little,
+            access: DataAccess::Any,
         }),
         resolution: grid.dims,
         bounds: Bounds { min: grid.min, max: grid.max },

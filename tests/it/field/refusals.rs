@@ -478,3 +478,54 @@ fn nrrd_ascii_data_streams_across_blocks() {
     std::fs::write(&p, format!("{head}{body} 1")).unwrap();
     assert!(refusal(&p, &opts()).contains("holds more than the 64000 values"));
 }
+
+/// `serve` judges a page's data path when the state is loaded (links resolved) and reads a raw
+/// or npy grid when it is sampled, later and again: a folder on the admitted path swapped for
+/// a link out in between (by anyone who can write in an allowed folder) led the read out of
+/// the allowed folders. The file opened is judged again by its own path; the command line
+/// (any file) still follows the link.
+#[test]
+fn a_folder_swapped_for_a_link_after_the_check_is_not_read() {
+    let dir = scratch("rel-swap-after-admit");
+    for sub in ["scene/sub", "outside"] {
+        std::fs::create_dir_all(dir.join(sub)).unwrap();
+    }
+    std::fs::write(dir.join("scene/sub/v.raw"), [0u8, 10, 20, 30, 40, 50, 60, 70]).unwrap();
+    std::fs::write(dir.join("outside/v.raw"), b"SECRET!!").unwrap();
+    let mut npy = b"\x93NUMPY\x01\x00".to_vec();
+    let dict = "{'descr': '|u1', 'fortran_order': False, 'shape': (2, 2, 2), }";
+    let header = format!("{dict:<117}\n");
+    npy.extend((header.len() as u16).to_le_bytes());
+    npy.extend(header.as_bytes());
+    std::fs::write(dir.join("scene/sub/v.npy"), [&npy[..], &[1u8; 8]].concat()).unwrap();
+    std::fs::write(dir.join("outside/v.npy"), [&npy[..], b"SECRET!!"].concat()).unwrap();
+    let scene_path = dir.join("scene/s.toml");
+    let raw = "[field]\nsource = \"raw\"\npath = \"sub/v.raw\"\ndims = [2, 2, 2]\ndtype = \"u8\"\n";
+    let npy = "[field]\nsource = \"npy\"\npath = \"sub/v.npy\"\n";
+    let access = DataAccess::within([dir.join("scene")]).unwrap();
+    let mut loaded = Vec::new();
+    for (text, residency) in [(raw, "whole"), (raw, "active"), (npy, "whole"), (npy, "active")] {
+        let what = format!("{} {residency}", if text == raw { "raw" } else { "npy" });
+        std::fs::write(&scene_path, format!("{text}residency = \"{residency}\"\n")).unwrap();
+        let confined = scene::load_confined(&scene_path, &[], &access).unwrap();
+        let anywhere = scene::load_confined(&scene_path, &[], &DataAccess::Any).unwrap();
+        assert!(confined.field.sample(0.0).is_ok(), "{what}: read before the swap");
+        loaded.push((what, residency, confined, anywhere));
+    }
+    std::fs::rename(dir.join("scene/sub"), dir.join("scene/old")).unwrap();
+    std::os::unix::fs::symlink(dir.join("outside"), dir.join("scene/sub")).unwrap();
+    for (what, residency, confined, anywhere) in &loaded {
+        let e = match confined.field.sample(0.0) {
+            Ok(g) => panic!("{what}: read outside after the swap: {:?}", g.values),
+            Err(e) => e.to_string(),
+        };
+        assert!(e.contains("outside the folders isoview serve may read"), "{what}: {e}");
+        assert!(e.contains("replaced by a link") && !e.contains("SECRET"), "{what}: {e}");
+        if *residency == "active" {
+            let opened = MappedGrid::open(&confined.field).map(|g| g.is_some());
+            assert!(opened.is_err(), "{what}: mapped outside after the swap");
+        }
+        let read = anywhere.field.sample(0.0).unwrap();
+        assert_eq!(read.values[0], b'S' as f32, "{what}: the command line follows the link");
+    }
+}

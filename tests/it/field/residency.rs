@@ -8,7 +8,8 @@ use std::path::Path;
 use glam::DVec3;
 use isoview::field::mapped::MappedGrid;
 use isoview::field::{
-    Endian, FieldSource, FieldSpec, Grid, GridLimits, NpySource, RawSource, Residency, SampleType,
+    DataAccess, Endian, FieldSource, FieldSpec, Grid, GridLimits, NpySource, RawSource, Residency,
+    SampleType,
 };
 use isoview::frame::Pixel;
 use isoview::render::pool;
@@ -32,6 +33,7 @@ fn raw_spec(path: &Path, grid: &Grid, residency: Residency) -> FieldSpec {
             dims: grid.dims,
             dtype: SampleType::F32,
             endian: Endian::Little,
+            access: DataAccess::Any,
         }),
         resolution: grid.dims,
         bounds: Bounds { min: grid.min, max: grid.max },
@@ -162,7 +164,7 @@ fn mapped_reads_equal_the_in_memory_readers() {
     }
     let path = dir.join("c.npy");
     std::fs::write(&path, npy).unwrap();
-    let source = NpySource::open(&path, &GridLimits::default()).unwrap();
+    let source = NpySource::open(&path, &GridLimits::default(), &DataAccess::Any).unwrap();
     let whole = source.read(&GridLimits::default()).unwrap();
     let spec = FieldSpec {
         source: FieldSource::Npy(source),

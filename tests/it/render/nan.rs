@@ -611,7 +611,9 @@ fn colour_by_a_field2_with_missing_samples_keeps_a_finite_range() {
 #[gpu_test]
 fn brick_pool_renders_equal_whole_grid_renders_with_missing_samples() {
     use isoview::field::SampleType;
-    use isoview::field::{Endian, FieldSource, FieldSpec, GridLimits, RawSource, Residency};
+    use isoview::field::{
+        DataAccess, Endian, FieldSource, FieldSpec, GridLimits, RawSource, Residency,
+    };
     use isoview::render::{pool, Collect};
     use isoview::vocab::{Bounds, Placement};
     let ctx = gpu();
@@ -650,6 +652,7 @@ fn brick_pool_renders_equal_whole_grid_renders_with_missing_samples() {
                 dims: grid.dims,
                 dtype: SampleType::F32,
                 endian: Endian::Little,
+                access: DataAccess::Any,
             }),
             resolution: grid.dims,
             bounds: Bounds { min: grid.min, max: grid.max },

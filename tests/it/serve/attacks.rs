@@ -793,3 +793,72 @@ fn an_unknown_api_route_is_404_and_a_wrong_method_405() {
         assert!(body.contains("not supported"), "{line}: {body}");
     }
 }
+
+/// Requests that need the full frame (`/api/exr`, `/api/aov`, a slice picture) wait for it
+/// without holding a worker: with more of them waiting on a slow frame than there are
+/// workers, the page's other requests are still answered at once. Each used to hold one of
+/// the 8 workers until the frame was drawn, so `/api/state` waited for the frame too.
+#[gpu_test]
+fn frame_waits_leave_the_workers_free() {
+    // A first frame of some seconds (384x384, 2,000 fixed steps: 4.5 s at the command line
+    // on lavapipe); the server prints its URL before drawing it.
+    let (w, h) = (384, 384);
+    let server = Server::start(
+        &scene("cell-tunnel.toml"),
+        &[
+            "--set",
+            &format!("image.width={w}"),
+            "--set",
+            &format!("image.height={h}"),
+            "--set",
+            "render.method=fixed-step",
+            "--set",
+            "render.steps=2000",
+        ],
+    );
+    let waits = ["/api/exr"; 6]
+        .into_iter()
+        .chain(["/api/aov?ch=Z,N.X"; 4])
+        .chain(["/api/slice?axis=z&at=0.5&format=png"; 2]);
+    std::thread::scope(|scope| {
+        let waiting: Vec<_> = waits
+            .map(|path| {
+                let s = &server;
+                scope.spawn(move || {
+                    let a = s.get(path);
+                    (path, a, Instant::now())
+                })
+            })
+            .collect();
+        // Let the server take them all up: 12 requests, more than its 8 workers. (The frame
+        // takes seconds: 8 s on 2 cores, in bands, beside these requests.)
+        std::thread::sleep(Duration::from_millis(200));
+        let state = server.get("/api/state");
+        let state_at = Instant::now();
+        assert_eq!(state.status, 200, "{}", state.text());
+        let answers: Vec<_> = waiting.into_iter().map(|t| t.join().unwrap()).collect();
+        let first = answers.iter().map(|(_, _, at)| *at).min().unwrap();
+        let frame = server.get("/api/frame");
+        assert!(
+            state_at < first,
+            "/api/state was answered {:?} after the first of the requests waiting for the frame \
+             (drawn in {} ms)",
+            state_at - first,
+            frame.header("x-isoview-render-ms")
+        );
+        // Every waiting request gets the frame once it is drawn: the same EXR as asked now.
+        let exr = server.get("/api/exr");
+        assert_eq!(exr.status, 200, "{}", exr.text());
+        for (path, a, _) in &answers {
+            assert_eq!(a.status, 200, "{path}: {}", a.text());
+            if path.starts_with("/api/exr") {
+                assert_eq!(a.body, exr.body, "{path}: another EXR than the frame's");
+            } else if path.starts_with("/api/aov") {
+                assert_eq!(a.header("x-isoview-channels"), "Z,N.X");
+                assert_eq!(a.body.len(), 2 * w * h * 4, "{path}");
+            } else {
+                assert_eq!(a.header("content-type"), "image/png", "{path}");
+            }
+        }
+    });
+}

@@ -458,7 +458,14 @@ mod tests {
                         hits += 1;
                         assert_eq!(m.steps, tri.steps, "{}", interp.name());
                         assert!((a.t - b.t).abs() <= tol, "{}: {} vs {}", interp.name(), a.t, b.t);
-                        assert!((a.normal - b.normal).length() < 1e-9, "{}: {} vs {} at {}", interp.name(), a.normal, b.normal, a.grid_coords);
+                        assert!(
+                            (a.normal - b.normal).length() < 1e-9,
+                            "{}: {} vs {} at {}",
+                            interp.name(),
+                            a.normal,
+                            b.normal,
+                            a.grid_coords
+                        );
                     }
                     (Some(h), None) | (None, Some(h)) if interior(&h) => {
                         panic!("{}: a hit at {} on one side only", interp.name(), h.grid_coords)

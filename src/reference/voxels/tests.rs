@@ -357,3 +357,59 @@ fn the_detailed_trace_lists_the_voxels_walked() {
     assert!(visits.windows(2).all(|w| w[0].t_out == w[1].t_in));
     assert_eq!(r.voxels_total, 5);
 }
+
+fn scene(extra: &str) -> Scene {
+    let text = format!(
+        "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 0.6\nresolution = [5, 5, 5]\n\
+         [image]\nwidth = 32\nheight = 32\n\
+         [camera]\neye = [2.0, 2.2, -3.0]\ntarget = [2.0, 2.0, 2.0]\n[render]\n{extra}"
+    );
+    crate::scene::from_str(&text, "test", std::path::Path::new("."), &[]).expect("scene")
+}
+
+/// One inside voxel at (2, 2, 2) in a grid of 5³ points on `[0, 4]³`.
+fn one_voxel() -> Grid {
+    let values = (0..125).map(|n| if n == 62 { -1.0 } else { 1.0 }).collect();
+    Grid { dims: [5, 5, 5], min: DVec3::ZERO, max: DVec3::splat(4.0), values }
+}
+
+/// `cells` shades voxels: a face is bright in its middle and dark only near the voxel's
+/// edges, not along its own axis (every hit is on a voxel wall there), and the checker is
+/// over the voxels' points.
+#[test]
+fn cells_shading_is_per_voxel() {
+    use crate::reference::shade::Shader;
+    let s = scene("shading = \"cells\"\n");
+    let g = one_voxel();
+    let voxels = Shader::for_interpolant(&s, &g, Interpolant::Nearest);
+    let cells = Shader::for_interpolant(&s, &g, Interpolant::Trilinear);
+    let hit = |u: DVec3, cell: [usize; 3]| RayHit {
+        t: 1.0,
+        position: u,
+        normal: -DVec3::Z,
+        grid_coords: u,
+        cell,
+        surface: 0,
+    };
+    let centre = hit(DVec3::new(2.0, 2.1, 1.5), [2, 2, 2]);
+    let (v, c) = (voxels.shade(&centre, DVec3::Z, 1.0), cells.shade(&centre, DVec3::Z, 1.0));
+    assert!((v - 4.0 * c).length() < 1e-12, "a voxel face's middle is not a cell border");
+    let edge = voxels.shade(&hit(DVec3::new(2.49, 2.1, 1.5), [2, 2, 2]), DVec3::Z, 1.0);
+    assert!((edge - 0.25 * v).length() < 1e-12, "near the voxel's x edge");
+    let odd = voxels.shade(&hit(DVec3::new(2.0, 2.1, 2.5), [2, 2, 3]), DVec3::Z, 1.0);
+    assert!((odd - 0.6 * v).length() < 1e-12, "the checker");
+}
+
+/// The render: every hit on the one voxel's near face, its normal the face's even with
+/// `normals = "smooth"` (the point gradients approximate trilinear's surface, not the voxels').
+#[test]
+fn a_render_keeps_the_face_normals() {
+    let g = one_voxel();
+    let pixels = render(&scene("normals = \"smooth\"\n"), &g);
+    let hits: Vec<_> = pixels.iter().filter(|p| p.is_hit()).collect();
+    assert!(hits.len() > 20, "{}", hits.len());
+    for p in hits {
+        assert_eq!((p.normal, p.cell), ([0.0, 0.0, -1.0], [2, 2, 2]));
+        assert!((p.position[2] - 1.5).abs() < 1e-6);
+    }
+}

@@ -8,3 +8,4 @@ pub mod fixed_step;
 pub mod mesh;
 pub mod shade;
 pub mod trilinear;
+pub mod voxels;

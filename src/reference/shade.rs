@@ -4,6 +4,7 @@
 use glam::DVec3;
 
 use crate::camera::Camera;
+use crate::field::interpolant::Interpolant;
 use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::reference::field::smooth_gradient_at;
@@ -64,10 +65,19 @@ pub struct Shader {
     far: f64,
     steps_scale: f64,
     colormap: Vec<[f32; 4]>,
+    /// `nearest`: `cells` shades voxels, not cells (see [`Shader::shade`]).
+    voxels: bool,
 }
 
 impl Shader {
+    /// The shader of a trilinear render (every scene's interpolant until the
+    /// `[field] interpolation` key exists).
     pub fn new(scene: &Scene, grid: &Grid) -> Self {
+        Self::for_interpolant(scene, grid, Interpolant::Trilinear)
+    }
+
+    /// The shader of a render of the field read with `interp`.
+    pub fn for_interpolant(scene: &Scene, grid: &Grid, interp: Interpolant) -> Self {
         let (near, far) = depth_range(Camera::for_scene(scene).eye, grid);
         let colors = (0..scene.surface.count)
             .map(|k| DVec3::from(scene.surface.color(k, scene.render.color).map(f64::from)))
@@ -80,10 +90,17 @@ impl Shader {
             far,
             steps_scale: steps_scale(scene, grid),
             colormap: colormap(),
+            voxels: interp == Interpolant::Nearest,
         }
     }
 
     /// Colour of a hit seen along unit direction `dir` after visiting `steps` samples or cells.
+    ///
+    /// `cells` is a checker of the hit's cell, darkened near the cell's borders. For
+    /// `nearest` the cell is the inside voxel (`hit.cell`, the point at its centre): the
+    /// checker is over voxels, the local coordinates are `u + ½ - cell`, and the face's own
+    /// axis (the normal's) is left out of the border test, since every hit lies on a voxel
+    /// wall along it.
     pub fn shade(&self, hit: &RayHit, dir: DVec3, steps: f64) -> DVec3 {
         let lambert = AMBIENT + (1.0 - AMBIENT) * hit.normal.dot(dir).abs();
         let color = self.colors[hit.surface];
@@ -99,8 +116,14 @@ impl Shader {
             }
             Shading::Cells => {
                 let c = hit.cell;
-                let f = hit.grid_coords - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
-                let edge = f.min(DVec3::ONE - f);
+                let mut f = hit.grid_coords - DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+                if self.voxels {
+                    f += 0.5;
+                }
+                let mut edge = f.min(DVec3::ONE - f);
+                if self.voxels {
+                    edge[hit.normal.abs().max_position()] = f64::INFINITY;
+                }
                 let mut tone = if (c[0] + c[1] + c[2]) % 2 == 0 { 1.0 } else { 0.6 };
                 if edge.min_element() < CELL_BORDER {
                     tone *= 0.25;
@@ -162,19 +185,42 @@ pub fn scene_normal(scene: &Scene, grid: &Grid, mut hit: RayHit) -> RayHit {
     hit
 }
 
+/// Whether `render.normals = "smooth"` replaces `interp`'s normals: the point gradients
+/// approximate the trilinear interpolant's (and the device's filter of it); the cubic ones have
+/// their exact gradients and `nearest` its faces (the scene refuses "smooth" with those).
+fn smoothed(interp: Interpolant) -> bool {
+    match interp {
+        Interpolant::Trilinear | Interpolant::Device => true,
+        Interpolant::CubicBspline | Interpolant::CatmullRom | Interpolant::Nearest => false,
+    }
+}
+
 /// Renders every pixel with `trace(origin, dir) -> (hit, steps, crossings)`.
-pub fn render_with<F>(scene: &Scene, grid: &Grid, mut trace: F) -> Vec<Pixel>
+pub fn render_with<F>(scene: &Scene, grid: &Grid, trace: F) -> Vec<Pixel>
+where
+    F: FnMut(DVec3, DVec3) -> (Option<RayHit>, u32, i32),
+{
+    render_with_interp(scene, grid, Interpolant::Trilinear, trace)
+}
+
+/// [`render_with`] for a field read with `interp`.
+pub fn render_with_interp<F>(
+    scene: &Scene,
+    grid: &Grid,
+    interp: Interpolant,
+    mut trace: F,
+) -> Vec<Pixel>
 where
     F: FnMut(DVec3, DVec3) -> (Option<RayHit>, u32, i32),
 {
     let cam = Camera::for_scene(scene);
-    let shader = Shader::new(scene, grid);
+    let shader = Shader::for_interpolant(scene, grid, interp);
     let mut out = Vec::with_capacity((scene.image.width * scene.image.height) as usize);
     for py in 0..scene.image.height {
         for px in 0..scene.image.width {
             let (origin, dir) = cam.ray(px, py);
             let (hit, steps, crossings) = trace(origin, dir);
-            let hit = hit.map(|h| scene_normal(scene, grid, h));
+            let hit = hit.map(|h| if smoothed(interp) { scene_normal(scene, grid, h) } else { h });
             let mut pixel =
                 shader.pixel(hit.as_ref(), dir, steps, crossings, scene.render.background);
             pixel.place(&scene.field.placement);

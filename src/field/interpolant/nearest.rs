@@ -11,6 +11,7 @@
 use glam::DVec3;
 
 use super::{cell_missing, finite_range, is_missing, Kernel, Stencil, Trilinear};
+use crate::field::Grid;
 
 /// The nearest-point interpolant as a [`Kernel`] on the 8 corners (corner order as
 /// [`Trilinear`]'s).
@@ -20,6 +21,13 @@ pub struct Nearest;
 #[inline]
 pub fn corner(q: DVec3) -> usize {
     usize::from(q.x >= 0.5) + 2 * usize::from(q.y >= 0.5) + 4 * usize::from(q.z >= 0.5)
+}
+
+/// The point whose voxel holds grid coordinates `u` (in the box): the corner [`Nearest::value`]
+/// reads in the cell [`Grid::cell_of`] picks, so the last plane belongs to the last point.
+pub fn voxel_of(grid: &Grid, u: DVec3) -> [usize; 3] {
+    let c = grid.cell_of(u);
+    std::array::from_fn(|a| c[a] + usize::from(u[a] - c[a] as f64 >= 0.5))
 }
 
 impl Kernel for Nearest {
@@ -65,7 +73,6 @@ impl Kernel for Nearest {
 mod tests {
     use super::*;
     use crate::field::interpolant::{Interpolant, Interpolated};
-    use crate::field::Grid;
 
     #[test]
     fn the_nearest_corner_rounds_half_up() {
@@ -110,6 +117,7 @@ mod tests {
                     for d in [-0.5, -0.25, 0.0, 0.25, 0.4999] {
                         let u = (p + DVec3::splat(d)).clamp(DVec3::ZERO, last);
                         assert_eq!(f.value_at(u), want, "point {p} at {u}");
+                        assert_eq!(voxel_of(&grid, u), [i, j, k], "voxel at {u}");
                     }
                     if (p + 0.5).cmple(last).all() {
                         assert_ne!(f.value_at(p + 0.5), want, "half up leaves {p}");

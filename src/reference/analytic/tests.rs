@@ -142,6 +142,16 @@ fn brute(
     Some(((lo, hi), roots))
 }
 
+/// A trilinear visit's cubic.
+fn monomial(v: &CellVisit) -> [f64; 4] {
+    v.coefficients.monomial().expect("a trilinear visit has a monomial cubic")
+}
+
+/// A trilinear visit's 8 corners.
+fn corners(v: &CellVisit) -> [f64; 8] {
+    v.samples[..].try_into().expect("a trilinear visit has 8 corners")
+}
+
 /// The `t` of every counted crossing, from the detailed trace.
 fn crossing_ts(visits: &[CellVisit]) -> Vec<f64> {
     visits.iter().flat_map(|v| v.roots.iter()).filter(|r| r.crossing > 0).map(|r| r.t).collect()
@@ -166,7 +176,7 @@ fn check_trace(res: &AnalyticHit, visits: &[CellVisit], label: &str) {
             assert!(q.min_element() >= 0.0 && q.max_element() <= 1.0, "{label}: {q}");
         }
         let g0 = v.splits[0].g;
-        assert_eq!(v.coefficients[0], g0, "{label}");
+        assert_eq!(v.coefficients.coefficients()[0], g0, "{label}");
         for r in &v.roots {
             assert!(r.bracket.0 <= r.u && r.u <= r.bracket.1, "{label}: root left its bracket");
             assert!(v.t_in <= r.t && r.t <= v.t_out, "{label}: root left its segment");
@@ -339,8 +349,8 @@ fn default_newton_steps_are_converged_on_simple_roots() {
             let (_, visits) = trace_detailed(&grid, iso, Inside::Below, origin, dir, &opts(10));
             let (_, exact) = trace_detailed(&grid, iso, Inside::Below, origin, dir, &opts(200));
             for (v, w) in visits.iter().zip(&exact) {
-                let cubic = Cubic { c: v.coefficients };
-                let scale = v.coefficients.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+                let cubic = Cubic { c: monomial(v) };
+                let scale = monomial(v).iter().fold(0.0f64, |m, c| m.max(c.abs()));
                 for (r, s) in v.roots.iter().zip(&w.roots) {
                     let (_, slope) = cubic.eval_with_derivative(s.u);
                     if slope.abs() > 1e-2 * scale {
@@ -913,9 +923,9 @@ fn face_values_agree_between_independent_cells() {
         let dir = (grid.max - (grid.max - grid.min) * rng.vec(0.0, 0.8) - origin).normalize();
         let (_, visits) = trace_detailed(&grid, 0.1, Inside::Below, origin, dir, &opts(10));
         for w in visits.windows(2) {
-            let own = trilerp(&w[1].corners, w[1].q_in) - 0.1;
+            let own = trilerp(&corners(&w[1]), w[1].q_in) - 0.1;
             assert_eq!(own.to_bits(), w[1].splits[0].g.to_bits());
-            let prev = trilerp(&w[0].corners, w[0].q_out) - 0.1;
+            let prev = trilerp(&corners(&w[0]), w[0].q_out) - 0.1;
             assert_eq!(prev.to_bits(), own.to_bits());
         }
     }
@@ -930,10 +940,10 @@ fn coefficients_follow_the_field_along_each_segment() {
         let dir = (grid.max - origin).normalize();
         let (_, visits) = trace_detailed(&grid, -0.2, Inside::Above, origin, dir, &opts(10));
         for v in &visits {
-            let cubic = Cubic { c: v.coefficients };
+            let cubic = Cubic { c: monomial(v) };
             for i in 0..=8 {
                 let u = i as f64 / 8.0;
-                let f = trilerp(&v.corners, lerp3(v.q_in, v.q_out, u)) + 0.2;
+                let f = trilerp(&corners(v), lerp3(v.q_in, v.q_out, u)) + 0.2;
                 assert!((cubic.eval(u) - f).abs() < 1e-13, "{} vs {f}", cubic.eval(u));
             }
             for s in &v.splits[1..v.splits.len() - 1] {

@@ -376,9 +376,15 @@ pub fn trace_interpolated(
 ) -> AnalyticHit {
     let grid = field.grid;
     match field.interp {
-        Interpolant::Trilinear => walk::<Trilinear>(grid, isovalue, inside, origin, dir, opts, None),
-        Interpolant::CubicBspline => walk::<BSpline>(grid, isovalue, inside, origin, dir, opts, None),
-        Interpolant::CatmullRom => walk::<CatmullRom>(grid, isovalue, inside, origin, dir, opts, None),
+        Interpolant::Trilinear => {
+            walk::<Trilinear>(grid, isovalue, inside, origin, dir, opts, None)
+        }
+        Interpolant::CubicBspline => {
+            walk::<BSpline>(grid, isovalue, inside, origin, dir, opts, None)
+        }
+        Interpolant::CatmullRom => {
+            walk::<CatmullRom>(grid, isovalue, inside, origin, dir, opts, None)
+        }
         other => not_traced_here(other),
     }
 }

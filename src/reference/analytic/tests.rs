@@ -1094,3 +1094,5 @@ fn trilinear_traces_keep_their_bits() {
     }
     assert_eq!(hash, 11_387_521_989_531_088_764, "trilinear trace fingerprint");
 }
+
+mod tricubic;

@@ -153,6 +153,17 @@
 //!   grid edges and corners with exactly representable directions, and a near-tie only costs
 //!   a zero- or tiny-length segment, never a crack.
 //!
+//! # Other interpolants
+//!
+//! The walk is generic over the interpolant's part of it, [`RayCell`] (steps 4, 6.2–6.5 and 7:
+//! gather the cell's samples, evaluate, cut the segment into pieces, refine, the gradient).
+//! Everything above is trilinear's `RayCell`; the walk itself (steps 1–3, 5, 6.1, 6.6), the
+//! predicate, the crossing rule, the tie rules and the missing-data rule are the same for all.
+//! The tricubic interpolants (`cubic-bspline`, `catmull-rom`) cut a segment at the leaves of a
+//! Bernstein root isolation of their degree-9 segment polynomial, whose ends are the walk's face
+//! values (`tricubic`); their near-tangency clause is wider, `2^-16` of a segment. They are
+//! reached through [`trace_interpolated`].
+//!
 //! # Cost figures
 //!
 //! `cells_total` counts every cell the walk processes (including zero-length segments where the

@@ -54,6 +54,8 @@ fn weight_blossoms<W: Weights>(t0: f64, t1: f64) -> [Bernstein; 4] {
 
 /// `g(u) = f(q_in + u (q_out - q_in)) - iso` in Bernstein form (degree 9), from the 64 samples
 /// `s` (`a + 4 b + 16 c`), with `b_0 = g_in` and `b_9 = g_out` (the module doc's step 3).
+// Index loops, as the GLSL port (`cubic_segment`) writes them.
+#[allow(clippy::needless_range_loop)]
 pub fn segment<W: Weights>(
     s: &[f64; 64],
     q_in: DVec3,

@@ -400,3 +400,98 @@ fn cubic_face_values_are_the_neighbours_bits() {
         }
     }
 }
+
+#[test]
+fn kth_crossing_and_aovs_of_the_tricubic_walk() {
+    // §3.3: the k-th hit is the k-th of the listed crossings, `cells_visited` counts up to the
+    // hit cell, `cell` and `local` locate it, the normal is the kernel's gradient, inside to
+    // outside, and crossings alternate in direction.
+    let mut rng = Rng::new(38);
+    let mut multi = 0;
+    for g in 0..20 {
+        let grid = random_grid(&mut rng, 6);
+        let iso = rng.range(-0.3, 0.3);
+        for _ in 0..4 {
+            let origin = grid.min - rng.vec(0.1, 1.0);
+            let target = grid.max - (grid.max - grid.min) * rng.vec(0.0, 0.5);
+            let dir = (target - origin).normalize();
+            for interp in CUBICS {
+                let field = Interpolated::new(&grid, interp);
+                for inside in [Inside::Below, Inside::Above] {
+                    let label = format!("grid {g} {} {inside:?}", interp.name());
+                    let (all, visits) = trace_with(&grid, interp, iso, inside, origin, dir);
+                    let ts = crossing_ts(&visits);
+                    multi += usize::from(ts.len() > 1);
+                    let mut entering = !all.inside_at_start;
+                    for k in 1..=ts.len() as u32 + 1 {
+                        let o = AnalyticOptions { newton_steps: 64, crossing: k, ..opts(64) };
+                        let res = trace_interpolated(&field, iso, inside, origin, dir, &o);
+                        assert_eq!(
+                            (res.crossings, res.cells_total),
+                            (all.crossings, all.cells_total)
+                        );
+                        let Some(h) = res.hit else {
+                            assert_eq!(k as usize, ts.len() + 1, "{label}");
+                            assert_eq!(res.cells_visited, res.cells_total, "{label}");
+                            continue;
+                        };
+                        assert_eq!((h.t, h.crossing), (ts[k as usize - 1], k), "{label} k {k}");
+                        assert_eq!(h.entering, entering, "{label} k {k}");
+                        entering = !entering;
+                        // The hit cell is the cells_visited-th visit, and holds the root.
+                        let v = &visits[res.cells_visited as usize - 1];
+                        assert_eq!(v.cell, h.cell, "{label} k {k}");
+                        assert!(v.roots.iter().any(|r| r.t == h.t), "{label} k {k}");
+                        let idx = DVec3::from_array(h.cell.map(f64::from)) + h.local;
+                        assert!(
+                            ((grid.min + idx * grid.spacing()) - h.position).length()
+                                < 1e-12 * diagonal(&grid),
+                            "{label} k {k}: local"
+                        );
+                        let grad = field.gradient_at(idx);
+                        let outward = match inside {
+                            Inside::Below => grad,
+                            Inside::Above => -grad,
+                        };
+                        if outward.length() > 1e-6 {
+                            assert!((h.normal - outward.normalize()).length() < 1e-9, "{label}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(multi > 20, "only {multi} rays with several crossings");
+}
+
+#[test]
+fn a_missing_sample_empties_every_cell_whose_stencil_reads_it() {
+    // field.nan = "empty": a tricubic cell is missing when any of its 64 samples is, so a NaN
+    // empties the 4x4x4 cells around it, and no crossing is found there.
+    let mut rng = Rng::new(39);
+    for g in 0..20 {
+        let mut grid = random_grid(&mut rng, 7);
+        let hole = [0, 1, 2].map(|a| rng.below(grid.dims[a]));
+        let idx = grid.index(hole[0], hole[1], hole[2]);
+        grid.values[idx] = f32::NAN;
+        let origin = grid.min - rng.vec(0.1, 1.0);
+        let target = grid.min + (grid.max - grid.min) * rng.vec(0.2, 0.8);
+        let dir = (target - origin).normalize();
+        for interp in CUBICS {
+            let (res, visits) = trace_with(&grid, interp, 0.0, Inside::Below, origin, dir);
+            assert_eq!(crossing_ts(&visits).len() as u32, res.crossings);
+            for v in &visits {
+                // Offsets -1..=2 around the cell, clamped: does the stencil read the hole?
+                let reads = (0..3).all(|a| {
+                    let c = v.cell[a] as usize;
+                    (0..4).any(|o| (c + o).saturating_sub(1).min(grid.dims[a] - 1) == hole[a])
+                });
+                assert_eq!(v.missing, reads, "grid {g} cell {:?} hole {hole:?}", v.cell);
+                assert_eq!(v.samples.iter().any(|s| s.is_nan()), reads);
+                if v.missing {
+                    assert!(v.roots.is_empty() && v.leaves.is_empty());
+                }
+            }
+        }
+    }
+}

@@ -536,10 +536,20 @@ pub(crate) struct Piece<L> {
     pub leaf: Option<LeafTrace>,
 }
 
+/// Trilinear's segment: the cubic, its derivative roots in `(0, 1)` and the split points
+/// `0, roots..., 1` (steps 6.3–6.4).
+pub(crate) struct MonotonePieces {
+    cubic: Cubic,
+    droots: [f64; 2],
+    /// How many of `droots` there are; `splits[..count + 2]` are the split points.
+    count: usize,
+    splits: [SplitPoint; 4],
+}
+
 /// Trilinear: the cubic and its monotone pieces (module doc, steps 6.3–6.5).
 impl RayCell for Trilinear {
     type Cell = [f64; 8];
-    type Segment = (Cubic, [SplitPoint; 4], usize, [f64; 2]);
+    type Segment = MonotonePieces;
     type Local = ();
 
     fn gather(grid: &Grid, cell: [usize; 3]) -> [f64; 8] {
@@ -575,12 +585,17 @@ impl RayCell for Trilinear {
             splits[s + 1] = SplitPoint { u: r, g, inside: inside_g(inside, g) };
         }
         splits[nd + 1] = SplitPoint { u: 1.0, g: g_out, inside: inside_g(inside, g_out) };
-        (cubic, splits, nd, droots)
+        MonotonePieces { cubic, droots, count: nd, splits }
     }
 
     fn pieces(seg: &Self::Segment, _inside: Inside) -> impl Iterator<Item = Piece<()>> {
-        let (_, splits, nd, _) = *seg;
-        (0..=nd).map(move |s| Piece { a: splits[s], b: splits[s + 1], local: (), leaf: None })
+        let splits = seg.splits;
+        (0..=seg.count).map(move |s| Piece {
+            a: splits[s],
+            b: splits[s + 1],
+            local: (),
+            leaf: None,
+        })
     }
 
     fn refine(
@@ -591,13 +606,13 @@ impl RayCell for Trilinear {
         iterates: Option<&mut Vec<f64>>,
     ) -> f64 {
         let (a, b) = (piece.a, piece.b);
-        refine(&seg.0, inside, (a.u, b.u), (a.g, b.g), steps, iterates)
+        refine(&seg.cubic, inside, (a.u, b.u), (a.g, b.g), steps, iterates)
     }
 
     fn describe(c: &[f64; 8], seg: Option<&Self::Segment>) -> (Vec<f64>, Polynomial, Vec<f64>) {
         match seg {
-            Some((cubic, _, nd, droots)) => {
-                (c.to_vec(), Polynomial::Monomial(cubic.c), droots[..*nd].to_vec())
+            Some(seg) => {
+                (c.to_vec(), Polynomial::Monomial(seg.cubic.c), seg.droots[..seg.count].to_vec())
             }
             None => (c.to_vec(), Polynomial::Monomial([f64::NAN; 4]), Vec::new()),
         }

@@ -52,11 +52,11 @@ fn v3(v: DVec3) -> Value {
 fn visit_json(v: &CellVisit) -> Value {
     let mut out = json!({
         "cell": v.cell,
-        "corners": v.corners,
+        "corners": v.samples,
         "t": [v.t_in, v.t_out],
         "local_in": v3(v.q_in),
         "local_out": v3(v.q_out),
-        "cubic": v.coefficients,
+        "cubic": v.coefficients.coefficients(),
         "derivative_roots": v.derivative_roots,
         "splits": v.splits.iter().map(|s| json!({"u": s.u, "g": s.g, "inside": s.inside})).collect::<Vec<_>>(),
         "roots": v.roots.iter().map(|r| json!({

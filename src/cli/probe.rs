@@ -122,7 +122,7 @@ fn print_probe(scene: &Scene, probe: &PixelProbe, px: u32, py: u32) -> Result<()
         exact.cells_visited
     )?;
     for v in visits {
-        let c = &v.corners;
+        let c = &v.samples;
         if v.missing {
             say!("  {}  t [{:.6}, {:.6}]", crate::probe::missing_note(v), v.t_in, v.t_out)?;
             continue;
@@ -131,7 +131,7 @@ fn print_probe(scene: &Scene, probe: &PixelProbe, px: u32, py: u32) -> Result<()
             "  cell {:?}  t [{:.6}, {:.6}]  corners v000 {:.5} v100 {:.5} v010 {:.5} v110 {:.5} v001 {:.5} v101 {:.5} v011 {:.5} v111 {:.5}",
             v.cell, v.t_in, v.t_out, c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]
         )?;
-        let k = v.coefficients;
+        let k = v.coefficients.coefficients();
         say!("    g(u) = f - iso = {:.6e} + {:.6e} u + {:.6e} u^2 + {:.6e} u^3, u in [0,1] over the segment", k[0], k[1], k[2], k[3])?;
         if !v.derivative_roots.is_empty() {
             say!("    g'(u) = 0 at u = {:?}", v.derivative_roots)?;

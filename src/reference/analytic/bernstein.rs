@@ -109,7 +109,8 @@
 //! - `2^-l` and `k 2^-l` are exact in `f32` for `l <= 16`; `u = lo + s 2^-l` is one rounding.
 //! - `CONVERGED` becomes `4 * FLT_EPSILON`, in the leaf's `s`.
 
-// Used by tests only until the tricubic `RayCell` (PLAN26 commit C3) calls it.
+// The tricubic walk (`tricubic`) uses the isolation; `eval`, `halves`, `from_power`, `elevate`,
+// `product`, `nodes` and `crossings` serve the tests until the mesh oracle (PLAN26 C14).
 #![allow(dead_code)]
 // Index loops, as the GLSL port writes them line for line.
 #![allow(clippy::needless_range_loop)]

@@ -153,6 +153,17 @@
 //!   grid edges and corners with exactly representable directions, and a near-tie only costs
 //!   a zero- or tiny-length segment, never a crack.
 //!
+//! # Other interpolants
+//!
+//! The walk is generic over the interpolant's part of it, [`RayCell`] (steps 4, 6.2–6.5 and 7:
+//! gather the cell's samples, evaluate, cut the segment into pieces, refine, the gradient).
+//! Everything above is trilinear's `RayCell`; the walk itself (steps 1–3, 5, 6.1, 6.6), the
+//! predicate, the crossing rule, the tie rules and the missing-data rule are the same for all.
+//! The tricubic interpolants (`cubic-bspline`, `catmull-rom`) cut a segment at the leaves of a
+//! Bernstein root isolation of their degree-9 segment polynomial, whose ends are the walk's face
+//! values (`tricubic`); their near-tangency clause is wider, `2^-16` of a segment. They are
+//! reached through [`trace_interpolated`].
+//!
 //! # Cost figures
 //!
 //! `cells_total` counts every cell the walk processes (including zero-length segments where the
@@ -161,13 +172,16 @@
 
 mod bernstein;
 pub mod cubic;
+mod tricubic;
 
 #[cfg(test)]
 mod tests;
 
 use glam::DVec3;
 
-use crate::field::interpolant::{cell_missing, Kernel, Trilinear};
+use crate::field::interpolant::{
+    cell_missing, BSpline, CatmullRom, Interpolant, Interpolated, Kernel, Trilinear,
+};
 use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::reference::shade::{nearest_surface, render_with, RayHit};
@@ -267,25 +281,70 @@ pub struct RootTrace {
 #[derive(Clone, Debug, PartialEq)]
 pub struct CellVisit {
     pub cell: [i32; 3],
-    /// Corner values (not minus the isovalue), corner order `v000, v100, ..., v111`.
-    pub corners: [f64; 8],
+    /// The samples the interpolant reads (not minus the isovalue): trilinear's 8 corners in
+    /// corner order `v000, v100, ..., v111`; the tricubic interpolants' 64, `a + 4 b + 16 c`.
+    pub samples: Vec<f64>,
     /// Ray parameters of the segment's ends.
     pub t_in: f64,
     pub t_out: f64,
     /// Cell-local ends of the segment.
     pub q_in: DVec3,
     pub q_out: DVec3,
-    /// Coefficients `[c0, c1, c2, c3]` of `g(u) = f - iso` on the segment.
-    pub coefficients: [f64; 4],
-    /// Roots of `g'` strictly inside `(0, 1)`.
+    /// `g(u) = f - iso` on the segment.
+    pub coefficients: Polynomial,
+    /// Roots of `g'` strictly inside `(0, 1)` (trilinear; empty for the tricubic interpolants,
+    /// whose pieces are [`CellVisit::leaves`]).
     pub derivative_roots: Vec<f64>,
-    /// Segment ends and derivative roots, with their values and predicates.
+    /// The points where the predicate was decided, with their values and predicates: segment
+    /// ends and derivative roots (trilinear), or segment ends and leaf ends (tricubic).
     pub splits: Vec<SplitPoint>,
+    /// The isolation's leaves in `u` order (tricubic; empty for trilinear).
+    pub leaves: Vec<LeafTrace>,
     /// Crossings in this cell, in order (all of them refined, whichever the hit is).
     pub roots: Vec<RootTrace>,
-    /// The cell is missing (a corner is NaN or infinite): no surface, nothing evaluated (the
-    /// coefficients are NaN, the lists empty).
+    /// The cell is missing (a sample is NaN or infinite): no surface, nothing evaluated (the
+    /// coefficients are NaN or empty, the lists empty).
     pub missing: bool,
+}
+
+/// A segment's polynomial `g(u) = f - iso`, `u` in `[0, 1]`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Polynomial {
+    /// `[c0, c1, c2, c3]`, `g = c0 + c1 u + c2 u^2 + c3 u^3` (trilinear).
+    Monomial([f64; 4]),
+    /// Bernstein coefficients `b_0 ..= b_9` on `[0, 1]` (tricubic; `b_0` and `b_9` are the
+    /// walk's face values).
+    Bernstein(Vec<f64>),
+}
+
+impl Polynomial {
+    /// The coefficients in their basis.
+    pub fn coefficients(&self) -> &[f64] {
+        match self {
+            Polynomial::Monomial(c) => c,
+            Polynomial::Bernstein(b) => b,
+        }
+    }
+
+    /// The trilinear cubic's `[c0, c1, c2, c3]`; `None` for a Bernstein polynomial.
+    pub fn monomial(&self) -> Option<[f64; 4]> {
+        match self {
+            Polynomial::Monomial(c) => Some(*c),
+            Polynomial::Bernstein(_) => None,
+        }
+    }
+}
+
+/// One leaf of a tricubic segment's root isolation (`bernstein`'s walk).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LeafTrace {
+    /// The leaf's interval of the segment, `[k 2^-l, (k + 1) 2^-l]`.
+    pub u: (f64, f64),
+    /// Sign variations of its coefficients.
+    pub variations: u32,
+    /// Whether Descartes' rule settled it (false: the depth or node cap did; a crossing there is
+    /// counted when its ends differ, the near-tangency clause).
+    pub resolved: bool,
 }
 
 /// Traces one ray: the requested crossing, the cell counts and the number of crossings.
@@ -298,7 +357,7 @@ pub fn trace(
     dir: DVec3,
     opts: &AnalyticOptions,
 ) -> AnalyticHit {
-    walk(grid, isovalue, inside, origin, dir, opts, None)
+    walk::<Trilinear>(grid, isovalue, inside, origin, dir, opts, None)
 }
 
 /// [`trace`], plus every visited cell in full. The hit is identical to [`trace`]'s.
@@ -311,8 +370,61 @@ pub fn trace_detailed(
     opts: &AnalyticOptions,
 ) -> (AnalyticHit, Vec<CellVisit>) {
     let mut visits = Vec::new();
-    let hit = walk(grid, isovalue, inside, origin, dir, opts, Some(&mut visits));
+    let hit = walk::<Trilinear>(grid, isovalue, inside, origin, dir, opts, Some(&mut visits));
     (hit, visits)
+}
+
+/// [`trace`] through the chosen interpolant: trilinear is [`trace`] itself, the tricubic
+/// interpolants trace their exact surface by Bernstein isolation (`tricubic`). Used by tests
+/// until `field.interpolation` can be chosen (PLAN26 C6).
+pub fn trace_interpolated(
+    field: &Interpolated,
+    isovalue: f64,
+    inside: Inside,
+    origin: DVec3,
+    dir: DVec3,
+    opts: &AnalyticOptions,
+) -> AnalyticHit {
+    let grid = field.grid;
+    match field.interp {
+        Interpolant::Trilinear => {
+            walk::<Trilinear>(grid, isovalue, inside, origin, dir, opts, None)
+        }
+        Interpolant::CubicBspline => {
+            walk::<BSpline>(grid, isovalue, inside, origin, dir, opts, None)
+        }
+        Interpolant::CatmullRom => {
+            walk::<CatmullRom>(grid, isovalue, inside, origin, dir, opts, None)
+        }
+        other => not_traced_here(other),
+    }
+}
+
+/// [`trace_interpolated`], plus every visited cell in full.
+pub fn trace_detailed_interpolated(
+    field: &Interpolated,
+    isovalue: f64,
+    inside: Inside,
+    origin: DVec3,
+    dir: DVec3,
+    opts: &AnalyticOptions,
+) -> (AnalyticHit, Vec<CellVisit>) {
+    let (grid, mut visits) = (field.grid, Vec::new());
+    let v = Some(&mut visits);
+    let hit = match field.interp {
+        Interpolant::Trilinear => walk::<Trilinear>(grid, isovalue, inside, origin, dir, opts, v),
+        Interpolant::CubicBspline => walk::<BSpline>(grid, isovalue, inside, origin, dir, opts, v),
+        Interpolant::CatmullRom => walk::<CatmullRom>(grid, isovalue, inside, origin, dir, opts, v),
+        other => not_traced_here(other),
+    };
+    (hit, visits)
+}
+
+/// Nearest's surface is traced by its voxel-face walk and device's not at all (fixed-step only);
+/// no scene can send either here (`Caps::traced`).
+#[cold]
+fn not_traced_here(interp: Interpolant) -> ! {
+    unreachable!("the analytic reference traces no {} field", interp.name())
 }
 
 /// The options a scene asks for (`render.newton_steps`, `render.crossing`).
@@ -372,8 +484,143 @@ fn segment_t(t_in: f64, t_out: f64, u: f64) -> f64 {
     }
 }
 
+/// One interpolant's part of the walk in one cell (steps 4, 6.2–6.5 and 7): gather its
+/// samples, evaluate, and cut a segment into pieces on which the predicate changes at most once
+/// (up to the near-tangency clause). Trilinear's pieces are the cubic's monotone pieces between
+/// derivative roots (the code this walk always had, moved); the tricubic interpolants' are the
+/// leaves of the Bernstein isolation (`tricubic`).
+pub(crate) trait RayCell {
+    /// The cell's samples.
+    type Cell;
+    /// A segment's polynomial, ready to be cut.
+    type Segment;
+    /// What a piece needs to be refined, beyond its ends.
+    type Local: Copy;
+    fn gather(grid: &Grid, cell: [usize; 3]) -> Self::Cell;
+    fn missing(c: &Self::Cell) -> bool;
+    /// `f` at cell-local `q`, exact at faces (the same bits from both cells).
+    fn value(c: &Self::Cell, q: DVec3) -> f64;
+    /// The index-space gradient at cell-local `q`.
+    fn gradient(c: &Self::Cell, q: DVec3) -> DVec3;
+    /// `g = f - iso` on the segment `q_in -> q_out`, with the walk's face values `g_in`, `g_out`
+    /// as its values at `u = 0` and `u = 1`.
+    fn segment(
+        c: &Self::Cell,
+        q_in: DVec3,
+        q_out: DVec3,
+        iso: f64,
+        g_ends: (f64, f64),
+        inside: Inside,
+    ) -> Self::Segment;
+    /// The pieces in `u` order; consecutive pieces share their end point, the first starts at
+    /// `(0, g_in)` and the last ends at `(1, g_out)`.
+    fn pieces(seg: &Self::Segment, inside: Inside) -> impl Iterator<Item = Piece<Self::Local>>;
+    /// The root of a piece whose end predicates differ and whose ends are nonzero.
+    fn refine(
+        seg: &Self::Segment,
+        piece: &Piece<Self::Local>,
+        inside: Inside,
+        steps: u32,
+        iterates: Option<&mut Vec<f64>>,
+    ) -> f64;
+    /// For the detailed trace: the samples, the polynomial and the derivative roots.
+    fn describe(c: &Self::Cell, seg: Option<&Self::Segment>) -> (Vec<f64>, Polynomial, Vec<f64>);
+}
+
+/// A piece `[a.u, b.u]` of a segment.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Piece<L> {
+    pub a: SplitPoint,
+    pub b: SplitPoint,
+    pub local: L,
+    pub leaf: Option<LeafTrace>,
+}
+
+/// Trilinear's segment: the cubic, its derivative roots in `(0, 1)` and the split points
+/// `0, roots..., 1` (steps 6.3–6.4).
+pub(crate) struct MonotonePieces {
+    cubic: Cubic,
+    droots: [f64; 2],
+    /// How many of `droots` there are; `splits[..count + 2]` are the split points.
+    count: usize,
+    splits: [SplitPoint; 4],
+}
+
+/// Trilinear: the cubic and its monotone pieces (module doc, steps 6.3–6.5).
+impl RayCell for Trilinear {
+    type Cell = [f64; 8];
+    type Segment = MonotonePieces;
+    type Local = ();
+
+    fn gather(grid: &Grid, cell: [usize; 3]) -> [f64; 8] {
+        cell_corners(grid, cell)
+    }
+
+    fn missing(c: &[f64; 8]) -> bool {
+        cell_missing(c)
+    }
+
+    fn value(c: &[f64; 8], q: DVec3) -> f64 {
+        trilerp(c, q)
+    }
+
+    fn gradient(c: &[f64; 8], q: DVec3) -> DVec3 {
+        <Trilinear as Kernel>::gradient(c, q)
+    }
+
+    fn segment(
+        c: &[f64; 8],
+        q_in: DVec3,
+        q_out: DVec3,
+        _iso: f64,
+        (g_in, g_out): (f64, f64),
+        inside: Inside,
+    ) -> Self::Segment {
+        // 6.3 Cubic; 6.4 split points.
+        let cubic = Cubic::along_segment(c, q_in, q_out, g_in);
+        let (droots, nd) = cubic.derivative_roots();
+        let mut splits = [SplitPoint { u: 0.0, g: g_in, inside: inside_g(inside, g_in) }; 4];
+        for (s, &r) in droots[..nd].iter().enumerate() {
+            let g = cubic.eval(r);
+            splits[s + 1] = SplitPoint { u: r, g, inside: inside_g(inside, g) };
+        }
+        splits[nd + 1] = SplitPoint { u: 1.0, g: g_out, inside: inside_g(inside, g_out) };
+        MonotonePieces { cubic, droots, count: nd, splits }
+    }
+
+    fn pieces(seg: &Self::Segment, _inside: Inside) -> impl Iterator<Item = Piece<()>> {
+        let splits = seg.splits;
+        (0..=seg.count).map(move |s| Piece {
+            a: splits[s],
+            b: splits[s + 1],
+            local: (),
+            leaf: None,
+        })
+    }
+
+    fn refine(
+        seg: &Self::Segment,
+        piece: &Piece<()>,
+        inside: Inside,
+        steps: u32,
+        iterates: Option<&mut Vec<f64>>,
+    ) -> f64 {
+        let (a, b) = (piece.a, piece.b);
+        refine(&seg.cubic, inside, (a.u, b.u), (a.g, b.g), steps, iterates)
+    }
+
+    fn describe(c: &[f64; 8], seg: Option<&Self::Segment>) -> (Vec<f64>, Polynomial, Vec<f64>) {
+        match seg {
+            Some(seg) => {
+                (c.to_vec(), Polynomial::Monomial(seg.cubic.c), seg.droots[..seg.count].to_vec())
+            }
+            None => (c.to_vec(), Polynomial::Monomial([f64::NAN; 4]), Vec::new()),
+        }
+    }
+}
+
 /// The whole per-ray algorithm (numbered as in the module doc).
-fn walk(
+fn walk<K: RayCell>(
     grid: &Grid,
     iso: f64,
     inside: Inside,
@@ -456,8 +703,8 @@ fn walk(
         cell[a] = c as i64;
         q_in[a] = (p[a] - c).clamp(0.0, 1.0);
     }
-    let mut corners = cell_corners(grid, cell.map(|c| c as usize));
-    let mut g_in = trilerp(&corners, q_in) - iso;
+    let mut corners = K::gather(grid, cell.map(|c| c as usize));
+    let mut g_in = K::value(&corners, q_in) - iso;
     result.inside_at_start = inside_g(inside, g_in);
 
     // 5. Next planes.
@@ -477,7 +724,7 @@ fn walk(
     let max_passes = cells[0] + cells[1] + cells[2];
     for _ in 0..max_passes {
         result.cells_total += 1;
-        let missing = cell_missing(&corners);
+        let missing = K::missing(&corners);
 
         // 6.1 Segment end.
         let t_out = tmax.min_element().min(t_hi).max(t_in);
@@ -499,53 +746,59 @@ fn walk(
                 (o[a] + t_out * d[a] - cell[a] as f64).clamp(0.0, 1.0)
             };
         }
-        let g_out = if t_out == t_in { g_in } else { trilerp(&corners, q_out) - iso };
+        let g_out = if t_out == t_in { g_in } else { K::value(&corners, q_out) - iso };
 
         // A missing cell holds no crossing (see the module doc).
         if missing {
             if let Some(list) = trace.as_deref_mut() {
+                let (samples, coefficients, _) = K::describe(&corners, None);
                 list.push(CellVisit {
                     cell: cell.map(|c| c as i32),
-                    corners,
+                    samples,
                     t_in,
                     t_out,
                     q_in,
                     q_out,
-                    coefficients: [f64::NAN; 4],
+                    coefficients,
                     derivative_roots: Vec::new(),
                     splits: Vec::new(),
+                    leaves: Vec::new(),
                     roots: Vec::new(),
                     missing: true,
                 });
             }
         } else {
-            // 6.3 Cubic; 6.4 split points.
-            let cubic = Cubic::along_segment(&corners, q_in, q_out, g_in);
-            let (droots, nd) = cubic.derivative_roots();
-            let mut splits = [SplitPoint { u: 0.0, g: g_in, inside: inside_g(inside, g_in) }; 4];
-            for (s, &r) in droots[..nd].iter().enumerate() {
-                let g = cubic.eval(r);
-                splits[s + 1] = SplitPoint { u: r, g, inside: inside_g(inside, g) };
-            }
-            splits[nd + 1] = SplitPoint { u: 1.0, g: g_out, inside: inside_g(inside, g_out) };
+            // 6.3 The segment's polynomial; 6.4 its pieces.
+            let seg = K::segment(&corners, q_in, q_out, iso, (g_in, g_out), inside);
 
-            let mut visit = trace.as_ref().map(|_| CellVisit {
-                cell: cell.map(|c| c as i32),
-                corners,
-                t_in,
-                t_out,
-                q_in,
-                q_out,
-                coefficients: cubic.c,
-                derivative_roots: droots[..nd].to_vec(),
-                splits: splits[..nd + 2].to_vec(),
-                roots: Vec::new(),
-                missing: false,
+            let mut visit = trace.as_ref().map(|_| {
+                let (samples, coefficients, derivative_roots) = K::describe(&corners, Some(&seg));
+                CellVisit {
+                    cell: cell.map(|c| c as i32),
+                    samples,
+                    t_in,
+                    t_out,
+                    q_in,
+                    q_out,
+                    coefficients,
+                    derivative_roots,
+                    splits: Vec::new(),
+                    leaves: Vec::new(),
+                    roots: Vec::new(),
+                    missing: false,
+                }
             });
 
             // 6.5 Crossings, piece by piece.
-            for s in 0..=nd {
-                let (a, b) = (splits[s], splits[s + 1]);
+            for piece in K::pieces(&seg, inside) {
+                let (a, b) = (piece.a, piece.b);
+                if let Some(v) = visit.as_mut() {
+                    if v.splits.is_empty() {
+                        v.splits.push(a);
+                    }
+                    v.splits.push(b);
+                    v.leaves.extend(piece.leaf);
+                }
                 if a.inside == b.inside {
                     continue;
                 }
@@ -570,11 +823,10 @@ fn walk(
                 let mut iterates = Vec::new();
                 let u = match exact {
                     Some(u) => u,
-                    None => refine(
-                        &cubic,
+                    None => K::refine(
+                        &seg,
+                        &piece,
                         inside,
-                        (a.u, b.u),
-                        (a.g, b.g),
                         opts.newton_steps,
                         visit.as_ref().map(|_| &mut iterates),
                     ),
@@ -582,7 +834,7 @@ fn walk(
                 let t = segment_t(t_in, t_out, u);
                 if is_hit {
                     let q = lerp3(q_in, q_out, u);
-                    let grad = Trilinear::gradient(&corners, q) / h;
+                    let grad = K::gradient(&corners, q) / h;
                     let oriented = match inside {
                         Inside::Below => grad,
                         Inside::Above => -grad,
@@ -640,9 +892,9 @@ fn walk(
         if left_box {
             break;
         }
-        corners = cell_corners(grid, cell.map(|c| c as usize));
+        corners = K::gather(grid, cell.map(|c| c as usize));
         // After a missing cell, from the new cell's own corners (its g_out is not a value).
-        g_in = if missing { trilerp(&corners, q_in) - iso } else { g_out };
+        g_in = if missing { K::value(&corners, q_in) - iso } else { g_out };
         t_in = t_out;
     }
     if result.hit.is_none() {

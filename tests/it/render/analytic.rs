@@ -151,7 +151,7 @@ fn grazing(visits: &[CellVisit], range: f64, diag: f64) -> Option<String> {
         return Some(format!("span ends at g = {:.2e}", last.splits.last()?.g));
     }
     for (i, v) in visits.iter().enumerate() {
-        let cubic = Cubic { c: v.coefficients };
+        let cubic = Cubic { c: v.coefficients.monomial().expect("trilinear") };
         let dt = v.t_out - v.t_in;
         for s in &v.splits[1..v.splits.len() - 1] {
             if s.g.abs() < value_tol {
@@ -167,7 +167,7 @@ fn grazing(visits: &[CellVisit], range: f64, diag: f64) -> Option<String> {
         if let Some(next) = visits.get(i + 1) {
             let g = v.splits.last()?.g;
             let left = cubic.eval_with_derivative(1.0).1;
-            let right = next.coefficients[1];
+            let right = next.coefficients.coefficients()[1];
             if g.abs() < value_tol && left * right <= 0.0 {
                 return Some(format!("kink extremum g = {g:.2e} leaving cell {:?}", v.cell));
             }

@@ -230,7 +230,7 @@ pub fn levels_for(supers: &[[f32; 2]], thresholds: &[f32]) -> u32 {
 /// One superbrick in this many empty makes the second level worth its cost (docs/methods.md "Exact ray tracing").
 pub const SPARSE: usize = 8;
 
-/// The analytic walk's skipping margin (`SKIP_MARGIN` in `shaders/analytic.comp`, which says
+/// The analytic walk's skipping margin (`SKIP_MARGIN` in `shaders/include/bricks.glsl`, which says
 /// why 2^-10): a range is clear of an isovalue by this, relative to the magnitudes involved.
 pub const SKIP_MARGIN: f32 = 1.0 / 1024.0;
 

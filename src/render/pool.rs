@@ -16,7 +16,7 @@
 //!
 //! Which bricks may be left out, so that images stay bit for bit those of the whole grid:
 //! - **analytic**: a brick whose value range is clear of every isovalue by the skipping margin
-//!   holds no crossing, not even one of f32 rounding (`shaders/analytic.comp`, `SKIP_MARGIN`);
+//!   holds no crossing, not even one of f32 rounding (`shaders/include/bricks.glsl`, `SKIP_MARGIN`);
 //!   the walk goes through it without evaluating its cells, as through another MPI rank's block,
 //!   and re-evaluates the carried value on entering a resident cell (same bits: face values
 //!   depend on the face's corners only). Only the *active* bricks are resident.

@@ -20,6 +20,7 @@ use std::ops::Range;
 use glam::DVec3;
 
 use crate::field::Grid;
+use crate::shaders::consts;
 
 pub mod cubic;
 pub mod nearest;
@@ -69,6 +70,18 @@ impl Interpolant {
             Interpolant::CatmullRom => Self::NAMES[2],
             Interpolant::Nearest => Self::NAMES[3],
             Interpolant::Device => Self::NAMES[4],
+        }
+    }
+
+    /// Its code in the shaders (`INTERPOLANT_*`, shared by build.rs): one arm per variant, so a
+    /// new interpolant does not compile without one.
+    pub const fn code(self) -> u32 {
+        match self {
+            Interpolant::Trilinear => consts::INTERPOLANT_TRILINEAR,
+            Interpolant::CubicBspline => consts::INTERPOLANT_CUBIC_BSPLINE,
+            Interpolant::CatmullRom => consts::INTERPOLANT_CATMULL_ROM,
+            Interpolant::Nearest => consts::INTERPOLANT_NEAREST,
+            Interpolant::Device => consts::INTERPOLANT_DEVICE,
         }
     }
 
@@ -513,6 +526,16 @@ mod tests {
         assert_eq!(Interpolant::Device.stencil(), Trilinear::STENCIL);
         // Today's stencil is trilinear's, whatever the other interpolants read.
         assert_eq!(STENCIL, Trilinear::STENCIL);
+    }
+
+    #[test]
+    fn every_interpolant_has_a_distinct_shader_code() {
+        // The shaders tell the interpolants apart by these codes only.
+        for (k, a) in Interpolant::ALL.iter().enumerate() {
+            for b in &Interpolant::ALL[..k] {
+                assert_ne!(a.code(), b.code(), "{} and {} share a code", a.name(), b.name());
+            }
+        }
     }
 
     #[test]

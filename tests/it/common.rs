@@ -116,6 +116,11 @@ pub fn random_eye(rng: &mut Rng, grid: &Grid, inside: bool) -> DVec3 {
 #[allow(dead_code)] // used only by the MPI tests
 pub fn mpirun(n: usize, args: &[&str], env: &[(&str, &str)]) -> std::process::Output {
     static RUN: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    // One mpirun at a time: Open MPI's launcher also meets other jobs' daemons through files
+    // and ports of the machine, and CI (2 cores, tests on 2 threads) saw `orte_init` fail when
+    // two started together. A poisoned lock (an earlier MPI test failed) still serializes.
+    static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one = ONE.lock().unwrap_or_else(|p| p.into_inner());
     let run = RUN.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     // Short: Open MPI puts Unix sockets below it (108 bytes at most for a socket path).
     let tmp = std::path::PathBuf::from(format!("/tmp/iv-mpi-{}-{run}", std::process::id()));

@@ -112,6 +112,12 @@ const VARIANTS: &[(&str, &str, &[&str])] = &[
     ("analytic.comp", "pool", &["GRID_POOL"]),
     ("analytic.comp", "buffer", &["GRID_BUFFER"]),
     ("raymarch.comp", "pool", &["GRID_POOL"]),
+    // Fixed-step through the other interpolants (`field.interpolation`; field.glsl): one
+    // variant each, so the trilinear march keeps its code.
+    ("raymarch.comp", "bspline", &["INTERP_BSPLINE"]),
+    ("raymarch.comp", "catmull_rom", &["INTERP_CATMULL_ROM"]),
+    ("raymarch.comp", "nearest", &["INTERP_NEAREST"]),
+    ("raymarch.comp", "device", &["INTERP_DEVICE"]),
 ];
 
 fn shared(name: &str) -> u32 {

@@ -1,12 +1,16 @@
 #version 450
-// Fixed-step ray marching of the trilinear isosurface (`render.method = "fixed-step"`).
-// Mirrors `reference::fixed_step` (f64) step for step:
+// Fixed-step ray marching of the isosurface (`render.method = "fixed-step"`), of the trilinear
+// interpolant or, in the variants that define INTERP_BSPLINE, INTERP_CATMULL_ROM,
+// INTERP_NEAREST or INTERP_DEVICE (build.rs), of that one (field.glsl's `field_cached`).
+// Mirrors `reference::fixed_step` (f64, `march_sampled`) step for step:
 //   1. clip the ray to the grid box: [t0, t1], t0 >= 0 (the eye may be inside);
 //   2. take `steps` samples at t_i = t0 + (t1 - t0) * i / (steps - 1), i = 0 .. steps-1;
 //   3. at the first change of the inside predicate between samples i-1 and i, refine:
 //      REFINE_BISECTIONS bisections keeping the predicate change bracketed, then one secant
 //      step on the final bracket;
-//   4. normal: analytic gradient of the trilinear interpolant at the hit.
+//   4. normal: analytic gradient of the interpolant at the hit (device: central differences of
+//      its lookups; nearest: the face between the voxels of the refined bracket's ends, and
+//      `cell` the inside voxel's point).
 // Missing data (field.nan = "empty"): a sample whose cell is missing (field.glsl's
 // cell_missing) has no inside state, and a step with such a sample at either end has no
 // crossing; a bisection midpoint in a missing cell moves the far end of the bracket (keeping
@@ -81,6 +85,11 @@ void main() {
         // body costs on every sample of every ray.
         float th = uintBitsToFloat(0x7f800000u);
         uint hit_surface = 0u;
+#ifdef INTERP_NEAREST
+        // The hit's refined bracket and whether its near end is inside: its voxel face.
+        float ha = 0.0, hb = 0.0;
+        bool h_in = false;
+#endif
         uint i = 1u;
         // Once per crossing step: more than once only where every crossing found fell in a
         // missing cell.
@@ -128,6 +137,11 @@ void main() {
                 if (t < th && !cache.missing) {
                     th = t;
                     hit_surface = k;
+#ifdef INTERP_NEAREST
+                    ha = a;
+                    hb = b;
+                    h_in = in_k;
+#endif
                 }
             }
             if (!isinf(th)) break;
@@ -144,8 +158,12 @@ void main() {
             vec3 u = to_grid(hit);
             r.depth = th;
             r.position = hit;
+#ifdef INTERP_NEAREST
+            r.normal = voxel_face(to_grid(o + d * ha), to_grid(o + d * hb), h_in, -d, r.cell);
+#else
             r.cell = cell_of(u);
             r.normal = scene_normal(u, r.cell, normal_at(u, -d));
+#endif
             r.surface = surfaces > 1u ? int(hit_surface) : -1;
             r.rgba = vec4(shade(r.normal, d, th, float(count), u, r.cell,
                                 P.surface_color[hit_surface].rgb), 1.0);

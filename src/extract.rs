@@ -177,6 +177,9 @@ pub fn surfaces(
     grid: &Grid,
     probed_cpu: Option<&str>,
 ) -> Result<Surfaces, ExtractError> {
+    if let Some(why) = job.scene.interpolation_refusal(crate::field::interpolant::Reader::Mesh) {
+        return Err(ExtractError::Input(why));
+    }
     let mut notes = Vec::new();
     let (ctx, why) = match job.device {
         Device::Cpu => (None, String::new()),
@@ -266,6 +269,8 @@ mod tests {
 
     fn info(device_type: &str, float64: bool, max_3d: u32) -> DeviceInfo {
         DeviceInfo {
+            r32f_linear_filter: true,
+            sub_texel_precision_bits: 8,
             name: "dev".into(),
             device_type: device_type.into(),
             driver_name: String::new(),

@@ -141,8 +141,115 @@ bool cell_missing(Corners k) {
 
 
 
+#if defined(INTERP_CUBIC)
+// The fixed-step march's field for `interpolation = "cubic-bspline" | "catmull-rom"` (the
+// raymarch variants that define INTERP_BSPLINE or INTERP_CATMULL_ROM, interpolant.glsl): the
+// cell's 4x4x4 samples, indices clamped to the grid (the contract's edge clamp; the whole grid
+// is in u_grid: fixed-step reads no block), and a cell is missing when any of them is.
+
+// A cell whose samples were fetched last; marching reuses it while samples stay in the cell.
+struct CellCache {
+    ivec3 cell;
+    Samples k;
+    bool missing;
+};
+
+CellCache cache_empty() {
+    CellCache c;
+    c.cell = ivec3(-1);
+    for (int n = 0; n < 64; n++) {
+        c.k.s[n] = 0.0;
+    }
+    c.missing = false;
+    return c;
+}
+
+Samples cell_samples(ivec3 c) {
+    Samples k;
+    for (int n = 0; n < 64; n++) {
+        ivec3 p = clamp(c + ivec3(n & 3, (n >> 2) & 3, n >> 4) - 1, ivec3(0), P.dims - 1);
+        k.s[n] = cell_value(c, p);
+    }
+    return k;
+}
+
+bool samples_missing(Samples k) {
+    bool m = false;
+    for (int n = 0; n < 64; n++) {
+        m = m || is_missing(k.s[n]);
+    }
+    return m;
+}
+
+// Field value at grid coordinates u (already inside the box), through the cache; afterwards
+// `cache.missing` says whether u's cell is missing.
+float field_cached(inout CellCache cache, vec3 u) {
+    ivec3 c = cell_of(u);
+    if (c != cache.cell) {
+        cache.cell = c;
+        cache.k = cell_samples(c);
+        cache.missing = samples_missing(cache.k);
+    }
+    return cubic_value(cache.k, u - vec3(c));
+}
+
+// Unit world-space normal at grid coordinates u, pointing from inside to outside (the exact
+// gradient of the interpolant); `fallback` where the gradient vanishes.
+vec3 normal_at(vec3 u, vec3 fallback) {
+    ivec3 c = cell_of(u);
+    vec3 g = cubic_gradient(cell_samples(c), u - vec3(c)) * P.inv_spacing * P.inside_sign;
+    float len = length(g);
+    return len > 0.0 ? g / len : fallback;
+}
+#elif defined(INTERP_DEVICE)
+// The fixed-step march's field for `interpolation = "device"` (the raymarch variant that
+// defines INTERP_DEVICE): whatever the texture unit returns for a linear-filtered lookup of
+// u_grid (bound with its linear sampler, CLAMP_TO_EDGE), point p's texel centred at p. A
+// sample is missing when the filtered value is not finite. Not a cell's interpolant: there
+// is nothing to cache but the missing flag.
+struct CellCache {
+    bool missing;
+};
+
+CellCache cache_empty() {
+    CellCache c;
+    c.missing = false;
+    return c;
+}
+
+float device_value(vec3 u) {
+    return texture(u_grid, (u + 0.5) / vec3(P.dims)).r;
+}
+
+float field_cached(inout CellCache cache, vec3 u) {
+    float v = device_value(u);
+    cache.missing = is_missing(v);
+    return v;
+}
+
+// The normal a shader takes of its own lookups (Rust: `DeviceModel::gradient_at`): central
+// differences at +-1/64 cell along each axis, coordinates clamped into the box as the march's
+// are, inside to outside; `fallback` where they vanish.
+const float DEVICE_DELTA = 1.0 / 64.0;
+
+vec3 normal_at(vec3 u, vec3 fallback) {
+    vec3 hi = vec3(P.dims - 1);
+    vec3 g;
+    for (int a = 0; a < 3; a++) {
+        vec3 e = vec3(0.0);
+        e[a] = DEVICE_DELTA;
+        g[a] = (device_value(clamp(u + e, vec3(0.0), hi)) - device_value(clamp(u - e, vec3(0.0), hi)))
+               / (2.0 * DEVICE_DELTA);
+    }
+    g *= P.inv_spacing * P.inside_sign;
+    float len = length(g);
+    return len > 0.0 ? g / len : fallback;
+}
+#else
 // A cell whose corners were fetched last; marching reuses it while samples stay in the cell.
-// `missing`: the cell is missing (cell_missing), tested once per cell.
+// `missing`: the cell is missing (cell_missing), tested once per cell; with INTERP_NEAREST
+// (the raymarch variant of `interpolation = "nearest"`) whether the sample's own voxel is,
+// tested per sample: a voxel beside a missing one keeps its value.
 struct CellCache {
     ivec3 cell;
     Corners k;
@@ -162,12 +269,22 @@ CellCache cache_empty() {
 // `cache.missing` says whether u's cell is missing.
 float field_cached(inout CellCache cache, vec3 u) {
     ivec3 c = cell_of(u);
+#ifdef INTERP_NEAREST
+    if (c != cache.cell) {
+        cache.cell = c;
+        cache.k = cell_corners(c);
+    }
+    float v = nearest_value(cache.k, u - vec3(c));
+    cache.missing = is_missing(v);
+    return v;
+#else
     if (c != cache.cell) {
         cache.cell = c;
         cache.k = cell_corners(c);
         cache.missing = cell_missing(cache.k);
     }
     return interp_value(cache.k, u - vec3(c));
+#endif
 }
 
 // Field value at grid coordinates u (already inside the box).
@@ -184,6 +301,33 @@ vec3 normal_at(vec3 u, vec3 fallback) {
     float len = length(g);
     return len > 0.0 ? g / len : fallback;
 }
+#endif
+
+#ifdef INTERP_NEAREST
+// The point whose voxel holds grid coordinates u (Rust: `nearest::voxel_of`): the corner
+// nearest_corner picks in u's cell.
+ivec3 voxel_of(vec3 u) {
+    ivec3 c = cell_of(u);
+    return c + ivec3(greaterThanEqual(u - vec3(c), vec3(0.5)));
+}
+
+// `nearest`'s face at a refined bracket (Rust: `fixed_step::voxel_face`): the normal from the
+// inside voxel to the outside one across the lowest axis along which their points differ
+// (`fallback` with none), and the inside voxel's point.
+vec3 voxel_face(vec3 ua, vec3 ub, bool a_inside, vec3 fallback, out ivec3 vin) {
+    ivec3 va = voxel_of(ua), vb = voxel_of(ub);
+    vin = a_inside ? va : vb;
+    ivec3 vout = a_inside ? vb : va;
+    for (int a = 0; a < 3; a++) {
+        if (vin[a] != vout[a]) {
+            vec3 n = vec3(0.0);
+            n[a] = vout[a] > vin[a] ? 1.0 : -1.0;
+            return n;
+        }
+    }
+    return fallback;
+}
+#endif
 
 // `render.normals = "smooth"` (Rust: `reference::field::smooth_gradient_at`): the gradient at
 // grid point p by central differences in index units, one-sided on the box's faces (its points

@@ -1,8 +1,11 @@
 // The interpolant of a cell, one home for every shader that interpolates (Rust:
-// `field::interpolant`). Only the trilinear interpolant exists. `interp_value` and
-// `interp_gradient` are the f64 reference's arithmetic in f32: x, then y, then z, with
-// `precise` lerps (exact at 0 and 1), and the sum-of-products gradient. Depends on nothing
-// (no `P`, no bindings), so every shader can include it.
+// `field::interpolant`). `interp_value` and `interp_gradient` are the trilinear interpolant,
+// the f64 reference's arithmetic in f32: x, then y, then z, with `precise` lerps (exact at 0
+// and 1), and the sum-of-products gradient. The tricubic ones (`cubic_*`, compiled where a
+// variant defines INTERP_BSPLINE or INTERP_CATMULL_ROM) are `field::interpolant::cubic`'s:
+// Horner on the integer weight numerators divided last, contracted along x, then y, then z.
+// Nearest's corner is `nearest_corner`. Depends on nothing (no `P`, no bindings), so every
+// shader can include it.
 #ifndef INTERPOLANT_GLSL
 #define INTERPOLANT_GLSL
 
@@ -77,5 +80,93 @@ vec3 interp_value3(vec3 g[8], vec3 q) {
     }
     return r;
 }
+
+// The nearest corner of a cell to cell-local q, half up (Rust: `nearest::corner`): its index
+// in corner order, (q.x >= 1/2) + 2 (q.y >= 1/2) + 4 (q.z >= 1/2).
+int nearest_corner(vec3 q) {
+    ivec3 h = ivec3(greaterThanEqual(q, vec3(0.5)));
+    return h.x + 2 * h.y + 4 * h.z;
+}
+
+// The value of that corner.
+float nearest_value(Corners k, vec3 q) {
+    int n = nearest_corner(q);
+    vec4 face = n < 4 ? k.lo : k.hi;
+    return face[n & 3];
+}
+
+#if defined(INTERP_BSPLINE) || defined(INTERP_CATMULL_ROM)
+#define INTERP_CUBIC 1
+// Row a + 1: the integer numerators of weight a's coefficients of 1, t, t^2, t^3 (Rust:
+// `Weights::NUM`), over CUBIC_DEN.
+#ifdef INTERP_BSPLINE
+const float CUBIC_DEN = 6.0;
+const vec4 CUBIC_NUM[4] = vec4[4](vec4(1.0, -3.0, 3.0, -1.0), vec4(4.0, 0.0, -6.0, 3.0),
+                                  vec4(1.0, 3.0, 3.0, -3.0), vec4(0.0, 0.0, 0.0, 1.0));
+#else
+const float CUBIC_DEN = 2.0;
+const vec4 CUBIC_NUM[4] = vec4[4](vec4(0.0, -1.0, 2.0, -1.0), vec4(2.0, 0.0, -5.0, 3.0),
+                                  vec4(0.0, 1.0, 4.0, -3.0), vec4(0.0, 0.0, -1.0, 1.0));
+#endif
+
+// The 4 weights at t (offsets -1..2), Horner on the numerators, divided last (`cubic::weights`).
+vec4 cubic_weights(float t) {
+    precise vec4 w;
+    for (int a = 0; a < 4; a++) {
+        vec4 n = CUBIC_NUM[a];
+        w[a] = (((n.w * t + n.z) * t + n.y) * t + n.x) / CUBIC_DEN;
+    }
+    return w;
+}
+
+// Their derivatives in t (`cubic::derivative_weights`).
+vec4 cubic_derivative_weights(float t) {
+    precise vec4 w;
+    for (int a = 0; a < 4; a++) {
+        vec4 n = CUBIC_NUM[a];
+        w[a] = ((3.0 * n.w * t + 2.0 * n.z) * t + n.y) / CUBIC_DEN;
+    }
+    return w;
+}
+
+// The 4x4x4 samples of a cell, offsets -1..2, sample (a, b, c) at a + 4 b + 16 c.
+struct Samples {
+    float s[64];
+};
+
+// w0 s0 + w1 s1 + w2 s2 + w3 s3, in that order (`cubic::dot4`).
+float cubic_dot4(vec4 w, float s0, float s1, float s2, float s3) {
+    precise float r = w.x * s0 + w.y * s1 + w.z * s2 + w.w * s3;
+    return r;
+}
+
+// The tensor contraction with per-axis weights: along x, then y, then z (`cubic::contract`).
+float cubic_contract(Samples k, vec4 wx, vec4 wy, vec4 wz) {
+    float plane[4];
+    for (int c = 0; c < 4; c++) {
+        float row[4];
+        for (int b = 0; b < 4; b++) {
+            int r = 4 * b + 16 * c;
+            row[b] = cubic_dot4(wx, k.s[r], k.s[r + 1], k.s[r + 2], k.s[r + 3]);
+        }
+        plane[c] = cubic_dot4(wy, row[0], row[1], row[2], row[3]);
+    }
+    return cubic_dot4(wz, plane[0], plane[1], plane[2], plane[3]);
+}
+
+// The value at cell-local q.
+float cubic_value(Samples k, vec3 q) {
+    return cubic_contract(k, cubic_weights(q.x), cubic_weights(q.y), cubic_weights(q.z));
+}
+
+// The gradient at cell-local q, in value per cell.
+vec3 cubic_gradient(Samples k, vec3 q) {
+    vec4 wx = cubic_weights(q.x), wy = cubic_weights(q.y), wz = cubic_weights(q.z);
+    vec4 dx = cubic_derivative_weights(q.x), dy = cubic_derivative_weights(q.y);
+    vec4 dz = cubic_derivative_weights(q.z);
+    return vec3(cubic_contract(k, dx, wy, wz), cubic_contract(k, wx, dy, wz),
+                cubic_contract(k, wx, wy, dz));
+}
+#endif
 
 #endif

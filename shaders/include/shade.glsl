@@ -25,7 +25,17 @@ vec3 shade(vec3 n, vec3 dir, float depth, float steps, vec3 u, ivec3 cell, vec3 
         return heat(steps / P.steps_scale);
     case SHADE_CELLS: {
         vec3 f = u - vec3(cell);
+#ifdef INTERP_NEAREST
+        // A checker over voxels (cell: the inside voxel's point, at its centre); every hit lies
+        // on a voxel wall along the face's own axis, which the border test leaves out.
+        f += 0.5;
         vec3 edge = min(f, 1.0 - f);
+        vec3 an = abs(n);
+        int axis = an.x >= an.y && an.x >= an.z ? 0 : (an.y >= an.z ? 1 : 2);
+        edge[axis] = 1.0 / 0.0;
+#else
+        vec3 edge = min(f, 1.0 - f);
+#endif
         float tone = ((cell.x + cell.y + cell.z) & 1) == 0 ? 1.0 : 0.6;
         if (min(edge.x, min(edge.y, edge.z)) < CELL_BORDER) tone *= 0.25;
         return base * tone * lambert(n, dir);

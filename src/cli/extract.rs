@@ -114,7 +114,8 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: &Ranks) -> Result<i32, Failure> 
         resolve_device(cli.device.as_deref(), cli.device_from_command_line, env.as_deref());
     let scene = super::load_scene(&args.scene, &args.sets)?;
     super::check_outputs(&[("-o", &args.output)], &scene)?;
-    if let Some(why) = ranks.refuses_extract(&scene, device == Device::Gpu) {
+    let interp = scene.interpolation_refusal(crate::field::interpolant::Reader::Mesh);
+    if let Some(why) = interp.or_else(|| ranks.refuses_extract(&scene, device == Device::Gpu)) {
         return super::refuse_on_ranks(ranks, Failure::input(why));
     }
 

@@ -230,6 +230,15 @@ pub fn load_scene(path: &std::path::Path, sets: &[String]) -> Result<crate::scen
     Ok(scene)
 }
 
+/// Refuses `scene` for a verb that reads its field as `reader` and does not take its
+/// interpolant ([`crate::scene::Scene::interpolation_refusal`]), before any sample is read.
+pub fn refuse_interpolation(
+    scene: &crate::scene::Scene,
+    reader: crate::field::interpolant::Reader,
+) -> Result<(), Failure> {
+    scene.interpolation_refusal(reader).map_or(Ok(()), |why| Err(Failure::input(why)))
+}
+
 /// The files a run over `scene` reads, with what each is: the scene file and its data files.
 /// No output may be one of them ([`check_outputs`]).
 pub fn scene_inputs(scene: &crate::scene::Scene) -> Vec<(&'static str, &std::path::Path)> {

@@ -43,6 +43,7 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
         return super::slice::probe(&args.scene, &args.sets, args.time, s, segment, args.json);
     }
     let scene = scene::load(&args.scene, &args.sets).map_err(Failure::input)?;
+    super::refuse_interpolation(&scene, crate::field::interpolant::Reader::Probe)?;
     let pixel = args.pixel.as_deref().ok_or_else(|| Failure::input("--pixel X,Y is missing"))?;
     let (px, py) = crate::probe::parse_pixel(pixel, scene.image.width, scene.image.height)
         .map_err(Failure::input)?;

@@ -113,7 +113,8 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
     let ranks = Ranks::from_launcher();
     let tev = (args.tev.is_some() && !ranks.is_single())
         .then(|| "--tev is not available under MPI".to_string());
-    if let Some(why) = ranks.refuses(&scene).or(tev) {
+    let interp = scene.interpolation_refusal(scene.render_reader());
+    if let Some(why) = interp.or_else(|| ranks.refuses(&scene)).or(tev) {
         return super::refuse_on_ranks(&ranks, Failure::input(why));
     }
     // An output that may not be written (an input, a special file): under MPI every rank

@@ -73,6 +73,7 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
     super::finite("--at", args.at)?;
     super::finite("--time", args.time)?;
     let scene = super::load_scene(&args.scene, &args.sets)?;
+    super::refuse_interpolation(&scene, crate::field::interpolant::Reader::Slice)?;
     let mut outputs = vec![("-o", args.output.as_path())];
     for (p, flag) in [(&args.png, "--png"), (&args.json, "--json"), (&args.svg, "--svg")] {
         if let Some(p) = p {
@@ -196,6 +197,7 @@ pub fn probe(
     let segment = segment.ok_or_else(|| Failure::input("--slice needs --segment u0,v0,u1,v1"))?;
     let (a, b) = parse_segment(segment).map_err(Failure::input)?;
     let scene = scene::load(scene_path, sets).map_err(Failure::input)?;
+    super::refuse_interpolation(&scene, crate::field::interpolant::Reader::Slice)?;
     let grid = scene.field.sample(time).map_err(Failure::input)?;
     let plane = PlaneGrid::new(&grid, axis, at)
         .map_err(|e| Failure::input(e.located(&format!("--slice {}", echo(slice_arg)))))?;

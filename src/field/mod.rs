@@ -60,4 +60,4 @@ pub use npy::NpySource;
 pub use raw::RawSource;
 pub use samples::{Endian, SampleType, StorageOrder};
 pub use source::{FieldSource, Need, Params, Parsed, PointField, Rule, SourceKind, Supports};
-pub use spec::{FieldSpec, NanPolicy, Residency};
+pub use spec::{FieldSpec, NanPolicy, Residency, COMMON_KEYS};

@@ -3,6 +3,7 @@
 
 use glam::DVec3;
 
+use super::interpolant::Interpolant;
 use super::source::show3;
 use super::{ExprSource, FieldError, FieldSource, Grid, GridLimits};
 use crate::vocab::{Bounds, Placement, SdfShape};
@@ -22,7 +23,14 @@ pub struct FieldSpec {
     pub residency: Residency,
     /// What a NaN or infinite sample means (`field.nan`).
     pub nan: NanPolicy,
+    /// How the field is evaluated between its samples (`field.interpolation`; which readers
+    /// take which: [`Interpolant::refusal`]).
+    pub interpolation: Interpolant,
 }
+
+/// The keys every `[field]` takes whatever its source (`bounds` only where the source has no
+/// box of its own); each source adds its own.
+pub const COMMON_KEYS: [&str; 4] = ["source", "bounds", "nan", "interpolation"];
 
 /// `field.nan`: what a non-finite sample (NaN or ±inf) means. With `Empty` it is missing data:
 /// a cell whose interpolation stencil holds one holds no surface, for every method (the rule:
@@ -72,6 +80,7 @@ impl FieldSpec {
             placement: Placement::IDENTITY,
             residency: Residency::Whole,
             nan: NanPolicy::default(),
+            interpolation: Interpolant::Trilinear,
         }
     }
 
@@ -89,6 +98,7 @@ impl FieldSpec {
             placement: Placement::IDENTITY,
             residency: Residency::Whole,
             nan: NanPolicy::default(),
+            interpolation: Interpolant::Trilinear,
         }
     }
 
@@ -101,6 +111,7 @@ impl FieldSpec {
             placement: Placement::IDENTITY,
             residency: Residency::Whole,
             nan: NanPolicy::default(),
+            interpolation: Interpolant::Trilinear,
         }
     }
 
@@ -117,6 +128,7 @@ impl FieldSpec {
             placement: Placement::IDENTITY,
             residency: Residency::Whole,
             nan: NanPolicy::default(),
+            interpolation: Interpolant::Trilinear,
         })
     }
 

@@ -6,6 +6,7 @@
 use std::sync::Arc;
 
 use super::Band;
+use crate::field::interpolant::Interpolant;
 use crate::gpu::{
     grid_groups, Binding, Buffer, ComputePipeline, Context, Dispatch, GpuError, Image3d, Recorder,
     Resource,
@@ -20,13 +21,23 @@ pub const RAY_BINDINGS: [Binding; 4] =
     [Binding::Uniform, Binding::Sampled, Binding::Write, Binding::Read];
 
 pub fn pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
-    ComputePipeline::new(
-        ctx,
-        "raymarch",
-        shaders::RAYMARCH,
-        &RAY_BINDINGS,
-        std::mem::size_of::<super::Band>() as u32,
-    )
+    interpolant_pipeline(ctx, Interpolant::Trilinear)
+}
+
+/// The pass marching the field of `interp` (its variant of `raymarch.comp`, build.rs), on the
+/// grid as a 3D image: `device` binds it through its linear sampler ([`GridInput::Filtered`]).
+pub fn interpolant_pipeline(
+    ctx: &Arc<Context>,
+    interp: Interpolant,
+) -> Result<ComputePipeline, GpuError> {
+    let (name, spirv) = match interp {
+        Interpolant::Trilinear => ("raymarch", shaders::RAYMARCH),
+        Interpolant::CubicBspline => ("raymarch (cubic-bspline)", shaders::RAYMARCH_BSPLINE),
+        Interpolant::CatmullRom => ("raymarch (catmull-rom)", shaders::RAYMARCH_CATMULL_ROM),
+        Interpolant::Nearest => ("raymarch (nearest)", shaders::RAYMARCH_NEAREST),
+        Interpolant::Device => ("raymarch (device)", shaders::RAYMARCH_DEVICE),
+    };
+    ComputePipeline::new(ctx, name, spirv, &RAY_BINDINGS, std::mem::size_of::<super::Band>() as u32)
 }
 
 /// Bindings of the `GRID_POOL` variants of both ray passes (`field.residency = "active"`):
@@ -50,6 +61,8 @@ pub fn pool_pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
 pub enum GridInput<'a> {
     /// The whole grid (or an MPI rank's block) as a 3D image.
     Image(&'a Image3d),
+    /// The whole grid as a 3D image the shader filters (`interpolation = "device"`).
+    Filtered(&'a Image3d),
     /// The whole grid's points in a storage buffer (the analytic pass's `GRID_BUFFER` variant).
     Points(&'a Buffer),
     /// The brick pool, its page table and the brick min/max grid (`render::pool`).
@@ -81,11 +94,12 @@ impl<'a> RayPass<'a> {
         // The grid's binding: the image, or its points in a storage buffer (same layout).
         let whole = match inputs.grid {
             GridInput::Image(image) => Some(Resource::Sampled(image)),
+            GridInput::Filtered(image) => Some(Resource::Filtered(image)),
             GridInput::Points(points) => Some(Resource::Storage(points)),
             GridInput::Pool { .. } => None,
         };
         let resources = match inputs.grid {
-            GridInput::Image(_) | GridInput::Points(_) => {
+            GridInput::Image(_) | GridInput::Filtered(_) | GridInput::Points(_) => {
                 let mut r = vec![Resource::Uniform(inputs.params)];
                 r.extend(whole);
                 r.extend([Resource::Storage(inputs.pixels), Resource::Storage(inputs.colormap)]);

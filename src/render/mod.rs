@@ -54,6 +54,10 @@ pub enum RenderError {
     /// `[field2]` could not be sampled.
     #[error("[field2]: {0}")]
     Field2(#[from] crate::field::FieldError),
+    /// The scene's interpolant is not read by its method or the grid's storage
+    /// (`Interpolant::refusal`), one line naming `field.interpolation`.
+    #[error("{0}")]
+    Refused(String),
     /// [`Progressive::after_band`] said stop (a newer state made this frame stale).
     #[error("the render was abandoned between bands")]
     Cancelled,
@@ -196,6 +200,7 @@ impl Renderer {
         time: f64,
         how: Progressive<'_>,
     ) -> Result<Frame, RenderError> {
+        refuse_interpolant(scene)?;
         let stride = how.stride.max(1);
         let colorer = color::Colorer::new(scene, grid, time)?;
         if scene.render.method == Method::Mesh && stride > 1 {
@@ -227,6 +232,7 @@ impl Renderer {
         time: f64,
         sink: &mut dyn FrameSink,
     ) -> Result<(), RenderError> {
+        refuse_interpolant(scene)?;
         let colorer = color::Colorer::new(scene, grid, time)?;
         let mut sink = sink::Colored::new(colorer.as_ref(), 1, sink);
         match scene.render.method {
@@ -236,6 +242,15 @@ impl Renderer {
             Method::Mesh => self.render_scene_mesh(scene, grid, gpu_grid, time, &mut sink),
             _ => self.draw_rays(scene, grid, gpu_grid, time, 1, u32::MAX, &mut sink),
         }
+    }
+}
+
+/// The scene's method must read its interpolant (the CLI and `serve` refuse such a scene before
+/// it reaches the device; this keeps every other caller of the library to the same table).
+fn refuse_interpolant(scene: &Scene) -> Result<(), RenderError> {
+    match scene.interpolation_refusal(scene.render_reader()) {
+        Some(why) => Err(RenderError::Refused(why)),
+        None => Ok(()),
     }
 }
 

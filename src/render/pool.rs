@@ -275,6 +275,9 @@ pub fn mapped_for(
     limits: &GridLimits,
 ) -> Result<Option<MappedGrid>, PoolError> {
     let Some(grid) = MappedGrid::for_residency(&scene.field, limits)? else { return Ok(None) };
+    if let Some(why) = scene.interpolation_refusal(crate::field::interpolant::Reader::BrickPool) {
+        return Err(PoolError::Refused(why));
+    }
     if scene.render.method == crate::scene::Method::Mesh {
         // Under "auto" (the default) the user asked for nothing: say why the grid is too large
         // (the cap's own message) and which paths read it in parts.

@@ -11,6 +11,7 @@ use super::grid::Storage;
 use super::params::RenderParams;
 use super::sink::{placed_band, FrameSink};
 use super::{GpuGrid, Progressive, RenderError, Renderer};
+use crate::field::interpolant::{Interpolant, Reader};
 use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::gpu::{Buffer, ComputePipeline, Context, GpuError};
@@ -22,7 +23,8 @@ use crate::scene::{Method, Scene};
 /// carry what they are specialized for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(super) enum RayShader {
-    FixedStep,
+    /// The grid image, marched through the scene's interpolant.
+    FixedStep(Interpolant),
     FixedStepPool,
     /// The grid image (an MPI rank's block, or a grid over the device's storage buffer range).
     Analytic(analytic::Walk),
@@ -34,7 +36,7 @@ pub(super) enum RayShader {
 impl RayShader {
     fn pipeline(self, ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
         match self {
-            RayShader::FixedStep => raymarch::pipeline(ctx),
+            RayShader::FixedStep(interp) => raymarch::interpolant_pipeline(ctx, interp),
             RayShader::FixedStepPool => raymarch::pool_pipeline(ctx),
             RayShader::Analytic(walk) => analytic::pipeline(ctx, walk),
             RayShader::AnalyticBuffer(walk) => analytic::buffer_pipeline(ctx, walk),
@@ -77,10 +79,26 @@ impl Renderer {
             self.last_brick_levels = Some(levels);
             analytic::Walk { levels, surfaces }
         };
+        let interp = scene.field.interpolation;
+        if let (Storage::Pool(_), Some(why)) =
+            (&gpu_grid.storage, scene.interpolation_refusal(Reader::BrickPool))
+        {
+            return Err(RenderError::Refused(why));
+        }
+        if interp == Interpolant::Device && !self.ctx.info.r32f_linear_filter {
+            return Err(RenderError::Gpu(GpuError::Unsupported {
+                what: "field.interpolation = \"device\"".into(),
+                feature: "linear filtering of 32-bit float 3D images (R32_SFLOAT's \
+                          SAMPLED_IMAGE_FILTER_LINEAR)"
+                    .into(),
+                device: self.ctx.info.name.clone(),
+                instead: "use \"trilinear\", the exact filter, or another device (--device)".into(),
+            }));
+        }
         let shader = match (scene.render.method, &gpu_grid.storage) {
             (Method::Mesh, _) => return Err(RenderError::Unsupported("mesh (as a ray pass)")),
             (Method::FixedStep, Storage::Pool(_)) => RayShader::FixedStepPool,
-            (Method::FixedStep, Storage::Image(_)) => RayShader::FixedStep,
+            (Method::FixedStep, Storage::Image(_)) => RayShader::FixedStep(interp),
             (Method::Analytic, Storage::Pool(_)) => RayShader::AnalyticPool(walk()),
             (Method::Analytic, Storage::Image(image)) => {
                 let bytes = image.extent.iter().map(|&e| e as u64).product::<u64>() * 4;
@@ -129,6 +147,9 @@ impl Renderer {
                     .get()
                     .ok_or_else(|| GpuError::Bug("grid points not copied".into()))?,
             ),
+            (Storage::Image(image), RayShader::FixedStep(Interpolant::Device)) => {
+                GridInput::Filtered(image)
+            }
             (Storage::Image(image), _) => GridInput::Image(image),
             (Storage::Pool(p), _) => GridInput::Pool {
                 pool: &p.pool,

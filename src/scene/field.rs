@@ -18,12 +18,13 @@ use super::read::{self, choice, integer, number_where, points3, string, vec3, Re
 use super::tree::{Origin, Source};
 use super::validate::show_vec;
 use super::Bounds;
+use crate::field::interpolant::{Interpolant, Reader};
 use crate::field::{
     FieldError, FieldSpec, GridLimits, NanPolicy, Need, Params, Residency, Rule, SourceKind,
 };
 use crate::vocab::Placement;
 
-const COMMON: [&str; 3] = ["source", "bounds", "nan"];
+use crate::field::COMMON_KEYS as COMMON;
 
 /// Every `[field]` key, each once, in the order of first mention (common keys, then each
 /// kind's).
@@ -119,6 +120,22 @@ fn field_named(
         Some(node) => choice(t.src, &t.key("nan"), node, &NanPolicy::NAMES)?,
         None => NanPolicy::default(),
     };
+    // `interpolation` (every kind): how the field is evaluated between its samples. Which
+    // readers take which is asked where each reads (`Interpolant::refusal`); `[field2]` is
+    // sampled for colour, trilinearly.
+    let interpolation = match t.get("interpolation") {
+        Some(node) => {
+            let names = Interpolant::ALL.map(|i| (i.name(), i));
+            let chosen = choice(t.src, &t.key("interpolation"), node, &names)?;
+            if name == "field2" {
+                if let Some(why) = chosen.refusal(Reader::Colour) {
+                    return Err(t.err(SceneErrorKind::Value, "interpolation", why));
+                }
+            }
+            chosen
+        }
+        None => Interpolant::default(),
+    };
     let unlimited = GridLimits { max_bytes: u64::MAX };
     let limits = if residency == Residency::Whole { limits } else { &unlimited };
     let parsed = kind.parse(&FieldParams { t: &t, base_dir, limits, access })?;
@@ -136,6 +153,7 @@ fn field_named(
         placement,
         residency,
         nan,
+        interpolation,
     })
 }
 

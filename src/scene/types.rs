@@ -41,6 +41,37 @@ impl Scene {
         one
     }
 
+    /// Why `reader` does not read this scene's field ([`Interpolant::refusal`]), as one line
+    /// naming the scene file and `field.interpolation`; `None` where it does.
+    ///
+    /// [`Interpolant::refusal`]: crate::field::interpolant::Interpolant::refusal
+    pub fn interpolation_refusal(
+        &self,
+        reader: crate::field::interpolant::Reader,
+    ) -> Option<String> {
+        let interp = self.field.interpolation;
+        let why = interp.refusal(reader)?;
+        let file = self
+            .path
+            .as_ref()
+            .map(|p| format!("{}: ", crate::vocab::echo(&p.display().to_string())));
+        Some(format!(
+            "{}field.interpolation = \"{}\": {why}",
+            file.unwrap_or_default(),
+            interp.name()
+        ))
+    }
+
+    /// What `render` reads the field as: its method's reader.
+    pub fn render_reader(&self) -> crate::field::interpolant::Reader {
+        use crate::field::interpolant::Reader;
+        match self.render.method {
+            Method::Analytic => Reader::Analytic,
+            Method::FixedStep => Reader::FixedStep,
+            Method::Mesh => Reader::Mesh,
+        }
+    }
+
     /// Surface `k` of `surface.isovalues` as `render.mesh` extracts it: its isovalue, the
     /// inside rule, the method and its sharp-feature settings; `source` is the field's source
     /// off the grid, for `hermite = "source"`.
@@ -372,7 +403,9 @@ impl Shading {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Normals {
     /// The exact gradient of the trilinear interpolant (the contract's): continuous inside a
-    /// cell, jumping across cell faces, so coarse grids look faceted.
+    /// cell, jumping across cell faces, so coarse grids look faceted. With another
+    /// `field.interpolation`, that interpolant's own normal (the cubic ones' exact gradient,
+    /// nearest's voxel faces, the device's differences of its lookups).
     Trilinear,
     /// The trilinear interpolation of per-point central-difference gradients (one-sided at
     /// the box's faces): the volume-rendering convention, continuous across cell faces.

@@ -59,6 +59,7 @@ pub(crate) fn scene(
     let render_table = root.table("render")?;
     let render = render(&render_table)?;
     check_hermite(&render_table, &render, &field)?;
+    check_normals(&render_table, &render, &field)?;
     let clip = clip(&root)?;
     // Last: an isovalue picked from the data samples the whole field.
     let surface = resolve_isovalue(&surface_table, surface, &field, limits)?;
@@ -503,6 +504,34 @@ fn check_hermite(t: &View, render: &RenderSettings, field: &FieldSpec) -> Result
         ));
     }
     Ok(())
+}
+
+/// `render.normals = "smooth"` stands in for the gradient of a trilinear field (and of the
+/// device's filtering of one); the cubic interpolants have their exact smooth gradient and
+/// nearest has its voxel faces, so it is refused with those (`reference::shade::smoothed`).
+fn check_normals(t: &View, render: &RenderSettings, field: &FieldSpec) -> Result<()> {
+    use crate::field::interpolant::Interpolant;
+    let interp = field.interpolation;
+    let own = match interp {
+        Interpolant::Trilinear | Interpolant::Device => return Ok(()),
+        Interpolant::CubicBspline | Interpolant::CatmullRom => {
+            "their exact gradient, smooth already"
+        }
+        Interpolant::Nearest => "the voxels' faces",
+    };
+    if render.normals != Normals::Smooth {
+        return Ok(());
+    }
+    Err(t.err(
+        SceneErrorKind::Value,
+        "normals",
+        format!(
+            "\"smooth\" interpolates point gradients in place of a trilinear field's; \
+             field.interpolation = \"{}\" fields have {own} (use \"trilinear\": the \
+             interpolant's own normal)",
+            interp.name()
+        ),
+    ))
 }
 
 fn slice(t: &View, field: &FieldSpec) -> Result<SliceSettings> {

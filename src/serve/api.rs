@@ -13,6 +13,7 @@ use super::http::{Body, Head, Reply, Target, Wire};
 use super::mailbox::Mailbox;
 use super::progressive::{Board, Failed, Level, Published, Rendered, Task};
 use super::state::{self, Policy, ViewState};
+use crate::field::interpolant::Reader;
 use crate::field::Grid;
 use crate::frame::Channel;
 use crate::output;
@@ -339,6 +340,9 @@ impl App {
     fn probe(&self, target: &Target) -> Result<Reply, Reply> {
         let (x, y) = (target.get("x").unwrap_or(""), target.get("y").unwrap_or(""));
         let (_, state, grid) = self.current()?;
+        if let Some(why) = state.scene.interpolation_refusal(Reader::Probe) {
+            return Err(Reply::error(400, format!("isoview: {why}")));
+        }
         let image = &state.scene.image;
         let (px, py) = probe::parse_pixel(&format!("{x},{y}"), image.width, image.height)
             .map_err(|e| Reply::error(400, format!("isoview: {e}")))?;

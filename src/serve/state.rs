@@ -203,6 +203,11 @@ impl ViewState {
             )
             .into());
         }
+        // A state is rendered: its method must read its interpolant (the page's method switch
+        // then answers 400 with the command line's line, and the shown state stays).
+        if let Some(why) = scene.interpolation_refusal(scene.render_reader()) {
+            return Err(why.into());
+        }
         Ok(ViewState { sets, time, preview, scene, posted: Instant::now() })
     }
 

@@ -100,6 +100,9 @@ pub fn plan(
     at: f64,
     time: f64,
 ) -> Result<Planned, SliceError> {
+    if let Some(why) = scene.interpolation_refusal(crate::field::interpolant::Reader::Slice) {
+        return Err(SliceError::Input(why));
+    }
     let plane = PlaneGrid::new(grid, axis, at)?;
     let set = scene_contours(scene, &plane, time)?;
     let (width, height) = picture_size(

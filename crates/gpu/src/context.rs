@@ -43,6 +43,13 @@ pub struct DeviceInfo {
     /// `shaderFloat64`: the mc33 extraction passes decide topology in f64 like the CPU
     /// reference, and need it.
     pub float64: bool,
+    /// `R32_SFLOAT` images can be sampled with a linear filter (optimal tiling's
+    /// `SAMPLED_IMAGE_FILTER_LINEAR`, optional in Vulkan for 32-bit floats): what
+    /// [`crate::Image3d::linear_sampler`] needs.
+    pub r32f_linear_filter: bool,
+    /// `subTexelPrecisionBits`: the fractional bits of the texture unit's filter weights
+    /// (Vulkan requires at least 4).
+    pub sub_texel_precision_bits: u32,
 }
 
 /// Instance, device, queue and allocator. Shared by `Arc`; resources keep it alive.
@@ -365,6 +372,12 @@ impl Context {
             && features12.shader_buffer_int64_atomics == vk::TRUE
             && props.api_version >= vk::API_VERSION_1_2;
 
+        // SAFETY: pd is valid.
+        let r32f =
+            unsafe { instance.get_physical_device_format_properties(pd, vk::Format::R32_SFLOAT) };
+        let r32f_linear_filter = r32f
+            .optimal_tiling_features
+            .contains(vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR);
         let limits = props.limits;
         let info = DeviceInfo {
             name,
@@ -383,6 +396,8 @@ impl Context {
             device_local_heap,
             int64_atomics,
             float64,
+            r32f_linear_filter,
+            sub_texel_precision_bits: limits.sub_texel_precision_bits,
         };
 
         let priorities = [1.0f32];

@@ -11,11 +11,14 @@ use super::{Buffer, Context};
 const STAGING_BYTES: u64 = 64 << 20;
 
 /// A 3D `R32_SFLOAT` image read with `texelFetch` (exact values, no filtering), with its view and
-/// a nearest-filter sampler, in `SHADER_READ_ONLY_OPTIMAL` layout once uploaded.
+/// a nearest-filter sampler, in `SHADER_READ_ONLY_OPTIMAL` layout once uploaded; and a
+/// linear-filter sampler for the shaders that ask the texture unit to filter it
+/// ([`crate::Resource::Filtered`], on devices with [`crate::DeviceInfo::r32f_linear_filter`]).
 pub struct Image3d {
     pub raw: vk::Image,
     pub view: vk::ImageView,
     pub sampler: vk::Sampler,
+    pub linear_sampler: vk::Sampler,
     pub extent: [u32; 3],
     allocation: Option<Allocation>,
     ctx: Arc<Context>,
@@ -89,6 +92,7 @@ impl Image3d {
             raw,
             view: vk::ImageView::null(),
             sampler: vk::Sampler::null(),
+            linear_sampler: vk::Sampler::null(),
             extent,
             allocation: Some(allocation),
             ctx: ctx.clone(),
@@ -120,6 +124,12 @@ impl Image3d {
         // SAFETY: valid device; destroyed in Drop.
         image.sampler =
             unsafe { device.create_sampler(&sampler_info, None) }.vk("vkCreateSampler")?;
+        let linear_info =
+            sampler_info.mag_filter(vk::Filter::LINEAR).min_filter(vk::Filter::LINEAR);
+        // SAFETY: valid device; destroyed in Drop. Creating it needs no format feature; only
+        // sampling the image through it does (the callers check `r32f_linear_filter`).
+        image.linear_sampler =
+            unsafe { device.create_sampler(&linear_info, None) }.vk("vkCreateSampler")?;
 
         // Upload in z-slabs through one staging buffer.
         let slice_texels = extent[0] as u64 * extent[1] as u64;
@@ -319,6 +329,7 @@ impl Drop for Image3d {
         // SAFETY: submissions wait on their fence, so the GPU no longer uses these objects.
         unsafe {
             self.ctx.device.destroy_sampler(self.sampler, None);
+            self.ctx.device.destroy_sampler(self.linear_sampler, None);
             self.ctx.device.destroy_image_view(self.view, None);
             self.ctx.device.destroy_image(self.raw, None);
         }

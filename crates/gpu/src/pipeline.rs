@@ -57,6 +57,9 @@ pub enum Resource<'a> {
     Storage(&'a Buffer),
     Uniform(&'a Buffer),
     Sampled(&'a Image3d),
+    /// The image through its linear sampler (a `Binding::Sampled` binding whose shader asks the
+    /// texture unit to filter it: `texture()`), on a device with `r32f_linear_filter`.
+    Filtered(&'a Image3d),
 }
 
 /// A descriptor set filled for one pipeline, with its own small pool; keep it alive until the
@@ -188,7 +191,9 @@ impl ComputePipeline {
         let kind = |r: &Resource| match r {
             Resource::Storage(_) => vk::DescriptorType::STORAGE_BUFFER,
             Resource::Uniform(_) => vk::DescriptorType::UNIFORM_BUFFER,
-            Resource::Sampled(_) => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+            Resource::Sampled(_) | Resource::Filtered(_) => {
+                vk::DescriptorType::COMBINED_IMAGE_SAMPLER
+            }
         };
         // Checked before anything is created.
         for (i, r) in resources.iter().enumerate() {
@@ -222,7 +227,7 @@ impl ComputePipeline {
         let buffers =
             accesses(resources.iter().zip(&self.bindings).filter_map(|(r, &binding)| match r {
                 Resource::Storage(b) | Resource::Uniform(b) => Some((b.raw, binding)),
-                Resource::Sampled(_) => None,
+                Resource::Sampled(_) | Resource::Filtered(_) => None,
             }));
         let mut dispatch = Dispatch {
             set: vk::DescriptorSet::null(),
@@ -248,14 +253,19 @@ impl ComputePipeline {
                 Resource::Storage(b) | Resource::Uniform(b) => {
                     [vk::DescriptorBufferInfo { buffer: b.raw, offset: 0, range: vk::WHOLE_SIZE }]
                 }
-                Resource::Sampled(_) => [vk::DescriptorBufferInfo::default()],
+                Resource::Sampled(_) | Resource::Filtered(_) => {
+                    [vk::DescriptorBufferInfo::default()]
+                }
             })
             .collect();
         let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = resources
             .iter()
             .map(|r| match r {
-                Resource::Sampled(img) => [vk::DescriptorImageInfo {
-                    sampler: img.sampler,
+                Resource::Sampled(img) | Resource::Filtered(img) => [vk::DescriptorImageInfo {
+                    sampler: match r {
+                        Resource::Filtered(_) => img.linear_sampler,
+                        _ => img.sampler,
+                    },
                     image_view: img.view,
                     image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
                 }],
@@ -268,7 +278,7 @@ impl ComputePipeline {
                 .dst_set(set)
                 .dst_binding(i as u32)
                 .descriptor_type(kind(r));
-            writes.push(if matches!(r, Resource::Sampled(_)) {
+            writes.push(if matches!(r, Resource::Sampled(_) | Resource::Filtered(_)) {
                 w.image_info(&image_infos[i])
             } else {
                 w.buffer_info(&buffer_infos[i])

@@ -4,9 +4,10 @@
 //! on one cell, statically dispatched in the hot loops, and [`Interpolated`] is a grid read with
 //! a chosen one (the dispatch, one exhaustive `match`). The kernels: [`trilinear`] (the one
 //! every method uses today), [`cubic`] (the uniform cubic B-spline and Catmull-Rom) and
-//! [`nearest`]; `device` (the GPU's texture filtering) has none on the CPU. Only trilinear can
-//! be chosen yet: the `[field] interpolation` key comes with its refusals (issue #26);
-//! docs/contributing.md says what adding one touches.
+//! [`nearest`]; `device` (the GPU's texture filtering) has none on the CPU. A scene chooses one
+//! with `[field] interpolation`; [`Interpolant::refusal`] is the one table of which readers
+//! (methods, verbs, the brick pool) take which; docs/contributing.md says what adding one
+//! touches.
 //!
 //! Every kernel reads its stencil with the contract's edge clamp: a sample index outside the
 //! grid reads the nearest edge point ([`Kernel::gather`]).
@@ -30,12 +31,13 @@ pub use cubic::{BSpline, CatmullRom};
 pub use nearest::Nearest;
 pub use trilinear::Trilinear;
 
-/// An interpolant of the sampled field (the values of `[field] interpolation`, a key not yet
-/// read: every scene is trilinear today). The definitions are the contract's
-/// (`shared/design/interface.md`): cells as today, point `i` at `min + i (max - min) / (n - 1)`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// An interpolant of the sampled field (the values of `[field] interpolation`). The
+/// definitions are the contract's (docs/scene.md "Interpolation"): cells as always, point `i`
+/// at `min + i (max - min) / (n - 1)`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Interpolant {
-    /// The 8 corners of the cell, linear along each axis ([`Trilinear`]).
+    /// The 8 corners of the cell, linear along each axis ([`Trilinear`]): the default.
+    #[default]
     Trilinear,
     /// The uniform cubic B-spline of the 4×4×4 samples around the cell (approximating, C²;
     /// [`BSpline`]).
@@ -144,6 +146,73 @@ impl Interpolant {
                 gradient: false,
                 hull: Hull::Convex,
             },
+        }
+    }
+}
+
+/// What reads a field through its interpolant, each asked of [`Interpolant::refusal`] where it
+/// reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reader {
+    /// `render.method = "analytic"`: the exact trace.
+    Analytic,
+    /// `render.method = "fixed-step"`: samples along the ray.
+    FixedStep,
+    /// Meshes: `extract` and `render.method = "mesh"`.
+    Mesh,
+    /// `slice`: the value image and the contours on a plane.
+    Slice,
+    /// `probe`: the exact trace and fixed-step's march of one pixel, in f64.
+    Probe,
+    /// The ray methods' brick pool (`field.residency` with a grid over the memory cap).
+    BrickPool,
+    /// `[field2]`, sampled for `[color] by = "field2"`.
+    Colour,
+}
+
+impl Interpolant {
+    /// Why `reader` does not read a field through this interpolant, as the end of a line that
+    /// names `field.interpolation`; `None` where it does. The one table of what is built:
+    /// trilinear everywhere; every interpolant by fixed-step; `device` only by fixed-step (the
+    /// contract: it is what the texture unit returns, which exists only on the GPU's lookups
+    /// of a whole-grid image). The cubic interpolants and nearest have their exact f64
+    /// references (`reference::analytic`, `reference::voxels`), not yet the GPU passes and
+    /// verbs marked "not yet" here (docs/limitations.md).
+    pub fn refusal(self, reader: Reader) -> Option<String> {
+        let name = self.name();
+        let yet = |what: &str| {
+            Some(format!(
+                "{what} does not read \"{name}\" fields yet; render.method = \"fixed-step\" \
+                 renders them"
+            ))
+        };
+        match (self, reader) {
+            (Interpolant::Trilinear, _) | (_, Reader::FixedStep) => None,
+            (_, Reader::Colour) => Some(
+                "[field2] is sampled trilinearly for its colours; interpolation is a key of [field]"
+                    .into(),
+            ),
+            (Interpolant::Device, Reader::BrickPool) => Some(
+                "\"device\" is the texture unit's filtering of the whole grid as one 3D image, \
+                 which the brick pool does not hold; raise the memory cap so the grid fits"
+                    .into(),
+            ),
+            (Interpolant::Device, _) => Some(
+                "\"device\" is what the GPU's texture unit returns, only sampled: it needs \
+                 render.method = \"fixed-step\" (and no verb that reads the field on the CPU)"
+                    .into(),
+            ),
+            // The contract lets the pool refuse the cubic interpolants: its apron and ranges
+            // would have to hold their 4x4x4 stencils.
+            (_, Reader::BrickPool) => Some(format!(
+                "the brick pool (a grid over the memory cap) holds trilinear cells only, not \
+                 \"{name}\" ones; raise the memory cap (ISOVIEW_MAX_GRID_MIB) so the grid is \
+                 read whole"
+            )),
+            (_, Reader::Analytic) => yet("render.method = \"analytic\""),
+            (_, Reader::Mesh) => yet("mesh extraction (extract, render.method = \"mesh\")"),
+            (_, Reader::Slice) => yet("slice"),
+            (_, Reader::Probe) => yet("probe"),
         }
     }
 }

@@ -87,8 +87,11 @@ fn shape<P: Params>(p: &P) -> Result<SdfShape, P::Error> {
         &Shape::ALL,
     )?;
     let (name, params) = (shape.name(), shape.params());
-    let allowed: Vec<&str> = ["source", "bounds", "shape", "center", "resolution"]
+    // The keys every field takes (`nan`, `interpolation`: an SDF grid's samples are finite,
+    // but the keys are the same for every source), then the shapes'.
+    let allowed: Vec<&str> = crate::field::COMMON_KEYS
         .into_iter()
+        .chain(["shape", "center", "resolution"])
         .chain(params.iter().copied())
         .collect();
     p.check_keys(&allowed, &|key| {

@@ -16,6 +16,7 @@ mod render {
     mod clip;
     mod color;
     mod fixed_step;
+    mod interpolants;
     mod mesh;
     mod methods;
     mod nan;

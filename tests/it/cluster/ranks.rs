@@ -176,5 +176,6 @@ fn raw_spec(path: &Path, grid: &Grid) -> FieldSpec {
         placement: Placement::IDENTITY,
         residency: Residency::Whole,
         nan: Default::default(),
+        interpolation: Default::default(),
     }
 }

@@ -40,6 +40,7 @@ fn raw_spec(path: &Path, grid: &Grid, residency: Residency) -> FieldSpec {
         placement: Placement::IDENTITY,
         residency,
         nan: Default::default(),
+        interpolation: Default::default(),
     }
 }
 
@@ -173,6 +174,7 @@ fn mapped_reads_equal_the_in_memory_readers() {
         placement: Placement::IDENTITY,
         residency: Residency::Active,
         nan: Default::default(),
+        interpolation: Default::default(),
     };
     let grid = Grid { dims, min: DVec3::ZERO, max: DVec3::ONE, values: whole };
     let mapped = MappedGrid::open(&spec).unwrap().unwrap();

@@ -659,6 +659,7 @@ fn brick_pool_renders_equal_whole_grid_renders_with_missing_samples() {
             placement: Placement::IDENTITY,
             residency: Residency::Active,
             nan: Default::default(),
+            interpolation: Default::default(),
         };
         let limits = GridLimits::default();
         let mapped = pool::mapped_for(&mapped_scene, &limits).unwrap().unwrap();

@@ -1,0 +1,389 @@
+//! `field.interpolation` on the GPU: the fixed-step march through each interpolant against its
+//! f64 reference (`reference::fixed_step::render_sampled`) on random grids, the answers known in
+//! closed form (Catmull-Rom reproduces a quadric, the B-spline shrinks it by its kernel's
+//! variance, nearest's surface is voxel faces), the device's own filtering measured against
+//! exact trilinear, and the one table of refusals (`Interpolant::refusal`) as the CLI says it.
+
+use glam::DVec3;
+use isoview::camera::Camera;
+use isoview::field::interpolant::Interpolant;
+use isoview::field::Grid;
+use isoview::frame::Pixel;
+use isoview::reference::fixed_step::{self, DeviceModel, Sampling};
+use isoview::render::Renderer;
+use isoview::scene::{Inside, Method, Scene, Shading};
+
+use crate::common::*;
+
+/// Depth and position of GPU (f32) against the reference (f64), relative to the box diagonal.
+const DEPTH_TOL: f64 = 2e-5;
+/// Normals: largest allowed |n_gpu - n_ref|.
+const NORMAL_TOL: f64 = 1e-3;
+/// A smooth interpolant's hit/miss and steps may differ only where a sample's value is this
+/// close to the isovalue, relative to the samples' range (f32 rounding of sample positions).
+const MARGIN_TOL: f64 = 1e-4;
+
+fn scene_with(grid: &Grid, eye: DVec3, size: u32, interp: Interpolant) -> Scene {
+    let mut scene = scene_for(grid, eye, size, Method::FixedStep);
+    scene.field.interpolation = interp;
+    scene
+}
+
+#[derive(Default, Debug)]
+struct Tally {
+    rays: usize,
+    hits: usize,
+    /// Pixels that differ where the two arithmetics may disagree (a sample within rounding of
+    /// the isovalue, or for nearest of a voxel face).
+    excused: usize,
+}
+
+/// Whether grid coordinate `u` lies within `tol` of a voxel face (a half-integer plane) on
+/// some axis: where f32 and f64 may put a sample in different voxels.
+fn near_voxel_face(u: DVec3, tol: f64) -> bool {
+    (0..3).any(|a| ((u[a] - 0.5) - (u[a] - 0.5).round()).abs() < tol)
+}
+
+/// Compares the GPU's pixels with the reference's, pixel by pixel (the tolerances above). A
+/// pixel may differ only where the two arithmetics may disagree: for the smooth interpolants
+/// where a sample is within rounding of the isovalue; for nearest, whose values jump at voxel
+/// faces, where a sample of the march is within rounding of a face (hit, miss, steps), where a
+/// bisection midpoint was (the depth then moves by at most the final bracket), or where the hit
+/// is near a voxel edge (the face's axis and the inside voxel).
+fn compare(scene: &Scene, grid: &Grid, gpu: &[Pixel]) -> Tally {
+    use isoview::reference::field::{clip_box, to_grid};
+    let interp = scene.field.interpolation;
+    let nearest = interp == Interpolant::Nearest;
+    let sampling = Sampling::new(interp);
+    let cam = Camera::new(&scene.camera, &scene.image);
+    let (lo, hi) = grid.range();
+    let margin_tol = MARGIN_TOL * (hi - lo) as f64;
+    let diag = (grid.max - grid.min).length();
+    let reference = fixed_step::render_sampled(scene, grid, sampling);
+    let (iso, inside, steps) = (scene.surface.isovalue, scene.surface.inside, scene.render.steps);
+    let mut tally = Tally::default();
+    for py in 0..scene.image.height {
+        for px in 0..scene.image.width {
+            let i = (py * scene.image.width + px) as usize;
+            let (g, r) = (&gpu[i], &reference[i]);
+            let (o, d) = cam.ray(px, py);
+            let span = clip_box(grid, o, d);
+            let sample_tie = || {
+                let m = fixed_step::march_sampled(
+                    grid,
+                    sampling,
+                    iso,
+                    inside,
+                    o,
+                    d,
+                    steps,
+                    &scene.clip,
+                );
+                if !nearest {
+                    return m.margin < margin_tol;
+                }
+                span.is_some_and(|(t0, t1)| {
+                    (0..steps).any(|s| {
+                        let t = t0 + (t1 - t0) * (s as f64 / (steps - 1) as f64);
+                        near_voxel_face(to_grid(grid, o + d * t), 1e-4)
+                    })
+                })
+            };
+            tally.rays += 1;
+            if g.is_hit() != r.is_hit() || g.steps != r.steps {
+                assert!(
+                    sample_tie(),
+                    "{}: pixel ({px},{py}): GPU {g:?} vs reference {r:?}",
+                    interp.name()
+                );
+                tally.excused += 1;
+                continue;
+            }
+            if !r.is_hit() {
+                assert_eq!(g.rgba, r.rgba, "{}: pixel ({px},{py}) background", interp.name());
+                continue;
+            }
+            tally.hits += 1;
+            let dz = (g.depth as f64 - r.depth as f64).abs();
+            let dn = (v3(g.normal) - v3(r.normal)).length();
+            if dz <= DEPTH_TOL * diag && dn <= NORMAL_TOL && g.cell == r.cell {
+                for c in 0..4 {
+                    assert!(
+                        (g.rgba[c] - r.rgba[c]).abs() < 2e-3,
+                        "{}: pixel ({px},{py}) colour {:?} vs {:?}",
+                        interp.name(),
+                        g.rgba,
+                        r.rgba
+                    );
+                }
+                continue;
+            }
+            let excused = if nearest {
+                // The final bracket: a step over 2^REFINE_BISECTIONS.
+                let (t0, t1) = span.unwrap();
+                let bracket = (t1 - t0) / (steps - 1) as f64 / 256.0;
+                let u = to_grid(grid, v3(r.position));
+                let near_edge =
+                    (0..3).filter(|&a| ((u[a] - 0.5) - (u[a] - 0.5).round()).abs() < 1e-3).count()
+                        >= 2;
+                dz <= bracket + DEPTH_TOL * diag
+                    && (dn <= NORMAL_TOL && g.cell == r.cell || near_edge)
+            } else {
+                sample_tie()
+            };
+            assert!(
+                excused,
+                "{}: pixel ({px},{py}): depth {} vs {}, normal {:?} vs {:?}, cell {:?} vs {:?}",
+                interp.name(),
+                g.depth,
+                r.depth,
+                g.normal,
+                r.normal,
+                g.cell,
+                r.cell
+            );
+            tally.excused += 1;
+        }
+    }
+    tally
+}
+
+/// Random grids and cameras, inside rules, isovalues, step counts and shadings, through each
+/// interpolant the GPU marches exactly (device's filter has no f64 reference: its test is
+/// below). Shown to fail with one B-spline weight numerator changed in interpolant.glsl and
+/// with nearest rounding half down.
+#[gpu_test]
+fn fixed_step_through_each_interpolant_matches_its_reference() {
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    for interp in [Interpolant::CubicBspline, Interpolant::CatmullRom, Interpolant::Nearest] {
+        let mut rng = Rng::new(11);
+        let mut total = Tally::default();
+        for case in 0..6 {
+            let dims = [0; 3].map(|_| 2 + (rng.next_u64() % 6) as usize);
+            let grid = random_grid(&mut rng, dims);
+            let eye = random_eye(&mut rng, &grid, case % 3 == 2);
+            let mut scene = scene_with(&grid, eye, 24, interp);
+            scene.render.steps = 16 + (rng.next_u64() % 80) as u32;
+            scene.surface.isovalue = rng.range(-0.3, 0.3);
+            scene.surface.inside = if case % 2 == 0 { Inside::Below } else { Inside::Above };
+            scene.render.shading = [Shading::Lambert, Shading::Normal, Shading::Cells][case % 3];
+            let frame = renderer.render(&scene, &grid, 0.0).unwrap();
+            let t = compare(&scene, &grid, &frame.pixels);
+            total.rays += t.rays;
+            total.hits += t.hits;
+            total.excused += t.excused;
+        }
+        eprintln!("fixed-step {}: {total:?}", interp.name());
+        assert!(total.hits > total.rays / 10, "{}: too few hits: {total:?}", interp.name());
+        // Nearest: every hit's bisection closes in on a voxel face, so a midpoint within f32
+        // rounding of the face is common (each such pixel is within one bracket, above).
+        let most = if interp == Interpolant::Nearest { 30 } else { 1000 };
+        assert!(total.excused * most < total.rays, "{}: too many ties: {total:?}", interp.name());
+    }
+}
+
+/// Renders `grid` through `interp` from a few directions and checks every hit on a sphere of
+/// `radius` (about the box's centre) to `tol`, with outward normals.
+fn renders_sphere(grid: &Grid, interp: Interpolant, radius: f64, tol: f64) {
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let mut hits = 0;
+    for eye in [DVec3::new(0.0, 0.0, 3.0), DVec3::new(2.1, -1.3, 1.7), DVec3::new(-2.5, 1.9, -0.4)]
+    {
+        let mut scene = scene_with(grid, eye, 40, interp);
+        scene.render.steps = 400;
+        let frame = renderer.render(&scene, grid, 0.0).unwrap();
+        for p in frame.pixels.iter().filter(|p| p.is_hit()) {
+            let pos = v3(p.position);
+            assert!(
+                (pos.length() - radius).abs() < tol,
+                "{}: |{pos}| = {}, expected {radius}",
+                interp.name(),
+                pos.length()
+            );
+            assert!(v3(p.normal).dot(pos.normalize()) > 0.9999, "{}: normal", interp.name());
+            hits += 1;
+        }
+    }
+    assert!(hits > 1000, "{}: {hits} hits", interp.name());
+}
+
+/// The contract's closed forms: x² + y² + z² − r² sampled on a grid (spacing h), away from the
+/// border by two cells, is reproduced by Catmull-Rom (it reproduces quadratics), so the surface
+/// is the sphere of radius r; the B-spline of a sampled x² is x² + h²/3, so the same samples
+/// give the sphere of radius √(r² − h²). Trilinear's surface of the same samples is off by far
+/// more (checked, so the tolerance means something).
+#[gpu_test]
+fn quadric_samples_give_the_exact_and_the_shrunk_sphere() {
+    let (n, r) = (17, 0.6);
+    let h = 2.0 / (n - 1) as f64;
+    let grid =
+        grid_from([n; 3], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length_squared() - r * r);
+    let diag = (grid.max - grid.min).length();
+    renders_sphere(&grid, Interpolant::CatmullRom, r, 1e-5 * diag);
+    renders_sphere(&grid, Interpolant::CubicBspline, (r * r - h * h).sqrt(), 1e-5 * diag);
+    // Trilinear of the same samples lies outside the sphere between the points (the chord
+    // of a convex function): by up to ~h²/(8r), 500 times the tolerance.
+    let result = std::panic::catch_unwind(|| {
+        renders_sphere(&grid, Interpolant::Trilinear, r, 1e-5 * diag);
+    });
+    assert!(result.is_err(), "trilinear should not reproduce the sphere to 1e-5");
+}
+
+/// Nearest's surface of f = x sampled at x = 0, 1, ..., 4 with the isovalue between two samples
+/// is the face between their voxels, the plane x = i + ½, whatever the isovalue between them;
+/// its normal is the face's (from the inside voxel to the outside one) and `cell` the inside
+/// voxel's point. Fixed-step finds it to within its final bracket (a step over 2^8).
+#[gpu_test]
+fn nearest_surfaces_are_the_voxel_faces() {
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let grid = grid_from([5, 4, 4], DVec3::ZERO, DVec3::new(4.0, 3.0, 3.0), |p| p.x);
+    for (iso, inside, face, normal, inside_point) in [
+        (1.3, Inside::Below, 1.5, 1.0, 1),
+        (1.9, Inside::Below, 1.5, 1.0, 1),
+        (2.5, Inside::Above, 2.5, -1.0, 3),
+        (3.01, Inside::Above, 3.5, -1.0, 4),
+    ] {
+        let mut scene = scene_with(&grid, DVec3::new(-3.0, 1.4, 1.6), 24, Interpolant::Nearest);
+        scene.camera.target = DVec3::new(2.0, 1.5, 1.5);
+        scene.surface.isovalue = iso;
+        scene.surface.inside = inside;
+        scene.render.steps = 200;
+        let frame = renderer.render(&scene, &grid, 0.0).unwrap();
+        let mut hits = 0;
+        for p in frame.pixels.iter().filter(|p| p.is_hit()) {
+            let pos = v3(p.position);
+            assert!((pos.x - face).abs() < 1e-4, "iso {iso}: hit at {pos}, face x = {face}");
+            assert_eq!(p.normal, [normal as f32, 0.0, 0.0], "iso {iso}: the face's normal");
+            assert_eq!(p.cell[0], inside_point, "iso {iso}: the inside voxel");
+            hits += 1;
+        }
+        assert!(hits > 200, "iso {iso}: {hits} hits");
+    }
+}
+
+/// `interpolation = "device"`: the texture unit's linear filter, measured. On f = x along x
+/// (exact under trilinear), the device's surface of each isovalue is where its filtered value
+/// crosses it; the filter's weights are exact to within the device's `subTexelPrecisionBits`
+/// (the Vulkan limit the model takes), so every hit lies within one quantum (2^-bits of a
+/// cell) of the exact plane and of the model of that many bits (`DeviceModel`). The largest
+/// offset seen is printed: the terraces' height on this device.
+#[gpu_test]
+fn the_device_filter_is_within_its_precision_of_exact_trilinear() {
+    let ctx = gpu();
+    if !ctx.info.r32f_linear_filter {
+        panic!(
+            "{} cannot filter R32_SFLOAT linearly: this test needs a device that can",
+            ctx.info.name
+        );
+    }
+    let bits = ctx.info.sub_texel_precision_bits;
+    let quantum = (-(bits as f64)).exp2();
+    let model = DeviceModel { bits };
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let grid = grid_from([4, 3, 3], DVec3::ZERO, DVec3::new(3.0, 2.0, 2.0), |p| p.x);
+    let mut worst: f64 = 0.0;
+    let mut rng = Rng::new(5);
+    for _ in 0..24 {
+        let iso = rng.range(0.05, 2.95);
+        let mut scene = scene_with(&grid, DVec3::new(6.0, 1.0, 1.0), 8, Interpolant::Device);
+        scene.camera.target = DVec3::new(0.0, 1.0, 1.0);
+        scene.camera.fov_y_deg = 1.0;
+        scene.surface.isovalue = iso;
+        scene.surface.inside = Inside::Above;
+        scene.render.steps = 512;
+        let frame = renderer.render(&scene, &grid, 0.0).unwrap();
+        let reference = fixed_step::render_sampled(
+            &scene,
+            &grid,
+            Sampling { interp: Interpolant::Device, device: model },
+        );
+        for (p, r) in frame.pixels.iter().zip(&reference) {
+            assert!(p.is_hit(), "iso {iso}: every ray meets the plane");
+            let x = p.position[0] as f64;
+            worst = worst.max((x - iso).abs());
+            assert!((x - iso).abs() <= quantum + 1e-4, "iso {iso}: device hit at x = {x}");
+            let xr = r.position[0] as f64;
+            assert!((x - xr).abs() <= quantum + 1e-4, "iso {iso}: x = {x}, the model's {xr}");
+            let n = v3(p.normal);
+            assert!(n.dot(DVec3::NEG_X) > 0.999, "iso {iso}: normal {n}");
+        }
+    }
+    eprintln!(
+        "device filter on {}: subTexelPrecisionBits = {bits}, largest offset from the exact \
+         plane {worst:.3e} cells",
+        ctx.info.name
+    );
+}
+
+/// The one table of refusals, as the CLI says it: a verb or method that does not read the
+/// scene's interpolant exits 2 with one line naming `field.interpolation`, before reading a
+/// sample; fixed-step renders every interpolant; an unknown name lists the five.
+#[gpu_test]
+fn each_verb_refuses_the_interpolants_it_does_not_read() {
+    let dir = scratch("interp-refusals");
+    let scene = write(
+        &dir,
+        "s.toml",
+        "[image]\nwidth = 16\nheight = 16\n[field]\nsource = \"sdf\"\nshape = \"sphere\"\n\
+         radius = 0.5\nresolution = [8, 8, 8]\nbounds = { min = [-1, -1, -1], max = [1, 1, 1] }\n",
+    );
+    let out = dir.join("o.exr");
+    let o = out.to_str().unwrap();
+    let set = |i: &str| format!("field.interpolation=\"{i}\"");
+    let (mesh, sliced) = (dir.join("m.ply"), dir.join("s.exr"));
+    let (m, sl) = (mesh.to_str().unwrap(), sliced.to_str().unwrap());
+    for interp in ["cubic-bspline", "catmull-rom", "nearest", "device"] {
+        let i = set(interp);
+        let key = format!("s.toml: field.interpolation = \"{interp}\": ");
+        let why = if interp == "device" {
+            "is what the GPU's texture unit returns"
+        } else {
+            "does not read"
+        };
+        for method in ["analytic", "mesh"] {
+            let me = format!("render.method=\"{method}\"");
+            let r = isoview(&["render", &scene, "-o", o, "--set", &i, "--set", &me], &[]);
+            assert_fails(&r, 2, &[&key, why]);
+        }
+        for args in [
+            vec!["extract", &scene, "-o", m],
+            vec!["slice", &scene, "-o", sl, "--axis", "z", "--at", "0"],
+            vec!["probe", &scene, "--pixel", "3,3"],
+            vec!["probe", &scene, "--slice", "z=0", "--segment", "-1,-1,1,1"],
+        ] {
+            let mut a: Vec<&str> = args.clone();
+            a.extend(["--set", &i]);
+            assert_fails(&isoview(&a, &[]), 2, &[&key, why]);
+        }
+        for f in [&out, &mesh, &sliced] {
+            assert!(!f.exists(), "{interp}: {} written", f.display());
+        }
+        let fixed = "render.method=\"fixed-step\"";
+        let r = isoview(&["render", &scene, "-o", o, "--set", &i, "--set", fixed], &[]);
+        assert!(r.status.success(), "{interp} by fixed-step: {}", stderr(&r));
+        std::fs::remove_file(&out).unwrap();
+        let smooth = "render.normals=\"smooth\"";
+        let r = isoview(
+            &["render", &scene, "-o", o, "--set", &i, "--set", fixed, "--set", smooth],
+            &[],
+        );
+        if interp == "device" {
+            // Point gradients stand in for the device's filter of a trilinear field too.
+            assert!(r.status.success(), "device, smooth normals: {}", stderr(&r));
+            std::fs::remove_file(&out).unwrap();
+        } else {
+            assert_fails(&r, 2, &["render.normals", "\"smooth\" interpolates point gradients"]);
+        }
+    }
+    let r = isoview(&["render", &scene, "-o", o, "--set", &set("tricubic")], &[]);
+    let names = ["field.interpolation", "\"trilinear\"", "\"cubic-bspline\"", "\"catmull-rom\""];
+    assert_fails(&r, 2, &names);
+    assert_fails(&r, 2, &["\"nearest\"", "\"device\""]);
+    // [field2] is sampled trilinearly for colour.
+    let f2 = "field2={source=\"sdf\",shape=\"sphere\",radius=0.5,resolution=[4,4,4],interpolation=\"nearest\"}";
+    let r = isoview(&["render", &scene, "-o", o, "--set", f2, "--set", "color.by=\"field2\""], &[]);
+    assert_fails(&r, 2, &["field2.interpolation", "[field2] is sampled trilinearly"]);
+}

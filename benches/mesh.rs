@@ -36,6 +36,7 @@ fn sdf_grid(shape: SdfShape, n: usize) -> Grid {
         placement: Default::default(),
         residency: isoview::field::Residency::Whole,
         nan: Default::default(),
+        interpolation: Default::default(),
     };
     spec.sample(0.0).expect("sdf grid")
 }

@@ -1,6 +1,7 @@
 //! `cargo bench --bench render` (or `./x bench`): fixed-step ray marching rays/s and samples/s
-//! on the current Vulkan device, against the f64 CPU reference measured in the same run.
-//! Prints a table; never asserts on time.
+//! on the current Vulkan device, against the f64 CPU reference measured in the same run; then
+//! the same march through each `field.interpolation`, against trilinear in the same run.
+//! Prints tables; never asserts on time.
 
 use std::time::Instant;
 
@@ -22,6 +23,7 @@ fn torus_grid(n: usize) -> Grid {
         placement: Default::default(),
         residency: isoview::field::Residency::Whole,
         nan: Default::default(),
+        interpolation: Default::default(),
     };
     spec.sample(0.0).expect("torus grid")
 }
@@ -91,5 +93,38 @@ fn main() {
             cpu_samples / cpu_s,
             (rays / gpu_s) / (cpu_rays / cpu_s)
         );
+    }
+    interpolants(&ctx, &mut renderer);
+}
+
+/// Fixed-step through each interpolant on the torus at 64³ and 256³ (the same rays, steps and
+/// grid), as a ratio of trilinear's time in the same run.
+fn interpolants(ctx: &std::sync::Arc<Context>, renderer: &mut Renderer) {
+    use isoview::field::interpolant::Interpolant;
+    let (size, steps) = (256, 200);
+    println!();
+    println!("fixed-step through each field.interpolation, {size}x{size} image, torus SDF, steps = {steps}; GPU: median of 3 frames (GPU timestamps), ratio to trilinear in this run");
+    println!();
+    println!("| grid | interpolation | GPU ms/frame | × trilinear |");
+    println!("|---|---|---|---|");
+    for n in [64usize, 256] {
+        let grid = torus_grid(n);
+        let gpu_grid = GpuGrid::upload(ctx, &grid).expect("upload");
+        let mut trilinear = f64::NAN;
+        for interp in Interpolant::ALL {
+            let mut sc = scene(&grid, size, steps);
+            sc.field.interpolation = interp;
+            let times: Vec<f64> = (0..3)
+                .map(|_| {
+                    renderer.render_uploaded(&sc, &grid, &gpu_grid, 0.0).expect("render");
+                    renderer.last_gpu_ms.unwrap_or(f64::NAN)
+                })
+                .collect();
+            let ms = median(times);
+            if interp == Interpolant::Trilinear {
+                trilinear = ms;
+            }
+            println!("| {n}³ | {} | {ms:.1} | {:.2}× |", interp.name(), ms / trilinear);
+        }
     }
 }

@@ -315,6 +315,15 @@ fn info(cli: &Cli) -> Result<i32, Failure> {
         "64-bit floats          {}",
         if i.float64 { "yes (mc33 extracts on the GPU)" } else { "no (mc33 extracts on the CPU)" }
     )?;
+    say!(
+        "linear filter of f32    {}, {} sub-texel bits",
+        if i.r32f_linear_filter {
+            "yes (field.interpolation = \"device\" works)"
+        } else {
+            "no (no field.interpolation = \"device\")"
+        },
+        i.sub_texel_precision_bits
+    )?;
     say!("validation             {}", if cli.validation { "on" } else { "off" })?;
     Ok(0)
 }

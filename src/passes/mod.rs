@@ -13,3 +13,4 @@ pub mod extract;
 pub mod mesh_render;
 pub mod raymarch;
 pub mod slice;
+pub mod voxels;

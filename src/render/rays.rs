@@ -16,7 +16,7 @@ use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::gpu::{Buffer, ComputePipeline, Context, GpuError};
 use crate::passes::raymarch::{GridInput, RayInputs, RayPass};
-use crate::passes::{analytic, bricks, raymarch, Bands};
+use crate::passes::{analytic, bricks, raymarch, voxels, Bands};
 use crate::scene::{Method, Scene};
 
 /// The ray passes' shaders: method and how the grid is on the device; the analytic builds
@@ -31,6 +31,8 @@ pub(super) enum RayShader {
     /// The whole grid in a storage buffer: the default.
     AnalyticBuffer(analytic::Walk),
     AnalyticPool(analytic::Walk),
+    /// `interpolation = "nearest"`'s exact trace, the voxel walk, on the grid image.
+    Voxels,
 }
 
 impl RayShader {
@@ -41,6 +43,7 @@ impl RayShader {
             RayShader::Analytic(walk) => analytic::pipeline(ctx, walk),
             RayShader::AnalyticBuffer(walk) => analytic::buffer_pipeline(ctx, walk),
             RayShader::AnalyticPool(walk) => analytic::pool_pipeline(ctx, walk),
+            RayShader::Voxels => voxels::pipeline(ctx),
         }
     }
 }
@@ -60,9 +63,12 @@ impl Renderer {
         sink: &mut dyn FrameSink,
     ) -> Result<(), RenderError> {
         let mut params = RenderParams::new(scene, grid);
+        let interp = scene.field.interpolation;
         self.last_bricks_ms = None;
         self.last_brick_levels = None;
-        if scene.render.method == Method::Analytic && gpu_grid.bricks.get().is_none() {
+        let voxel_walk = scene.render.method == Method::Analytic && interp == Interpolant::Nearest;
+        if scene.render.method == Method::Analytic && !voxel_walk && gpu_grid.bricks.get().is_none()
+        {
             let image = gpu_grid.image("the brick min/max grid of a brick pool")?;
             let built = bricks::build(&self.ctx, &self.bricks, image, gpu_grid.dims)?;
             let _ = gpu_grid.supers.set(built.supers);
@@ -79,7 +85,6 @@ impl Renderer {
             self.last_brick_levels = Some(levels);
             analytic::Walk { levels, surfaces }
         };
-        let interp = scene.field.interpolation;
         if let (Storage::Pool(_), Some(why)) =
             (&gpu_grid.storage, scene.interpolation_refusal(Reader::BrickPool))
         {
@@ -99,6 +104,7 @@ impl Renderer {
             (Method::Mesh, _) => return Err(RenderError::Unsupported("mesh (as a ray pass)")),
             (Method::FixedStep, Storage::Pool(_)) => RayShader::FixedStepPool,
             (Method::FixedStep, Storage::Image(_)) => RayShader::FixedStep(interp),
+            (Method::Analytic, Storage::Image(_)) if voxel_walk => RayShader::Voxels,
             (Method::Analytic, Storage::Pool(_)) => RayShader::AnalyticPool(walk()),
             (Method::Analytic, Storage::Image(image)) => {
                 let bytes = image.extent.iter().map(|&e| e as u64).product::<u64>() * 4;
@@ -122,6 +128,9 @@ impl Renderer {
         params.stride = stride;
         params.picture_width = width;
         if let Some(b) = &gpu_grid.block {
+            if let Some(why) = scene.interpolation_refusal(Reader::Ranks) {
+                return Err(RenderError::Refused(why));
+            }
             if scene.render.method != Method::Analytic {
                 return Err(RenderError::Unsupported("fixed-step (on a block of the grid)"));
             }
@@ -137,7 +146,7 @@ impl Renderer {
         )?;
         let bands = Bands::<Pixel>::with_max_rows(ctx, "pixels", width, height, band_rows)?;
         let bricks = match scene.render.method {
-            Method::Analytic => gpu_grid.bricks.get(),
+            Method::Analytic if !voxel_walk => gpu_grid.bricks.get(),
             _ => None,
         };
         let grid_input = match (&gpu_grid.storage, shader) {

@@ -233,10 +233,18 @@ pub fn v3(a: [f32; 3]) -> DVec3 {
 
 /// The method's f64 reference picture of `scene` (the mesh method's of the CPU mesh).
 pub fn reference_pixels(scene: &Scene, grid: &Grid) -> Vec<isoview::frame::Pixel> {
+    use isoview::field::interpolant::Interpolant;
     use isoview::reference;
+    let interp = scene.field.interpolation;
     match scene.render.method {
+        Method::Analytic if interp == Interpolant::Nearest => {
+            reference::voxels::render(scene, grid)
+        }
         Method::Analytic => reference::analytic::render(scene, grid),
-        Method::FixedStep => reference::fixed_step::render(scene, grid),
+        Method::FixedStep => {
+            let sampling = reference::fixed_step::Sampling::new(interp);
+            reference::fixed_step::render_sampled(scene, grid, sampling)
+        }
         Method::Mesh if scene.surface.several() => {
             let layers: Vec<_> = (0..scene.surface.count)
                 .map(|k| reference_pixels(&scene.single_surface(k), grid))

@@ -70,6 +70,9 @@ impl World {
 
     /// What cannot be split across ranks in `scene` (None: the render can).
     pub fn refuses(&self, scene: &Scene) -> Option<String> {
+        if let Some(why) = scene.interpolation_refusal(crate::field::interpolant::Reader::Ranks) {
+            return Some(why);
+        }
         let n = self.size();
         if scene.render.method != Method::Analytic {
             return Some(format!(

@@ -166,6 +166,8 @@ pub enum Reader {
     Probe,
     /// The ray methods' brick pool (`field.residency` with a grid over the memory cap).
     BrickPool,
+    /// MPI: the grid split into blocks across ranks (`mpirun ... isoview render | extract`).
+    Ranks,
     /// `[field2]`, sampled for `[color] by = "field2"`.
     Colour,
 }
@@ -173,7 +175,8 @@ pub enum Reader {
 impl Interpolant {
     /// Why `reader` does not read a field through this interpolant, as the end of a line that
     /// names `field.interpolation`; `None` where it does. The one table of what is built:
-    /// trilinear everywhere; every interpolant by fixed-step; `device` only by fixed-step (the
+    /// trilinear everywhere; every interpolant by fixed-step, nearest also by the analytic
+    /// method (its voxel walk); `device` only by fixed-step (the
     /// contract: it is what the texture unit returns, which exists only on the GPU's lookups
     /// of a whole-grid image). The cubic interpolants and nearest have their exact f64
     /// references (`reference::analytic`, `reference::voxels`), not yet the GPU passes and
@@ -188,6 +191,8 @@ impl Interpolant {
         };
         match (self, reader) {
             (Interpolant::Trilinear, _) | (_, Reader::FixedStep) => None,
+            // The voxel walk (`shaders/voxels.comp`, `reference::voxels`).
+            (Interpolant::Nearest, Reader::Analytic) => None,
             (_, Reader::Colour) => Some(
                 "[field2] is sampled trilinearly for its colours; interpolation is a key of [field]"
                     .into(),
@@ -208,6 +213,10 @@ impl Interpolant {
                 "the brick pool (a grid over the memory cap) holds trilinear cells only, not \
                  \"{name}\" ones; raise the memory cap (ISOVIEW_MAX_GRID_MIB) so the grid is \
                  read whole"
+            )),
+            (_, Reader::Ranks) => Some(format!(
+                "MPI splits trilinear fields only (the blocks' ghost planes and walks are \
+                 trilinear's), not \"{name}\" ones: run it without mpirun"
             )),
             (_, Reader::Analytic) => yet("render.method = \"analytic\""),
             (_, Reader::Mesh) => yet("mesh extraction (extract, render.method = \"mesh\")"),

@@ -104,7 +104,19 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     if numbers(*piece, "Extent", 6)?.is_some_and(|e| e != whole) {
         return Err(err.bad("the piece's Extent is not the WholeExtent"));
     }
+    // VTK's extents are C ints: a number outside them, or not whole, is no extent (and 1e300
+    // cast to an integer and subtracted overflowed, issue 29).
+    let int = (i32::MIN as f64)..=(i32::MAX as f64);
+    if let Some(&e) = whole.iter().find(|e| e.fract() != 0.0 || !int.contains(e)) {
+        return Err(err.bad(format!(
+            "WholeExtent: {} is not a whole number from {} to {} (VTK extents are 32-bit ints)",
+            super::num(e),
+            i32::MIN,
+            i32::MAX
+        )));
+    }
     let ext: Vec<i64> = whole.iter().map(|&e| e as i64).collect();
+    // Within ±2^31 each, so the difference and the count fit an i64.
     let declared = [0, 1, 2].map(|k| (ext[2 * k + 1] - ext[2 * k] + 1).max(0) as u64);
     let dims = payload::grid(err, declared, &opts.limits)?;
 

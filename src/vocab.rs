@@ -302,15 +302,35 @@ impl Clip {
 /// the terminal) and, past [`ECHO_CHARS`] characters, cut with `…` (a 10 MB value does not
 /// become a 10 MB message). Every message that repeats a user's value passes it through here.
 pub fn echo(value: &str) -> String {
-    let mut out = String::new();
-    for c in echo_cut(value).chars() {
-        if c.is_control() {
+    escape_unprintable(&echo_cut(value)).into_owned()
+}
+
+/// Whether a message shows `c` escaped rather than as itself: control characters (a newline
+/// splits the line, ESC starts a terminal sequence) and the bidirectional embeddings,
+/// overrides, isolates and marks (U+202E reverses what follows on a terminal, so a file
+/// name could read as another).
+pub fn is_unprintable(c: char) -> bool {
+    c.is_control()
+        || matches!(c, '\u{200e}' | '\u{200f}' | '\u{061c}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
+}
+
+/// `text` with each [`is_unprintable`] character escaped (`\n`, `\u{1b}`, `\u{202e}`), not
+/// cut: [`echo`]'s escaping, and what every `isoview: ...` line on stderr passes through
+/// (`cli::console::note_line`), so a path or value printed raw somewhere still cannot split
+/// the line or drive the terminal.
+pub fn escape_unprintable(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(is_unprintable) {
+        return text.into();
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        if is_unprintable(c) {
             out.extend(c.escape_default());
         } else {
             out.push(c);
         }
     }
-    out
+    out.into()
 }
 
 /// [`echo`]'s cut alone (the first [`ECHO_CHARS`] characters, then `…`), for a message that
@@ -330,7 +350,7 @@ pub const ECHO_CHARS: usize = 60;
 /// a long plain form becomes the shortest exponent form that reads back as the same number
 /// (`1e308`, `-1.5e-300`), usually what the user typed. Cutting the digits as [`echo`] cuts
 /// text would change the number.
-pub fn echo_number(value: f64) -> String {
+pub fn echo_number<T: std::fmt::Display + std::fmt::LowerExp>(value: T) -> String {
     let plain = value.to_string();
     if plain.len() <= ECHO_NUMBER_CHARS {
         plain

@@ -70,8 +70,12 @@ pub fn print_clap(mut e: clap::Error) -> i32 {
 /// Writes `isoview: ` and `args` as one line to stderr, ignoring write errors (see the module
 /// docs).
 pub fn note_line(args: fmt::Arguments) {
+    // Every note and failure is one line whatever path or value it prints (an output named
+    // with ESC or a newline was printed raw): escaped here once rather than at each caller.
+    let line = args.to_string();
+    let line = crate::vocab::escape_unprintable(&line);
     let mut stderr = std::io::stderr().lock();
-    let _ = writeln!(stderr, "isoview: {args}");
+    let _ = writeln!(stderr, "isoview: {line}");
 }
 
 /// Replaces the user's words in a clap error (the refused value, the unknown argument or

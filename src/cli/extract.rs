@@ -48,6 +48,7 @@ use crate::mesh::stats;
 use crate::mesh::{self, ExtractOptions, Mesh, MeshBudget, MeshLimits};
 use crate::output::atomic;
 use crate::scene::Scene;
+use crate::vocab::echo_number;
 
 #[derive(clap::Args, Debug)]
 pub struct ExtractArgs {
@@ -232,11 +233,9 @@ fn report(args: &ExtractArgs, what: Summary, size: (usize, usize), elapsed: f64)
         args.output.display()
     );
     if let (0, Some((lo, hi))) = (size.1, samples.map(Grid::range)) {
-        note!(
-            "note: the mesh is empty: no grid edge crosses isovalue {} (samples span \
-             [{lo}, {hi}])",
-            scene.surface.isovalue
-        );
+        // Short numbers: samples of 3e38 printed as 39 digits.
+        let (v, lo, hi) = (echo_number(scene.surface.isovalue), echo_number(lo), echo_number(hi));
+        note!("note: the mesh is empty: no grid edge crosses isovalue {v} (samples span [{lo}, {hi}])");
     }
 }
 

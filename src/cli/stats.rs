@@ -2,6 +2,7 @@
 //! sample type, spacing, the world box, value range, mean, σ, percentiles and a text
 //! histogram of the samples (at `--time`), and the scene's isovalue with how it was chosen.
 
+use crate::vocab::echo_number;
 use std::path::PathBuf;
 
 use clap::Args;
@@ -42,27 +43,30 @@ pub fn run(args: &StatsArgs) -> Result<i32, Failure> {
     say!("field       {}", f.describe())?;
     say!("dims        {nx} x {ny} x {nz} ({} points)", s.count)?;
     say!("dtype       {}", f.source.dtype())?;
-    say!("spacing     {} {} {}", spacing.x, spacing.y, spacing.z)?;
+    // Every number in its short form: a spacing of 1e-300 printed 302 characters.
+    let n = echo_number::<f64>;
+    say!("spacing     {} {} {}", n(spacing.x), n(spacing.y), n(spacing.z))?;
     let (lo, hi) = (grid.min, grid.max);
     if f.placement.is_identity() {
-        say!("box         [{}, {}, {}] .. [{}, {}, {}]", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z)?;
+        let (lo, hi) = (lo.to_array().map(n), hi.to_array().map(n));
+        say!("box         [{}] .. [{}]", lo.join(", "), hi.join(", "))?;
     } else {
         let a = f.placement.axes;
         say!(
             "box         [{}, {}, {}] .. [{}, {}, {}] in the grid's frame, axes x {:.6} y {:.6} z \
              {:.6} about [{}, {}, {}]",
-            lo.x,
-            lo.y,
-            lo.z,
-            hi.x,
-            hi.y,
-            hi.z,
+            n(lo.x),
+            n(lo.y),
+            n(lo.z),
+            n(hi.x),
+            n(hi.y),
+            n(hi.z),
             a.x_axis,
             a.y_axis,
             a.z_axis,
-            f.placement.pivot.x,
-            f.placement.pivot.y,
-            f.placement.pivot.z
+            n(f.placement.pivot.x),
+            n(f.placement.pivot.y),
+            n(f.placement.pivot.z)
         )?;
     }
     // Missing data (field.nan = "empty") is left out of every figure below.
@@ -70,10 +74,11 @@ pub fn run(args: &StatsArgs) -> Result<i32, Failure> {
         "non-finite  {} sample(s) (NaN or inf: missing data, left out of the figures below)",
         s.missing
     )?;
-    say!("range       {} .. {}", s.min, s.max)?;
-    say!("mean        {}", s.mean)?;
-    say!("sigma       {}", s.sigma)?;
-    let p: Vec<String> = PERCENTILES.iter().map(|&p| format!("p{p}={}", s.percentile(p))).collect();
+    say!("range       {} .. {}", echo_number(s.min), echo_number(s.max))?;
+    say!("mean        {}", n(s.mean))?;
+    say!("sigma       {}", n(s.sigma))?;
+    let p: Vec<String> =
+        PERCENTILES.iter().map(|&p| format!("p{p}={}", echo_number(s.percentile(p)))).collect();
     say!("percentiles {}", p.join(" "))?;
     let iso = scene.surface.isovalue;
     match scene.surface.rule.describe(iso) {

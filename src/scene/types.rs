@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use crate::vocab::echo_number;
 use glam::DVec3;
 
 pub use crate::mesh::MeshAlgorithm;
@@ -334,12 +335,19 @@ impl IsoRule {
     pub fn describe(self, isovalue: f64) -> Option<String> {
         match self {
             IsoRule::Value => None,
-            IsoRule::Sigma { k, mean, sigma } => Some(format!(
-                "isovalue {isovalue} = mean {mean} + {k} sigma (sigma {sigma}), from isovalue_sigma = {k}"
-            )),
-            IsoRule::Percentile { p } => Some(format!(
-                "isovalue {isovalue} = percentile {p} of the samples, from isovalue_percentile = {p}"
-            )),
+            // Short numbers: isovalue_sigma = 1e308 printed 300-digit isovalues.
+            IsoRule::Sigma { k, mean, sigma } => {
+                let [v, mean, k, sigma] = [isovalue, mean, k, sigma].map(echo_number);
+                Some(format!(
+                    "isovalue {v} = mean {mean} + {k} sigma (sigma {sigma}), from isovalue_sigma = {k}"
+                ))
+            }
+            IsoRule::Percentile { p } => {
+                let [v, p] = [isovalue, p].map(echo_number);
+                Some(format!(
+                    "isovalue {v} = percentile {p} of the samples, from isovalue_percentile = {p}"
+                ))
+            }
         }
     }
 }

@@ -276,9 +276,8 @@ impl App {
         let state = ViewState::from_request(&self.scene_path, body, &self.policy)
             .map_err(|e| Reply::error(400, format!("isoview: {}", e.for_page())))?;
         let generation = self.mailbox.post(state);
-        if let Ok(tasks) = self.tasks.lock() {
-            let _ = tasks.send(Task::Wake);
-        }
+        // A send cannot leave the sender half-changed: a poisoned lock is still usable.
+        let _ = self.tasks.lock().unwrap_or_else(|e| e.into_inner()).send(Task::Wake);
         Ok(Reply::json(&json!({ "generation": generation })))
     }
 
@@ -405,7 +404,7 @@ impl App {
                 let task = Task::Slice { state: state.clone(), planned: Box::new(planned), reply };
                 self.tasks
                     .lock()
-                    .map_err(|_| Reply::error(500, "the render thread is gone"))?
+                    .unwrap_or_else(|e| e.into_inner())
                     .send(task)
                     .map_err(|_| Reply::error(500, "the render thread is gone"))?;
                 return Ok(self.wait_for(Wait::Slice(answer)));

@@ -78,7 +78,11 @@ pub fn prepare(options: &Options) -> Result<(ViewState, Policy), ServeError> {
 /// Loads the scene, starts the render thread on `ctx`, listens, writes the URL as the first
 /// line of `out` (flushed), then serves until the process ends.
 pub fn run(options: &Options, ctx: Arc<Context>, out: &mut dyn Write) -> Result<(), ServeError> {
-    let (first, policy) = prepare(options)?;
+    let (first, mut policy) = prepare(options)?;
+    // Checked here for the command line's state (the device is open now) and on every post.
+    let max = ctx.info.max_image_dimension_3d;
+    first.scene.field.check_image_extent(max).map_err(|e| ServeError::Input(e.to_string()))?;
+    policy.max_image_extent = Some(max);
     let token = access::new_token().map_err(ServeError::Input)?;
     let device = ctx.info.name.clone();
 

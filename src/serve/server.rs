@@ -148,16 +148,20 @@ fn work(queue: &Mutex<Receiver<Job>>, jobs: &SyncSender<Job>, app: &App, parking
         };
         match job {
             Job::Answer(p, found) => {
-                let reply = match found {
-                    Some(found) => app.answer(p.wait, found),
-                    None => p.wait.timed_out(),
-                };
-                reply.send(p.conn.stream, p.unread)
+                let (wait, unread) = (p.wait, p.unread);
+                let reply = survive(
+                    || match found {
+                        Some(found) => app.answer(wait, found),
+                        None => wait.timed_out(),
+                    },
+                    |r| r,
+                );
+                reply.send(p.conn.stream, unread)
             }
             Job::Serve(mut conn) => match conn.head.read(&mut conn.stream, http::HEAD_TURN) {
                 Ok(HeadProgress::Done(head)) => {
                     let mut body = http::Body::new(&mut conn.stream, &head);
-                    let outcome = app.route(&head, &mut body);
+                    let outcome = survive(|| app.route(&head, &mut body), Outcome::Reply);
                     let unread = body.unread();
                     match outcome {
                         Outcome::Reply(reply) => reply.send(conn.stream, unread),
@@ -174,6 +178,21 @@ fn work(queue: &Mutex<Receiver<Job>>, jobs: &SyncSender<Job>, app: &App, parking
             },
         }
     }
+}
+
+/// What `answer` makes of a request, or, when it panics (a bug: bad input is refused with
+/// 400 before it gets that far), `reply` of a 500 that says only that. Without this a
+/// panic ended its worker for good, and after [`WORKERS`] such requests the server answered
+/// nothing (issue 29). The panic's own message goes to the server's stderr (the default
+/// hook), never to the client: it may quote what a file holds. The locks the handlers take
+/// recover from poisoning (`unwrap_or_else(|e| e.into_inner())`), so later requests go on.
+fn survive<T>(answer: impl FnOnce() -> T, reply: impl FnOnce(Reply) -> T) -> T {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(answer)).unwrap_or_else(|_| {
+        reply(Reply::error(
+            500,
+            "isoview: an internal error stopped this request (a bug in isoview; the server goes on)",
+        ))
+    })
 }
 
 /// Parks a request, or answers 503 when [`MAX_PARKED`] are parked already.

@@ -15,12 +15,17 @@ use crate::scene::{self, Scene, SceneError};
 pub struct Policy {
     pub access: DataAccess,
     pub max_pixels: u64,
+    /// The device's largest 3D image, points per axis, once the device is open (None before:
+    /// `prepare` runs before the GPU is touched). serve uploads every grid whole, as one
+    /// image: a state over it is refused when posted, with the line `render` exits 2 with,
+    /// rather than accepted and answered 500 on its frame.
+    pub max_image_extent: Option<u32>,
 }
 
 impl Policy {
     /// The command line's own state: any file (the user named them), the image cap.
     pub fn command_line(max_pixels: u64) -> Policy {
-        Policy { access: DataAccess::Any, max_pixels }
+        Policy { access: DataAccess::Any, max_pixels, max_image_extent: None }
     }
 
     /// The page's states: files within the scene's folder, each of `allow_dirs`, and the data
@@ -57,7 +62,7 @@ impl Policy {
         }
         let roots = std::iter::once(folder).chain(allow_dirs.iter().cloned()).chain(own);
         let access = DataAccess::within(roots).map_err(|e| format!("--allow-dir {e}"))?;
-        Ok(Policy { access, max_pixels })
+        Ok(Policy { access, max_pixels, max_image_extent: None })
     }
 }
 
@@ -207,6 +212,9 @@ impl ViewState {
         // then answers 400 with the command line's line, and the shown state stays).
         if let Some(why) = scene.interpolation_refusal(scene.render_reader()) {
             return Err(why.into());
+        }
+        if let Some(max) = policy.max_image_extent {
+            scene.field.check_image_extent(max).map_err(|e| e.to_string())?;
         }
         Ok(ViewState { sets, time, preview, scene, posted: Instant::now() })
     }

@@ -52,11 +52,19 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     if appended.is_some() {
         text.push_str("</VTKFile>");
     }
-    // roxmltree parses nested elements by recursion: refuse deep nesting before it starts.
-    if let Some((line, column)) = too_deep(&text, MAX_XML_DEPTH) {
-        return Err(err.over_limit(format!(
-            "line {line}, column {column}: the XML nests deeper than {MAX_XML_DEPTH} elements"
-        )));
+    // roxmltree parses nested elements by recursion, and checks each attribute against the
+    // element's others (quadratic): refuse deep nesting and crowded elements before it starts.
+    if let Some(over) = over_limits(&text) {
+        let (line, column) = (over.line, over.column);
+        return Err(err.over_limit(match over.attributes {
+            None => format!(
+                "line {line}, column {column}: the XML nests deeper than {MAX_XML_DEPTH} elements"
+            ),
+            Some(n) => format!(
+                "line {line}, column {column}: an element has {n} attributes, over the \
+                 {MAX_XML_ATTRIBUTES} isoview reads"
+            ),
+        }));
     }
     let doc =
         roxmltree::Document::parse(&text).map_err(|e| err.bad(format!("malformed XML: {e}")))?;
@@ -104,7 +112,19 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     if numbers(*piece, "Extent", 6)?.is_some_and(|e| e != whole) {
         return Err(err.bad("the piece's Extent is not the WholeExtent"));
     }
+    // VTK's extents are C ints: a number outside them, or not whole, is no extent (and 1e300
+    // cast to an integer and subtracted overflowed, issue 29).
+    let int = (i32::MIN as f64)..=(i32::MAX as f64);
+    if let Some(&e) = whole.iter().find(|e| e.fract() != 0.0 || !int.contains(e)) {
+        return Err(err.bad(format!(
+            "WholeExtent: {} is not a whole number from {} to {} (VTK extents are 32-bit ints)",
+            super::num(e),
+            i32::MIN,
+            i32::MAX
+        )));
+    }
     let ext: Vec<i64> = whole.iter().map(|&e| e as i64).collect();
+    // Within ±2^31 each, so the difference and the count fit an i64.
     let declared = [0, 1, 2].map(|k| (ext[2 * k + 1] - ext[2 * k] + 1).max(0) as u64);
     let dims = payload::grid(err, declared, &opts.limits)?;
 
@@ -321,17 +341,41 @@ fn peek_extent(head: &[u8]) -> Option<[u64; 3]> {
 /// descent far from the end of any thread's stack.
 pub const MAX_XML_DEPTH: usize = 64;
 
-/// Where (1-based line and column) an element opens deeper than `max` elements, found without
-/// recursion; None when the nesting stays within `max`. Counts start tags that are not
-/// self-closing, minus end tags, skipping comments, CDATA, processing instructions,
-/// declarations and quoted attribute values. Malformed markup may be counted deeper than it is
-/// but never shallower than roxmltree gets before it fails on it.
-pub fn too_deep(xml: &str, max: usize) -> Option<(usize, usize)> {
+/// Most attributes one element may have: VTK writes at most 8 or so (`DataArray`'s type,
+/// Name, format, offset, range and components); 60,000 took roxmltree 4.8 s, since it checks
+/// each against the ones before it.
+pub const MAX_XML_ATTRIBUTES: usize = 256;
+
+/// Where an element passes one of the scan's bounds.
+#[derive(Debug, PartialEq, Eq)]
+pub struct OverLimit {
+    /// 1-based, of the element's `<`.
+    pub line: usize,
+    pub column: usize,
+    /// None: it opens deeper than [`MAX_XML_DEPTH`]; Some(n): it has n attributes, more than
+    /// [`MAX_XML_ATTRIBUTES`].
+    pub attributes: Option<usize>,
+}
+
+/// The first element that opens deeper than [`MAX_XML_DEPTH`] elements or has more than
+/// [`MAX_XML_ATTRIBUTES`] attributes, found in one pass without recursion; None when every
+/// element stays within both. Counts start tags that are not self-closing, minus end tags,
+/// skipping comments, CDATA, processing instructions, declarations and quoted attribute
+/// values; an element's attributes are its quoted values. Malformed markup may be counted
+/// deeper (or more crowded) than it is but never less than roxmltree gets before it fails
+/// on it.
+pub fn over_limits(xml: &str) -> Option<OverLimit> {
     let b = xml.as_bytes();
     let (mut depth, mut at) = (0usize, 0usize);
     // The index just past `end` from `from`, or the end of the text.
     let past = |from: usize, end: &[u8]| {
         find(&b[from.min(b.len())..], end).map_or(b.len(), |p| from + p + end.len())
+    };
+    let place = |open: usize, attributes: Option<usize>| {
+        let line_start = b[..open].iter().rposition(|&c| c == b'\n').map_or(0, |n| n + 1);
+        let line = 1 + b[..open].iter().filter(|&&c| c == b'\n').count();
+        let column = 1 + xml[line_start..open].chars().count();
+        OverLimit { line, column, attributes }
     };
     while let Some(p) = b[at..].iter().position(|&c| c == b'<') {
         let open = at + p;
@@ -351,23 +395,26 @@ pub fn too_deep(xml: &str, max: usize) -> Option<(usize, usize)> {
             // A start tag: to its `>`, past quoted attribute values (which may hold `>`).
             let mut i = open + 1;
             let mut quote = None;
+            let mut attributes = 0usize;
             while i < b.len() {
                 match (quote, b[i]) {
-                    (None, b'"' | b'\'') => quote = Some(b[i]),
+                    (None, b'"' | b'\'') => {
+                        quote = Some(b[i]);
+                        attributes += 1;
+                    }
                     (Some(q), c) if c == q => quote = None,
                     (None, b'>') => break,
                     _ => {}
                 }
                 i += 1;
             }
+            if attributes > MAX_XML_ATTRIBUTES {
+                return Some(place(open, Some(attributes)));
+            }
             if b.get(i.wrapping_sub(1)) != Some(&b'/') {
                 depth += 1;
-                if depth > max {
-                    let line_start =
-                        b[..open].iter().rposition(|&c| c == b'\n').map_or(0, |n| n + 1);
-                    let line = 1 + b[..open].iter().filter(|&&c| c == b'\n').count();
-                    let column = 1 + xml[line_start..open].chars().count();
-                    return Some((line, column));
+                if depth > MAX_XML_DEPTH {
+                    return Some(place(open, None));
                 }
             }
             i + 1

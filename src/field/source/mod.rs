@@ -377,7 +377,9 @@ fn check_file_dims(file: [usize; 3], grid: &Grid) -> Result<(), FieldError> {
 
 /// `[x, y, z]` with shortest round-trip formatting.
 pub(super) fn show3(v: DVec3) -> String {
-    format!("[{}, {}, {}]", v.x, v.y, v.z)
+    // Short numbers: a bound of 1e-300 printed 302 characters into the field line.
+    let n = crate::vocab::echo_number::<f64>;
+    format!("[{}, {}, {}]", n(v.x), n(v.y), n(v.z))
 }
 
 /// Points below which sampling stays on the calling thread.

@@ -697,6 +697,50 @@ fn long_numbers_and_tev_addresses_are_echoed_cut_and_escaped() {
     }
 }
 
+/// The isovalue_sigma note and `stats`' figures printed 300-digit numbers (a note of 1,100
+/// characters for `isovalue_sigma = 1e308`; a spacing of 1e-300 as 302 characters).
+#[test]
+fn derived_numbers_are_printed_short() {
+    let dir = scratch("rio-derived-numbers");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let o = isoview_output(&["stats", &scene, "--set", "surface.isovalue_sigma=1e308"]);
+    let err = stderr(&o);
+    assert!(err.contains("+ 1e308 sigma") && err.len() < 300, "{} bytes: {err}", err.len());
+    let tiny = "field.bounds={min=[0,0,0],max=[1e-300,1e-300,1e-300]}";
+    let o = isoview_output(&["stats", &scene, "--set", tiny]);
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let long = out.lines().find(|l| l.len() > 200);
+    assert!(long.is_none() && out.contains("1e-300"), "{long:?}\n{out}");
+}
+
+/// Paths printed raw: an output or scene named with ESC, U+202E (right-to-left override) or
+/// a newline split the refusal in two lines or drove the terminal, in refusals and in the
+/// success line alike. Every `isoview: ...` line is one line with them escaped.
+#[gpu_test]
+fn paths_in_messages_and_summaries_are_escaped() {
+    let dir = scratch("rio-escaped-paths");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let named = |name: &str| dir.join(name).display().to_string();
+    let clean = |o: &Output| {
+        let err = stderr(o);
+        assert_eq!(err.lines().count(), 1, "{err:?}");
+        assert!(!err.contains(['\u{1b}', '\u{202e}']), "{err:?}");
+        err
+    };
+    let o = isoview_output(&["render", &scene, "-o", &named("q\u{1b}[31m\n.png")]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(clean(&o).contains("q\\u{1b}[31m\\n.png: the file name must end in .exr"));
+    let o = isoview_output(&["render", &named("n\u{1b}[2J.toml"), "-o", &named("o.exr")]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(clean(&o).contains("n\\u{1b}[2J.toml: cannot read scene"));
+    let out = named("ok\u{1b}[31m\u{202e}\n.exr");
+    let o = isoview_output(&["render", &scene, "-o", &out]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(clean(&o).contains("ok\\u{1b}[31m\\u{202e}\\n.exr"));
+    assert!(Path::new(&out).exists());
+}
+
 #[test]
 fn values_clap_refuses_are_echoed_cut_and_escaped() {
     // The command line's own parser (clap) quotes what it refuses; it too goes through echo.

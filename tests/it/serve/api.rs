@@ -252,6 +252,26 @@ fn bad_overrides_get_the_cli_message_and_the_server_keeps_serving() {
     assert_eq!(server.set(&["image.width=32", "image.height=32", "surface.isovalue=0.1"]), 2);
 }
 
+/// A grid over the device's 3D images (4096 points per axis on lavapipe) was taken (200),
+/// and its frame was a 500 that named no key; now the post is refused with `render`'s exit-2
+/// line and the state stays as it was.
+#[gpu_test]
+fn a_grid_over_the_device_extent_is_refused_when_posted() {
+    let file = scene("torus.toml");
+    let server = Server::start(&file, &["--set", "image.width=16", "--set", "image.height=16"]);
+    let bad = "field.resolution=[4097,2,2]";
+    let a = server.post("/api/state", &serde_json::json!({ "set": [bad] }));
+    assert_eq!(a.status, 400, "{}", a.text());
+    let out = scratch("serve-device-extent").join("x.exr");
+    let o = isoview(&["render", &file, "-o", out.to_str().unwrap(), "--set", bad], &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("field.resolution [4097, 2, 2]: 4097 points along x"));
+    assert_eq!(a.json()["error"].as_str().unwrap(), stderr(&o).trim_end());
+    let state = server.get("/api/state");
+    assert_eq!(state.json()["generation"], 1, "{}", state.text());
+    assert_eq!(server.get("/api/frame").status, 200);
+}
+
 #[gpu_test]
 fn a_wrong_token_or_a_foreign_host_is_refused() {
     let server = Server::start(

@@ -862,3 +862,37 @@ fn frame_waits_leave_the_workers_free() {
         }
     });
 }
+
+/// A `.vti` whose `WholeExtent` goes to 1e300: the reader's arithmetic on it overflowed,
+/// a panic in the request's worker (issue 29).
+const HUGE_EXTENT_VTI: &str = "<VTKFile type=\"ImageData\" byte_order=\"LittleEndian\">\
+    <ImageData WholeExtent=\"0 1e300 0 1 0 1\" Origin=\"0 0 0\" Spacing=\"1 1 1\">\
+    <Piece Extent=\"0 1e300 0 1 0 1\"><PointData Scalars=\"s\">\
+    <DataArray type=\"Float32\" Name=\"s\" format=\"ascii\">0 1 2 3 4 5 6 7</DataArray>\
+    </PointData></Piece></ImageData></VTKFile>";
+
+/// Nine states naming that file, one more than the workers: each panic used to end its
+/// worker for good (the client saw its connection closed unanswered), and from the ninth on
+/// the server answered nothing. Each must be answered, and the server must go on answering.
+/// (A panic now answers 500, `server::survive`; the reader refuses this file, so 400.)
+#[gpu_test]
+fn requests_that_found_a_bug_leave_every_worker_serving() {
+    let (dir, file) = path_fixture("serve-huge-extent");
+    std::fs::write(dir.join("scene/huge.vti"), HUGE_EXTENT_VTI).unwrap();
+    let server = Server::start(&file, &[]);
+    let body = json!({ "set": ["field = {source = \"file\", path = \"huge.vti\"}"] }).to_string();
+    let request = format!(
+        "POST /api/state HTTP/1.0\r\nHost: {}\r\nX-Isoview-Token: {}\r\nContent-Length: {}\r\n\r\n{body}",
+        server.addr,
+        server.token,
+        body.len()
+    );
+    for i in 0..9 {
+        let (status, answer) = exchange(&server, request.as_bytes());
+        assert_eq!(status, 400, "request {i}: {answer}");
+        let e: serde_json::Value = serde_json::from_str(&answer).unwrap();
+        let e = e["error"].as_str().unwrap();
+        assert!(e.contains("huge.vti") && !e.contains('\n') && !e.contains("panicked"), "{e}");
+    }
+    alive(&server);
+}

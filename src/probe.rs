@@ -1,16 +1,21 @@
 //! What the ray through one pixel meets, from the f64 references (`isoview probe --pixel`,
-//! the server's `/api/probe`): every cell the exact walk visits with its 8 corner values, the
-//! cubic along the segment, its derivative roots, the roots found and their Newton iterates;
-//! where fixed-step with the scene's `steps` finds (or misses) its first crossing; and how far
-//! apart the two are. [`PixelProbe::json`] is the report `probe --json` prints.
+//! the server's `/api/probe`), through the scene's `field.interpolation`: every cell the exact
+//! walk visits with its samples (trilinear: the 8 corners, the cubic along the segment and its
+//! derivative roots; the tricubic interpolants: the 64 samples, the segment's degree-9
+//! Bernstein coefficients and the isolation's leaves), the roots found and their Newton
+//! iterates; for nearest, every voxel of the voxel walk with its value and state; where
+//! fixed-step with the scene's `steps` finds (or misses) its first crossing; and how far apart
+//! the two are. [`PixelProbe::json`] is the report `probe --json` prints.
 
 use glam::DVec3;
 use serde_json::{json, Value};
 
 use crate::camera::Camera;
+use crate::field::interpolant::{Interpolant, Interpolated};
 use crate::field::Grid;
-use crate::reference::analytic::{self, AnalyticHit, AnalyticOptions, CellVisit};
-use crate::reference::fixed_step::{self, March};
+use crate::reference::analytic::{self, AnalyticHit, AnalyticOptions, CellVisit, Hit, Polynomial};
+use crate::reference::fixed_step::{self, March, Sampling};
+use crate::reference::voxels::{self, VoxelTrace, VoxelVisit};
 use crate::scene::Scene;
 
 /// The references' answers for one pixel.
@@ -21,8 +26,14 @@ pub struct PixelProbe {
     pub origin: DVec3,
     pub dir: DVec3,
     pub options: AnalyticOptions,
+    /// The scene's interpolant (never `device`: only sampled, it has no exact trace).
+    pub interpolation: Interpolant,
     pub exact: AnalyticHit,
+    /// The cells of the exact walk (empty for nearest).
     pub visits: Vec<CellVisit>,
+    /// Nearest's voxels (empty for the others); `exact` is then its voxel walk's, with the
+    /// inside voxel as the hit's cell.
+    pub voxels: Vec<VoxelVisit>,
     pub fixed: March,
 }
 
@@ -56,7 +67,6 @@ fn visit_json(v: &CellVisit) -> Value {
         "t": [v.t_in, v.t_out],
         "local_in": v3(v.q_in),
         "local_out": v3(v.q_out),
-        "cubic": v.coefficients.coefficients(),
         "derivative_roots": v.derivative_roots,
         "splits": v.splits.iter().map(|s| json!({"u": s.u, "g": s.g, "inside": s.inside})).collect::<Vec<_>>(),
         "roots": v.roots.iter().map(|r| json!({
@@ -64,10 +74,49 @@ fn visit_json(v: &CellVisit) -> Value {
             "exact": r.exact, "bracket": [r.bracket.0, r.bracket.1], "newton_iterates": r.iterates,
         })).collect::<Vec<_>>(),
     });
+    // Trilinear's cubic keeps its key; the tricubic interpolants' segment is a Bernstein
+    // polynomial, with the leaves its isolation cut it into.
+    match &v.coefficients {
+        Polynomial::Monomial(c) => out["cubic"] = json!(c),
+        Polynomial::Bernstein(b) => {
+            out["bernstein"] = json!(b);
+            out["leaves"] = json!(v
+                .leaves
+                .iter()
+                .map(|l| json!({"u": [l.u.0, l.u.1], "variations": l.variations, "resolved": l.resolved}))
+                .collect::<Vec<_>>());
+        }
+    }
     if v.missing {
         out["missing"] = json!(missing_note(v));
     }
     out
+}
+
+/// Nearest's voxel walk as the probe's exact answer: the hit's cell is the inside voxel's
+/// point, its local coordinates the hit's offset from that point (in `[-½, ½]`), and the cells
+/// counted are voxels.
+fn voxel_hit(v: &VoxelTrace) -> AnalyticHit {
+    AnalyticHit {
+        hit: v.hit.map(|h| {
+            let voxel = h.voxel.map(|c| c as i32);
+            let at = DVec3::new(voxel[0] as f64, voxel[1] as f64, voxel[2] as f64);
+            Hit {
+                t: h.t,
+                position: h.position,
+                normal: h.normal,
+                cell: voxel,
+                local: h.grid_coords - at,
+                entering: h.entering,
+                crossing: h.crossing,
+            }
+        }),
+        span: v.span,
+        inside_at_start: v.inside_at_start,
+        cells_visited: v.voxels_visited,
+        cells_total: v.voxels_total,
+        crossings: v.crossings,
+    }
 }
 
 /// Why a missing cell has no surface (`field.nan = "empty"`), as the probe reports it.
@@ -89,10 +138,32 @@ impl PixelProbe {
         let clip = scene.clip.in_grid_frame(&scene.field.placement);
         let options =
             AnalyticOptions { newton_steps: scene.render.newton_steps, clip, ..Default::default() };
-        let (mut exact, visits) =
-            analytic::trace_detailed(grid, iso, inside, origin, dir, &options);
+        let interpolation = scene.field.interpolation;
+        let (mut exact, visits, voxels) = match interpolation {
+            Interpolant::Nearest => {
+                let (v, list) = voxels::trace_detailed(grid, iso, inside, origin, dir, &options);
+                (voxel_hit(&v), Vec::new(), list)
+            }
+            // Callers refuse `device` first (`Reader::Probe`); it is traced as what it filters,
+            // the trilinear field, were one to reach here.
+            _ => {
+                let field = Interpolated::new(
+                    grid,
+                    match interpolation {
+                        Interpolant::Device => Interpolant::Trilinear,
+                        other => other,
+                    },
+                );
+                let (e, v) = analytic::trace_detailed_interpolated(
+                    &field, iso, inside, origin, dir, &options,
+                );
+                (e, v, Vec::new())
+            }
+        };
+        let sampling = Sampling::new(interpolation);
+        let steps = scene.render.steps;
         let mut fixed =
-            fixed_step::march_clipped(grid, iso, inside, origin, dir, scene.render.steps, &clip);
+            fixed_step::march_sampled(grid, sampling, iso, inside, origin, dir, steps, &clip);
         let placement = &scene.field.placement;
         if let Some(h) = exact.hit.as_mut() {
             (h.position, h.normal) =
@@ -103,7 +174,17 @@ impl PixelProbe {
                 (placement.point_to_world(h.position), placement.vector_to_world(h.normal));
         }
         let (origin, dir) = world.ray(px, py);
-        PixelProbe { pixel: (px, py), origin, dir, options, exact, visits, fixed }
+        PixelProbe {
+            pixel: (px, py),
+            origin,
+            dir,
+            options,
+            interpolation,
+            exact,
+            visits,
+            voxels,
+            fixed,
+        }
     }
 
     /// How far apart the exact hit and fixed-step's crossing are, when both exist.
@@ -132,6 +213,7 @@ impl PixelProbe {
                     "t": h.t, "position": v3(h.position), "normal": v3(h.normal), "cell": h.cell,
                     "local": v3(h.local),
                 })),
+                "interpolation": self.interpolation.name(),
                 "cells_visited": exact.cells_visited,
                 "crossings": exact.crossings,
                 "inside_at_start": exact.inside_at_start,
@@ -149,6 +231,15 @@ impl PixelProbe {
         });
         if let Some(p) = crate::output::describe_placement(&scene.field.placement) {
             report["placement"] = json!(p);
+        }
+        if self.interpolation == Interpolant::Nearest {
+            report["analytic"]["voxels"] = json!(self
+                .voxels
+                .iter()
+                .map(|v| json!({
+                    "voxel": v.voxel, "value": v.value, "inside": v.inside, "t": [v.t_in, v.t_out],
+                }))
+                .collect::<Vec<_>>());
         }
         report
     }

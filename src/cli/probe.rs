@@ -8,7 +8,9 @@ use std::path::PathBuf;
 
 use super::console::say;
 use super::{Cli, Failure};
+use crate::field::interpolant::Interpolant;
 use crate::probe::PixelProbe;
+use crate::reference::analytic::Polynomial;
 use crate::scene::{self, Scene};
 
 #[derive(clap::Args, Debug)]
@@ -101,7 +103,7 @@ pub fn run(_cli: &Cli, args: &ProbeArgs) -> Result<i32, Failure> {
 
 /// The text report of one surface's probe.
 fn print_probe(scene: &Scene, probe: &PixelProbe, px: u32, py: u32) -> Result<(), Failure> {
-    let PixelProbe { origin, dir, options: opts, exact, visits, fixed, .. } = probe;
+    let PixelProbe { origin, dir, options: opts, exact, visits, voxels, fixed, .. } = probe;
     let distance = probe.hit_distance();
     let (iso, inside) = (scene.surface.isovalue, scene.surface.inside);
 
@@ -116,24 +118,75 @@ fn print_probe(scene: &Scene, probe: &PixelProbe, px: u32, py: u32) -> Result<()
         None => say!("box    the ray misses the grid box")?,
     }
     say!()?;
-    say!(
-        "analytic (newton_steps = {}): {} crossing(s), {} cell(s) visited",
-        opts.newton_steps,
-        exact.crossings,
-        exact.cells_visited
-    )?;
+    let interp = probe.interpolation;
+    if interp == Interpolant::Nearest {
+        say!(
+            "analytic, nearest's voxel walk: {} crossing(s), {} voxel(s) visited",
+            exact.crossings,
+            exact.cells_visited
+        )?;
+        for v in voxels {
+            let state = match v.inside {
+                Some(true) => "inside",
+                Some(false) => "outside",
+                None => "missing: no surface on its faces",
+            };
+            say!(
+                "  voxel {:?}  t [{:.6}, {:.6}]  value {:.6}  {state}",
+                v.voxel,
+                v.t_in,
+                v.t_out,
+                v.value
+            )?;
+        }
+    } else {
+        say!(
+            "analytic ({}, newton_steps = {}): {} crossing(s), {} cell(s) visited",
+            interp.name(),
+            opts.newton_steps,
+            exact.crossings,
+            exact.cells_visited
+        )?;
+    }
     for v in visits {
         let c = &v.samples;
         if v.missing {
             say!("  {}  t [{:.6}, {:.6}]", crate::probe::missing_note(v), v.t_in, v.t_out)?;
             continue;
         }
-        say!(
-            "  cell {:?}  t [{:.6}, {:.6}]  corners v000 {:.5} v100 {:.5} v010 {:.5} v110 {:.5} v001 {:.5} v101 {:.5} v011 {:.5} v111 {:.5}",
-            v.cell, v.t_in, v.t_out, c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]
-        )?;
-        let k = v.coefficients.coefficients();
-        say!("    g(u) = f - iso = {:.6e} + {:.6e} u + {:.6e} u^2 + {:.6e} u^3, u in [0,1] over the segment", k[0], k[1], k[2], k[3])?;
+        match &v.coefficients {
+            Polynomial::Monomial(k) => {
+                say!(
+                    "  cell {:?}  t [{:.6}, {:.6}]  corners v000 {:.5} v100 {:.5} v010 {:.5} v110 {:.5} v001 {:.5} v101 {:.5} v011 {:.5} v111 {:.5}",
+                    v.cell, v.t_in, v.t_out, c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]
+                )?;
+                say!("    g(u) = f - iso = {:.6e} + {:.6e} u + {:.6e} u^2 + {:.6e} u^3, u in [0,1] over the segment", k[0], k[1], k[2], k[3])?;
+            }
+            Polynomial::Bernstein(b) => {
+                let (lo, hi) = c
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| (l.min(x), h.max(x)));
+                say!(
+                    "  cell {:?}  t [{:.6}, {:.6}]  64 samples (offsets -1..2, --json lists them) in [{lo:.5}, {hi:.5}]",
+                    v.cell, v.t_in, v.t_out
+                )?;
+                let shown: Vec<String> = b.iter().map(|x| format!("{x:.6e}")).collect();
+                say!(
+                    "    g(u) = f - iso, degree {} in Bernstein form on [0,1]: b = [{}]",
+                    b.len() - 1,
+                    shown.join(", ")
+                )?;
+                for l in &v.leaves {
+                    say!(
+                        "    leaf u [{:.6}, {:.6}]: {} sign change(s){}",
+                        l.u.0,
+                        l.u.1,
+                        l.variations,
+                        if l.resolved { "" } else { " (unresolved: depth or node cap)" }
+                    )?;
+                }
+            }
+        }
         if !v.derivative_roots.is_empty() {
             say!("    g'(u) = 0 at u = {:?}", v.derivative_roots)?;
         }

@@ -176,7 +176,8 @@ impl Interpolant {
     /// Why `reader` does not read a field through this interpolant, as the end of a line that
     /// names `field.interpolation`; `None` where it does. The one table of what is built:
     /// trilinear everywhere; every interpolant by fixed-step, nearest also by the analytic
-    /// method (its voxel walk); `device` only by fixed-step (the
+    /// method (its voxel walk), and `probe` every one but `device` (its f64 references);
+    /// `device` only by fixed-step (the
     /// contract: it is what the texture unit returns, which exists only on the GPU's lookups
     /// of a whole-grid image). The cubic interpolants and nearest have their exact f64
     /// references (`reference::analytic`, `reference::voxels`), not yet the GPU passes and
@@ -193,6 +194,8 @@ impl Interpolant {
             (Interpolant::Trilinear, _) | (_, Reader::FixedStep) => None,
             // The voxel walk (`shaders/voxels.comp`, `reference::voxels`).
             (Interpolant::Nearest, Reader::Analytic) => None,
+            // The probe runs the f64 references, which every kernel has.
+            (Interpolant::CubicBspline | Interpolant::CatmullRom | Interpolant::Nearest, Reader::Probe) => None,
             (_, Reader::Colour) => Some(
                 "[field2] is sampled trilinearly for its colours; interpolation is a key of [field]"
                     .into(),
@@ -221,7 +224,6 @@ impl Interpolant {
             (_, Reader::Analytic) => yet("render.method = \"analytic\""),
             (_, Reader::Mesh) => yet("mesh extraction (extract, render.method = \"mesh\")"),
             (_, Reader::Slice) => yet("slice"),
-            (_, Reader::Probe) => yet("probe"),
         }
     }
 }

@@ -227,7 +227,7 @@ function renderProbe(p) {
     const roots = c.roots.map((r) => `#${r.crossing} u=${fmt(r.u, 9)} (t=${fmt(r.t, 9)}, ${r.entering ? 'entering' : 'leaving'})` +
       `<br>&nbsp;&nbsp;iterates ${list(r.newton_iterates)}`).join('<br>');
     html += `<tr><td>[${c.cell.join(', ')}]</td><td>${fmt(c.t[0])}, ${fmt(c.t[1])}</td>` +
-      `<td>${list(c.corners)}</td><td>${list(c.cubic)}</td><td>${list(c.derivative_roots)}</td>` +
+      `<td>${list(c.corners)}</td><td>${list(c.cubic || c.bernstein)}</td><td>${list(c.derivative_roots)}</td>` +
       `<td style="text-align:left">${roots || '—'}</td></tr>`;
   }
   html += '</table>';

@@ -170,7 +170,7 @@ fn unknown_keys_are_errors_naming_key_and_line() {
     let e = error(&format!("{CELL}colour = 3\n"), &[]);
     assert_eq!(
         e,
-        "t.toml:4:1: field.colour: unknown key ([field] has source, bounds, nan, values)"
+        "t.toml:4:1: field.colour: unknown key ([field] has source, bounds, nan, interpolation, values)"
     );
     let e = error("[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradus = 1\n", &[]);
     assert_eq!(e, "t.toml:4:1: field.radus: unknown key (did you mean \"radius\"?)");
@@ -191,7 +191,7 @@ fn keys_of_other_sources_and_shapes_are_errors() {
     assert_eq!(
         e,
         "t.toml:7:1: field.path: not a key of source \"sdf\" (it belongs to \"npy\", \"raw\", \"mesh\", \"file\"; \"sdf\" \
-         takes source, bounds, nan, shape, center, resolution, radius, half_extents, major_radius, \
+         takes source, bounds, nan, interpolation, shape, center, resolution, radius, half_extents, major_radius, \
          minor_radius, scale, thickness)"
     );
     let e = error(&format!("{sdf}radius = 0.5\n"), &[]);
@@ -222,7 +222,7 @@ fn wrong_types_say_what_was_expected_and_found() {
     let e = error(&format!("{CELL}camera = 3\n"), &[]);
     assert_eq!(
         e,
-        "t.toml:4:1: field.camera: unknown key ([field] has source, bounds, nan, values)"
+        "t.toml:4:1: field.camera: unknown key ([field] has source, bounds, nan, interpolation, values)"
     );
     let e = error(&format!("camera = 3\n{CELL}"), &[]);
     assert_eq!(e, "t.toml:1:10: camera: expected a table, got an integer 3");

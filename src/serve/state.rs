@@ -298,6 +298,7 @@ pub fn describe(
         },
         "field": {
             "describe": s.field.describe(),
+            "interpolation": s.field.interpolation.name(),
             "corners": corners,
             "time_varying": s.field.is_time_varying(),
             "resolution": s.field.resolution,

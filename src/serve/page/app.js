@@ -478,6 +478,7 @@ function buildControls(info) {
   $('isovalue-out').textContent = fmt(info.surface.isovalue);
   $('inside').value = info.surface.inside;
   $('method').value = info.render.method;
+  $('interpolation').value = info.field.interpolation;
   $('shading').value = info.render.shading;
   $('steps').value = info.render.steps;
   $('steps-out').textContent = info.render.steps;
@@ -530,6 +531,7 @@ function wireControls() {
   const select = (id, key) => $(id).addEventListener('change', () => setKey(key, JSON.stringify($(id).value)));
   select('inside', 'surface.inside');
   select('method', 'render.method');
+  select('interpolation', 'field.interpolation');
   select('shading', 'render.shading');
   select('normals', 'render.normals');
   $('projection').addEventListener('change', () => {

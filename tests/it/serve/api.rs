@@ -686,3 +686,33 @@ fn render_tev_streams_each_band_as_it_is_drawn() {
     assert_eq!(rows, want, "UpdateImage rows follow the render's bands of {band} rows");
     assert_same_as_exr(&exr, &decode_tev(&packets));
 }
+
+/// The page's interpolation selector posts `field.interpolation`: a state whose method reads it
+/// is rendered and `/api/state` says which; one whose method does not answers 400 with the
+/// command line's line and the shown state stays.
+#[gpu_test]
+fn the_interpolation_is_a_state_like_any_key() {
+    let file = scene("torus.toml");
+    let server = Server::start(&file, &["--set", "image.width=16", "--set", "image.height=16"]);
+    assert_eq!(server.get("/api/state").json()["field"]["interpolation"], "trilinear");
+    let ok = ["field.interpolation=\"catmull-rom\"", "render.method=\"fixed-step\""];
+    let a = server.post("/api/state", &serde_json::json!({ "set": ok }));
+    assert_eq!(a.status, 200, "{}", a.text());
+    let state = server.get("/api/state").json();
+    assert_eq!(state["field"]["interpolation"], "catmull-rom", "{state}");
+    assert_eq!(server.get("/api/frame").status, 200);
+    let generation = state["generation"].clone();
+    let bad = ["field.interpolation=\"catmull-rom\"", "render.method=\"analytic\""];
+    let b = server.post("/api/state", &serde_json::json!({ "set": bad }));
+    assert_eq!(b.status, 400, "{}", b.text());
+    let line = b.json()["error"].as_str().unwrap().to_string();
+    assert!(
+        line.contains(
+            "field.interpolation = \"catmull-rom\": render.method = \"analytic\" does not read"
+        ),
+        "{line}"
+    );
+    assert_eq!(server.get("/api/state").json()["generation"], generation);
+    let page = server.get("/").text();
+    assert!(page.contains("<select id=\"interpolation\">"), "the page's selector");
+}

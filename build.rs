@@ -118,6 +118,8 @@ const VARIANTS: &[(&str, &str, &[&str])] = &[
     ("raymarch.comp", "catmull_rom", &["INTERP_CATMULL_ROM"]),
     ("raymarch.comp", "nearest", &["INTERP_NEAREST"]),
     ("raymarch.comp", "device", &["INTERP_DEVICE"]),
+    // The tricubic walk: B-spline as it is, Catmull-Rom with its macro.
+    ("tricubic.comp", "catmull_rom", &["INTERP_CATMULL_ROM"]),
 ];
 
 fn shared(name: &str) -> u32 {

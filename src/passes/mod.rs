@@ -13,4 +13,5 @@ pub mod extract;
 pub mod mesh_render;
 pub mod raymarch;
 pub mod slice;
+pub mod tricubic;
 pub mod voxels;

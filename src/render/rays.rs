@@ -16,7 +16,7 @@ use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::gpu::{Buffer, ComputePipeline, Context, GpuError};
 use crate::passes::raymarch::{GridInput, RayInputs, RayPass};
-use crate::passes::{analytic, bricks, raymarch, voxels, Bands};
+use crate::passes::{analytic, bricks, raymarch, tricubic, voxels, Bands};
 use crate::scene::{Method, Scene};
 
 /// The ray passes' shaders: method and how the grid is on the device; the analytic builds
@@ -33,6 +33,8 @@ pub(super) enum RayShader {
     AnalyticPool(analytic::Walk),
     /// `interpolation = "nearest"`'s exact trace, the voxel walk, on the grid image.
     Voxels,
+    /// The tricubic interpolants' exact trace, the Bernstein walk, on the grid image.
+    Tricubic(Interpolant),
 }
 
 impl RayShader {
@@ -44,6 +46,7 @@ impl RayShader {
             RayShader::AnalyticBuffer(walk) => analytic::buffer_pipeline(ctx, walk),
             RayShader::AnalyticPool(walk) => analytic::pool_pipeline(ctx, walk),
             RayShader::Voxels => voxels::pipeline(ctx),
+            RayShader::Tricubic(interp) => tricubic::pipeline(ctx, interp),
         }
     }
 }
@@ -66,9 +69,10 @@ impl Renderer {
         let interp = scene.field.interpolation;
         self.last_bricks_ms = None;
         self.last_brick_levels = None;
-        let voxel_walk = scene.render.method == Method::Analytic && interp == Interpolant::Nearest;
-        if scene.render.method == Method::Analytic && !voxel_walk && gpu_grid.bricks.get().is_none()
-        {
+        // The walks of the other interpolants: their own passes, which skip no bricks (none
+        // built for them).
+        let own_walk = scene.render.method == Method::Analytic && interp != Interpolant::Trilinear;
+        if scene.render.method == Method::Analytic && !own_walk && gpu_grid.bricks.get().is_none() {
             let image = gpu_grid.image("the brick min/max grid of a brick pool")?;
             let built = bricks::build(&self.ctx, &self.bricks, image, gpu_grid.dims)?;
             let _ = gpu_grid.supers.set(built.supers);
@@ -104,7 +108,10 @@ impl Renderer {
             (Method::Mesh, _) => return Err(RenderError::Unsupported("mesh (as a ray pass)")),
             (Method::FixedStep, Storage::Pool(_)) => RayShader::FixedStepPool,
             (Method::FixedStep, Storage::Image(_)) => RayShader::FixedStep(interp),
-            (Method::Analytic, Storage::Image(_)) if voxel_walk => RayShader::Voxels,
+            (Method::Analytic, Storage::Image(_)) if interp == Interpolant::Nearest => {
+                RayShader::Voxels
+            }
+            (Method::Analytic, Storage::Image(_)) if own_walk => RayShader::Tricubic(interp),
             (Method::Analytic, Storage::Pool(_)) => RayShader::AnalyticPool(walk()),
             (Method::Analytic, Storage::Image(image)) => {
                 let bytes = image.extent.iter().map(|&e| e as u64).product::<u64>() * 4;
@@ -146,7 +153,7 @@ impl Renderer {
         )?;
         let bands = Bands::<Pixel>::with_max_rows(ctx, "pixels", width, height, band_rows)?;
         let bricks = match scene.render.method {
-            Method::Analytic if !voxel_walk => gpu_grid.bricks.get(),
+            Method::Analytic if !own_walk => gpu_grid.bricks.get(),
             _ => None,
         };
         let grid_input = match (&gpu_grid.storage, shader) {

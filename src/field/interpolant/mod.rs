@@ -192,8 +192,9 @@ impl Interpolant {
         };
         match (self, reader) {
             (Interpolant::Trilinear, _) | (_, Reader::FixedStep) => None,
-            // The voxel walk (`shaders/voxels.comp`, `reference::voxels`).
-            (Interpolant::Nearest, Reader::Analytic) => None,
+            // The voxel walk (`shaders/voxels.comp`, `reference::voxels`) and the tricubic
+            // Bernstein walk (`shaders/tricubic.comp`, `reference::analytic::tricubic`).
+            (Interpolant::Nearest | Interpolant::CubicBspline | Interpolant::CatmullRom, Reader::Analytic) => None,
             // The probe runs the f64 references, which every kernel has.
             (Interpolant::CubicBspline | Interpolant::CatmullRom | Interpolant::Nearest, Reader::Probe) => None,
             (_, Reader::Colour) => Some(

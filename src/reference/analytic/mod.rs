@@ -184,7 +184,7 @@ use crate::field::interpolant::{
 };
 use crate::field::Grid;
 use crate::frame::Pixel;
-use crate::reference::shade::{nearest_surface, render_with, RayHit};
+use crate::reference::shade::{nearest_surface, render_with_interp, RayHit};
 use crate::reference::trilinear::{cell_corners, lerp3, trilerp};
 use crate::scene::{Inside, Scene};
 use crate::vocab::Clip;
@@ -440,17 +440,25 @@ pub fn options(scene: &Scene) -> AnalyticOptions {
 /// [`AnalyticHit::cells_visited`], `crossings` is [`AnalyticHit::crossings`] with
 /// `render.count_crossings` and -1 without (the GPU then stops at the hit). (With
 /// `render.skip` on, the GPU's `steps` counts less work; every other channel is the same.)
+/// Through the scene's `field.interpolation`: the tricubic ones by their Bernstein walk
+/// (`shaders/tricubic.comp` does not skip: its `steps` are these), nearest by its voxel walk
+/// (`reference::voxels::render`); `device` is only sampled (scenes refuse it here).
 pub fn render(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
+    let interp = scene.field.interpolation;
+    if interp == Interpolant::Nearest {
+        return crate::reference::voxels::render(scene, grid);
+    }
     let (isos, inside, opts) = (scene.surface.isovalues(), scene.surface.inside, options(scene));
     let count = scene.render.count_crossings;
-    render_with(scene, grid, |o, d| {
-        nearest_surface(isos.iter().map(|&iso| trace_one(grid, iso, inside, o, d, &opts, count)))
+    let field = Interpolated::new(grid, interp);
+    render_with_interp(scene, grid, interp, |o, d| {
+        nearest_surface(isos.iter().map(|&iso| trace_one(&field, iso, inside, o, d, &opts, count)))
     })
 }
 
 /// One surface's (hit, cells visited, crossings) for [`render`].
 fn trace_one(
-    grid: &Grid,
+    field: &Interpolated,
     iso: f64,
     inside: Inside,
     o: DVec3,
@@ -459,7 +467,7 @@ fn trace_one(
     count_crossings: bool,
 ) -> (Option<RayHit>, u32, i32) {
     {
-        let a = trace(grid, iso, inside, o, d, opts);
+        let a = trace_interpolated(field, iso, inside, o, d, opts);
         let hit = a.hit.map(|h| RayHit {
             t: h.t,
             position: h.position,

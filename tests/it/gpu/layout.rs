@@ -491,7 +491,7 @@ fn workgroup_sizes_are_the_dispatch_constants() {
     let ray = passes::raymarch::GROUP;
     for (path, spv) in shaders::ALL {
         let want = match *path {
-            "raymarch.comp" | "analytic.comp" | "voxels.comp" => [ray, ray, 1],
+            "raymarch.comp" | "analytic.comp" | "voxels.comp" | "tricubic.comp" => [ray, ray, 1],
             "mesh_resolve.comp" => {
                 let g = passes::mesh_render::RESOLVE_GROUP;
                 [g, g, 1]

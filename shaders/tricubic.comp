@@ -1,0 +1,447 @@
+#version 450
+// Exact ray tracing of the tricubic interpolants' surface (`render.method = "analytic"` with
+// `field.interpolation = "cubic-bspline" | "catmull-rom"`; the variants that define
+// INTERP_BSPLINE or INTERP_CATMULL_ROM, build.rs): the cell walk of `reference::analytic` over
+// its tricubic RayCell (`reference::analytic::tricubic`, `bernstein`), whose module docs are
+// the specification, in f32 step for step:
+//   1-5. index space, slab and clip-plane clip, entry point, first cell, next planes: as
+//        trilinear's walk (analytic.comp);
+//   6.   per cell: its 4x4x4 samples (the edge clamp), the segment's field as a degree-9
+//        Bernstein polynomial from the weights' blossoms (`cubic_segment`), its ends replaced
+//        by the walk's face values, so neighbouring cells decide on the same values; the
+//        isolation's leaves in u order (stackless: each node restricted from the root,
+//        depth BERNSTEIN_DEPTH, BERNSTEIN_NODES nodes); a leaf whose end predicates differ
+//        holds one crossing, exactly at an end that is 0, else refined by Newton on the
+//        leaf's own coefficients, safeguarded by its bracket;
+//   7.   the hit: the wanted crossing; normal the interpolant's exact gradient there.
+// Several surfaces share the walk: each cell's polynomial is the field's, minus each
+// surface's isovalue; the first crossing of any surface is the hit (ties: the lower surface),
+// the reference's nearest-hit rule over surfaces traced alone. No empty-space skipping yet:
+// `steps` is the cells visited, as the reference counts them.
+
+#extension GL_GOOGLE_include_directive : require
+
+layout(local_size_x = RAY_GROUP, local_size_y = RAY_GROUP) in;  // build.rs
+
+#include "params.glsl"
+#include "pixel.glsl"
+
+layout(std140, binding = 0) uniform Params { RenderParams P; };
+layout(binding = 1) uniform sampler3D u_grid;
+layout(std430, binding = 2) writeonly buffer Out { Pixel pixels[]; };
+layout(std430, binding = 3) readonly buffer Colormap { vec4 colormap[256]; };
+layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
+
+// The build without a variant macro is the B-spline's (build.rs compiles every .comp as it is).
+#if !defined(INTERP_BSPLINE) && !defined(INTERP_CATMULL_ROM)
+#define INTERP_BSPLINE 1
+#endif
+#include "field.glsl"
+#include "shade.glsl"
+#include "camera.glsl"
+#include "clip.glsl"
+
+const int DEG = 9;
+// C(3, j) and C(9, j): the scaled Bernstein form's factors (`bernstein::Scaled`).
+const float BIN3[4] = float[4](1.0, 3.0, 3.0, 1.0);
+const float BIN9[10] = float[10](1.0, 9.0, 36.0, 84.0, 126.0, 126.0, 84.0, 36.0, 9.0, 1.0);
+// A Newton step this small that leaves the bracket is rounding (`cubic::CONVERGED`, in f32).
+const float CONVERGED = 4.0 * 1.1920929e-7;
+
+struct Poly {
+    float b[10];
+};
+
+// The blossom of weight `row` at (t1, t2, t3) (`cubic::blossom`).
+float blossom(int row, float t1, float t2, float t3) {
+    vec4 n = CUBIC_NUM[row];
+    float s1 = t1 + t2 + t3;
+    float s2 = t1 * t2 + t1 * t3 + t2 * t3;
+    float s3 = t1 * t2 * t3;
+    return (n.x + n.y * s1 / 3.0 + n.z * s2 / 3.0 + n.w * s3) / CUBIC_DEN;
+}
+
+// The 4 weights' Bernstein coefficients along one axis's segment t0 -> t1: w[a][j] is weight
+// a's coefficient j, the blossom at (t0^(3-j), t1^j) (`tricubic::weight_blossoms`).
+void weight_blossoms(float t0, float t1, out vec4 w[4]) {
+    for (int a = 0; a < 4; a++) {
+        w[a] = vec4(blossom(a, t0, t0, t0), blossom(a, t0, t0, t1), blossom(a, t0, t1, t1),
+                    blossom(a, t1, t1, t1));
+    }
+}
+
+// The field along the segment q_in -> q_out in Bernstein form, degree 9, without the
+// isovalue or the face values (`tricubic::segment` before its step 3).
+Poly cubic_segment(Samples k, vec3 q_in, vec3 q_out) {
+    vec4 bx[4];
+    vec4 by[4];
+    vec4 bz[4];
+    weight_blossoms(q_in.x, q_out.x, bx);
+    weight_blossoms(q_in.y, q_out.y, by);
+    weight_blossoms(q_in.z, q_out.z, bz);
+    float f[10];
+    for (int i = 0; i < 10; i++) f[i] = 0.0;
+    for (int c = 0; c < 4; c++) {
+        float q[7];
+        for (int i = 0; i < 7; i++) q[i] = 0.0;
+        for (int b = 0; b < 4; b++) {
+            int r = 4 * b + 16 * c;
+            float pi[4];
+            for (int j = 0; j < 4; j++) {
+                pi[j] = ((k.s[r] * bx[0][j] + k.s[r + 1] * bx[1][j]) + k.s[r + 2] * bx[2][j])
+                        + k.s[r + 3] * bx[3][j];
+            }
+            for (int i = 0; i < 4; i++) {
+                for (int j = 0; j < 4; j++) {
+                    q[i + j] += (BIN3[i] * pi[i]) * (BIN3[j] * by[b][j]);
+                }
+            }
+        }
+        for (int i = 0; i < 7; i++) {
+            for (int j = 0; j < 4; j++) {
+                f[i + j] += q[i] * (BIN3[j] * bz[c][j]);
+            }
+        }
+    }
+    Poly p;
+    for (int i = 0; i < 10; i++) p.b[i] = f[i] / BIN9[i];
+    return p;
+}
+
+// The half [0, 1/2] (left) or [1/2, 1] of a polynomial, by de Casteljau at 1/2
+// (`Bernstein::keep_left`, `keep_right`).
+void keep_left(inout Poly c) {
+    for (int r = 1; r <= DEG; r++) {
+        for (int i = DEG; i >= r; i--) c.b[i] = 0.5 * (c.b[i - 1] + c.b[i]);
+    }
+}
+
+void keep_right(inout Poly c) {
+    for (int r = 1; r <= DEG; r++) {
+        for (int i = 0; i <= DEG - r; i++) c.b[i] = 0.5 * (c.b[i] + c.b[i + 1]);
+    }
+}
+
+// The root restricted to [k 2^-level, (k + 1) 2^-level] (`Bernstein::restrict`).
+Poly restrict_to(Poly root, uint level, uint k) {
+    Poly c = root;
+    for (uint i = level; i > 0u; i--) {
+        if (((k >> (i - 1u)) & 1u) == 0u) {
+            keep_left(c);
+        } else {
+            keep_right(c);
+        }
+    }
+    return c;
+}
+
+// Sign changes of the coefficients, zeros skipped (`Bernstein::variations`).
+uint variations(Poly c) {
+    uint v = 0u;
+    int last = 0;
+    for (int i = 0; i <= DEG; i++) {
+        int s = c.b[i] > 0.0 ? 1 : (c.b[i] < 0.0 ? -1 : 0);
+        if (s != 0) {
+            if (last != 0 && s != last) v++;
+            last = s;
+        }
+    }
+    return v;
+}
+
+// Whether Descartes' rule settles the node (`Bernstein::resolved`).
+bool resolved(Poly c, uint v) {
+    float first = c.b[0], last = c.b[DEG];
+    if (v == 0u) {
+        bool all_zero = true;
+        for (int i = 0; i <= DEG; i++) all_zero = all_zero && c.b[i] == 0.0;
+        return first != 0.0 || last != 0.0 || all_zero;
+    }
+    if (v == 1u) return first != 0.0 && last != 0.0;
+    return false;
+}
+
+// The value and derivative at s in [0, 1] (`Bernstein::eval_with_derivative`).
+vec2 eval_with_derivative(Poly c, float s) {
+    float t = 1.0 - s;
+    float p[10] = c.b;
+    for (int r = 1; r < DEG; r++) {
+        for (int i = 0; i <= DEG - r; i++) p[i] = t * p[i] + s * p[i + 1];
+    }
+    return vec2(t * p[0] + s * p[1], float(DEG) * (p[1] - p[0]));
+}
+
+bool inside_g(float g) {
+    return P.inside_sign > 0.0 ? g < 0.0 : g > 0.0;
+}
+
+// The root of the leaf c (ends g_lo, g_hi nonzero, predicates different) in its own [0, 1]:
+// the secant start, then `steps` Newton steps safeguarded by the bracket (`cubic::refine_with`).
+float refine_leaf(Poly c, float g_lo, float g_hi, uint steps) {
+    float lo = 0.0, hi = 1.0;
+    bool p_lo = inside_g(g_lo);
+    float u = lo + (hi - lo) * (g_lo / (g_lo - g_hi));
+    if (!(u > lo && u < hi)) u = 0.5 * (lo + hi);
+    for (uint i = 0u; i < steps; i++) {
+        vec2 gd = eval_with_derivative(c, u);
+        if (gd.x == 0.0) break;
+        if (inside_g(gd.x) == p_lo) {
+            lo = u;
+        } else {
+            hi = u;
+        }
+        float step = gd.x / gd.y;
+        float next = u - step;
+        if (!(next > lo && next < hi)) {
+            if (abs(step) <= CONVERGED) break;
+            next = 0.5 * (lo + hi);
+        }
+        if (next == u) break;
+        u = next;
+    }
+    return u;
+}
+
+// Ray parameter of segment parameter u (`segment_t`): at most t_out, exactly t_out at u = 1.
+float segment_t(float t_in, float t_out, float u) {
+    return u >= 1.0 ? t_out : min(t_in + u * (t_out - t_in), t_out);
+}
+
+float tmax_of(int a, int c, vec3 o, vec3 d) {
+    if (d[a] > 0.0) return (float(c + 1) - o[a]) / d[a];
+    if (d[a] < 0.0) return (float(c) - o[a]) / d[a];
+    return uintBitsToFloat(0x7f800000u);
+}
+
+void main() {
+    uvec2 px_local = gl_GlobalInvocationID.xy;
+    if (px_local.x >= P.picture_width || px_local.y >= band.rows) return;
+    uvec2 px = uvec2(px_local.x, px_local.y + band.row_offset) * P.stride;
+    vec3 eye;  // the ray's origin: the eye, or its pixel on the orthographic image plane
+    vec3 dir;
+    camera_ray(px, eye, dir);
+    float INF = uintBitsToFloat(0x7f800000u);
+
+    Pixel r;
+    r.rgba = P.background;
+    r.normal = vec3(0.0);
+    r.depth = INF;
+    r.position = vec3(0.0);
+    r.steps = 0.0;
+    r.cell = ivec3(-1);
+    r.crossings = P.count_crossings != 0u ? 0 : -1;
+    r.surface = -1;
+    r.value = uintBitsToFloat(0x7fc00000u);  // NaN: no [color] value
+    r.pad0 = 0u;
+    r.pad1 = 0u;
+
+    uint surfaces = P.surfaces;
+    uint wanted = max(P.crossing, 1u);  // 1 with several surfaces (scene validation)
+    bool count_all = P.count_crossings != 0u;
+
+    // 1. Index space (the eye's from the CPU, in f64).
+    ivec3 ncell = P.dims - 1;
+    vec3 n = vec3(ncell);
+    vec3 o = P.eye_grid;
+    if (camera_orthographic()) o += pixel_offset(px) * P.inv_spacing;
+    vec3 d = dir * P.inv_spacing;
+    bool usable = !any(isnan(o)) && !any(isinf(o)) && !any(isnan(d)) && !any(isinf(d))
+        && d != vec3(0.0);
+
+    // 2. Slab clip, then the clip planes.
+    float t_enter = -INF;
+    float t_exit = INF;
+    int enter_axis = -1;
+    for (int a = 0; a < 3 && usable; a++) {
+        if (d[a] == 0.0) {
+            if (!(o[a] >= 0.0 && o[a] <= n[a])) usable = false;
+            continue;
+        }
+        float t0 = (0.0 - o[a]) / d[a];
+        float t1 = (n[a] - o[a]) / d[a];
+        float near = d[a] > 0.0 ? t0 : t1;
+        float far = d[a] > 0.0 ? t1 : t0;
+        if (near > t_enter) {
+            t_enter = near;
+            enter_axis = a;
+        }
+        if (far < t_exit) t_exit = far;
+    }
+    float c_lo = -INF;
+    float c_hi = INF;
+    if (usable && !clip_interval(eye, dir, c_lo, c_hi)) usable = false;
+    if (c_lo > t_enter) {
+        t_enter = c_lo;
+        enter_axis = -1;
+    }
+    t_exit = min(t_exit, c_hi);
+    if (!usable || !(t_enter <= t_exit && t_exit > 0.0 && t_exit < INF)) {
+        pixels[px_local.y * P.picture_width + px_local.x] = r;
+        return;
+    }
+    float t_lo = max(t_enter, 0.0);
+    float t_hi = t_exit;
+
+    // 3. Entry point.
+    vec3 p = o + t_lo * d;
+    if (t_lo == t_enter && enter_axis >= 0) {
+        p[enter_axis] = d[enter_axis] > 0.0 ? 0.0 : n[enter_axis];
+    }
+    p = clamp(p, vec3(0.0), n);
+
+    // 4. First cell: a ray starting on a grid plane goes into the cell it heads into.
+    ivec3 cell;
+    vec3 q_in;
+    for (int a = 0; a < 3; a++) {
+        float c = d[a] < 0.0 ? ceil(p[a]) - 1.0 : floor(p[a]);
+        c = clamp(c, 0.0, n[a] - 1.0);
+        cell[a] = int(c);
+        q_in[a] = clamp(p[a] - c, 0.0, 1.0);
+    }
+    Samples k = cell_samples(cell);
+    float f_in = cubic_value(k, q_in);
+
+    // 5. Next planes.
+    vec3 tmax = vec3(tmax_of(0, cell.x, o, d), tmax_of(1, cell.y, o, d), tmax_of(2, cell.z, o, d));
+    float t_in = t_lo;
+
+    // 6. Loop.
+    uint total = 0u;
+    uint crossings = 0u;
+    bool hit = false;
+    float t_hit = 0.0;
+    uint hit_surface = 0u;
+    uint hit_steps = 0u;
+    ivec3 hit_cell = cell;
+    vec3 hit_q = vec3(0.0);
+    uint max_passes = uint(ncell.x + ncell.y + ncell.z);
+    for (uint pass_ = 0u; pass_ < max_passes; pass_++) {
+        total++;
+        bool missing = samples_missing(k);
+        // 6.1 Segment end, 6.2 exit point and value.
+        float t_out = max(min(min(tmax.x, min(tmax.y, tmax.z)), t_hi), t_in);
+        bool last = t_out >= t_hi;
+        bvec3 crossed = bvec3(tmax.x <= t_out, tmax.y <= t_out, tmax.z <= t_out);
+        vec3 q_out;
+        for (int a = 0; a < 3; a++) {
+            if (crossed[a]) {
+                q_out[a] = d[a] > 0.0 ? 1.0 : 0.0;
+            } else if (t_out == t_in) {
+                q_out[a] = q_in[a];
+            } else {
+                q_out[a] = clamp(o[a] + t_out * d[a] - float(cell[a]), 0.0, 1.0);
+            }
+        }
+        float f_out = t_out == t_in ? f_in : cubic_value(k, q_out);
+        if (!missing) {
+            // 6.3 The segment's polynomial, once for every surface.
+            Poly fseg = cubic_segment(k, q_in, q_out);
+            // The first crossing of this cell among the surfaces, for the hit.
+            float best_u = 2.0;
+            uint best_k = 0u;
+            for (uint s = 0u; s < surfaces; s++) {
+                float iso = P.thresholds[s / 4u][s % 4u];
+                Poly g;
+                for (int i = 0; i <= DEG; i++) g.b[i] = fseg.b[i] - iso;
+                g.b[0] = f_in - iso;
+                g.b[DEG] = f_out - iso;
+                // 6.4 The isolation's leaves in u order; 6.5 crossings, leaf by leaf.
+                uint level = 0u, kk = 0u, nodes = 0u;
+                bool done = false;
+                for (uint guard = 0u; guard < BERNSTEIN_NODES + BERNSTEIN_DEPTH && !done; guard++) {
+                    Poly c = restrict_to(g, level, kk);
+                    nodes++;
+                    uint v = variations(c);
+                    bool res = resolved(c, v);
+                    if (!(res || level == BERNSTEIN_DEPTH || nodes >= BERNSTEIN_NODES)) {
+                        level++;
+                        kk *= 2u;
+                        continue;
+                    }
+                    // A leaf: [kk 2^-level, (kk + 1) 2^-level].
+                    float w = 1.0 / float(1u << level);
+                    float lo = float(kk) * w;
+                    float ga = c.b[0], gb = c.b[DEG];
+                    uint leaf_k = kk;
+                    uint leaf_level = level;
+                    while ((kk & 1u) == 1u) {
+                        kk >>= 1u;
+                        level--;
+                    }
+                    if (level == 0u) {
+                        done = true;
+                    } else {
+                        kk += 1u;
+                    }
+                    if (inside_g(ga) == inside_g(gb)) continue;
+                    bool exact = ga == 0.0 || gb == 0.0;
+                    float u_exact = ga == 0.0 ? lo : lo + w;
+                    if (exact && segment_t(t_in, t_out, u_exact) <= 0.0) continue;  // dropped
+                    crossings++;
+                    if (s == 0u && surfaces == 1u) {
+                        // One surface: the wanted-th crossing along the ray.
+                        if (!hit && crossings == wanted) {
+                            float u = exact ? u_exact : lo + w * refine_leaf(c, ga, gb, P.newton_steps);
+                            best_u = u;
+                            best_k = 0u;
+                        }
+                    } else if (!hit) {
+                        // Several surfaces (wanted = 1): each surface's first crossing here.
+                        float u = exact ? u_exact : lo + w * refine_leaf(c, ga, gb, P.newton_steps);
+                        if (u < best_u) {
+                            best_u = u;
+                            best_k = s;
+                        }
+                        if (!count_all) done = true;
+                    }
+                    if (!count_all && best_u <= 1.0 && surfaces == 1u) done = true;
+                }
+            }
+            if (!hit && best_u <= 1.0) {
+                hit = true;
+                t_hit = segment_t(t_in, t_out, best_u);
+                hit_surface = best_k;
+                hit_steps = total;
+                hit_cell = cell;
+                hit_q = mix(q_in, q_out, best_u);
+                if (!count_all) break;
+            }
+        }
+        // 6.6 Advance.
+        if (last) break;
+        bool left_box = false;
+        for (int a = 0; a < 3; a++) {
+            if (crossed[a]) {
+                cell[a] += d[a] > 0.0 ? 1 : -1;
+                left_box = left_box || cell[a] < 0 || cell[a] > ncell[a] - 1;
+                q_in[a] = 1.0 - q_out[a];
+                tmax[a] = tmax_of(a, cell[a], o, d);
+            } else {
+                q_in[a] = q_out[a];
+            }
+        }
+        if (left_box) break;
+        k = cell_samples(cell);
+        // After a missing cell, from the new cell's own samples.
+        f_in = missing ? cubic_value(k, q_in) : f_out;
+        t_in = t_out;
+    }
+
+    if (count_all) r.crossings = int(crossings);
+    r.steps = float(hit ? hit_steps : total);
+    if (hit) {
+        Samples kh = cell_samples(hit_cell);
+        vec3 grad = cubic_gradient(kh, hit_q) * P.inv_spacing * P.inside_sign;
+        float len = length(grad);
+        vec3 normal = len > 0.0 && !isinf(len) ? grad / len : -dir;
+        vec3 u = vec3(hit_cell) + hit_q;
+        r.depth = t_hit;
+        r.position = eye + dir * t_hit;
+        r.normal = normal;
+        r.cell = hit_cell;
+        r.surface = surfaces > 1u ? int(hit_surface) : -1;
+        r.rgba = vec4(shade(normal, dir, t_hit, r.steps, u, hit_cell,
+                            P.surface_color[hit_surface].rgb), 1.0);
+    }
+    pixels[px_local.y * P.picture_width + px_local.x] = r;
+}

@@ -30,13 +30,7 @@ pub fn interpolant_pipeline(
     ctx: &Arc<Context>,
     interp: Interpolant,
 ) -> Result<ComputePipeline, GpuError> {
-    let (name, spirv) = match interp {
-        Interpolant::Trilinear => ("raymarch", shaders::RAYMARCH),
-        Interpolant::CubicBspline => ("raymarch (cubic-bspline)", shaders::RAYMARCH_BSPLINE),
-        Interpolant::CatmullRom => ("raymarch (catmull-rom)", shaders::RAYMARCH_CATMULL_ROM),
-        Interpolant::Nearest => ("raymarch (nearest)", shaders::RAYMARCH_NEAREST),
-        Interpolant::Device => ("raymarch (device)", shaders::RAYMARCH_DEVICE),
-    };
+    let (name, spirv) = interp.march_shader();
     ComputePipeline::new(ctx, name, spirv, &RAY_BINDINGS, std::mem::size_of::<super::Band>() as u32)
 }
 

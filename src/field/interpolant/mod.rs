@@ -87,6 +87,19 @@ impl Interpolant {
         }
     }
 
+    /// The fixed-step march's build for it: its variant of `raymarch.comp` (build.rs's
+    /// `VARIANTS`) and the pass's name.
+    pub fn march_shader(self) -> (&'static str, &'static [u8]) {
+        use crate::shaders;
+        match self {
+            Interpolant::Trilinear => ("raymarch", shaders::RAYMARCH),
+            Interpolant::CubicBspline => ("raymarch (cubic-bspline)", shaders::RAYMARCH_BSPLINE),
+            Interpolant::CatmullRom => ("raymarch (catmull-rom)", shaders::RAYMARCH_CATMULL_ROM),
+            Interpolant::Nearest => ("raymarch (nearest)", shaders::RAYMARCH_NEAREST),
+            Interpolant::Device => ("raymarch (device)", shaders::RAYMARCH_DEVICE),
+        }
+    }
+
     /// The samples a cell reads.
     pub fn stencil(self) -> Stencil {
         match self {
@@ -222,7 +235,6 @@ impl Interpolant {
                 "MPI splits trilinear fields only (the blocks' ghost planes and walks are \
                  trilinear's), not \"{name}\" ones: run it without mpirun"
             )),
-            (_, Reader::Analytic) => yet("render.method = \"analytic\""),
             (_, Reader::Mesh) => yet("mesh extraction (extract, render.method = \"mesh\")"),
             (_, Reader::Slice) => yet("slice"),
         }

@@ -4,8 +4,8 @@
 // INTERP_BSPLINE or INTERP_CATMULL_ROM, build.rs): the cell walk of `reference::analytic` over
 // its tricubic RayCell (`reference::analytic::tricubic`, `bernstein`), whose module docs are
 // the specification, in f32 step for step:
-//   1-5. index space, slab and clip-plane clip, entry point, first cell, next planes: as
-//        trilinear's walk (analytic.comp);
+//   1-5. index space, slab and clip-plane clip, entry point (walk.glsl), first cell, next
+//        planes: as trilinear's walk (analytic.comp);
 //   6.   per cell: its 4x4x4 samples (the edge clamp), the segment's field as a degree-9
 //        Bernstein polynomial from the weights' blossoms (`cubic_segment`), its ends replaced
 //        by the walk's face values, so neighbouring cells decide on the same values; the
@@ -40,6 +40,7 @@ layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 #include "shade.glsl"
 #include "camera.glsl"
 #include "clip.glsl"
+#include "walk.glsl"
 
 const int DEG = 9;
 // C(3, j) and C(9, j): the scaled Bernstein form's factors (`bernstein::Scaled`).
@@ -217,77 +218,18 @@ void main() {
     uvec2 px_local = gl_GlobalInvocationID.xy;
     if (px_local.x >= P.picture_width || px_local.y >= band.rows) return;
     uvec2 px = uvec2(px_local.x, px_local.y + band.row_offset) * P.stride;
-    vec3 eye;  // the ray's origin: the eye, or its pixel on the orthographic image plane
-    vec3 dir;
-    camera_ray(px, eye, dir);
-    float INF = uintBitsToFloat(0x7f800000u);
-
-    Pixel r;
-    r.rgba = P.background;
-    r.normal = vec3(0.0);
-    r.depth = INF;
-    r.position = vec3(0.0);
-    r.steps = 0.0;
-    r.cell = ivec3(-1);
-    r.crossings = P.count_crossings != 0u ? 0 : -1;
-    r.surface = -1;
-    r.value = uintBitsToFloat(0x7fc00000u);  // NaN: no [color] value
-    r.pad0 = 0u;
-    r.pad1 = 0u;
-
-    uint surfaces = P.surfaces;
-    uint wanted = max(P.crossing, 1u);  // 1 with several surfaces (scene validation)
-    bool count_all = P.count_crossings != 0u;
-
-    // 1. Index space (the eye's from the CPU, in f64).
-    ivec3 ncell = P.dims - 1;
-    vec3 n = vec3(ncell);
-    vec3 o = P.eye_grid;
-    if (camera_orthographic()) o += pixel_offset(px) * P.inv_spacing;
-    vec3 d = dir * P.inv_spacing;
-    bool usable = !any(isnan(o)) && !any(isinf(o)) && !any(isnan(d)) && !any(isinf(d))
-        && d != vec3(0.0);
-
-    // 2. Slab clip, then the clip planes.
-    float t_enter = -INF;
-    float t_exit = INF;
-    int enter_axis = -1;
-    for (int a = 0; a < 3 && usable; a++) {
-        if (d[a] == 0.0) {
-            if (!(o[a] >= 0.0 && o[a] <= n[a])) usable = false;
-            continue;
-        }
-        float t0 = (0.0 - o[a]) / d[a];
-        float t1 = (n[a] - o[a]) / d[a];
-        float near = d[a] > 0.0 ? t0 : t1;
-        float far = d[a] > 0.0 ? t1 : t0;
-        if (near > t_enter) {
-            t_enter = near;
-            enter_axis = a;
-        }
-        if (far < t_exit) t_exit = far;
-    }
-    float c_lo = -INF;
-    float c_hi = INF;
-    if (usable && !clip_interval(eye, dir, c_lo, c_hi)) usable = false;
-    if (c_lo > t_enter) {
-        t_enter = c_lo;
-        enter_axis = -1;
-    }
-    t_exit = min(t_exit, c_hi);
-    if (!usable || !(t_enter <= t_exit && t_exit > 0.0 && t_exit < INF)) {
+    Pixel r = miss_pixel();
+    WalkRay w;
+    if (!walk_ray(px, w)) {
         pixels[px_local.y * P.picture_width + px_local.x] = r;
         return;
     }
-    float t_lo = max(t_enter, 0.0);
-    float t_hi = t_exit;
-
-    // 3. Entry point.
-    vec3 p = o + t_lo * d;
-    if (t_lo == t_enter && enter_axis >= 0) {
-        p[enter_axis] = d[enter_axis] > 0.0 ? 0.0 : n[enter_axis];
-    }
-    p = clamp(p, vec3(0.0), n);
+    vec3 eye = w.eye, dir = w.dir, o = w.o, d = w.d, n = w.n, p = w.p;
+    float t_lo = w.t_lo, t_hi = w.t_hi;
+    ivec3 ncell = P.dims - 1;
+    uint surfaces = P.surfaces;
+    uint wanted = max(P.crossing, 1u);  // 1 with several surfaces (scene validation)
+    bool count_all = P.count_crossings != 0u;
 
     // 4. First cell: a ray starting on a grid plane goes into the cell it heads into.
     ivec3 cell;

@@ -598,3 +598,65 @@ fn a_folder_swapped_for_a_link_after_the_check_is_not_read() {
         assert_eq!(read.values[0], b'S' as f32, "{what}: the command line follows the link");
     }
 }
+
+/// An MRC map whose cell (3e38 Å per voxel, start indices 2^31 - 1) puts its 2x2x2 grid at
+/// 6.4e47: the reader's own checks pass (every corner is finite), and rays in f32 cannot
+/// reach it. The box from the header, and one from `field.bounds`, must be within the
+/// camera's ±1e30, naming what set it; a box at exactly ±1e30 is still taken.
+#[test]
+fn a_grid_box_beyond_the_traced_range_is_refused_naming_what_set_it() {
+    let dir = scratch("rel-box-range");
+    let mut h = vec![0u8; 1024];
+    let mut word = |i: usize, v: [u8; 4]| h[4 * i..4 * i + 4].copy_from_slice(&v);
+    for i in 0..3 {
+        word(i, 2i32.to_le_bytes()); // NX, NY, NZ
+        word(4 + i, i32::MAX.to_le_bytes()); // NXSTART, NYSTART, NZSTART
+        word(7 + i, 1i32.to_le_bytes()); // MX, MY, MZ
+        word(10 + i, 3e38f32.to_le_bytes()); // cell dimensions
+        word(13 + i, 90f32.to_le_bytes()); // cell angles
+        word(16 + i, (i as i32 + 1).to_le_bytes()); // MAPC, MAPR, MAPS
+    }
+    word(3, 2i32.to_le_bytes()); // mode 2, float32
+    h[208..212].copy_from_slice(b"MAP ");
+    h[212] = 0x44;
+    h.extend([0u8; 32]);
+    std::fs::write(dir.join("o.mrc"), h).unwrap();
+    let scene = write(
+        &dir,
+        "o.toml",
+        "[image]\nwidth = 16\nheight = 16\n[camera]\nfit = true\n[field]\nsource = \"file\"\n\
+         path = \"o.mrc\"\n",
+    );
+    for verb in [vec!["stats", &scene], vec!["render", &scene, "-o", "o.exr"]] {
+        let o = isoview(&verb, &[]);
+        assert_fails(
+            &o,
+            2,
+            &[
+                "o.toml:8:8: field.path: ",
+                "o.mrc: MRC: ORIGIN, cell dimensions and MX, MY, MZ: the grid box from its \
+                 header, [6.44245095280634e47",
+                "is too large: every coordinate must be within ±1e30 (rays are traced in 32-bit \
+                 floats)",
+            ],
+        );
+    }
+    assert!(!dir.join("o.exr").exists());
+
+    let expr = |bounds: &str| {
+        let text = format!(
+            "[field]\nsource = \"expr\"\nexpression = \"x\"\nresolution = [2, 2, 2]\n\
+             bounds = {bounds}\n"
+        );
+        write(&dir, "b.toml", &text)
+    };
+    let o = isoview(&["stats", &expr("{ min = [-1e35, 0, 0], max = [1e35, 1, 1] }")], &[]);
+    assert_fails(
+        &o,
+        2,
+        &["b.toml:5:10: field.bounds: the grid box [-1e35, 0.0, 0.0]..[1e35, 1.0, 1.0] is too \
+           large: every coordinate must be within ±1e30"],
+    );
+    let o = isoview(&["stats", &expr("{ min = [-1e30, 0, 0], max = [1e30, 1, 1] }")], &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}

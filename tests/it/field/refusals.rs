@@ -660,3 +660,59 @@ fn a_grid_box_beyond_the_traced_range_is_refused_naming_what_set_it() {
     let o = isoview(&["stats", &expr("{ min = [-1e30, 0, 0], max = [1e30, 1, 1] }")], &[]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
+
+/// A finite f64 sample beyond f32's range became ±inf in the grid without a word, and
+/// `field.nan = "empty"` (the default) then took it for missing data: it is refused, naming
+/// its grid point, under either policy; 3e38 is kept, and an infinity in the file is still
+/// missing data.
+#[test]
+fn a_finite_sample_beyond_f32_is_refused_not_taken_for_missing_data() {
+    let dir = scratch("rel-sample-range");
+    for nan in ["empty", "error"] {
+        let scene = write(
+            &dir,
+            "c.toml",
+            &format!(
+                "[field]\nsource = \"corners\"\nvalues = [0, 0, 0, 0, 0, 0, 0, 1e308]\n\
+                 nan = \"{nan}\"\n"
+            ),
+        );
+        let o = isoview(&["stats", &scene], &[]);
+        assert_fails(
+            &o,
+            2,
+            &["field.values: value 1e308 at grid point [1, 1, 1] is beyond ±3.4028235e38, the \
+               range of the 32-bit floats samples are kept in"],
+        );
+    }
+    // Raw f64, x fastest: sample 3 is point [1, 1, 0].
+    let raw = |values: [f64; 8]| {
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        std::fs::write(dir.join("d.raw"), bytes).unwrap();
+        let text =
+            "[field]\nsource = \"raw\"\npath = \"d.raw\"\ndims = [2, 2, 2]\ndtype = \"f64\"\n";
+        isoview(&["stats", &write(&dir, "d.toml", text)], &[])
+    };
+    let o = raw([0.0, 0.0, 0.0, -1e300, 0.0, 0.0, 0.0, 0.0]);
+    assert_fails(&o, 2, &["d.raw: value -1e300 at grid point [1, 1, 0] is beyond ±3.4028235e38"]);
+    let o = raw([0.0, 0.0, 0.0, 3e38, 0.0, 0.0, 0.0, f64::INFINITY]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // A C-order npy: storage index 1 is element [0, 0, 1].
+    let mut npy = b"\x93NUMPY\x01\x00".to_vec();
+    let mut header = "{'descr': '<f8', 'fortran_order': False, 'shape': (2, 2, 2), }".to_string();
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    npy.extend((header.len() as u16).to_le_bytes());
+    npy.extend(header.as_bytes());
+    for v in [0.0, 5e38, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0f64] {
+        npy.extend(v.to_le_bytes());
+    }
+    std::fs::write(dir.join("c.npy"), npy).unwrap();
+    let o = isoview(
+        &["stats", &write(&dir, "n.toml", "[field]\nsource = \"npy\"\npath = \"c.npy\"\n")],
+        &[],
+    );
+    assert_fails(&o, 2, &["c.npy: value 5e38 at grid point [0, 0, 1] is beyond ±3.4028235e38"]);
+}

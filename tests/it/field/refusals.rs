@@ -716,3 +716,34 @@ fn a_finite_sample_beyond_f32_is_refused_not_taken_for_missing_data() {
     );
     assert_fails(&o, 2, &["c.npy: value 5e38 at grid point [0, 0, 1] is beyond ±3.4028235e38"]);
 }
+
+/// A compressed MetaImage whose HeaderSize skips past the file's end said only "cannot
+/// read: Invalid argument (os error 22)" (the seek failed): the line names the file, the
+/// header line and the key.
+#[test]
+fn a_metaimage_header_size_past_the_end_names_the_key() {
+    let dir = scratch("rel-mha-header-size");
+    let p = dir.join("m.mha");
+    let head = b"NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nCompressedData = True\n\
+        HeaderSize = 9223372036854775807\nElementDataFile = LOCAL\n";
+    let mut bytes = head.to_vec();
+    // zlib's stored block of 8 zero bytes, so the data itself is valid.
+    bytes.extend([0x78, 0x01, 0x01, 0x08, 0x00, 0xf7, 0xff]);
+    bytes.extend([0u8; 8]);
+    bytes.extend([0x00, 0x08, 0x00, 0x01]);
+    std::fs::write(&p, &bytes).unwrap();
+    let m = refusal(&p, &opts());
+    let start = head.len() as u64 + i64::MAX as u64;
+    let want = format!(
+        "MetaImage: line 5: HeaderSize = 9223372036854775807 puts the data at byte {start} of \
+         the file, past its end ({} bytes)",
+        bytes.len()
+    );
+    assert!(m.contains(&want), "{m}");
+    // Uncompressed, the same key is named rather than "truncated data".
+    let text = b"NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nHeaderSize = 100\n\
+        ElementDataFile = LOCAL\n";
+    std::fs::write(&p, [&text[..], &[0u8; 8]].concat()).unwrap();
+    let m = refusal(&p, &opts());
+    assert!(m.contains("line 4: HeaderSize = 100 puts the data at byte"), "{m}");
+}

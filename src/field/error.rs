@@ -128,6 +128,16 @@ pub enum FieldError {
     #[error("{what}: value {value} at grid point [{}, {}, {}]{detail} is not finite", index[0], index[1], index[2])]
     NonFinite { what: String, index: [usize; 3], value: f32, detail: String },
 
+    /// A finite sample beyond f32's range (|v| > 3.4e38), which the grid's f32 would hold as
+    /// ±inf: refused whatever `field.nan` says, as it is not missing data
+    /// ([`super::samples::narrow`]).
+    #[error(
+        "{what}: value {} at grid point [{}, {}, {}]{detail} is beyond ±{:e}, the range of the \
+         32-bit floats samples are kept in",
+        crate::vocab::echo_number(*value), index[0], index[1], index[2], f32::MAX
+    )]
+    OutOfRange { what: String, index: [usize; 3], value: f64, detail: String },
+
     /// An expression that does not parse, or names something unknown.
     #[error("expression \"{text}\": {message}")]
     Expr { text: String, message: String },

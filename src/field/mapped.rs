@@ -189,8 +189,16 @@ impl MappedGrid {
         } else {
             raw.resize(count * size, 0);
             read(raw)?;
-            samples::decode(self.dtype, self.endian, raw, run);
-            Ok(())
+            samples::decode(self.dtype, self.endian, raw, run).map_err(|o| {
+                let at = first + o.at;
+                let [_, ny, nz] = self.dims;
+                let index = match self.order {
+                    StorageOrder::XFastest => samples::grid_index(at, self.dims),
+                    StorageOrder::ZFastest => [at / (ny * nz), (at / nz) % ny, at % nz],
+                };
+                let (what, value) = (self.label(), o.value);
+                FieldError::OutOfRange { what, index, value, detail: String::new() }
+            })
         }
     }
 

@@ -115,8 +115,47 @@ pub(crate) fn f16_to_f32(h: u16) -> f32 {
     }
 }
 
-/// Decodes `n` samples of `ty` from `bytes` (exactly `n * ty.size()` long) into `out`.
-pub(crate) fn decode(ty: SampleType, endian: Endian, bytes: &[u8], out: &mut Vec<f32>) {
+/// The one conversion of an f64 sample to the grid's f32. A finite value beyond f32's range
+/// would become ±inf there, which `field.nan` takes for missing data (or, under "error", for
+/// a non-finite sample the file does not hold): it is refused instead, `Err(value)`, and the
+/// caller names its grid point ([`FieldError::OutOfRange`]). NaN and ±inf stay as they are.
+pub(crate) fn narrow(v: f64) -> Result<f32, f64> {
+    let x = v as f32;
+    if x.is_infinite() && v.is_finite() {
+        Err(v)
+    } else {
+        Ok(x)
+    }
+}
+
+/// A finite sample too large for f32 ([`narrow`]): its place in the data and its value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Overflow {
+    /// The sample's index in the order the data holds the samples.
+    pub at: usize,
+    pub value: f64,
+}
+
+impl Overflow {
+    /// The error naming the sample's grid point, `dims` x fastest (`at` a grid index).
+    pub fn error(self, what: String, dims: [usize; 3], detail: String) -> FieldError {
+        FieldError::OutOfRange { what, index: grid_index(self.at, dims), value: self.value, detail }
+    }
+}
+
+/// `[i, j, k]` of the sample at `n` of an x-fastest grid of `dims`.
+pub(crate) fn grid_index(n: usize, dims: [usize; 3]) -> [usize; 3] {
+    [n % dims[0], (n / dims[0]) % dims[1], n / (dims[0] * dims[1])]
+}
+
+/// Decodes `n` samples of `ty` from `bytes` (exactly `n * ty.size()` long) into `out`; fails
+/// on the first f64 sample beyond f32's range ([`narrow`]), `at` counted from `bytes`' start.
+pub(crate) fn decode(
+    ty: SampleType,
+    endian: Endian,
+    bytes: &[u8],
+    out: &mut Vec<f32>,
+) -> Result<(), Overflow> {
     macro_rules! each {
         ($n:literal, $conv:expr) => {
             out.extend(bytes.chunks_exact($n).map(|c| {
@@ -142,8 +181,19 @@ pub(crate) fn decode(ty: SampleType, endian: Endian, bytes: &[u8], out: &mut Vec
         SampleType::F32 => each!(4, f32::from_le_bytes),
         SampleType::U64 => each!(8, |a| u64::from_le_bytes(a) as f32),
         SampleType::I64 => each!(8, |a| i64::from_le_bytes(a) as f32),
-        SampleType::F64 => each!(8, |a| f64::from_le_bytes(a) as f32),
+        SampleType::F64 => {
+            // The only type whose finite values can pass f32's range (u64's largest is 1.8e19).
+            for (at, c) in bytes.chunks_exact(8).enumerate() {
+                let mut a = [0u8; 8];
+                a.copy_from_slice(c);
+                if endian == Endian::Big {
+                    a.reverse();
+                }
+                out.push(narrow(f64::from_le_bytes(a)).map_err(|value| Overflow { at, value })?);
+            }
+        }
     }
+    Ok(())
 }
 
 /// Describes a layout for messages: `[32, 32, 32] x u16`.
@@ -179,7 +229,19 @@ pub(crate) fn read_samples(
                 layout: layout(dims, ty),
             });
         }
-        decode(ty, endian, want, &mut stored);
+        decode(ty, endian, want, &mut stored).map_err(|o| {
+            // `at` in file order: the grid point of a z-fastest file is found by its index.
+            let at = done + o.at;
+            let index = match order {
+                StorageOrder::XFastest => grid_index(at, dims),
+                StorageOrder::ZFastest => {
+                    let [_, ny, nz] = dims;
+                    [at / (ny * nz), (at / nz) % ny, at % nz]
+                }
+            };
+            let what = super::npy::path_str(path);
+            FieldError::OutOfRange { what, index, value: o.value, detail: String::new() }
+        })?;
         done += n;
     }
     Ok(match order {
@@ -260,7 +322,7 @@ pub(crate) fn check_finite(
     match values.iter().position(|v| !v.is_finite()) {
         None => Ok(()),
         Some(n) => {
-            let index = [n % dims[0], (n / dims[0]) % dims[1], n / (dims[0] * dims[1])];
+            let index = grid_index(n, dims);
             Err(FieldError::NonFinite {
                 what: what(),
                 index,

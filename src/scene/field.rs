@@ -20,7 +20,8 @@ use super::validate::show_vec;
 use super::Bounds;
 use crate::field::interpolant::{Interpolant, Reader};
 use crate::field::{
-    FieldError, FieldSpec, GridLimits, NanPolicy, Need, Params, Residency, Rule, SourceKind,
+    FieldError, FieldSource, FieldSpec, GridLimits, NanPolicy, Need, Params, Residency, Rule,
+    SourceKind,
 };
 use crate::vocab::Placement;
 
@@ -146,6 +147,7 @@ fn field_named(
         (None, Some(b)) => (b, parsed.placement.unwrap_or_default()),
         (None, None) => (Bounds::index_space(parsed.resolution), Placement::IDENTITY),
     };
+    check_box(&t, &parsed.source, &bounds, &placement)?;
     Ok(FieldSpec {
         source: parsed.source,
         resolution: parsed.resolution,
@@ -284,6 +286,54 @@ pub(super) fn bounds(t: &View) -> Result<Bounds> {
         ));
     }
     Ok(Bounds { min, max })
+}
+
+/// The one check of every source's grid box, once `bounds` or the source's own box and its
+/// placement are known: rays meet its corners in f32, in the grid's frame and the world's, so
+/// each must be within the camera's range ([`super::within_coordinate_range`]). The error
+/// names what set the box: `field.bounds`, else the file whose header (or vertices) did.
+fn check_box(t: &View, source: &FieldSource, b: &Bounds, placement: &Placement) -> Result<()> {
+    let corners = (0..8).map(|n| {
+        DVec3::new(
+            if n & 1 == 0 { b.min.x } else { b.max.x },
+            if n & 2 == 0 { b.min.y } else { b.max.y },
+            if n & 4 == 0 { b.min.z } else { b.max.z },
+        )
+    });
+    let ok = corners.into_iter().all(|p| {
+        super::within_coordinate_range(p)
+            && super::within_coordinate_range(placement.point_to_world(p))
+    });
+    if ok {
+        return Ok(());
+    }
+    let extent = format!("{}..{}", show_vec(b.min), show_vec(b.max));
+    let rule = super::coordinate_rule();
+    if t.get("bounds").is_some() {
+        let why = format!("the grid box {extent} is too large: {rule}");
+        return Err(t.err(SceneErrorKind::Value, "bounds", why));
+    }
+    let e = match source {
+        FieldSource::File(f) => FieldError::Format {
+            path: f.path.clone(),
+            format: f.format.title(),
+            message: format!(
+                "{}: the grid box from its header, {extent}, is too large: {rule}",
+                f.format.geometry_fields()
+            ),
+        },
+        FieldSource::Mesh(m) => FieldError::BadMesh {
+            path: m.path.clone(),
+            message: format!("the grid box around its vertices, {extent}, is too large: {rule}"),
+        },
+        // The index space of any grid a file can declare is far inside the range; should a
+        // source without a file or `bounds` ever give a box, the table is blamed.
+        _ => {
+            let why = format!("the grid box {extent} is too large: {rule}");
+            return Err(t.src.err(SceneErrorKind::Value, t.at, &t.path, why));
+        }
+    };
+    Err(data_error(t.src, &t.key("path"), t.get("path").map_or(t.at, |n| n.at), e))
 }
 
 /// A data error at `key`. The message is the field error's own line (it names the file).

@@ -125,6 +125,19 @@ impl Default for ImageSettings {
 /// room for both.
 pub const MAX_COORDINATE: f64 = 1e30;
 
+/// Whether every coordinate of `v` is within ±[`MAX_COORDINATE`] (NaN is not): the one test
+/// for the camera's points and the grid box's corners, which rays meet in the same f32 space.
+pub fn within_coordinate_range(v: DVec3) -> bool {
+    v.abs().max_element() <= MAX_COORDINATE && !v.is_nan()
+}
+
+/// The rule [`within_coordinate_range`] checks, for messages.
+pub fn coordinate_rule() -> String {
+    format!(
+        "every coordinate must be within ±{MAX_COORDINATE:e} (rays are traced in 32-bit floats)"
+    )
+}
+
 /// The camera, world space: a pinhole (the contract's) or an orthographic view.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraSettings {

@@ -196,17 +196,12 @@ fn camera(t: &View, field: &FieldSpec, image: &ImageSettings) -> Result<CameraSe
         projection: t.or("projection", d.projection, |s, k, n| choice(s, k, n, &projections))?,
         ortho_height: 0.0, // resolved below, once the view is known
     };
-    let limit = super::MAX_COORDINATE;
     for (key, v) in [("eye", c.eye), ("target", c.target), ("up", c.up)] {
-        if v.abs().max_element() > limit {
+        if !super::within_coordinate_range(v) {
             return Err(t.err(
                 SceneErrorKind::Value,
                 key,
-                format!(
-                    "{} is too large: every coordinate must be within ±{limit:e} (rays are \
-                     traced in 32-bit floats)",
-                    show_vec(v)
-                ),
+                format!("{} is too large: {}", show_vec(v), super::coordinate_rule()),
             ));
         }
     }
@@ -243,6 +238,20 @@ fn camera(t: &View, field: &FieldSpec, image: &ImageSettings) -> Result<CameraSe
     let fitted = t.or("fit", false, read::boolean)?;
     if fitted {
         fit(&mut c, field, image);
+        // The grid box is within range (scene/field.rs), but backing off to see all of it
+        // can put the eye past it: a box 1e30 wide is seen from 2e30 away.
+        if !super::within_coordinate_range(c.eye) {
+            return Err(t.err(
+                SceneErrorKind::Value,
+                "fit",
+                format!(
+                    "puts the eye at {} to see the whole grid box, which is too far: {}; give \
+                     camera.eye and camera.target instead",
+                    show_vec(c.eye),
+                    super::coordinate_rule()
+                ),
+            ));
+        }
     }
     c.ortho_height = match t.get("ortho_height") {
         Some(_) => t.required("ortho_height", "a positive number", |s, k, n| {
@@ -313,7 +322,7 @@ fn surface(t: &View) -> Result<SurfaceSettings> {
     }
     let inside = t.or("inside", d.inside, |s, k, n| choice(s, k, n, &insides))?;
     let isovalue = match given.first() {
-        Some(&"isovalue") | None => t.or("isovalue", d.isovalue, read::number)?,
+        Some(&"isovalue") | None => t.or("isovalue", d.isovalue, level)?,
         Some(_) => d.isovalue, // resolved from the samples
     };
     let percent = |s: &Source, k: &str, n: &Node| {
@@ -330,7 +339,7 @@ fn surface(t: &View) -> Result<SurfaceSettings> {
     };
     let mut out = SurfaceSettings { isovalue, inside, rule, ..d };
     if given.first() == Some(&"isovalues") {
-        let values = list(t, "isovalues", "numbers", read::number)?;
+        let values = list(t, "isovalues", "numbers", level)?;
         out.isovalue = values[0];
         out.more[..values.len() - 1].copy_from_slice(&values[1..]);
         out.count = values.len();
@@ -357,6 +366,17 @@ fn surface(t: &View) -> Result<SurfaceSettings> {
         out.colors = Some(all);
     }
     Ok(out)
+}
+
+/// An isovalue: a number within f32's range, as the GPU compares samples with it in f32
+/// (1e308 would become inf there and no sample would reach it).
+fn level(s: &Source, k: &str, n: &Node) -> Result<f64> {
+    number_where(s, k, n, |v| v.abs() <= f32::MAX as f64, &f32_range())
+}
+
+/// What [`level`] requires, for messages (also the isovalue resolved from `isovalue_sigma`).
+fn f32_range() -> String {
+    format!("must be within ±{:e} (isovalues are compared in 32-bit floats)", f32::MAX)
 }
 
 /// An array of 1 to [`MAX_SURFACES`] items, each read by `item`.
@@ -412,6 +432,15 @@ fn resolve_isovalue(
         IsoRule::Percentile { p } => (Stats::of(&grid.values).percentile(p), surface.rule),
         IsoRule::Value => (surface.isovalue, surface.rule),
     };
+    // mean + k sigma of f32 samples may pass f32's range for a large k (a percentile cannot).
+    if isovalue.abs() > f32::MAX as f64 {
+        let why = format!(
+            "gives the isovalue {}, which {}",
+            super::tree::show_float(isovalue),
+            f32_range()
+        );
+        return Err(t.err(SceneErrorKind::Value, key, why));
+    }
     Ok(SurfaceSettings { isovalue, rule, ..surface })
 }
 

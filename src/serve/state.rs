@@ -147,6 +147,18 @@ fn redacted(e: &FieldError) -> Option<String> {
         FieldError::BadShape { path, .. } => (path, "a 3-D grid"),
         FieldError::BadMesh { path, .. } => (path, "a mesh"),
         FieldError::Format { path, format, .. } => (path, *format),
+        // The value is 8 bytes of the file (a text file read as f64 leaks its letters): the
+        // page is told where, not what.
+        FieldError::OutOfRange { what, index, .. } => {
+            return Some(format!(
+                "{what}: the value at grid point [{}, {}, {}] is beyond ±{:e}, the range of the \
+                 32-bit floats samples are kept in",
+                index[0],
+                index[1],
+                index[2],
+                f32::MAX
+            ))
+        }
         FieldError::Io { .. }
         | FieldError::ReaderLimit { .. }
         | FieldError::Outside { .. }

@@ -118,11 +118,13 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         Endian::Little
     };
     let compressed = yes(&["CompressedData"])?;
-    let header_size = match get(&["HeaderSize"]) {
-        None => 0,
-        Some((n, v)) => v
-            .parse::<i64>()
-            .map_err(|_| line_err(n, format!("HeaderSize = {v:?} is not a whole number")))?,
+    let (header_line, header_size) = match get(&["HeaderSize"]) {
+        None => (0, 0),
+        Some((n, v)) => (
+            n,
+            v.parse::<i64>()
+                .map_err(|_| line_err(n, format!("HeaderSize = {v:?} is not a whole number")))?,
+        ),
     };
     let (n, data_file) =
         get(&["ElementDataFile"]).ok_or_else(|| err.bad("the header has no ElementDataFile"))?;
@@ -140,7 +142,22 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     let start = match header_size {
         -1 if !compressed => Start::FromEnd,
         h if h < 0 => return Err(err.bad(format!("HeaderSize = {h} is not allowed here"))),
-        h => Start::At(h as u64),
+        h => {
+            // Bytes skipped past the data file's end leave nothing to read; said here, as a
+            // seek that far fails with the system's "Invalid argument" naming no key.
+            // A file that cannot be opened is reported below, by the read that names it.
+            let len = err.access.open(&path).and_then(|f| f.metadata()).map(|m| m.len());
+            if let Some(len) = len.ok().filter(|&len| base.saturating_add(h as u64) > len) {
+                let file = if path == err.path { "the file" } else { "its data file" };
+                let what = format!(
+                    "HeaderSize = {h} puts the data at byte {} of {file}, past its end ({len} \
+                     bytes)",
+                    base as u128 + h as u128
+                );
+                return Err(line_err(header_line, what));
+            }
+            Start::At(h as u64)
+        }
     };
     let values = if compressed {
         let at = err.at(&path);

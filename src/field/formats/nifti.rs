@@ -127,8 +127,12 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
     let (slope, inter) = (f32_at(112), f32_at(116));
     if slope.is_finite() && slope != 0.0 && !(slope == 1.0 && inter == 0.0) {
         let inter = if inter.is_finite() { inter } else { 0.0 };
-        for v in &mut values {
-            *v = (*v as f64 * slope + inter) as f32;
+        // scl_slope and scl_inter can carry an f32 sample past f32's range.
+        for (at, v) in values.iter_mut().enumerate() {
+            *v = crate::field::samples::narrow(*v as f64 * slope + inter).map_err(|value| {
+                let what = format!("{} (after scl_slope and scl_inter)", err.path.display());
+                crate::field::samples::Overflow { at, value }.error(what, dims, String::new())
+            })?;
         }
     }
 

@@ -160,7 +160,9 @@ pub fn exact(
         });
     }
     let mut out = Vec::with_capacity(dims.iter().product());
-    samples::decode(ty, endian, &data, &mut out);
+    // Every format here stores x fastest: the sample's index is its grid index.
+    samples::decode(ty, endian, &data, &mut out)
+        .map_err(|o| o.error(crate::field::npy::path_str(err.path), dims, String::new()))?;
     Ok(out)
 }
 
@@ -216,6 +218,7 @@ fn is_separator(c: char) -> bool {
 /// ASCII values being read: exactly one per grid point, each a number.
 struct AsciiValues<'a, 'p> {
     err: &'a Located<'p>,
+    dims: [usize; 3],
     count: usize,
     out: Vec<f32>,
 }
@@ -223,7 +226,7 @@ struct AsciiValues<'a, 'p> {
 impl<'a, 'p> AsciiValues<'a, 'p> {
     fn new(err: &'a Located<'p>, dims: [usize; 3]) -> Self {
         let count = dims.iter().product();
-        AsciiValues { err, count, out: Vec::with_capacity(count) }
+        AsciiValues { err, dims, count, out: Vec::with_capacity(count) }
     }
 
     fn push_bytes(&mut self, word: &[u8]) -> Result<(), FieldError> {
@@ -242,7 +245,15 @@ impl<'a, 'p> AsciiValues<'a, 'p> {
         let v: f64 = word.parse().map_err(|_| {
             self.err.bad(format!("ASCII value {} is not a number: {word:?}", self.out.len()))
         })?;
-        self.out.push(v as f32);
+        let at = self.out.len();
+        let v = samples::narrow(v).map_err(|value| {
+            samples::Overflow { at, value }.error(
+                crate::field::npy::path_str(self.err.path),
+                self.dims,
+                String::new(),
+            )
+        })?;
+        self.out.push(v);
         Ok(())
     }
 

@@ -82,7 +82,20 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
             DecodingResult::I32(v) => values.extend(v.iter().map(|&x| x as f32)),
             DecodingResult::I64(v) => values.extend(v.iter().map(|&x| x as f32)),
             DecodingResult::F32(v) => values.extend(v),
-            DecodingResult::F64(v) => values.extend(v.iter().map(|&x| x as f32)),
+            DecodingResult::F64(v) => {
+                for &x in &v {
+                    let at = values.len();
+                    values.push(crate::field::samples::narrow(x).map_err(|value| {
+                        let what = crate::field::npy::path_str(err.path);
+                        let dims = [w as usize, h as usize, pages as usize];
+                        crate::field::samples::Overflow { at, value }.error(
+                            what,
+                            dims,
+                            String::new(),
+                        )
+                    })?);
+                }
+            }
             _ => return Err(err.bad(format!("page {page}: a sample type isoview does not read"))),
         }
         if values.len() as u64 != w as u64 * h as u64 * (page + 1) {

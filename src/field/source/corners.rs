@@ -30,7 +30,10 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
 
 /// The grid's points sample the interpolant: the one trilinear implementation, the same as
 /// [`point`] (on a 2x2x2 grid, exactly the corner values: `trilerp` is exact at 0 and 1).
-pub(super) fn sample(v: &[f64; 8], grid: &Grid) -> Vec<f32> {
+pub(super) fn sample(
+    v: &[f64; 8],
+    grid: &Grid,
+) -> Result<Vec<f32>, crate::field::samples::Overflow> {
     let (lo, size) = (grid.min, grid.max - grid.min);
     fill(grid, |p| Trilinear::value(v, (p - lo) / size))
 }
@@ -68,11 +71,11 @@ mod tests {
             Bounds { min: DVec3::new(-0.3, 0.1, 2.0), max: DVec3::new(0.7, 1.9, 5.0) },
         ];
         for v in &cells {
-            let coarse = sample(v, &grid([2, 2, 2], Bounds::UNIT));
+            let coarse = sample(v, &grid([2, 2, 2], Bounds::UNIT)).unwrap();
             assert_eq!(coarse, v.map(|x| x as f32), "{v:?}");
             for b in boxes {
                 let g = grid([4, 3, 5], b);
-                let values = sample(v, &g);
+                let values = sample(v, &g).unwrap();
                 let point = point(v, &b);
                 for k in 0..5 {
                     for j in 0..3 {

@@ -34,18 +34,16 @@ pub(super) fn sample(
     time: f64,
     nan: NanPolicy,
 ) -> Result<Vec<f32>, FieldError> {
-    let values = fill(grid, |p| e.eval(p, time));
     let spacing = grid.spacing();
-    check_finite(
-        &values,
-        grid.dims,
-        nan,
-        || format!("expression \"{}\" at t = {time}", e.text),
-        |[i, j, k]| {
-            let p = grid.min + spacing * DVec3::new(i as f64, j as f64, k as f64);
-            format!(" (x = {}, y = {}, z = {})", p.x, p.y, p.z)
-        },
-    )?;
+    let what = || format!("expression \"{}\" at t = {time}", e.text);
+    let at = |[i, j, k]: [usize; 3]| {
+        let p = grid.min + spacing * DVec3::new(i as f64, j as f64, k as f64);
+        format!(" (x = {}, y = {}, z = {})", p.x, p.y, p.z)
+    };
+    let values = fill(grid, |p| e.eval(p, time)).map_err(|o| {
+        o.error(what(), grid.dims, at(crate::field::samples::grid_index(o.at, grid.dims)))
+    })?;
+    check_finite(&values, grid.dims, nan, what, at)?;
     Ok(values)
 }
 

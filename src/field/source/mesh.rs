@@ -42,7 +42,10 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
     })
 }
 
-pub(super) fn sample(m: &MeshSource, grid: &Grid) -> Vec<f32> {
+pub(super) fn sample(
+    m: &MeshSource,
+    grid: &Grid,
+) -> Result<Vec<f32>, crate::field::samples::Overflow> {
     let sdf = MeshSdf::new(&m.mesh);
     fill(grid, |p| sdf.distance(p))
 }

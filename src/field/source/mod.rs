@@ -291,10 +291,11 @@ impl FieldSource {
             FieldSource::Raw(r) => super::npy::path_str(&r.path),
             FieldSource::Mesh(m) => super::npy::path_str(&m.path),
             FieldSource::File(f) => super::npy::path_str(&f.path),
-            FieldSource::Sdf { .. }
-            | FieldSource::Corners(_)
-            | FieldSource::Expr(_)
-            | FieldSource::Grid(_) => "field.resolution".to_string(),
+            // The corner values are what a refused sample comes from, not the lattice.
+            FieldSource::Corners(_) => "field.values".to_string(),
+            FieldSource::Sdf { .. } | FieldSource::Expr(_) | FieldSource::Grid(_) => {
+                "field.resolution".to_string()
+            }
         }
     }
 
@@ -308,14 +309,17 @@ impl FieldSource {
         nan: NanPolicy,
     ) -> Result<Vec<f32>, FieldError> {
         let finite = |values: Vec<f32>| finite(grid, values, self, nan);
+        let over = |o: samples::Overflow| o.error(self.label(), grid.dims, String::new());
         match self {
-            FieldSource::Sdf { shape, center } => finite(sdf::sample(shape, *center, grid)),
-            FieldSource::Corners(v) => finite(corners::sample(v, grid)),
+            FieldSource::Sdf { shape, center } => {
+                finite(sdf::sample(shape, *center, grid).map_err(over)?)
+            }
+            FieldSource::Corners(v) => finite(corners::sample(v, grid).map_err(over)?),
             FieldSource::Npy(n) => finite(npy::sample(n, grid, limits)?),
             FieldSource::Raw(r) => finite(raw::sample(r, grid, limits)?),
             FieldSource::Expr(e) => expr::sample(e, grid, time, nan),
             FieldSource::Grid(g) => finite(g.values.clone()),
-            FieldSource::Mesh(m) => finite(mesh::sample(m, grid)),
+            FieldSource::Mesh(m) => finite(mesh::sample(m, grid).map_err(over)?),
             FieldSource::File(f) => finite(file::sample(f, grid)?),
         }
     }
@@ -386,34 +390,43 @@ pub(super) fn show3(v: DVec3) -> String {
 const PARALLEL_MIN_POINTS: usize = 1 << 15;
 
 /// Evaluates `f` at every grid point (world space, the same arithmetic as [`Grid::point`]),
-/// x fastest, splitting z-slabs over the available cores for large grids.
-fn fill(grid: &Grid, f: impl Fn(DVec3) -> f64 + Sync) -> Vec<f32> {
+/// x fastest, splitting z-slabs over the available cores for large grids; fails on the
+/// first value beyond f32's range ([`samples::narrow`]; `at`: its grid index).
+fn fill(grid: &Grid, f: impl Fn(DVec3) -> f64 + Sync) -> Result<Vec<f32>, samples::Overflow> {
     let [nx, ny, nz] = grid.dims;
     let slab = nx * ny;
     let (min, spacing) = (grid.min, grid.spacing());
     let mut values = vec![0.0f32; slab * nz];
-    let fill_slabs = |first_k: usize, out: &mut [f32]| {
+    let fill_slabs = |first_k: usize, out: &mut [f32]| -> Result<(), samples::Overflow> {
         for (dk, slab_out) in out.chunks_mut(slab).enumerate() {
             let k = first_k + dk;
             for j in 0..ny {
                 for i in 0..nx {
                     let p = min + spacing * DVec3::new(i as f64, j as f64, k as f64);
-                    slab_out[i + nx * j] = f(p) as f32;
+                    slab_out[i + nx * j] = samples::narrow(f(p))
+                        .map_err(|value| samples::Overflow { at: i + nx * (j + ny * k), value })?;
                 }
             }
         }
+        Ok(())
     };
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(nz);
     if values.len() < PARALLEL_MIN_POINTS || threads < 2 {
-        fill_slabs(0, &mut values);
+        fill_slabs(0, &mut values)?;
     } else {
         let slabs_per_thread = nz.div_ceil(threads);
+        // The chunks in order: the first failing one holds the first such point.
         std::thread::scope(|s| {
-            for (n, chunk) in values.chunks_mut(slabs_per_thread * slab).enumerate() {
-                let fill_slabs = &fill_slabs;
-                s.spawn(move || fill_slabs(n * slabs_per_thread, chunk));
-            }
-        });
+            let handles: Vec<_> = values
+                .chunks_mut(slabs_per_thread * slab)
+                .enumerate()
+                .map(|(n, chunk)| {
+                    let fill_slabs = &fill_slabs;
+                    s.spawn(move || fill_slabs(n * slabs_per_thread, chunk))
+                })
+                .collect();
+            handles.into_iter().try_for_each(|h| h.join().expect("a fill thread panicked"))
+        })?;
     }
-    values
+    Ok(values)
 }

@@ -131,7 +131,11 @@ fn shape<P: Params>(p: &P) -> Result<SdfShape, P::Error> {
     })
 }
 
-pub(super) fn sample(shape: &SdfShape, center: DVec3, grid: &Grid) -> Vec<f32> {
+pub(super) fn sample(
+    shape: &SdfShape,
+    center: DVec3,
+    grid: &Grid,
+) -> Result<Vec<f32>, crate::field::samples::Overflow> {
     fill(grid, |p| shape.distance(p - center))
 }
 

@@ -703,9 +703,14 @@ fn long_numbers_and_tev_addresses_are_echoed_cut_and_escaped() {
 fn derived_numbers_are_printed_short() {
     let dir = scratch("rio-derived-numbers");
     let scene = write(&dir, "s.toml", SPHERE);
+    // 1e308 sigmas are past f32's range now (an_isovalue_beyond_f32_is_refused_at_its_key);
+    // 1e38 are within it, and 39 digits long in full.
+    let o = isoview_output(&["stats", &scene, "--set", "surface.isovalue_sigma=1e38"]);
+    let err = stderr(&o);
+    assert!(err.contains("+ 1e38 sigma") && err.len() < 300, "{} bytes: {err}", err.len());
     let o = isoview_output(&["stats", &scene, "--set", "surface.isovalue_sigma=1e308"]);
     let err = stderr(&o);
-    assert!(err.contains("+ 1e308 sigma") && err.len() < 300, "{} bytes: {err}", err.len());
+    assert!(err.contains("the isovalue 3.0399458805729057e307,") && err.len() < 300, "{err}");
     let tiny = "field.bounds={min=[0,0,0],max=[1e-300,1e-300,1e-300]}";
     let o = isoview_output(&["stats", &scene, "--set", tiny]);
     let out = String::from_utf8_lossy(&o.stdout).into_owned();
@@ -886,4 +891,61 @@ fn a_long_device_name_is_cut_in_the_message() {
     // Short values are quoted whole, control characters escaped.
     let o = isoview_output(&["info", "--device", "a\nb"]);
     assert_fails(&o, 3, &["no Vulkan device matches \"a\\nb\""]);
+}
+
+/// `camera.fit = true` backed the eye off to 2e30 from a box 1.8e30 wide, past the ±1e30
+/// that `camera.eye` itself may not pass; it is refused at `camera.fit`, while a box the fit
+/// can see from within range is fitted.
+#[test]
+fn a_fitted_eye_beyond_the_traced_range_is_refused_at_camera_fit() {
+    let dir = scratch("rel-fit-range");
+    let scene = |x: &str| {
+        let text = format!(
+            "[camera]\nfit = true\n[field]\nsource = \"expr\"\nexpression = \"x\"\n\
+             resolution = [2, 2, 2]\nbounds = {{ min = [-{x}, 0, 0], max = [{x}, 1, 1] }}\n"
+        );
+        write(&dir, "f.toml", &text)
+    };
+    let o = isoview().args(["stats", &scene("9e29")]).output();
+    assert_fails(
+        &o.unwrap(),
+        2,
+        &[
+            "f.toml:2:7: camera.fit: puts the eye at [",
+            "e30] to see the whole grid box, which is too far: every coordinate must be within \
+             ±1e30 (rays are traced in 32-bit floats); give camera.eye and camera.target instead",
+        ],
+    );
+    let o = isoview().args(["stats", &scene("1e29")]).output();
+    let o = o.unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+/// `surface.isovalue = 1e308` was taken, and is inf in the GPU's f32 comparisons (no surface,
+/// no word); each way of giving an isovalue is refused at its key past f32's range.
+#[test]
+fn an_isovalue_beyond_f32_is_refused_at_its_key() {
+    let dir = scratch("rel-isovalue-range");
+    let run = |surface: &str| {
+        let text = format!(
+            "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 0.5\nresolution = [3, 3, 3]\n\
+             [surface]\n{surface}\n"
+        );
+        let path = write(&dir, "i.toml", &text);
+        isoview().args(["stats", &path]).output().unwrap()
+    };
+    let rule = "must be within ±3.4028235e38 (isovalues are compared in 32-bit floats)";
+    assert_fails(
+        &run("isovalue = 1e308"),
+        2,
+        &["i.toml:7:12: surface.isovalue: ", rule, "got 1e308"],
+    );
+    assert_fails(&run("isovalues = [0.0, -1e39]"), 2, &["surface.isovalues: ", rule, "got -1e39"]);
+    assert_fails(
+        &run("isovalue_sigma = 1e300"),
+        2,
+        &["i.toml:7:18: surface.isovalue_sigma: gives the isovalue 7.69", rule],
+    );
+    let o = run("isovalue = 3.4e38");
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }

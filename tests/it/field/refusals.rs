@@ -598,3 +598,152 @@ fn a_folder_swapped_for_a_link_after_the_check_is_not_read() {
         assert_eq!(read.values[0], b'S' as f32, "{what}: the command line follows the link");
     }
 }
+
+/// An MRC map whose cell (3e38 Å per voxel, start indices 2^31 - 1) puts its 2x2x2 grid at
+/// 6.4e47: the reader's own checks pass (every corner is finite), and rays in f32 cannot
+/// reach it. The box from the header, and one from `field.bounds`, must be within the
+/// camera's ±1e30, naming what set it; a box at exactly ±1e30 is still taken.
+#[test]
+fn a_grid_box_beyond_the_traced_range_is_refused_naming_what_set_it() {
+    let dir = scratch("rel-box-range");
+    let mut h = vec![0u8; 1024];
+    let mut word = |i: usize, v: [u8; 4]| h[4 * i..4 * i + 4].copy_from_slice(&v);
+    for i in 0..3 {
+        word(i, 2i32.to_le_bytes()); // NX, NY, NZ
+        word(4 + i, i32::MAX.to_le_bytes()); // NXSTART, NYSTART, NZSTART
+        word(7 + i, 1i32.to_le_bytes()); // MX, MY, MZ
+        word(10 + i, 3e38f32.to_le_bytes()); // cell dimensions
+        word(13 + i, 90f32.to_le_bytes()); // cell angles
+        word(16 + i, (i as i32 + 1).to_le_bytes()); // MAPC, MAPR, MAPS
+    }
+    word(3, 2i32.to_le_bytes()); // mode 2, float32
+    h[208..212].copy_from_slice(b"MAP ");
+    h[212] = 0x44;
+    h.extend([0u8; 32]);
+    std::fs::write(dir.join("o.mrc"), h).unwrap();
+    let scene = write(
+        &dir,
+        "o.toml",
+        "[image]\nwidth = 16\nheight = 16\n[camera]\nfit = true\n[field]\nsource = \"file\"\n\
+         path = \"o.mrc\"\n",
+    );
+    for verb in [vec!["stats", &scene], vec!["render", &scene, "-o", "o.exr"]] {
+        let o = isoview(&verb, &[]);
+        assert_fails(
+            &o,
+            2,
+            &[
+                "o.toml:8:8: field.path: ",
+                "o.mrc: MRC: ORIGIN, cell dimensions and MX, MY, MZ: the grid box from its \
+                 header, [6.44245095280634e47",
+                "is too large: every coordinate must be within ±1e30 (rays are traced in 32-bit \
+                 floats)",
+            ],
+        );
+    }
+    assert!(!dir.join("o.exr").exists());
+
+    let expr = |bounds: &str| {
+        let text = format!(
+            "[field]\nsource = \"expr\"\nexpression = \"x\"\nresolution = [2, 2, 2]\n\
+             bounds = {bounds}\n"
+        );
+        write(&dir, "b.toml", &text)
+    };
+    let o = isoview(&["stats", &expr("{ min = [-1e35, 0, 0], max = [1e35, 1, 1] }")], &[]);
+    assert_fails(
+        &o,
+        2,
+        &["b.toml:5:10: field.bounds: the grid box [-1e35, 0.0, 0.0]..[1e35, 1.0, 1.0] is too \
+           large: every coordinate must be within ±1e30"],
+    );
+    let o = isoview(&["stats", &expr("{ min = [-1e30, 0, 0], max = [1e30, 1, 1] }")], &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+/// A finite f64 sample beyond f32's range became ±inf in the grid without a word, and
+/// `field.nan = "empty"` (the default) then took it for missing data: it is refused, naming
+/// its grid point, under either policy; 3e38 is kept, and an infinity in the file is still
+/// missing data.
+#[test]
+fn a_finite_sample_beyond_f32_is_refused_not_taken_for_missing_data() {
+    let dir = scratch("rel-sample-range");
+    for nan in ["empty", "error"] {
+        let scene = write(
+            &dir,
+            "c.toml",
+            &format!(
+                "[field]\nsource = \"corners\"\nvalues = [0, 0, 0, 0, 0, 0, 0, 1e308]\n\
+                 nan = \"{nan}\"\n"
+            ),
+        );
+        let o = isoview(&["stats", &scene], &[]);
+        assert_fails(
+            &o,
+            2,
+            &["field.values: value 1e308 at grid point [1, 1, 1] is beyond ±3.4028235e38, the \
+               range of the 32-bit floats samples are kept in"],
+        );
+    }
+    // Raw f64, x fastest: sample 3 is point [1, 1, 0].
+    let raw = |values: [f64; 8]| {
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        std::fs::write(dir.join("d.raw"), bytes).unwrap();
+        let text =
+            "[field]\nsource = \"raw\"\npath = \"d.raw\"\ndims = [2, 2, 2]\ndtype = \"f64\"\n";
+        isoview(&["stats", &write(&dir, "d.toml", text)], &[])
+    };
+    let o = raw([0.0, 0.0, 0.0, -1e300, 0.0, 0.0, 0.0, 0.0]);
+    assert_fails(&o, 2, &["d.raw: value -1e300 at grid point [1, 1, 0] is beyond ±3.4028235e38"]);
+    let o = raw([0.0, 0.0, 0.0, 3e38, 0.0, 0.0, 0.0, f64::INFINITY]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // A C-order npy: storage index 1 is element [0, 0, 1].
+    let mut npy = b"\x93NUMPY\x01\x00".to_vec();
+    let mut header = "{'descr': '<f8', 'fortran_order': False, 'shape': (2, 2, 2), }".to_string();
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    npy.extend((header.len() as u16).to_le_bytes());
+    npy.extend(header.as_bytes());
+    for v in [0.0, 5e38, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0f64] {
+        npy.extend(v.to_le_bytes());
+    }
+    std::fs::write(dir.join("c.npy"), npy).unwrap();
+    let o = isoview(
+        &["stats", &write(&dir, "n.toml", "[field]\nsource = \"npy\"\npath = \"c.npy\"\n")],
+        &[],
+    );
+    assert_fails(&o, 2, &["c.npy: value 5e38 at grid point [0, 0, 1] is beyond ±3.4028235e38"]);
+}
+
+/// A compressed MetaImage whose HeaderSize skips past the file's end said only "cannot
+/// read: Invalid argument (os error 22)" (the seek failed): the line names the file, the
+/// header line and the key.
+#[test]
+fn a_metaimage_header_size_past_the_end_names_the_key() {
+    let dir = scratch("rel-mha-header-size");
+    let p = dir.join("m.mha");
+    let head = b"NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nCompressedData = True\n\
+        HeaderSize = 9223372036854775807\nElementDataFile = LOCAL\n";
+    let mut bytes = head.to_vec();
+    // zlib's stored block of 8 zero bytes, so the data itself is valid.
+    bytes.extend([0x78, 0x01, 0x01, 0x08, 0x00, 0xf7, 0xff]);
+    bytes.extend([0u8; 8]);
+    bytes.extend([0x00, 0x08, 0x00, 0x01]);
+    std::fs::write(&p, &bytes).unwrap();
+    let m = refusal(&p, &opts());
+    let start = head.len() as u64 + i64::MAX as u64;
+    let want = format!(
+        "MetaImage: line 5: HeaderSize = 9223372036854775807 puts the data at byte {start} of \
+         the file, past its end ({} bytes)",
+        bytes.len()
+    );
+    assert!(m.contains(&want), "{m}");
+    // Uncompressed, the same key is named rather than "truncated data".
+    let text = b"NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nHeaderSize = 100\n\
+        ElementDataFile = LOCAL\n";
+    std::fs::write(&p, [&text[..], &[0u8; 8]].concat()).unwrap();
+    let m = refusal(&p, &opts());
+    assert!(m.contains("line 4: HeaderSize = 100 puts the data at byte"), "{m}");
+}

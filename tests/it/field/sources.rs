@@ -301,7 +301,7 @@ fn npy_non_finite_samples_are_reported_at_their_grid_point() {
         format!("{}: value NaN at grid point [1, 0, 2] is not finite", d.join("nan.npy").display())
     );
     assert!(matches!(e, FieldError::NonFinite { index: [1, 0, 2], .. }));
-    // A finite f64 beyond the f32 range is not finite either, once stored as f32.
+    // A finite f64 beyond the f32 range is refused too, as what it is (it used to read as inf).
     let g = |i, _, _| if i == 1 { 1e300 } else { 0.0 };
     std::fs::write(
         d.join("big.npy"),
@@ -312,7 +312,7 @@ fn npy_non_finite_samples_are_reported_at_their_grid_point() {
     assert!(sample(&s)
         .unwrap_err()
         .to_string()
-        .ends_with("value inf at grid point [1, 0, 0] is not finite"));
+        .ends_with("value 1e300 at grid point [1, 0, 0] is beyond ±3.4028235e38, the range of the 32-bit floats samples are kept in"));
 }
 
 #[test]

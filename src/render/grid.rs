@@ -30,6 +30,23 @@ pub struct GpuGrid {
     pub(super) points: std::cell::OnceCell<Buffer>,
     /// The block of a larger grid the image holds (None: the whole grid).
     pub(super) block: Option<block::Block>,
+    /// The largest magnitude of the finite samples it holds (of the whole grid for a block or
+    /// a pool, from the brick ranges): the ray methods refuse a grid past
+    /// [`GPU_SAMPLE_BOUND`].
+    pub(super) largest: f32,
+}
+
+/// The largest sample magnitude the ray methods trace: their f32 arithmetic (a trilinear
+/// cell's cubic along the ray and its derivative's roots, the tricubic segment's sums of 64
+/// weighted samples in Bernstein form) overflows near 1e36 (the cubic interpolants) to 1e37
+/// (trilinear), and the image then loses or invents surface; 1e30 keeps every intermediate
+/// finite with room to spare (`tests/it/render/interpolants.rs` checks the bound), and is the
+/// bound of coordinates too. The CPU paths (probe, slice's contours, extract) read in f64.
+pub const GPU_SAMPLE_BOUND: f32 = 1e30;
+
+/// The largest magnitude among finite values.
+fn largest_finite(values: impl IntoIterator<Item = f32>) -> f32 {
+    values.into_iter().filter(|v| v.is_finite()).fold(0.0, |m, v| m.max(v.abs()))
 }
 
 /// How the grid's points are on the device.
@@ -50,6 +67,7 @@ impl GpuGrid {
             supers: std::cell::OnceCell::new(),
             points: std::cell::OnceCell::new(),
             block: None,
+            largest: largest_finite(grid.values.iter().copied()),
         })
     }
 
@@ -72,6 +90,7 @@ impl GpuGrid {
             supers: std::cell::OnceCell::new(),
             points: std::cell::OnceCell::new(),
             block: Some(block),
+            largest: largest_finite(bricks.iter().flatten().copied()),
         };
         grid.set_bricks(ctx, bricks::levels(dims, bricks))?;
         Ok(grid)
@@ -95,6 +114,7 @@ impl GpuGrid {
             supers: std::cell::OnceCell::new(),
             points: std::cell::OnceCell::new(),
             block: None,
+            largest: largest_finite(ranges.iter().flatten().copied()),
         };
         gpu.set_bricks(ctx, bricks::levels(grid.dims, ranges))?;
         Ok(gpu)

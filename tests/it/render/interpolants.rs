@@ -659,3 +659,69 @@ fn probe_reports_each_interpolant_s_exact_trace() {
     assert!(voxels.iter().any(|v| v["voxel"][2] == 12 && v["inside"] == true));
     assert!(probe("nearest", false).contains("analytic, nearest's voxel walk"));
 }
+
+/// Samples near f32's limit: the ray methods' f32 arithmetic overflows there (the last attack
+/// pass of issue #29: a 2³ grid of ±3.4e38 rendered with holes by analytic and with invented
+/// surface by Catmull-Rom's fixed-step, while `probe` in f64 was right), so the ray methods
+/// refuse a grid past `render::grid::GPU_SAMPLE_BOUND` (1e30) with one line, and the same
+/// grid at the bound traces as its f64 reference does, for each interpolant and both methods.
+#[gpu_test]
+fn samples_past_the_gpu_bound_are_refused_and_traced_below_it() {
+    use isoview::render::grid::GPU_SAMPLE_BOUND;
+    let signs = [1.0, -1.0, 1.0, -1.0, -1.0, 1.0, -1.0, 1.0];
+    let grid_of = |s: f64| {
+        let values = signs.iter().map(|&x| (x * s) as f32).collect();
+        Grid { dims: [2, 2, 2], min: DVec3::splat(-1.0), max: DVec3::ONE, values }
+    };
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    for interp in [
+        Interpolant::Trilinear,
+        Interpolant::CatmullRom,
+        Interpolant::CubicBspline,
+        Interpolant::Nearest,
+    ] {
+        for method in [Method::Analytic, Method::FixedStep] {
+            let big = grid_of(3.4e38);
+            let mut scene = scene_with(&big, DVec3::new(2.2, 1.6, 2.4), 16, interp);
+            scene.render.method = method;
+            let e = renderer.render(&scene, &big, 0.0).err().expect("refused").to_string();
+            assert!(e.contains("samples reach ±3.4e38, beyond the ±1e30"), "{e}");
+            let at = grid_of(f64::from(GPU_SAMPLE_BOUND));
+            let gpu = renderer.render(&scene, &at, 0.0).unwrap().pixels;
+            let reference = reference_pixels(&scene, &at);
+            let agree =
+                gpu.iter().zip(&reference).filter(|(g, r)| g.is_hit() == r.is_hit()).count();
+            let hits = reference.iter().filter(|r| r.is_hit()).count();
+            assert!(hits > 20, "{} {}: {hits} hits", interp.name(), method.name());
+            assert!(
+                agree * 100 >= 99 * gpu.len(),
+                "{} {}: hit masks agree on {agree} of {}",
+                interp.name(),
+                method.name(),
+                gpu.len()
+            );
+        }
+    }
+    // The CLI says it in one line, exit 2; probe (f64) reads the same grid.
+    let dir = scratch("gpu-sample-bound");
+    let mut npy = b"\x93NUMPY\x01\x00".to_vec();
+    let mut header = "{'descr': '<f4', 'fortran_order': False, 'shape': (2, 2, 2), }".to_string();
+    while (header.len() + 11) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    npy.extend((header.len() as u16).to_le_bytes());
+    npy.extend(header.as_bytes());
+    for x in signs {
+        npy.extend(((x * 3.4e38) as f32).to_le_bytes());
+    }
+    std::fs::write(dir.join("big.npy"), npy).unwrap();
+    let scene = write(&dir, "big.toml", "[image]\nwidth = 16\nheight = 16\n[field]\nsource = \"npy\"\npath = \"big.npy\"\nbounds = { min = [-1, -1, -1], max = [1, 1, 1] }\n");
+    let out = dir.join("a.exr");
+    let r = isoview(&["render", &scene, "-o", out.to_str().unwrap()], &[]);
+    assert_fails(&r, 2, &["big.toml: samples reach ±3.4e38, beyond the ±1e30"]);
+    assert!(!out.exists());
+    let p = isoview(&["probe", &scene, "--pixel", "7,9"], &[]);
+    assert!(p.status.success(), "{}", stderr(&p));
+}

@@ -51,7 +51,9 @@ impl SceneError {
         message: impl AsRef<str>,
     ) -> SceneError {
         SceneError {
-            location: one_line(location.into().as_str()),
+            // The location holds the scene's path: a newline in it is escaped (`\n`), as in
+            // every path a message names, not folded into a space by `one_line`.
+            location: one_line(&crate::vocab::escape_unprintable(&location.into())),
             key,
             message: one_line(message.as_ref()),
             kind,

@@ -739,6 +739,11 @@ fn paths_in_messages_and_summaries_are_escaped() {
     let o = isoview_output(&["render", &named("n\u{1b}[2J.toml"), "-o", &named("o.exr")]);
     assert_eq!(o.status.code(), Some(2));
     assert!(clean(&o).contains("n\\u{1b}[2J.toml: cannot read scene"));
+    // A newline in the scene's path is `\n`, not a space (the confirmation pass found the
+    // scene's location folded by `one_line` before the escape).
+    let o = isoview_output(&["stats", &named("nofile\n\u{7}.toml")]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(clean(&o).contains("nofile\\n\\u{7}.toml: cannot read scene"), "{}", stderr(&o));
     let out = named("ok\u{1b}[31m\u{202e}\n.exr");
     let o = isoview_output(&["render", &scene, "-o", &out]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));

@@ -685,7 +685,8 @@ fn samples_past_the_gpu_bound_are_refused_and_traced_below_it() {
             let big = grid_of(3.4e38);
             let mut scene = scene_with(&big, DVec3::new(2.2, 1.6, 2.4), 16, interp);
             scene.render.method = method;
-            let e = renderer.render(&scene, &big, 0.0).err().expect("refused").to_string();
+            let Err(e) = renderer.render(&scene, &big, 0.0) else { panic!("not refused") };
+            let e = e.to_string();
             assert!(e.contains("samples reach ±3.4e38, beyond the ±1e30"), "{e}");
             let at = grid_of(f64::from(GPU_SAMPLE_BOUND));
             let gpu = renderer.render(&scene, &at, 0.0).unwrap().pixels;

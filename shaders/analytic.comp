@@ -490,8 +490,7 @@ void main() {
                           lerp1(hit_q_in.z, hit_q_out.z, hit_u));
         vec3 grad = interp_gradient(k8, hit_q) * P.inv_spacing;
         vec3 oriented = below ? grad : -grad;
-        float len = length(oriented);
-        r.normal = len > 0.0 && !isinf(len) ? oriented / len : -dir;
+        r.normal = unit_or(oriented, -dir);
         r.normal = scene_normal(vec3(hit_cell) + hit_q, hit_cell, r.normal);
         r.depth = hit_t;
         r.position = eye + hit_t * dir;

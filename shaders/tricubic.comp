@@ -374,8 +374,7 @@ void main() {
     if (hit) {
         Samples kh = cell_samples(hit_cell);
         vec3 grad = cubic_gradient(kh, hit_q) * P.inv_spacing * P.inside_sign;
-        float len = length(grad);
-        vec3 normal = len > 0.0 && !isinf(len) ? grad / len : -dir;
+        vec3 normal = unit_or(grad, -dir);
         vec3 u = vec3(hit_cell) + hit_q;
         r.depth = t_hit;
         r.position = eye + dir * t_hit;

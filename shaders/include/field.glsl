@@ -198,8 +198,7 @@ float field_cached(inout CellCache cache, vec3 u) {
 vec3 normal_at(vec3 u, vec3 fallback) {
     ivec3 c = cell_of(u);
     vec3 g = cubic_gradient(cell_samples(c), u - vec3(c)) * P.inv_spacing * P.inside_sign;
-    float len = length(g);
-    return len > 0.0 ? g / len : fallback;
+    return unit_or(g, fallback);
 }
 #elif defined(INTERP_DEVICE)
 // The fixed-step march's field for `interpolation = "device"` (the raymarch variant that
@@ -242,8 +241,7 @@ vec3 normal_at(vec3 u, vec3 fallback) {
                / (2.0 * DEVICE_DELTA);
     }
     g *= P.inv_spacing * P.inside_sign;
-    float len = length(g);
-    return len > 0.0 ? g / len : fallback;
+    return unit_or(g, fallback);
 }
 #else
 // A cell whose corners were fetched last; marching reuses it while samples stay in the cell.
@@ -298,8 +296,7 @@ float field_at(vec3 u) {
 vec3 normal_at(vec3 u, vec3 fallback) {
     ivec3 c = cell_of(u);
     vec3 g = interp_gradient(cell_corners(c), u - vec3(c)) * P.inv_spacing * P.inside_sign;
-    float len = length(g);
-    return len > 0.0 ? g / len : fallback;
+    return unit_or(g, fallback);
 }
 #endif
 
@@ -366,8 +363,7 @@ vec3 smooth_gradient(ivec3 via, vec3 u) {
 vec3 scene_normal(vec3 u, ivec3 via, vec3 exact) {
     if (P.normals != NORMALS_SMOOTH) return exact;
     vec3 g = smooth_gradient(via, u) * P.inside_sign;
-    float len = length(g);
-    return len > 0.0 && !isinf(len) ? g / len : exact;
+    return unit_or(g, exact);
 }
 
 // Ray/box intersection (slabs). Returns false when the ray misses the box or the box lies

@@ -81,6 +81,19 @@ vec3 interp_value3(vec3 g[8], vec3 q) {
     return r;
 }
 
+// g / |g| (a gradient made a normal), or `fallback` where g vanishes or is not finite. |g|^2
+// overflows f32 past about 1.8e19 (samples near the ray methods' bound of 1e30, or tiny
+// spacings) and underflows below about 1e-19: there g is first scaled by a power of 2 (exact),
+// so the result is g's direction whatever its size; between 1e-18 and 1e18 it is divided as
+// it always was, bit for bit.
+vec3 unit_or(vec3 g, vec3 fallback) {
+    float m = max(abs(g.x), max(abs(g.y), abs(g.z)));
+    if (!(m > 0.0) || isinf(m)) return fallback;
+    if (m > 1e18 || m < 1e-18) g *= exp2(-floor(log2(m)));
+    float len = length(g);
+    return len > 0.0 && !isinf(len) ? g / len : fallback;
+}
+
 // The nearest corner of a cell to cell-local q, half up (Rust: `nearest::corner`): its index
 // in corner order, (q.x >= 1/2) + 2 (q.y >= 1/2) + 4 (q.z >= 1/2).
 int nearest_corner(vec3 q) {

@@ -664,7 +664,9 @@ fn probe_reports_each_interpolant_s_exact_trace() {
 /// pass of issue #29: a 2³ grid of ±3.4e38 rendered with holes by analytic and with invented
 /// surface by Catmull-Rom's fixed-step, while `probe` in f64 was right), so the ray methods
 /// refuse a grid past `render::grid::GPU_SAMPLE_BOUND` (1e30) with one line, and the same
-/// grid at the bound traces as its f64 reference does, for each interpolant and both methods.
+/// grid at the bound traces as its f64 reference does, for each interpolant and both methods,
+/// normals included (the confirmation pass found them wrong from 1e20: |gradient|² overflowed;
+/// `unit_or` in interpolant.glsl; seen failing without it at 1e25 and 1e-25).
 #[gpu_test]
 fn samples_past_the_gpu_bound_are_refused_and_traced_below_it() {
     use isoview::render::grid::GPU_SAMPLE_BOUND;
@@ -688,20 +690,28 @@ fn samples_past_the_gpu_bound_are_refused_and_traced_below_it() {
             let Err(e) = renderer.render(&scene, &big, 0.0) else { panic!("not refused") };
             let e = e.to_string();
             assert!(e.contains("samples reach ±3.4e38, beyond the ±1e30"), "{e}");
-            let at = grid_of(f64::from(GPU_SAMPLE_BOUND));
-            let gpu = renderer.render(&scene, &at, 0.0).unwrap().pixels;
-            let reference = reference_pixels(&scene, &at);
-            let agree =
-                gpu.iter().zip(&reference).filter(|(g, r)| g.is_hit() == r.is_hit()).count();
-            let hits = reference.iter().filter(|r| r.is_hit()).count();
-            assert!(hits > 20, "{} {}: {hits} hits", interp.name(), method.name());
-            assert!(
-                agree * 100 >= 99 * gpu.len(),
-                "{} {}: hit masks agree on {agree} of {}",
-                interp.name(),
-                method.name(),
-                gpu.len()
-            );
+            // At the bound, at 1e25 and at 1e-25 (where |gradient|² over- or underflows f32:
+            // the normals are made through `unit_or`), as the f64 reference.
+            for scale in [f64::from(GPU_SAMPLE_BOUND), 1e25, 1e-25] {
+                let at = grid_of(scale);
+                let gpu = renderer.render(&scene, &at, 0.0).unwrap().pixels;
+                let reference = reference_pixels(&scene, &at);
+                let label = format!("{} {} at {scale:e}", interp.name(), method.name());
+                let pairs = || gpu.iter().zip(&reference);
+                let agree = pairs().filter(|(g, r)| g.is_hit() == r.is_hit()).count();
+                let hits = reference.iter().filter(|r| r.is_hit()).count();
+                assert!(hits > 20, "{label}: {hits} hits");
+                assert!(agree * 100 >= 99 * gpu.len(), "{label}: hit masks agree on {agree}");
+                let both = pairs().filter(|(g, r)| g.is_hit() && r.is_hit()).count();
+                let normals = pairs()
+                    .filter(|(g, r)| g.is_hit() && r.is_hit())
+                    .filter(|(g, r)| (v3(g.normal) - v3(r.normal)).length() < NORMAL_TOL)
+                    .count();
+                assert!(
+                    normals * 100 >= 99 * both,
+                    "{label}: normals agree on {normals} of {both}"
+                );
+            }
         }
     }
     // The CLI says it in one line, exit 2; probe (f64) reads the same grid.

@@ -56,7 +56,7 @@ use crate::field::interpolant::nearest::voxel_of;
 use crate::field::interpolant::Interpolant;
 use crate::field::Grid;
 use crate::frame::Pixel;
-use crate::reference::analytic::{options, AnalyticOptions};
+use crate::reference::analytic::{options, span, AnalyticOptions, Span};
 use crate::reference::shade::{nearest_surface, render_with_interp, RayHit};
 use crate::scene::{Inside, Scene};
 
@@ -174,61 +174,12 @@ fn walk(
     let mut result = VoxelTrace::default();
     let wanted = opts.crossing.max(1);
 
-    // 1. Index space.
-    let cells = grid.cells();
-    let n = DVec3::new(cells[0] as f64, cells[1] as f64, cells[2] as f64);
-    let h = grid.spacing();
-    let usable = h.is_finite()
-        && h.min_element() > 0.0
-        && origin.is_finite()
-        && dir.is_finite()
-        && dir != DVec3::ZERO;
-    if !usable {
-        return result;
-    }
-    let o = (origin - grid.min) / h;
-    let d = dir / h;
-
-    // 2. Slab clip, then the clip planes.
-    let (mut t_enter, mut t_exit, mut enter_axis) = (f64::NEG_INFINITY, f64::INFINITY, None);
-    for a in 0..3 {
-        if d[a] == 0.0 {
-            if !(o[a] >= 0.0 && o[a] <= n[a]) {
-                return result;
-            }
-            continue;
-        }
-        let t0 = (0.0 - o[a]) / d[a];
-        let t1 = (n[a] - o[a]) / d[a];
-        let (near, far) = if d[a] > 0.0 { (t0, t1) } else { (t1, t0) };
-        if near > t_enter {
-            t_enter = near;
-            enter_axis = Some(a);
-        }
-        t_exit = t_exit.min(far);
-    }
-    let Some((c_lo, c_hi)) = opts.clip.interval(origin, dir) else {
+    // 1.-3. Index space, the span, the entry point (the trilinear walk's own steps).
+    let Some(Span { o, d, n, t_lo, t_hi, p, .. }) = span(grid, origin, dir, &opts.clip) else {
         return result;
     };
-    if c_lo > t_enter {
-        t_enter = c_lo;
-        enter_axis = None;
-    }
-    t_exit = t_exit.min(c_hi);
-    if !(t_enter <= t_exit && t_exit > 0.0 && t_exit < f64::INFINITY) {
-        return result;
-    }
-    let (t_lo, t_hi) = (t_enter.max(0.0), t_exit);
+    let cells = grid.cells();
     result.span = Some((t_lo, t_hi));
-
-    // 3. Entry point.
-    let mut p = o + d * t_lo;
-    if t_lo == t_enter {
-        if let Some(a) = enter_axis {
-            p[a] = if d[a] > 0.0 { 0.0 } else { n[a] };
-        }
-    }
-    let p = p.clamp(DVec3::ZERO, n);
 
     // 4. First voxel: the kernel's, or on a plane the one the ray heads into.
     let mut voxel = voxel_of(grid, p).map(|v| v as i64);

@@ -627,19 +627,26 @@ impl RayCell for Trilinear {
     }
 }
 
-/// The whole per-ray algorithm (numbered as in the module doc).
-fn walk<K: RayCell>(
-    grid: &Grid,
-    iso: f64,
-    inside: Inside,
-    origin: DVec3,
-    dir: DVec3,
-    opts: &AnalyticOptions,
-    mut trace: Option<&mut Vec<CellVisit>>,
-) -> AnalyticHit {
-    let mut result = AnalyticHit::default();
-    let wanted = opts.crossing.max(1);
+/// Steps 1-3 of a walk (the module doc's; `reference::voxels` takes the same): the ray in
+/// index space, its span inside the box and the clip planes, and its entry point.
+pub(crate) struct Span {
+    /// Origin and direction in index space.
+    pub o: DVec3,
+    pub d: DVec3,
+    /// Cells per axis.
+    pub n: DVec3,
+    /// The grid's spacing.
+    pub h: DVec3,
+    /// `[t_lo, t_hi]`, `t_lo >= 0`.
+    pub t_lo: f64,
+    pub t_hi: f64,
+    /// The entry point at `t_lo`, on the entry face when the ray enters through it, in `[0, n]`.
+    pub p: DVec3,
+}
 
+/// [`Span`] of the ray `origin + t dir`; None when it has none (it misses the box, the clip
+/// planes remove it, or it cannot be walked).
+pub(crate) fn span(grid: &Grid, origin: DVec3, dir: DVec3, clip: &Clip) -> Option<Span> {
     // 1. Index space.
     let cells = grid.cells();
     let n = DVec3::new(cells[0] as f64, cells[1] as f64, cells[2] as f64);
@@ -650,7 +657,7 @@ fn walk<K: RayCell>(
         && dir.is_finite()
         && dir != DVec3::ZERO;
     if !usable {
-        return result;
+        return None;
     }
     let o = (origin - grid.min) / h;
     let d = dir / h;
@@ -662,7 +669,7 @@ fn walk<K: RayCell>(
     for a in 0..3 {
         if d[a] == 0.0 {
             if !(o[a] >= 0.0 && o[a] <= n[a]) {
-                return result;
+                return None;
             }
             continue;
         }
@@ -678,20 +685,17 @@ fn walk<K: RayCell>(
         }
     }
     // 2b. Clip planes: a later entry enters through a plane, not a box face.
-    let Some((c_lo, c_hi)) = opts.clip.interval(origin, dir) else {
-        return result;
-    };
+    let (c_lo, c_hi) = clip.interval(origin, dir)?;
     if c_lo > t_enter {
         t_enter = c_lo;
         enter_axis = None;
     }
     t_exit = t_exit.min(c_hi);
     if !(t_enter <= t_exit && t_exit > 0.0 && t_exit < f64::INFINITY) {
-        return result;
+        return None;
     }
     let t_lo = t_enter.max(0.0);
     let t_hi = t_exit;
-    result.span = Some((t_lo, t_hi));
 
     // 3. Entry point.
     let mut p = o + d * t_lo;
@@ -700,7 +704,28 @@ fn walk<K: RayCell>(
             p[a] = if d[a] > 0.0 { 0.0 } else { n[a] };
         }
     }
-    let p = p.clamp(DVec3::ZERO, n);
+    Some(Span { o, d, n, h, t_lo, t_hi, p: p.clamp(DVec3::ZERO, n) })
+}
+
+/// The whole per-ray algorithm (numbered as in the module doc).
+fn walk<K: RayCell>(
+    grid: &Grid,
+    iso: f64,
+    inside: Inside,
+    origin: DVec3,
+    dir: DVec3,
+    opts: &AnalyticOptions,
+    mut trace: Option<&mut Vec<CellVisit>>,
+) -> AnalyticHit {
+    let mut result = AnalyticHit::default();
+    let wanted = opts.crossing.max(1);
+
+    // 1.-3. Index space, the span, the entry point.
+    let Some(Span { o, d, n, h, t_lo, t_hi, p }) = span(grid, origin, dir, &opts.clip) else {
+        return result;
+    };
+    let cells = grid.cells();
+    result.span = Some((t_lo, t_hi));
 
     // 4. First cell.
     let mut cell = [0i64; 3];

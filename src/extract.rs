@@ -142,6 +142,9 @@ fn auto_on(device: Result<&DeviceInfo, &GpuError>) -> Result<String, String> {
 /// instead (the method's passes do not run it there, or the grid is over the device's 3D
 /// image extent, which the passes read it as); None: the GPU extracts them.
 fn cpu_instead_on(scene: &Scene, info: &DeviceInfo) -> Option<String> {
+    if let Some(note) = off_grid_note(scene) {
+        return Some(note);
+    }
     let method = scene.render.mesh.method();
     if let Some(why) = method.cpu_instead(&scene.render.sharp, info.float64) {
         return Some(why.note(method, &info.name));
@@ -149,6 +152,21 @@ fn cpu_instead_on(scene: &Scene, info: &DeviceInfo) -> Option<String> {
     // Rather than a GPU failure (exit 3) naming no key.
     let e = scene.field.check_image_extent(info.max_image_dimension_3d).err()?;
     Some(format!("note: extracted on the CPU ({e})"))
+}
+
+/// The note saying why a scene's surfaces are extracted on the CPU whatever the device: its
+/// meshes are not of the grid's trilinear cells (`mesh::Request::on_grid`), which are all
+/// the GPU passes mesh. None: they are.
+pub fn off_grid_note(scene: &Scene) -> Option<String> {
+    let x = scene.mesh_request(0, None);
+    (!x.on_grid()).then(|| {
+        format!(
+            "note: extracted on the CPU (the GPU extraction passes mesh trilinear cells at \
+             render.mesh_refine = 1, not field.interpolation = \"{}\" at {})",
+            x.interp.name(),
+            x.refine
+        )
+    })
 }
 
 /// Where the CPU writes one surface to a PLY piece by piece (`mesh::extract_streamed`): `ply`

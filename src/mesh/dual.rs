@@ -106,7 +106,9 @@ impl Padded<'_, '_, '_> {
         let s = match (self.real(q), self.real(r)) {
             (Some(a), Some(b)) => {
                 let f = self.f;
-                f.crossing(f.value(a[0], a[1], a[2]), f.value(b[0], b[1], b[2]))
+                let mut d = [0; 3];
+                d[axis] = 1;
+                f.crossing_on(a, d, f.value(a[0], a[1], a[2]), f.value(b[0], b[1], b[2]))
             }
             (Some(_), None) => 0.0,
             (None, _) => 1.0,

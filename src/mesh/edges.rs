@@ -195,7 +195,7 @@ impl<'f, 'g> EdgeLayers<'f, 'g> {
                 if flags[q] == ina || (flags[q] | ina) & MISSING != 0 {
                     continue;
                 }
-                let s = f.crossing(f64::from(here[p]), f64::from(values[q]));
+                let s = f.crossing_on([i, j, k], d, f64::from(here[p]), f64::from(values[q]));
                 let dv = DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64);
                 let u = DVec3::new(i as f64, j as f64, k as f64) + s * dv;
                 let out_dir = if ina == 1 { dv } else { -dv };

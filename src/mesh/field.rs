@@ -27,6 +27,9 @@ pub(crate) struct Field<'a> {
     min: DVec3,
     /// World-space size of one cell.
     spacing: DVec3,
+    /// Set when `grid` is a refined lattice of another interpolant's values
+    /// ([`super::refine`]): crossings and normals are then that interpolant's own.
+    exact: Option<&'a super::refine::Exact<'a>>,
 }
 
 /// The crossing parameter `s` on an edge from value `a` to value `b` (see the module docs of
@@ -50,7 +53,19 @@ impl<'a> Field<'a> {
             dims: grid.dims,
             min: grid.min,
             spacing: grid.spacing(),
+            exact: None,
         }
+    }
+
+    /// The field of the refined lattice `grid` whose crossings and normals are `exact`'s
+    /// ([`super::refine`]).
+    pub fn refined(
+        grid: &'a Grid,
+        exact: &'a super::refine::Exact<'a>,
+        iso: f64,
+        inside: Inside,
+    ) -> Self {
+        Field { exact: Some(exact), ..Field::new(grid, iso, inside) }
     }
 
     /// The field of the whole grid `lattice` of which `grid` holds the point layers
@@ -67,7 +82,7 @@ impl<'a> Field<'a> {
     ) -> Self {
         debug_assert_eq!(grid.dims[..2], lattice.dims[..2]);
         let (dims, min, spacing) = (lattice.dims, lattice.min, lattice.spacing());
-        Field { grid, first, iso, inside, dims, min, spacing }
+        Field { grid, first, iso, inside, dims, min, spacing, exact: None }
     }
 
     /// Linear index of point `(i, j, k)` in the whole grid.
@@ -147,6 +162,19 @@ impl<'a> Field<'a> {
         crossing(a, b, self.iso)
     }
 
+    /// The crossing parameter on the lattice edge from point `start` to `start + d`, whose
+    /// samples are `a` and `b`: [`Field::crossing`] of the two values, or on a refined
+    /// lattice the interpolant's own crossing on the edge ([`super::refine::Exact::crossing`]).
+    #[inline]
+    pub fn crossing_on(&self, start: [usize; 3], d: [usize; 3], a: f64, b: f64) -> f64 {
+        match self.exact {
+            None => self.crossing(a, b),
+            Some(e) => {
+                e.crossing(start, d, self.iso, self.inside).unwrap_or_else(|| self.crossing(a, b))
+            }
+        }
+    }
+
     /// World-space position of index-space point `u`.
     pub fn world_f64(&self, u: DVec3) -> DVec3 {
         self.min + u * self.spacing
@@ -168,6 +196,9 @@ impl<'a> Field<'a> {
     /// `inside = above`. `fallback` (an index-space direction, inside → outside) is used where
     /// that gradient vanishes.
     pub fn normal(&self, u: DVec3, fallback: DVec3) -> [f32; 3] {
+        if let Some(e) = self.exact {
+            return self.normal_from(e.gradient(u) * self.spacing, fallback);
+        }
         self.normal_from(self.gradient(u), fallback)
     }
 
@@ -175,6 +206,9 @@ impl<'a> Field<'a> {
     /// the same bits, without the search for the cells around `u` (one cell here, the one
     /// [`Field::gradient`] would pick, with the same local coordinates and the same sum).
     pub fn normal_in_cell(&self, cell: [usize; 3], u: DVec3, fallback: DVec3) -> [f32; 3] {
+        if self.exact.is_some() {
+            return self.normal(u, fallback);
+        }
         let lo = DVec3::new(cell[0] as f64, cell[1] as f64, cell[2] as f64);
         debug_assert!(u.cmpgt(lo).all() && u.cmplt(lo + 1.0).all(), "{u} not inside {cell:?}");
         let v = self.corners(cell[0], cell[1], cell[2]);

@@ -125,6 +125,12 @@ pub struct Method {
     /// `render.mesh_error` builds its adaptive octree; scene validation refuses the key for
     /// the other methods.
     pub adaptive: bool,
+    /// Its vertices come from lattice-edge crossings alone (`Field::crossing_on`) and its
+    /// topology from the points' inside flags, so it meshes any interpolant, on the lattice
+    /// that `render.mesh_refine` refines (`mesh::refine`); mc33 decides a cell's topology from
+    /// its trilinear interpolant and the sharp methods read trilinear Hermite data, so they
+    /// mesh trilinear cells at `mesh_refine = 1` only.
+    pub lattice_edges: bool,
     /// Its GPU passes; None: CPU only.
     pub gpu: Option<GpuPasses>,
     /// Its GPU passes need 64-bit floats (shaderFloat64): mc33 decides topology in f64.
@@ -236,6 +242,7 @@ static MARCHING_CUBES: Method = Method {
     quads: false,
     sharp: false,
     adaptive: false,
+    lattice_edges: true,
     gpu: Some(GpuPasses::MarchingCubes),
     gpu_float64: false,
     gpu_off: never,
@@ -252,6 +259,7 @@ static MC33: Method = Method {
     quads: false,
     sharp: false,
     adaptive: false,
+    lattice_edges: false,
     gpu: Some(GpuPasses::Mc33),
     gpu_float64: true,
     gpu_off: never,
@@ -268,6 +276,7 @@ static SURFACE_NETS: Method = Method {
     quads: true,
     sharp: false,
     adaptive: false,
+    lattice_edges: true,
     gpu: Some(GpuPasses::Dual),
     gpu_float64: false,
     gpu_off: never,
@@ -288,6 +297,7 @@ static DUAL_CONTOURING: Method = Method {
     quads: true,
     sharp: false,
     adaptive: false,
+    lattice_edges: true,
     gpu: Some(GpuPasses::Dual),
     gpu_float64: false,
     gpu_off: never,
@@ -307,6 +317,7 @@ static MARCHING_TETRAHEDRA: Method = Method {
     quads: false,
     sharp: false,
     adaptive: false,
+    lattice_edges: true,
     gpu: Some(GpuPasses::Tetrahedra),
     gpu_float64: false,
     gpu_off: never,
@@ -323,6 +334,7 @@ static DUAL_CONTOURING_QEF: Method = Method {
     quads: true,
     sharp: true,
     adaptive: true,
+    lattice_edges: false,
     gpu: Some(GpuPasses::Dual),
     gpu_float64: false,
     // The passes do uniform, trilinear Hermite data.
@@ -355,6 +367,7 @@ static EXTENDED_MC: Method = Method {
     quads: false,
     sharp: true,
     adaptive: false,
+    lattice_edges: false,
     gpu: None,
     gpu_float64: false,
     gpu_off: never,

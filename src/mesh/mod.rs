@@ -77,16 +77,19 @@ mod mt;
 mod nets;
 mod octree;
 mod qef;
+pub mod refine;
 mod slabs;
 pub mod stats;
 pub mod tables;
 #[cfg(test)]
 mod tests;
+mod voxel_faces;
 pub mod window;
 
 pub use limits::{MeshBudget, MeshLimits, MESH_CAP_ENV};
 pub use method::MeshAlgorithm;
 
+use crate::field::interpolant::Interpolant;
 use crate::field::{Grid, PointField};
 use crate::vocab::{Inside, SharpSettings};
 
@@ -219,6 +222,17 @@ pub enum MeshError {
     /// read from its file as it is extracted (`mesh::mapped`) could not be read.
     #[error(transparent)]
     Field(#[from] crate::field::FieldError),
+    /// A method that reads trilinear cells only, asked for another interpolant or a refined
+    /// lattice.
+    #[error(
+        "render.mesh = \"{method}\" meshes trilinear cells at render.mesh_refine = 1 only, not \
+         field.interpolation = \"{interp}\" at render.mesh_refine = {k}; use {}",
+        method::Method::names_where(|m| m.lattice_edges)
+    )]
+    NotLattice { method: &'static str, interp: &'static str, k: usize },
+    /// The interpolant has no mesh (`Interpolant::refusal`).
+    #[error("{0}")]
+    Refused(String),
     #[error(
         "hermite = \"source\" needs a source that can be evaluated off the grid (sdf, expr, \
          corners, mesh); use hermite = \"trilinear\""
@@ -244,6 +258,11 @@ pub struct Request<'a> {
     /// layers. The dual methods count the padded cell layers of `dual-contouring` (one more
     /// at each end).
     pub slab_depth: Option<usize>,
+    /// The field's interpolant (`field.interpolation`); not trilinear: the lattice of
+    /// [`refine`], or `nearest`'s voxel faces.
+    pub interp: Interpolant,
+    /// Sub-cells per cell along each axis (`render.mesh_refine`, 1..=[`refine::MAX_REFINE`]).
+    pub refine: usize,
 }
 
 impl<'a> Request<'a> {
@@ -258,7 +277,21 @@ impl<'a> Request<'a> {
             sharp: SharpSettings::default(),
             source: None,
             slab_depth: None,
+            interp: Interpolant::Trilinear,
+            refine: 1,
         }
+    }
+
+    /// The field read with `interp`, its cells split `refine` ways (`mesh::refine`).
+    pub fn with_lattice(self, interp: Interpolant, refine: usize) -> Self {
+        Request { interp, refine, ..self }
+    }
+
+    /// Whether it meshes the grid's own trilinear cells (else the lattice of [`refine`], or
+    /// `nearest`'s voxel faces): the only requests the GPU passes, z-ranges (MPI ranks,
+    /// mapped files) and streamed pieces take.
+    pub fn on_grid(&self) -> bool {
+        refine::on_grid(self.interp, self.refine)
     }
 
     pub fn with_opts(self, opts: ExtractOptions) -> Self {
@@ -282,9 +315,10 @@ impl<'a> Request<'a> {
         self.algo.method()
     }
 
-    /// Whether the mesh keeps its quads: `opts.keep_quads` for the methods that make quads.
+    /// Whether the mesh keeps its quads: `opts.keep_quads` for the methods that make quads
+    /// (and `nearest`'s voxel faces).
     pub fn keeps_quads(&self) -> bool {
-        self.opts.keep_quads && self.method().quads
+        self.opts.keep_quads && (self.method().quads || self.interp == Interpolant::Nearest)
     }
 }
 
@@ -292,8 +326,39 @@ impl<'a> Request<'a> {
 /// trilinear interpolant as an indexed triangle mesh.
 pub fn reference(grid: &Grid, x: &Request) -> Result<Mesh, MeshError> {
     check(grid, x.iso)?;
+    if !x.on_grid() {
+        return off_grid(grid, x, &MeshBudget::unlimited(), |f| (x.method().reference)(f, x));
+    }
     let f = field::Field::new(grid, x.iso, x.inside);
     (x.method().reference)(&f, x)
+}
+
+/// A request off the grid's trilinear cells ([`Request::on_grid`]): `nearest`'s voxel faces,
+/// or `mesh` of the field of [`refine`]'s lattice (its memory under the grid cap). The sharp
+/// methods and mc33 read trilinear cells only (`Method::lattice_edges`): refused.
+fn off_grid(
+    grid: &Grid,
+    x: &Request,
+    budget: &MeshBudget,
+    mesh: impl FnOnce(&field::Field) -> Result<Mesh, MeshError>,
+) -> Result<Mesh, MeshError> {
+    if let Some(why) = x.interp.refusal(crate::field::interpolant::Reader::Mesh) {
+        return Err(MeshError::Refused(why)); // "device": the scenes refuse it first
+    }
+    if x.interp == Interpolant::Nearest {
+        return voxel_faces::extract(grid, x, budget);
+    }
+    if !x.method().lattice_edges {
+        return Err(MeshError::NotLattice {
+            method: x.method().name,
+            interp: x.interp.name(),
+            k: x.refine,
+        });
+    }
+    let limits = crate::field::GridLimits::from_env()?;
+    let r = refine::refine(grid, x.interp, x.refine, limits)?;
+    let f = field::Field::refined(&r.lattice, &r.exact, x.iso, x.inside);
+    mesh(&f)
 }
 
 /// [`reference`]'s mesh, bit for bit (same vertex numbering, positions, normals, triangles
@@ -305,16 +370,21 @@ pub fn reference(grid: &Grid, x: &Request) -> Result<Mesh, MeshError> {
 /// `mesh_error`) run the reference and are counted once they are done.
 pub fn extract(grid: &Grid, x: &Request, budget: &MeshBudget) -> Result<Mesh, MeshError> {
     check(grid, x.iso)?;
-    if (x.method().not_in_slabs)(&x.sharp).is_some() {
+    if (x.method().not_in_slabs)(&x.sharp).is_some() && x.on_grid() {
         // Not cut into slabs (see `emc`, `octree`): the reference itself.
         let mesh = reference(grid, x)?;
         budget.add_mesh(&mesh)?;
         return Ok(mesh);
     }
-    let f = field::Field::new(grid, x.iso, x.inside);
-    let layers = window::cell_layers(x.algo, grid.dims);
-    let depth = x.slab_depth.unwrap_or_else(|| slabs::default_depth(layers));
-    slabs::finish(window::extract_part(&f, x, 0..layers, depth, budget)?, x.keeps_quads())
+    let whole = |f: &field::Field| {
+        let layers = window::cell_layers(x.algo, f.dims);
+        let depth = x.slab_depth.unwrap_or_else(|| slabs::default_depth(layers));
+        slabs::finish(window::extract_part(f, x, 0..layers, depth, budget)?, x.keeps_quads())
+    };
+    if !x.on_grid() {
+        return off_grid(grid, x, budget, whole);
+    }
+    whole(&field::Field::new(grid, x.iso, x.inside))
 }
 
 /// Slab depth of [`extract_streamed`]: the least of [`slabs::default_depth`], so that a batch
@@ -324,6 +394,9 @@ const STREAM_DEPTH: usize = 4;
 /// Why `x` cannot be extracted piece by piece ([`extract_streamed`]); None when it can.
 pub fn not_streamed(x: &Request) -> Option<&'static str> {
     let m = x.method();
+    if !x.on_grid() {
+        return Some("the lattice of field.interpolation and render.mesh_refine (held whole)");
+    }
     m.not_streamed.or_else(|| (m.not_in_slabs)(&x.sharp))
 }
 

@@ -149,7 +149,11 @@ pub(crate) fn extract_slab(
                         let s = if cx > 0 && from < 4 && carried_at == cx - 1 {
                             carry[from]
                         } else {
-                            f.crossing(value(start), value(end))
+                            let b = |a: usize| usize::from((start >> a) & 1);
+                            let p = [cx + b(0), cy + b(1), qz + b(2)];
+                            let mut d = [0; 3];
+                            d[axis] = 1;
+                            f.crossing_on(p, d, value(start), value(end))
                         };
                         next[usize::from(REUSE[e] >> 4)] = s;
                         let bit = |a: usize| f64::from((start >> a) & 1);

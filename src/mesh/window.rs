@@ -192,6 +192,11 @@ pub fn extract_window(
     if let Some(why) = not_in_slabs(x.algo, &x.sharp) {
         return Err(MeshError::NotInSlabs(why));
     }
+    if !x.on_grid() {
+        return Err(MeshError::NotInSlabs(
+            "the lattice of field.interpolation and render.mesh_refine (held whole)",
+        ));
+    }
     if cells.is_empty() {
         return Ok(SlabMesh::default());
     }

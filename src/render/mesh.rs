@@ -68,7 +68,8 @@ impl Renderer {
             return sink.band(crate::passes::Band { row_offset: 0, rows: height }, &pixels);
         }
         let method = scene.render.mesh.method();
-        let cpu = method.cpu_instead(&scene.render.sharp, self.ctx.info.float64).is_some();
+        let cpu = method.cpu_instead(&scene.render.sharp, self.ctx.info.float64).is_some()
+            || !scene.mesh_request(0, None).on_grid();
         let mesh = if cpu {
             mesh_render::upload(&self.ctx, &scene_mesh_at(scene, grid, time)?)?
         } else {

@@ -85,6 +85,7 @@ impl Scene {
         crate::mesh::Request::new(iso, self.surface.inside, self.render.mesh)
             .with_sharp(self.render.sharp)
             .with_source(source)
+            .with_lattice(self.field.interpolation, self.render.mesh_refine as usize)
     }
 
     /// A scene over `field` with every other key at the contract's default (for scenes built
@@ -461,6 +462,8 @@ pub struct RenderSettings {
     /// fast), and the EXR has no `crossings` channel.
     pub count_crossings: bool,
     pub mesh: MeshAlgorithm,
+    /// Sub-cells per cell along each axis for extraction (`mesh::refine`); 1: the grid's cells.
+    pub mesh_refine: u32,
     /// Settings of the sharp-feature meshes (`hermite`, `qef_threshold`, `qef_clamp`).
     pub sharp: SharpSettings,
     pub shading: Shading,
@@ -483,6 +486,7 @@ impl Default for RenderSettings {
             crossing: 1,
             count_crossings: false,
             mesh: MeshAlgorithm::MarchingCubes,
+            mesh_refine: 1,
             sharp: SharpSettings::default(),
             shading: Shading::Lambert,
             normals: Normals::Trilinear,

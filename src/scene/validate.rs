@@ -453,6 +453,7 @@ fn render(t: &View) -> Result<RenderSettings> {
         "crossing",
         "count_crossings",
         "mesh",
+        "mesh_refine",
         "shading",
         "normals",
         "background",
@@ -480,6 +481,9 @@ fn render(t: &View) -> Result<RenderSettings> {
             as u32,
         count_crossings: t.or("count_crossings", d.count_crossings, read::boolean)?,
         mesh: t.or("mesh", d.mesh, |s, k, n| choice(s, k, n, &meshes))?,
+        mesh_refine: t.or("mesh_refine", d.mesh_refine as i64, |s, k, n| {
+            integer(s, k, n, 1, crate::mesh::refine::MAX_REFINE as i64)
+        })? as u32,
         sharp: sharp(t)?,
         shading: t.or("shading", d.shading, |s, k, n| choice(s, k, n, &shadings))?,
         normals: t.or("normals", d.normals, |s, k, n| choice(s, k, n, &normals))?,

@@ -34,6 +34,7 @@ mod mesh {
     mod content;
     mod extract;
     mod gpu;
+    mod interpolants;
     mod memory;
     mod parallel;
     mod sharp;

@@ -22,6 +22,7 @@ use glam::DVec3;
 
 use crate::field::Grid;
 use crate::shaders::consts;
+use crate::vocab::Inside;
 
 pub mod cubic;
 pub mod nearest;
@@ -210,6 +211,9 @@ impl Interpolant {
             (Interpolant::Nearest | Interpolant::CubicBspline | Interpolant::CatmullRom, Reader::Analytic) => None,
             // The probe runs the f64 references, which every kernel has.
             (Interpolant::CubicBspline | Interpolant::CatmullRom | Interpolant::Nearest, Reader::Probe) => None,
+            // The refined lattice with the interpolant's own crossings (`mesh::refine`), and
+            // nearest's voxel faces (`mesh::voxel_faces`).
+            (Interpolant::CubicBspline | Interpolant::CatmullRom | Interpolant::Nearest, Reader::Mesh) => None,
             (_, Reader::Colour) => Some(
                 "[field2] is sampled trilinearly for its colours; interpolation is a key of [field]"
                     .into(),
@@ -235,7 +239,6 @@ impl Interpolant {
                 "MPI splits trilinear fields only (the blocks' ghost planes and walks are \
                  trilinear's), not \"{name}\" ones: run it without mpirun"
             )),
-            (_, Reader::Mesh) => yet("mesh extraction (extract, render.method = \"mesh\")"),
             (_, Reader::Slice) => yet("slice"),
         }
     }
@@ -487,6 +490,44 @@ impl<'g> Interpolated<'g> {
         with_kernel!(self.interp, K => K::missing_at(&self.gather::<K>(c), q))
     }
 
+    /// [`Interpolated::value_at`] (None where [`Interpolated::missing_at`]) of points visited in
+    /// runs that stay in one cell (the rows of `mesh::refine`'s lattice): a cell's samples
+    /// are gathered once a run, not once a point. The same values, bit for bit.
+    pub fn reader(&self) -> Box<dyn FnMut(DVec3) -> Option<f64> + '_> {
+        with_kernel!(self.interp, K => {
+            let mut held: Option<([usize; 3], <K as Kernel>::Cell)> = None;
+            Box::new(move |u: DVec3| {
+                let (c, q) = self.locate(u);
+                let cell = match held {
+                    Some((at, cell)) if at == c => cell,
+                    _ => {
+                        let cell = self.gather::<K>(c);
+                        held = Some((c, cell));
+                        cell
+                    }
+                };
+                (!K::missing_at(&cell, q)).then(|| K::value(&cell, q))
+            })
+        })
+    }
+
+    /// Where the segment from `a` to `b` (grid coordinates, inside one cell: a lattice edge
+    /// of the cells split `render.mesh_refine` ways, `mesh::refine`) first leaves the side of
+    /// the isosurface `a` is on, by the inside rule `inside`: the segment's parameter in
+    /// `[0, 1]`, or None when the rule does not change along it. The cell is gathered once
+    /// (the cell holding the midpoint; the interpolants are continuous across cell faces).
+    /// The first change is found among [`SEGMENT_PIECES`] equal pieces and refined inside
+    /// its piece by the Illinois method on the rule's bracket ([`first_change`]), to f64
+    /// precision: the interpolant's own crossing, not the line through the end values.
+    pub fn first_crossing(&self, a: DVec3, b: DVec3, iso: f64, inside: Inside) -> Option<f64> {
+        let (c, _) = self.locate(0.5 * (a + b));
+        let lo = DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+        with_kernel!(self.interp, K => {
+            let cell = self.gather::<K>(c);
+            first_change(|s| K::value(&cell, a + (b - a) * s - lo), iso, inside)
+        })
+    }
+
     /// The samples cell `cell` reads.
     pub fn cell_data(&self, cell: [usize; 3]) -> CellData {
         match self.interp {
@@ -497,6 +538,55 @@ impl<'g> Interpolated<'g> {
             Interpolant::Device => device_has_no_kernel(),
         }
     }
+}
+
+/// The equal pieces [`Interpolated::first_crossing`] tests a segment in before refining: a
+/// crossing pair closer than an eighth of a (sub-)edge is not seen, as on any lattice edge
+/// whose ends are on one side; `render.mesh_refine` splits the edges finer.
+pub const SEGMENT_PIECES: usize = 8;
+
+/// The first `s` in `[0, 1]` where `inside.contains(value(s), iso)` differs from its value at
+/// 0, as [`Interpolated::first_crossing`] documents; None when no piece end differs.
+fn first_change(value: impl Fn(f64) -> f64, iso: f64, inside: Inside) -> Option<f64> {
+    let start = inside.contains(value(0.0), iso);
+    let mut x0 = 0.0;
+    let mut f0 = value(0.0) - iso;
+    let (mut x1, mut f1) = (1..=SEGMENT_PIECES).find_map(|i| {
+        let s = i as f64 / SEGMENT_PIECES as f64;
+        let v = value(s);
+        if inside.contains(v, iso) != start {
+            return Some((s, v - iso));
+        }
+        (x0, f0) = (s, v - iso);
+        None
+    })?;
+    // Illinois: regula falsi on the rule's bracket [x0, x1] (x0 on `start`'s side), halving
+    // the kept end's value when the same end is kept twice, so both ends close in.
+    let mut last = 0i8; // -1: the last step moved x0; 1: it moved x1
+    for _ in 0..200 {
+        let mut x = (x0 * f1 - x1 * f0) / (f1 - f0);
+        if !(x > x0 && x < x1) {
+            x = 0.5 * (x0 + x1);
+        }
+        if x <= x0 || x >= x1 {
+            break; // no f64 between the ends
+        }
+        let v = value(x);
+        if inside.contains(v, iso) == start {
+            (x0, f0) = (x, v - iso);
+            if last == -1 {
+                f1 *= 0.5;
+            }
+            last = -1;
+        } else {
+            (x1, f1) = (x, v - iso);
+            if last == 1 {
+                f0 *= 0.5;
+            }
+            last = 1;
+        }
+    }
+    Some(0.5 * (x0 + x1))
 }
 
 /// THE missing-data rule (`field.nan = "empty"`, the default; GPU: `shaders/include/missing.glsl`):
@@ -535,6 +625,38 @@ pub fn widen(mm: &mut [f32; 2], v: f32) {
 mod tests {
     use super::cubic::Weights;
     use super::*;
+
+    /// `Interpolated::reader` (a cell gathered once a run) gives `value_at`'s bits and
+    /// `missing_at`'s answer at every point of a refined lattice, NaN samples included, for
+    /// each kernel.
+    #[test]
+    fn the_reader_is_value_at() {
+        let dims = [5, 4, 6];
+        let n = dims.iter().product::<usize>();
+        let values: Vec<f32> = (0..n)
+            .map(|i| if i % 17 == 3 { f32::NAN } else { ((i * 7919) % 101) as f32 * 0.1 - 5.0 })
+            .collect();
+        let grid = Grid { dims, min: DVec3::ZERO, max: DVec3::new(4.0, 3.0, 5.0), values };
+        for interp in [
+            Interpolant::Trilinear,
+            Interpolant::CubicBspline,
+            Interpolant::CatmullRom,
+            Interpolant::Nearest,
+        ] {
+            let f = Interpolated::new(&grid, interp);
+            let mut read = f.reader();
+            let k = 3.0;
+            for z in 0..=15 {
+                for y in 0..=9 {
+                    for x in 0..=12 {
+                        let u = DVec3::new(x as f64, y as f64, z as f64) / k;
+                        let want = (!f.missing_at(u)).then(|| f.value_at(u).to_bits());
+                        assert_eq!(read(u).map(f64::to_bits), want, "{} at {u}", interp.name());
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn stencil_points_cover_the_cells_and_stay_in_the_grid() {

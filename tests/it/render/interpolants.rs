@@ -548,9 +548,10 @@ fn each_verb_refuses_the_interpolants_it_does_not_read() {
         for method in ["analytic", "mesh"] {
             let me = format!("render.method=\"{method}\"");
             let r = isoview(&["render", &scene, "-o", o, "--set", &i, "--set", &me], &[]);
-            if interp != "device" && method == "analytic" {
-                // Nearest's voxel walk, the cubic ones' Bernstein walk.
-                assert!(r.status.success(), "{interp}, analytic: {}", stderr(&r));
+            if interp != "device" {
+                // Nearest's voxel walk, the cubic ones' Bernstein walk; the meshes of
+                // `mesh::refine` and `mesh::voxel_faces`.
+                assert!(r.status.success(), "{interp}, {method}: {}", stderr(&r));
                 std::fs::remove_file(&out).unwrap();
                 continue;
             }
@@ -565,9 +566,13 @@ fn each_verb_refuses_the_interpolants_it_does_not_read() {
             let mut a: Vec<&str> = args.clone();
             a.extend(["--set", &i]);
             let r = isoview(&a, &[]);
-            if args[2] == "--pixel" && interp != "device" {
-                // The probe runs the f64 references, which every kernel has.
-                assert!(r.status.success(), "{interp}, probe: {}", stderr(&r));
+            if (args[2] == "--pixel" || args[0] == "extract") && interp != "device" {
+                // The probe runs the f64 references, which every kernel has; extract meshes
+                // each (`mesh::refine`, `mesh::voxel_faces`).
+                assert!(r.status.success(), "{interp}, {}: {}", args[0], stderr(&r));
+                if args[0] == "extract" {
+                    std::fs::remove_file(&mesh).unwrap();
+                }
                 continue;
             }
             assert_fails(&r, 2, &[&key, why]);

@@ -120,6 +120,10 @@ const VARIANTS: &[(&str, &str, &[&str])] = &[
     ("raymarch.comp", "device", &["INTERP_DEVICE"]),
     // The tricubic walk: B-spline as it is, Catmull-Rom with its macro.
     ("tricubic.comp", "catmull_rom", &["INTERP_CATMULL_ROM"]),
+    // Slices through the other interpolants (`slice::image`).
+    ("slice.comp", "bspline", &["INTERP_BSPLINE"]),
+    ("slice.comp", "catmull_rom", &["INTERP_CATMULL_ROM"]),
+    ("slice.comp", "nearest", &["INTERP_NEAREST"]),
 ];
 
 fn shared(name: &str) -> u32 {

@@ -57,16 +57,35 @@ float grid_value(ivec3 p) {
 }
 
 // The interpolant at grid index coordinates g (inside the box); NaN where g's cell is missing
-// (missing.glsl).
+// (missing.glsl): trilinear, or the variant's (build.rs `VARIANTS`: `INTERP_BSPLINE`,
+// `INTERP_CATMULL_ROM` read the cell's 4x4x4 samples, clamped to the grid, missing when one
+// is; `INTERP_NEAREST` the nearest corner's sample, missing when it is).
 float field_value(vec3 g) {
     ivec3 c = clamp(ivec3(floor(g)), ivec3(0), P.dims.xyz - 2);
+#ifdef INTERP_CUBIC
+    Samples s;
+    bool missing = false;
+    for (int n = 0; n < 64; n++) {
+        ivec3 p = clamp(c + ivec3(n & 3, (n >> 2) & 3, n >> 4) - 1, ivec3(0), P.dims.xyz - 1);
+        s.s[n] = grid_value(p);
+        missing = missing || is_missing(s.s[n]);
+    }
+    if (missing) return uintBitsToFloat(0x7fc00000u);
+    return cubic_value(s, g - vec3(c));
+#else
     float v[8];
     for (int n = 0; n < 8; n++) {
         v[n] = grid_value(c + ivec3(n & 1, (n >> 1) & 1, n >> 2));
     }
     Corners k = corners_of(v);
+#ifdef INTERP_NEAREST
+    float near = nearest_value(k, g - vec3(c));
+    return is_missing(near) ? uintBitsToFloat(0x7fc00000u) : near;
+#else
     if (corners_missing(k.lo, k.hi)) return uintBitsToFloat(0x7fc00000u);
     return interp_value(k, g - vec3(c));
+#endif
+#endif
 }
 
 vec4 colormap_at(float c) {

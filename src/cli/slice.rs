@@ -92,7 +92,7 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
     let mut per_surface = vec![(scene.surface.isovalue, set.contours.clone())];
     for k in 1..scene.surface.count {
         let one = scene.single_surface(k);
-        let s = slice::scene_contours(&one, &plane, args.time).map_err(Failure::input)?;
+        let s = slice::scene_contours(&one, &grid, &plane, args.time).map_err(Failure::input)?;
         per_surface.push((one.surface.isovalue, s.contours.clone()));
         set.contours.extend(s.contours);
         set.stats.ambiguous += s.stats.ambiguous;
@@ -102,7 +102,7 @@ pub fn run(cli: &Cli, args: &SliceArgs) -> Result<i32, Failure> {
     let iso = scene.surface.isovalue;
 
     let ctx = cli.gpu()?;
-    let renderer = SliceRenderer::new(&ctx)?;
+    let mut renderer = SliceRenderer::new(&ctx)?;
     // Over the device's 3D image extent: the input's size, named (exit 2), not a GPU fault.
     scene.field.check_image_extent(ctx.info.max_image_dimension_3d).map_err(Failure::input)?;
     let gpu_grid = GpuGrid::upload(&ctx, &grid)?;
@@ -197,7 +197,7 @@ pub fn probe(
     let segment = segment.ok_or_else(|| Failure::input("--slice needs --segment u0,v0,u1,v1"))?;
     let (a, b) = parse_segment(segment).map_err(Failure::input)?;
     let scene = scene::load(scene_path, sets).map_err(Failure::input)?;
-    super::refuse_interpolation(&scene, crate::field::interpolant::Reader::Slice)?;
+    super::refuse_interpolation(&scene, crate::field::interpolant::Reader::SegmentProbe)?;
     let grid = scene.field.sample(time).map_err(Failure::input)?;
     let plane = PlaneGrid::new(&grid, axis, at)
         .map_err(|e| Failure::input(e.located(&format!("--slice {}", echo(slice_arg)))))?;

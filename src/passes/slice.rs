@@ -8,6 +8,7 @@ use std::sync::Arc;
 use bytemuck::{Pod, Zeroable};
 
 use super::Band;
+use crate::field::interpolant::Interpolant;
 use crate::gpu::{
     grid_groups, Binding, Buffer, ComputePipeline, Context, Dispatch, GpuError, Image3d, Recorder,
     Resource,
@@ -64,14 +65,12 @@ const _: () = {
     assert!(std::mem::offset_of!(SlicePixel, contour) == 20);
 };
 
-pub fn pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
-    ComputePipeline::new(
-        ctx,
-        "slice",
-        shaders::SLICE,
-        &BINDINGS,
-        std::mem::size_of::<Band>() as u32,
-    )
+/// The pass for `interp` (its variant of `slice.comp`, `Interpolant::slice_shader`).
+pub fn pipeline(ctx: &Arc<Context>, interp: Interpolant) -> Result<ComputePipeline, GpuError> {
+    let (name, spirv) = interp.slice_shader().ok_or_else(|| {
+        GpuError::Bug(format!("no slice pass reads \"{}\" fields", interp.name()))
+    })?;
+    ComputePipeline::new(ctx, name, spirv, &BINDINGS, std::mem::size_of::<Band>() as u32)
 }
 
 /// What the slice pass reads, and the band of pixels it writes.

@@ -300,7 +300,7 @@ impl RenderThread {
             self.slicer = Some(SliceRenderer::new(&self.ctx).map_err(|e| e.to_string())?);
         }
         self.grid_for(state).map_err(|(m, _)| m)?;
-        let (Some(slicer), Some((_, _, gpu))) = (&self.slicer, &self.grid) else {
+        let (Some(slicer), Some((_, _, gpu))) = (&mut self.slicer, &self.grid) else {
             return Err("the slice renderer or the grid is missing".into());
         };
         slicer

@@ -15,6 +15,10 @@
 //! - **source** (`max_depth > 0` with a source that can be evaluated anywhere: sdf, corners,
 //!   expr, mesh): the source itself, evaluated at world points; crossings are found by bracketed root finding on the source
 //!   along the edge, so refined contours follow the source beyond the grid's resolution.
+//! - **another interpolant** (`PlaneGrid::interp`): a cubic one is the source itself (the caller
+//!   passes it, `slice::interpolant_source`), used at every depth, so crossings are its own
+//!   roots; nearest's contour is its voxels' edges: each crossing halfway along the edge
+//!   (where the voxels meet), each segment turning at its cell's centre, no refinement.
 //!
 //! # Refinement
 //!
@@ -54,6 +58,7 @@ use glam::{DVec2, DVec3};
 use super::plane::PlaneGrid;
 use super::squares;
 use super::SliceError;
+use crate::field::interpolant::Interpolant;
 use crate::field::SourceKind;
 use crate::scene::{Ambiguity, Inside};
 
@@ -287,6 +292,8 @@ impl<'p, 's> Lattice<'p, 's> {
         let (fa, fb) = (self.corners[&key.0], self.corners[&key.1]);
         let iso = self.opts.isovalue;
         let t = match self.source {
+            // Nearest: the face between two voxels lies halfway between their points.
+            None if self.plane.interp == Interpolant::Nearest => 0.5,
             None => ((iso - fa) / (fb - fa)).clamp(0.0, 1.0),
             Some(source) => {
                 let (plane, inside) = (self.plane, self.opts.inside);
@@ -349,8 +356,14 @@ pub fn extract(
             crate::scene::MAX_SLICE_DEPTH
         )));
     }
-    let scale = 1i64 << opts.max_depth;
-    let on_source = opts.max_depth > 0 && source.is_some();
+    // Nearest's contours are its voxels' edges, known at the plane's own cells: no refinement.
+    let nearest = plane.interp == Interpolant::Nearest;
+    let depth = if nearest { 0 } else { opts.max_depth };
+    let scale = 1i64 << depth;
+    // A cubic interpolant's plane is the interpolant itself (the caller's source,
+    // `slice::scene_contours`): its corners and crossings, refined or not.
+    let cubic = plane.interp.stencil().width() > 2;
+    let on_source = (depth > 0 || cubic) && source.is_some();
     let mut lat = Lattice {
         plane,
         scale,
@@ -383,7 +396,7 @@ pub fn extract(
             leaves.push(leaf);
         }
     }
-    if opts.max_depth > 0 {
+    if depth > 0 {
         loop {
             let mut next = Vec::with_capacity(leaves.len());
             let mut split = false;
@@ -411,6 +424,8 @@ pub fn extract(
     // March every leaf.
     let mut stats = ContourStats { cells: leaves.len(), on_source, ..Default::default() };
     let mut segments: Vec<(Key, Key)> = Vec::new();
+    // Nearest: the point each segment passes through between its two crossings.
+    let mut turns: HashMap<(Key, Key), DVec2> = HashMap::new();
     for leaf in &leaves {
         // A missing cell holds no contour (`field::interpolant::cell_missing`).
         if plane.cell_missing((leaf.x / scale) as usize, (leaf.y / scale) as usize) {
@@ -447,16 +462,26 @@ pub fn extract(
             lat.crossing(a);
             lat.crossing(b);
             segments.push((a, b));
+            if nearest {
+                // The voxels' edges turn at the cell's centre, where the four voxels meet.
+                let centre = DVec2::new(leaf.x as f64 + 0.5, leaf.y as f64 + 0.5);
+                turns.insert((a, b), centre);
+            }
         }
     }
 
     let mut contours = Vec::new();
     for (closed, keys) in stitch(&segments) {
         let mut points: Vec<DVec2> = Vec::with_capacity(keys.len());
-        for k in keys {
+        let n = keys.len();
+        for (i, &k) in keys.iter().enumerate() {
             let p = lat.crossings[&k];
             if points.last() != Some(&p) {
                 points.push(p);
+            }
+            let next = if i + 1 < n { Some(keys[i + 1]) } else { closed.then(|| keys[0]) };
+            if let Some(turn) = next.and_then(|m| turns.get(&(k, m))) {
+                points.push(*turn);
             }
         }
         if closed && points.len() > 1 && points.first() == points.last() {

@@ -9,6 +9,7 @@ use glam::DVec2;
 
 use super::contour::Contour;
 use super::plane::PlaneGrid;
+use crate::field::interpolant::Interpolant;
 use crate::gpu::{Buffer, ComputePipeline, Context, GpuError};
 use crate::passes::slice::{self as pass, SliceInputs, SliceParams, SlicePass, SlicePixel};
 use crate::passes::Bands;
@@ -106,23 +107,23 @@ fn tiles(plane: &PlaneGrid, contours: &[Contour], style: &SliceStyle) -> Tiles {
     Tiles { start, members, segments, per_row }
 }
 
-/// Owns the slice pipeline and the colormap; draws any number of slices.
+/// Owns the slice pipelines (one per interpolant drawn, built when first needed) and the
+/// colormap; draws any number of slices.
 pub struct SliceRenderer {
     ctx: Arc<Context>,
-    pipeline: ComputePipeline,
+    pipelines: Vec<(Interpolant, ComputePipeline)>,
     colormap: Buffer,
 }
 
 impl SliceRenderer {
     pub fn new(ctx: &Arc<Context>) -> Result<Self, GpuError> {
-        let pipeline = pass::pipeline(ctx)?;
         let colormap = Buffer::upload(
             ctx,
             "slice colormap",
             &colormap(),
             vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
-        Ok(SliceRenderer { ctx: ctx.clone(), pipeline, colormap })
+        Ok(SliceRenderer { ctx: ctx.clone(), pipelines: Vec::new(), colormap })
     }
 
     pub fn context(&self) -> &Arc<Context> {
@@ -131,7 +132,7 @@ impl SliceRenderer {
 
     /// Draws `plane` of the uploaded grid with `contours` (plane index coordinates) over it.
     pub fn render(
-        &self,
+        &mut self,
         grid: &GpuGrid,
         plane: &PlaneGrid,
         contours: &[Contour],
@@ -174,8 +175,12 @@ impl SliceRenderer {
         let segments = Buffer::upload(ctx, "slice segments", &t.segments, storage)?;
 
         let bands = Bands::<SlicePixel>::new(ctx, "slice pixels", width, height)?;
+        if !self.pipelines.iter().any(|(i, _)| *i == plane.interp) {
+            self.pipelines.push((plane.interp, pass::pipeline(ctx, plane.interp)?));
+        }
+        let pipeline = self.pipelines.iter().find(|(i, _)| *i == plane.interp).map(|(_, p)| p);
         let pass = SlicePass::new(
-            &self.pipeline,
+            pipeline.ok_or_else(|| GpuError::Bug("the slice pipeline was just built".into()))?,
             SliceInputs {
                 params: &params_buf,
                 grid: grid

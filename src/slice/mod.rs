@@ -74,13 +74,45 @@ pub fn contour_options(scene: &Scene) -> ContourOptions {
 
 /// The contours of `plane` by the scene's settings, with the scene's source (at `time`) for
 /// `ambiguity = "sample"` and refinement.
+///
+/// Through another interpolant the contours are that interpolant's (`plane` from
+/// [`PlaneGrid::through`] of `grid`): the cubic ones' corners and crossings come from the
+/// interpolant itself, as a source of world points ([`interpolant_source`]); nearest's are its
+/// voxels' edges ([`contour`]'s module docs).
 pub fn scene_contours(
     scene: &Scene,
+    grid: &crate::field::Grid,
     plane: &PlaneGrid,
     time: f64,
 ) -> Result<ContourSet, SliceError> {
-    let source = SourceField::from_spec(&scene.field, time);
+    let source = match plane.interp {
+        crate::field::interpolant::Interpolant::Trilinear => {
+            SourceField::from_spec(&scene.field, time)
+        }
+        interp => Some(interpolant_source(grid, interp)),
+    };
     extract(plane, source.as_ref(), &contour_options(scene))
+}
+
+/// `grid` read with `interp` as a function of world points (the grid's own frame): NaN where
+/// the interpolant is missing. No Lipschitz bound: refinement takes the plane's steepest slope.
+pub fn interpolant_source(
+    grid: &crate::field::Grid,
+    interp: crate::field::interpolant::Interpolant,
+) -> SourceField<'_> {
+    let field = crate::field::interpolant::Interpolated::new(grid, interp);
+    let (min, spacing) = (grid.min, grid.spacing());
+    SourceField {
+        eval: Box::new(move |p| {
+            let u = (p - min) / spacing;
+            if field.missing_at(u) {
+                f64::NAN
+            } else {
+                field.value_at(u)
+            }
+        }),
+        lipschitz: None,
+    }
 }
 
 /// A slice ready to draw: the plane's grid, its contours and the picture's style.
@@ -103,8 +135,8 @@ pub fn plan(
     if let Some(why) = scene.interpolation_refusal(crate::field::interpolant::Reader::Slice) {
         return Err(SliceError::Input(why));
     }
-    let plane = PlaneGrid::new(grid, axis, at)?;
-    let set = scene_contours(scene, &plane, time)?;
+    let plane = PlaneGrid::through(grid, axis, at, scene.field.interpolation)?;
+    let set = scene_contours(scene, grid, &plane, time)?;
     let (width, height) = picture_size(
         &plane,
         scene.slice.width,

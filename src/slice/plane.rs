@@ -19,8 +19,8 @@
 use glam::{DVec2, DVec3};
 
 use super::SliceError;
-use crate::field::interpolant::is_missing;
 use crate::field::interpolant::trilinear::lerp;
+use crate::field::interpolant::{is_missing, Interpolant, Interpolated};
 use crate::field::Grid;
 
 /// A slicing axis.
@@ -83,8 +83,15 @@ pub struct PlaneGrid {
     pub layer: usize,
     /// Position of the plane inside that layer, `w - layer` in `[0, 1]`.
     pub weight: f64,
-    /// `nu * nv` values, u fastest: `lerp(grid(.., layer), grid(.., layer + 1), weight)`.
+    /// `nu * nv` values, u fastest: `lerp(grid(.., layer), grid(.., layer + 1), weight)`;
+    /// for another interpolant, its value at each plane point (NaN where it is missing).
     pub values: Vec<f64>,
+    /// The field's interpolant (`field.interpolation`; [`PlaneGrid::through`]).
+    pub interp: Interpolant,
+    /// For the cubic interpolants, whether each plane cell is missing (its 3D cell's 4x4x4
+    /// stencil holds missing data), u fastest; None: a corner value says
+    /// ([`PlaneGrid::cell_missing`]).
+    pub missing: Option<Vec<bool>>,
 }
 
 impl PlaneGrid {
@@ -125,7 +132,50 @@ impl PlaneGrid {
             layer,
             weight,
             values,
+            interp: Interpolant::Trilinear,
+            missing: None,
         })
+    }
+
+    /// The plane `axis = at` of `grid` read with `interp`: [`PlaneGrid::new`] for trilinear;
+    /// otherwise the interpolant's value at each plane point (`Interpolated`, NaN where it is
+    /// missing) and, for the cubic ones, each plane cell's missing flag from its 3D cell's
+    /// stencil. The contours then follow the interpolant itself (`slice::scene_contours`).
+    pub fn through(
+        grid: &Grid,
+        axis: Axis,
+        at: f64,
+        interp: Interpolant,
+    ) -> Result<PlaneGrid, SliceError> {
+        let mut plane = PlaneGrid::new(grid, axis, at)?;
+        if interp == Interpolant::Trilinear {
+            return Ok(plane);
+        }
+        let field = Interpolated::new(grid, interp);
+        let (axes, w) = (plane.axes, plane.w());
+        let point = move |i: f64, j: f64| {
+            let mut g = DVec3::ZERO;
+            g[axes.0] = i;
+            g[axes.1] = j;
+            g[axis.index()] = w;
+            g
+        };
+        let [nu, nv] = plane.dims;
+        for j in 0..nv {
+            for i in 0..nu {
+                let g = point(i as f64, j as f64);
+                plane.values[i + nu * j] =
+                    if field.missing_at(g) { f64::NAN } else { field.value_at(g) };
+            }
+        }
+        if interp.stencil().width() > 2 {
+            let [cu, cv] = plane.cells();
+            let flags = (0..cu * cv)
+                .map(|c| field.missing_at(point((c % cu) as f64 + 0.5, (c / cu) as f64 + 0.5)));
+            plane.missing = Some(flags.collect());
+        }
+        plane.interp = interp;
+        Ok(plane)
     }
 
     /// Continuous grid index coordinate of the plane along its axis (`layer + weight`).
@@ -238,6 +288,9 @@ impl PlaneGrid {
     /// the two grid layers around the plane (a missing sample in either makes theirs missing), so
     /// this is [`crate::field::interpolant::cell_missing`] of the grid cell the plane cuts.
     pub fn cell_missing(&self, i: usize, j: usize) -> bool {
+        if let Some(m) = &self.missing {
+            return m[i + self.cells()[0] * j];
+        }
         self.cell_corners(i, j).iter().any(|&v| is_missing(v))
     }
 }

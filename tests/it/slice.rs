@@ -9,6 +9,7 @@ use std::process::{Command, Output};
 use std::sync::Arc;
 
 use glam::{DVec2, DVec3};
+use isoview::field::interpolant::Interpolant;
 use isoview::field::{FieldSpec, Grid, GridLimits};
 use isoview::gpu::Context;
 use isoview::output::exr;
@@ -52,7 +53,7 @@ fn load_file(name: &str, overrides: &[&str]) -> Scene {
 fn contours_of(scene: &Scene, axis: Axis, at: f64) -> (Grid, PlaneGrid, Vec<Contour>) {
     let grid = scene.field.sample(0.0).unwrap();
     let plane = PlaneGrid::new(&grid, axis, at).unwrap();
-    let set = slice::scene_contours(scene, &plane, 0.0).unwrap();
+    let set = slice::scene_contours(scene, &grid, &plane, 0.0).unwrap();
     (grid, plane, set.contours)
 }
 
@@ -250,7 +251,7 @@ fn a_saddle_under_each_ambiguity_rule() {
         let scene = load(SADDLE, &[&format!("slice.ambiguity=\"{rule}\"")]);
         let grid = scene.field.sample(0.0).unwrap();
         let plane = PlaneGrid::new(&grid, Axis::Z, 0.5).unwrap();
-        let set = slice::scene_contours(&scene, &plane, 0.0).unwrap();
+        let set = slice::scene_contours(&scene, &grid, &plane, 0.0).unwrap();
         assert_eq!(set.counts(), (loops, 0), "{rule}");
         assert_eq!((set.stats.ambiguous, set.stats.joined), (1, joined), "{rule}");
         assert!(set.contours.iter().all(|c| c.signed_area2() > 0.0), "{rule}");
@@ -260,7 +261,7 @@ fn a_saddle_under_each_ambiguity_rule() {
     let scene = load(SADDLE, &["slice.max_depth=5"]);
     let grid = scene.field.sample(0.0).unwrap();
     let plane = PlaneGrid::new(&grid, Axis::Z, 0.5).unwrap();
-    let set = slice::scene_contours(&scene, &plane, 0.0).unwrap();
+    let set = slice::scene_contours(&scene, &grid, &plane, 0.0).unwrap();
     assert!(set.stats.on_source);
     assert_eq!(set.counts(), (2, 0));
     let source = SourceField::from_spec(&scene.field, 0.0).unwrap();
@@ -419,7 +420,7 @@ fn style(plane: &PlaneGrid, width: u32, height: u32, isovalue: f64, inside: Insi
 #[gpu_test]
 fn gpu_value_matches_the_reference_on_random_grids() {
     let ctx = gpu();
-    let renderer = SliceRenderer::new(&ctx).unwrap();
+    let mut renderer = SliceRenderer::new(&ctx).unwrap();
     let mut rng = Rng::new(23);
     let mut worst: f64 = 0.0;
     for trial in 0..12 {
@@ -430,7 +431,14 @@ fn gpu_value_matches_the_reference_on_random_grids() {
         ];
         let grid = random_grid(&mut rng, dims);
         let (axis, at) = random_plane(&mut rng, &grid);
-        let plane = PlaneGrid::new(&grid, axis, at).unwrap();
+        // Each interpolant's variant of the pass in turn (trilinear in a third of the trials).
+        let interp = [
+            Interpolant::Trilinear,
+            Interpolant::CubicBspline,
+            Interpolant::CatmullRom,
+            Interpolant::Nearest,
+        ][trial % 4];
+        let plane = PlaneGrid::through(&grid, axis, at, interp).unwrap();
         let (w, h) = (9 + (rng.next_u64() % 60) as u32, 5 + (rng.next_u64() % 60) as u32);
         let inside = Inside::ALL[trial % 2];
         let set = extract(&plane, None, &opts(0.1, inside, Ambiguity::Average, 0)).unwrap();
@@ -444,7 +452,12 @@ fn gpu_value_matches_the_reference_on_random_grids() {
         for (n, (p, r)) in image.pixels.iter().zip(&reference).enumerate() {
             let err = (p.value as f64 - r).abs() / scale;
             worst = worst.max(err);
-            assert!(err <= VALUE_TOL, "trial {trial} pixel {n}: gpu {} vs {r}", p.value);
+            assert!(
+                err <= VALUE_TOL,
+                "trial {trial} {}: pixel {n}: gpu {} vs {r}",
+                interp.name(),
+                p.value
+            );
             assert_eq!(p.rgba[3], 1.0);
             assert!((0.0..=1.0).contains(&p.contour));
         }
@@ -459,7 +472,7 @@ fn gpu_picture_colours_inside_red_and_draws_the_contour() {
     let ctx = gpu();
     let scene = load_file("torus.toml", &[]);
     let (grid, plane, contours) = contours_of(&scene, Axis::Y, 0.0);
-    let renderer = SliceRenderer::new(&ctx).unwrap();
+    let mut renderer = SliceRenderer::new(&ctx).unwrap();
     let gpu_grid = GpuGrid::upload(&ctx, &grid).unwrap();
     let image = renderer
         .render(&gpu_grid, &plane, &contours, &style(&plane, 64, 64, 0.0, Inside::Below))
@@ -493,7 +506,7 @@ fn every_shipped_scene_slices_on_every_axis_on_the_gpu() {
 /// Contours of every shipped scene on two planes per axis stay on the plane's grid; with `ctx`,
 /// the GPU picture's values match the reference too.
 fn shipped_scene_slices(ctx: Option<Arc<Context>>) {
-    let renderer = ctx.as_ref().map(|c| SliceRenderer::new(c).unwrap());
+    let mut renderer = ctx.as_ref().map(|c| SliceRenderer::new(c).unwrap());
     let mut names: Vec<PathBuf> = std::fs::read_dir(root().join("scenes"))
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -509,7 +522,7 @@ fn shipped_scene_slices(ctx: Option<Arc<Context>>) {
             let a = axis.index();
             for at in [0.5 * (grid.min[a] + grid.max[a]), grid.max[a]] {
                 let plane = PlaneGrid::new(&grid, axis, at).unwrap();
-                let set = slice::scene_contours(&scene, &plane, 0.0).unwrap();
+                let set = slice::scene_contours(&scene, &grid, &plane, 0.0).unwrap();
                 let [cu, cv] = plane.cells().map(|n| n as f64);
                 for c in &set.contours {
                     assert!(c
@@ -518,7 +531,7 @@ fn shipped_scene_slices(ctx: Option<Arc<Context>>) {
                         .all(|q| q.x >= 0.0 && q.y >= 0.0 && q.x <= cu && q.y <= cv));
                 }
                 let (w, h) = picture_size(&plane, None, None, 40, 16384);
-                if let (Some(r), Some(g)) = (&renderer, &gpu_grid) {
+                if let (Some(r), Some(g)) = (&mut renderer, &gpu_grid) {
                     let st = style(&plane, w, h, scene.surface.isovalue, scene.surface.inside);
                     let image = r.render(g, &plane, &set.contours, &st).unwrap();
                     let reference = slice::reference::values(&grid, &plane, w, h);
@@ -746,4 +759,114 @@ fn probe_slice_prints_the_segment_roots() {
     assert_fails(&o, 2, "--slice w=0: expected AXIS=C");
     let o = isoview(&["probe", &scene, "--slice", "z=0", "--segment", "-1,0,1"]);
     assert_fails(&o, 2, "--segment -1,0,1: expected four");
+}
+
+// ---- other interpolants ----------------------------------------------------------------------
+
+/// Slices through the other interpolants follow the interpolant itself. Away from the border
+/// Catmull-Rom reproduces the sampled quadric x² + y² + z² − r², so its contour on the plane
+/// z = c is the circle of radius √(r² − c²); the B-spline adds its kernel's variance h²/3 per
+/// axis, so its circle has radius √(r² − c² − h²); on a grid plane and between planes, without
+/// and with refinement, to 1e-6 of the diagonal (the bilinear contours of the same samples miss
+/// by far more). Each contour is a closed loop around the inside, counter-clockwise.
+#[test]
+fn cubic_contours_are_the_exact_circles() {
+    let (n, r) = (17, 0.6);
+    let h = 2.0 / (n - 1) as f64;
+    let grid = grid_from([n; 3], DVec3::splat(-1.0), DVec3::ONE, |p| p.length_squared() - r * r);
+    let tol = 1e-6 * (grid.max - grid.min).length();
+    let worst = |plane: &PlaneGrid, contours: &[Contour], radius: f64| {
+        assert_eq!(contours.len(), 1, "one loop");
+        assert!(contours[0].closed && contours[0].signed_area2() > 0.0, "counter-clockwise");
+        let points = slice::contour::world_points(plane, &contours[0]);
+        assert!(points.len() > 30, "{} points", points.len());
+        points.iter().map(|p| (p.truncate().length() - radius).abs()).fold(0.0, f64::max)
+    };
+    for c in [0.0, 0.1] {
+        for (interp, radius) in [
+            (Interpolant::CatmullRom, (r * r - c * c).sqrt()),
+            (Interpolant::CubicBspline, (r * r - c * c - h * h).sqrt()),
+        ] {
+            let plane = PlaneGrid::through(&grid, Axis::Z, c, interp).unwrap();
+            let source = slice::interpolant_source(&grid, interp);
+            for depth in [0, 2] {
+                let o = opts(0.0, Inside::Below, Ambiguity::Average, depth);
+                let set = extract(&plane, Some(&source), &o).unwrap();
+                let off = worst(&plane, &set.contours, radius);
+                let what = format!("{} z = {c} depth {depth}", interp.name());
+                assert!(off < tol, "{what}: a point {off} off the circle of radius {radius}");
+            }
+        }
+        let plane = PlaneGrid::new(&grid, Axis::Z, c).unwrap();
+        let set = extract(&plane, None, &opts(0.0, Inside::Below, Ambiguity::Average, 0)).unwrap();
+        let off = worst(&plane, &set.contours, (r * r - c * c).sqrt());
+        assert!(off > 100.0 * tol, "bilinear is {off} off: the tolerance means nothing");
+    }
+}
+
+/// Nearest's contours are its voxels' edges: every segment axis-aligned on a half-integer
+/// line of the plane's index space (turning at cell centres), and the loops enclose exactly the
+/// inside voxels: half the sum of their signed doubled areas is the count of inside points on
+/// the plane (a blob away from the box's sides, one unit of area per voxel).
+#[test]
+fn nearest_contours_are_the_voxel_edges() {
+    let grid = grid_from([13, 11, 9], DVec3::splat(-1.0), DVec3::ONE, |p| 0.7 - p.length());
+    for at in [0.0, 0.3, -0.45] {
+        let plane = PlaneGrid::through(&grid, Axis::Z, at, Interpolant::Nearest).unwrap();
+        let o = opts(0.0, Inside::Above, Ambiguity::Average, 3);
+        let set = extract(&plane, None, &o).unwrap();
+        let inside = plane.values.iter().filter(|&&v| v > 0.0).count();
+        assert!(inside > 10, "z = {at}: {inside} inside points");
+        let area: f64 = set.contours.iter().map(|c| c.signed_area2()).sum::<f64>() / 2.0;
+        assert!((area - inside as f64).abs() < 1e-9, "z = {at}: area {area}, {inside} voxels");
+        for c in &set.contours {
+            assert!(c.closed, "z = {at}: an open contour");
+            let n = c.points.len();
+            for i in 0..n {
+                let (a, b) = (c.points[i], c.points[(i + 1) % n]);
+                let half = |x: f64| (x - x.floor() - 0.5).abs() < 1e-12;
+                assert!(a.x == b.x || a.y == b.y, "z = {at}: {a} -> {b} is not axis-aligned");
+                assert!(
+                    (a.x == b.x && half(a.x)) || (a.y == b.y && half(a.y)),
+                    "z = {at}: {a} -> {b} is not on a voxel edge"
+                );
+            }
+        }
+    }
+}
+
+/// `slice` draws each interpolant (its variant of the pass, its contours); `probe --slice`
+/// reports bilinear cells and refuses the others with one line.
+#[test]
+fn the_slice_command_reads_each_interpolant() {
+    let dir = scratch("slice-interpolants");
+    let scene = write(
+        &dir,
+        "s.toml",
+        "[image]\nwidth = 32\nheight = 32\n[field]\nsource = \"sdf\"\nshape = \"sphere\"\n\
+         radius = 0.5\nresolution = [8, 8, 8]\nbounds = { min = [-1, -1, -1], max = [1, 1, 1] }\n",
+    );
+    let (exr, json) = (dir.join("s.exr"), dir.join("s.json"));
+    let mut seen = Vec::new();
+    for interp in ["trilinear", "cubic-bspline", "catmull-rom", "nearest"] {
+        let set = format!("field.interpolation=\"{interp}\"");
+        let args = ["slice", &scene, "-o", exr.to_str().unwrap(), "--axis", "z", "--at", "0.1"];
+        let r = isoview(&[&args[..], &["--json", json.to_str().unwrap(), "--set", &set]].concat());
+        assert!(r.status.success(), "{interp}: {}", stderr(&r));
+        seen.push((std::fs::read(&exr).unwrap(), std::fs::read(&json).unwrap()));
+        let probe = ["probe", &scene, "--slice", "z=0", "--segment", "-1,-1,1,1", "--set", &set];
+        let r = isoview(&probe);
+        if interp == "trilinear" {
+            assert!(r.status.success(), "{}", stderr(&r));
+        } else {
+            let line = format!("field.interpolation = \"{interp}\": probe --slice reports each plane cell's bilinear quadratic");
+            assert_fails(&r, 2, &line);
+        }
+    }
+    for i in 0..seen.len() {
+        for j in i + 1..seen.len() {
+            assert_ne!(seen[i].1, seen[j].1, "contours {i} and {j} are the same");
+            assert_ne!(seen[i].0, seen[j].0, "pictures {i} and {j} are the same");
+        }
+    }
 }

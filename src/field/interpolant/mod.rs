@@ -101,6 +101,19 @@ impl Interpolant {
         }
     }
 
+    /// The slice picture's build for it: its variant of `slice.comp` and the pass's name;
+    /// None for `device` (only sampled by the march).
+    pub fn slice_shader(self) -> Option<(&'static str, &'static [u8])> {
+        use crate::shaders;
+        match self {
+            Interpolant::Trilinear => Some(("slice", shaders::SLICE)),
+            Interpolant::CubicBspline => Some(("slice (cubic-bspline)", shaders::SLICE_BSPLINE)),
+            Interpolant::CatmullRom => Some(("slice (catmull-rom)", shaders::SLICE_CATMULL_ROM)),
+            Interpolant::Nearest => Some(("slice (nearest)", shaders::SLICE_NEAREST)),
+            Interpolant::Device => None,
+        }
+    }
+
     /// The samples a cell reads.
     pub fn stencil(self) -> Stencil {
         match self {
@@ -176,6 +189,9 @@ pub enum Reader {
     Mesh,
     /// `slice`: the value image and the contours on a plane.
     Slice,
+    /// `probe --slice --segment`: a segment's roots through each plane cell's bilinear
+    /// quadratic.
+    SegmentProbe,
     /// `probe`: the exact trace and fixed-step's march of one pixel, in f64.
     Probe,
     /// The ray methods' brick pool (`field.residency` with a grid over the memory cap).
@@ -198,12 +214,6 @@ impl Interpolant {
     /// verbs marked "not yet" here (docs/limitations.md).
     pub fn refusal(self, reader: Reader) -> Option<String> {
         let name = self.name();
-        let yet = |what: &str| {
-            Some(format!(
-                "{what} does not read \"{name}\" fields yet; render.method = \"fixed-step\" \
-                 renders them"
-            ))
-        };
         match (self, reader) {
             (Interpolant::Trilinear, _) | (_, Reader::FixedStep) => None,
             // The voxel walk (`shaders/voxels.comp`, `reference::voxels`) and the tricubic
@@ -239,7 +249,12 @@ impl Interpolant {
                 "MPI splits trilinear fields only (the blocks' ghost planes and walks are \
                  trilinear's), not \"{name}\" ones: run it without mpirun"
             )),
-            (_, Reader::Slice) => yet("slice"),
+            // The interpolant's value image and its own contours (`slice::PlaneGrid::through`).
+            (Interpolant::CubicBspline | Interpolant::CatmullRom | Interpolant::Nearest, Reader::Slice) => None,
+            (_, Reader::SegmentProbe) => Some(format!(
+                "probe --slice reports each plane cell's bilinear quadratic, which \"{name}\" \
+                 fields do not have; probe --pixel traces them, slice draws their contours"
+            )),
         }
     }
 }

@@ -314,7 +314,7 @@ fn sample_ambiguity_evaluates_a_mesh_field() {
         let grid = sample(&s);
         assert!((grid.spacing() - DVec3::ONE).abs().max_element() < 1e-9, "{:?}", grid.spacing());
         let plane = PlaneGrid::new(&grid, Axis::Z, 0.0).unwrap();
-        let set = slicing::scene_contours(&s, &plane, 0.0).unwrap();
+        let set = slicing::scene_contours(&s, &grid, &plane, 0.0).unwrap();
         assert_eq!(set.counts(), (loops, 0), "{rule}");
         assert_eq!((set.stats.ambiguous, set.stats.joined), (1, joined), "{rule}");
         if rule == "sample" {

@@ -534,7 +534,7 @@ fn gpu_slice_shows_no_data_where_the_reference_does() {
     use isoview::slice::image::{colormap_half_range, SliceRenderer, SliceStyle};
     use isoview::slice::plane::{Axis, PlaneGrid};
     let ctx = gpu();
-    let renderer = SliceRenderer::new(&ctx).unwrap();
+    let mut renderer = SliceRenderer::new(&ctx).unwrap();
     let mut rng = Rng::new(2906);
     for trial in 0..6 {
         let dims = [0; 3].map(|_| 3 + (rng.next_u64() % 15) as usize);

@@ -22,54 +22,54 @@ pub const WHOLE_GRID_HINT: &str =
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum FieldError {
     /// The data file could not be opened or read.
-    #[error("{}: {message}", path.display())]
+    #[error("{}: {message}", shown(path))]
     Io { path: PathBuf, message: String },
 
     /// The file is not a valid `.npy` file.
-    #[error("{}: not a valid .npy file ({reason})", path.display())]
+    #[error("{}: not a valid .npy file ({reason})", shown(path))]
     NotNpy { path: PathBuf, reason: String },
 
     /// The samples' type is not one isoview reads.
-    #[error("{}: unsupported dtype {dtype} ({hint})", path.display())]
+    #[error("{}: unsupported dtype {dtype} ({hint})", shown(path))]
     UnsupportedDtype { path: PathBuf, dtype: String, hint: String },
 
     /// The array is not a 3-D grid of at least 2 points per axis.
-    #[error("{}: {message}", path.display())]
+    #[error("{}: {message}", shown(path))]
     BadShape { path: PathBuf, message: String },
 
     /// A mesh file (`source = "mesh"`) that cannot be used: not STL/OBJ/PLY, malformed, empty,
     /// out-of-range indices or non-finite vertices.
-    #[error("{}: {message}", path.display())]
+    #[error("{}: {message}", shown(path))]
     BadMesh { path: PathBuf, message: String },
 
     /// A volume file (`source = "file"`) whose header or data is malformed or unsupported;
     /// `format` names the format as the user knows it (`NRRD`, `MRC`).
-    #[error("{}: {format}: {message}", path.display())]
+    #[error("{}: {format}: {message}", shown(path))]
     Format { path: PathBuf, format: &'static str, message: String },
 
     /// A volume file over one of its reader's own limits (XML nesting, a file far larger
     /// than any grid under the cap). Unlike [`FieldError::Format`] the message holds only
     /// numbers and positions, never text from the file, so `serve` shows it to the page.
-    #[error("{}: {format}: {message}", path.display())]
+    #[error("{}: {format}: {message}", shown(path))]
     ReaderLimit { path: PathBuf, format: &'static str, message: String },
 
     /// A detached header (NRRD `data file`, MetaImage `ElementDataFile`) names a data file
     /// outside the folders `serve` may read. `path`: the header; the data file's name is the
     /// header's text, so it is not repeated.
-    #[error("{}: {key}: the data file it names is {OUTSIDE}", path.display())]
+    #[error("{}: {key}: the data file it names is {OUTSIDE}", shown(path))]
     Outside { path: PathBuf, key: &'static str },
 
     /// The file ends before all samples were read.
     #[error(
         "{}: truncated data: expected {expected} bytes of samples ({layout}), found {actual}",
-        path.display()
+        shown(path)
     )]
     Truncated { path: PathBuf, expected: u64, actual: u64, layout: String },
 
     /// The file holds more bytes than the declared dims and dtype account for.
     #[error(
         "{}: dims do not match the data: {layout} is {expected} bytes of samples, the file has {actual}",
-        path.display()
+        shown(path)
     )]
     SizeMismatch { path: PathBuf, expected: u64, actual: u64, layout: String },
 
@@ -121,7 +121,7 @@ pub enum FieldError {
 
     /// A file read on demand (`field.residency`) came back short: another process truncated it
     /// after it was opened and checked. `len`: its size now, when it can still be read.
-    #[error("{}: shrank to {} while being read", path.display(), len.map_or("fewer bytes".to_string(), |n| format!("{n} bytes")))]
+    #[error("{}: shrank to {} while being read", shown(path), len.map_or("fewer bytes".to_string(), |n| format!("{n} bytes")))]
     Shrank { path: PathBuf, len: Option<u64> },
 
     /// A sample is NaN or infinite; `index` is the first such grid point (x fastest).
@@ -191,4 +191,10 @@ impl FieldError {
 /// Collapses a message onto one line.
 pub(crate) fn one_line(s: &str) -> String {
     s.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+/// A path as messages show it: control characters escaped (a newline in a file name reads
+/// `\n`, not a line break, nor a space once the message is kept on one line).
+fn shown(path: &std::path::Path) -> String {
+    crate::vocab::escape_unprintable(&path.display().to_string()).into_owned()
 }

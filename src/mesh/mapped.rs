@@ -36,6 +36,18 @@ pub fn extract_mapped_within(
     window_bytes: usize,
     budget: &Arc<MeshBudget>,
 ) -> Result<Mesh, MeshError> {
+    if !x.on_grid() {
+        // Before any window is read: an all-outside window would skip the check in
+        // `window::extract_window` and mesh trilinear cells silently.
+        return Err(MeshError::Refused(format!(
+            "field.residency = \"active\" streams trilinear cells at render.mesh_refine = 1, \
+             not field.interpolation = \"{}\" at render.mesh_refine = {} (a lattice held \
+             whole); use field.residency = \"auto\", which reads a grid under the memory cap \
+             (ISOVIEW_MAX_GRID_MIB) whole",
+            x.interp.name(),
+            x.refine
+        )));
+    }
     let lattice = Lattice { dims: grid.dims, min: grid.min, max: grid.max };
     let [nx, ny, _] = grid.dims;
     let layers = window::cell_layers(x.algo, grid.dims);

@@ -101,6 +101,13 @@ impl World {
                 algo.name()
             ));
         }
+        if scene.render.mesh_refine > 1 {
+            return Some(format!(
+                "render.mesh_refine = {} meshes a lattice held whole, not split across MPI ranks \
+                 ({n} ranks); run it without mpirun",
+                scene.render.mesh_refine
+            ));
+        }
         gpu.then(|| {
             format!(
                 "--device: the GPU extraction is not split across MPI ranks ({n} ranks); extract under MPI runs on the CPU: use --device cpu or auto"

@@ -744,6 +744,18 @@ fn paths_in_messages_and_summaries_are_escaped() {
     let o = isoview_output(&["stats", &named("nofile\n\u{7}.toml")]);
     assert_eq!(o.status.code(), Some(2));
     assert!(clean(&o).contains("nofile\\n\\u{7}.toml: cannot read scene"), "{}", stderr(&o));
+    // A data file's path too (FieldError's messages): `\n`, not a space once the scene error
+    // keeps its message on one line (the fourth pass's cosmetic finding).
+    let o = isoview_output(&[
+        "render",
+        &scene,
+        "-o",
+        &named("d.exr"),
+        "--set",
+        "field={source=\"raw\",path=\"a\\nb\",dims=[2,2,2],dtype=\"f32\"}",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(clean(&o).contains("a\\nb: file not found"), "{}", stderr(&o));
     let out = named("ok\u{1b}[31m\u{202e}\n.exr");
     let o = isoview_output(&["render", &scene, "-o", &out]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));

@@ -251,6 +251,29 @@ fn the_cli_meshes_each_interpolant() {
             assert!(!ply.exists(), "{method}: written");
         }
     }
+    // field.residency = "active" streams trilinear cells only: refused before a window is
+    // read (a window all outside the surface used to skip the check and mesh trilinear cells).
+    for values in [vec![0f32; 4096], (0..4096).map(|i| (i % 16) as f32 - 7.5).collect()] {
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        std::fs::write(dir.join("p.raw"), bytes).unwrap();
+        let mapped = write(
+            &dir,
+            "m.toml",
+            "[field]\nsource = \"raw\"\npath = \"p.raw\"\ndims = [16, 16, 16]\ndtype = \"f32\"\n\
+             residency = \"active\"\n",
+        );
+        let r = isoview(&["extract", &mapped, "-o", p], &[]);
+        assert!(r.status.success(), "{}", stderr(&r));
+        for extra in [interp("catmull-rom"), "render.mesh_refine=3".to_string()] {
+            let r = isoview(&["extract", &mapped, "-o", p, "--set", &extra], &[]);
+            assert_fails(
+                &r,
+                2,
+                &["m.toml", "field.residency = \"active\" streams trilinear cells"],
+            );
+        }
+    }
+    std::fs::remove_file(&ply).unwrap();
     let big = ["--set", "render.mesh_refine=16", "--set", "field.resolution=[40,40,40]"];
     let r = isoview(
         &[&["extract", &scene, "-o", p][..], &big[..]].concat(),

@@ -18,6 +18,7 @@
 //!   cluster (the processes of a run: one, or MPI ranks; render and extract across them)
 //! ```
 
+pub mod bench;
 pub mod camera;
 pub mod cli;
 pub mod cluster;

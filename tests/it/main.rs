@@ -89,6 +89,7 @@ mod gpu {
 
 /// The project's own rules: documentation links and the module graph.
 mod project {
+    mod bench_gpu;
     mod docs;
     mod modules;
 }

@@ -12,25 +12,11 @@
 //!   `golden::calibrate` (see docs/compare.md "Visual regression").
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-use isoview::compare::{self, ChannelClass, Report, Thresholds, Verdict};
+use isoview::compare::{self, Report, Thresholds, Verdict};
 use isoview::output::{exr, png};
 
-/// Longest image side of a golden render.
-const GOLDEN_SIZE: u32 = 96;
-
-/// Methods rendered for every scene.
-const METHODS: [&str; 3] = ["fixed-step", "analytic", "mesh"];
-
-/// Extra goldens of time-varying scenes at another time: (scene, time).
-const EXTRA_TIMES: [(&str, f64); 2] = [("cell-oscillating", 0.5), ("expr-waves", 1.0)];
-
-/// Extra mesh renders with every other extraction algorithm (the scenes' own is marching
-/// cubes): the tunnel cell, whose topology each algorithm gets differently, and the torus.
-/// Their method is `mesh-<algorithm>`.
-const EXTRA_MESH_SCENES: [&str; 2] = ["cell-tunnel", "torus"];
-const EXTRA_MESHES: [&str; 4] = ["mc33", "marching-tetrahedra", "surface-nets", "dual-contouring"];
+use isoview::bench::golden::{self as set, Golden, METHODS};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -41,87 +27,14 @@ fn target_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_TARGET_TMPDIR")).parent().map(Path::to_path_buf).unwrap_or_default()
 }
 
-/// One golden image: a scene rendered with a method at a time.
-#[derive(Clone, Debug)]
-pub struct Golden {
-    pub scene: String,
-    pub method: String,
-    pub time: f64,
-}
-
-impl Golden {
-    pub fn name(&self) -> String {
-        if self.time == 0.0 {
-            format!("{}.{}", self.scene, self.method)
-        } else {
-            format!("{}.{}.t{}", self.scene, self.method, self.time)
-        }
-    }
-
-    pub fn path(&self) -> PathBuf {
-        root().join("golden").join(format!("{}.exr", self.name()))
-    }
-
-    pub fn scene_path(&self) -> PathBuf {
-        root().join("scenes").join(format!("{}.toml", self.scene))
-    }
-}
-
-/// Every golden the suite expects: each `scenes/*.toml` with each method, plus extra times.
+/// Every golden the suite expects (`isoview::bench::golden`, which `./x bench --gpu` renders
+/// too).
 pub fn goldens() -> Vec<Golden> {
-    let mut scenes: Vec<String> = std::fs::read_dir(root().join("scenes"))
-        .unwrap()
-        .filter_map(|e| {
-            let p = e.unwrap().path();
-            (p.extension()? == "toml").then(|| p.file_stem().unwrap().to_string_lossy().into())
-        })
-        .collect();
-    scenes.sort();
-    let mut out = Vec::new();
-    for scene in &scenes {
-        for method in METHODS {
-            out.push(Golden { scene: scene.clone(), method: method.into(), time: 0.0 });
-            for (s, t) in EXTRA_TIMES {
-                if s == scene {
-                    out.push(Golden { scene: scene.clone(), method: method.into(), time: t });
-                }
-            }
-        }
-        if EXTRA_MESH_SCENES.contains(&scene.as_str()) {
-            for algo in EXTRA_MESHES {
-                let method = format!("mesh-{algo}");
-                out.push(Golden { scene: scene.clone(), method, time: 0.0 });
-            }
-        }
-    }
-    out
+    set::goldens(&root()).unwrap()
 }
 
-/// Renders `g` through the binary into `out`, with extra `--set` overrides and environment.
 pub fn render(g: &Golden, out: &Path, sets: &[String], env: &[(&str, &str)]) {
-    let scene = isoview::scene::load(&g.scene_path(), &[]).unwrap();
-    let (w, h) = (scene.image.width as f64, scene.image.height as f64);
-    let scale = GOLDEN_SIZE as f64 / w.max(h);
-    let (w, h) = (((w * scale).round() as u32).max(1), ((h * scale).round() as u32).max(1));
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_isoview"));
-    cmd.arg("render").arg(g.scene_path()).arg("-o").arg(out);
-    cmd.args(["--time", &g.time.to_string()]);
-    // `mesh-<algorithm>`: the mesh render with that extraction algorithm.
-    let (method, mesh) = match g.method.strip_prefix("mesh-") {
-        Some(algo) => ("mesh", Some(format!("render.mesh=\"{algo}\""))),
-        None => (g.method.as_str(), None),
-    };
-    for s in [
-        format!("image.width={w}"),
-        format!("image.height={h}"),
-        format!("render.method=\"{method}\""),
-    ]
-    .iter()
-    .chain(&mesh)
-    .chain(sets)
-    {
-        cmd.args(["--set", s]);
-    }
+    let mut cmd = g.command(Path::new(env!("CARGO_BIN_EXE_isoview")), &root(), out, sets).unwrap();
     for (k, v) in env {
         cmd.env(k, v);
     }
@@ -129,27 +42,8 @@ pub fn render(g: &Golden, out: &Path, sets: &[String], env: &[(&str, &str)]) {
     assert!(o.status.success(), "rendering {}: {}", g.name(), String::from_utf8_lossy(&o.stderr));
 }
 
-/// The golden comparison's thresholds, by the rule "10x the largest difference measured by
-/// [`calibrate`], and never below a floor of 1e-6 absolute and 1e-6 relative (a few f32 ulps at
-/// the scale of these scenes)". Measured (docs/compare.md "Visual regression"): no difference at all:
-/// renders are bit-identical across LP_NUM_THREADS 1 and 2 and with
-/// GALLIUM_OVERRIDE_CPU_CAPS=sse4.1 (no AVX/FMA codegen), so the floor applies. Integer
-/// channels are exact and no pixel may fail.
-///
-/// A channel the renderer writes that a golden lacks (one added since the golden was made) is
-/// named in a note and left out; every channel both have is compared. A channel the golden
-/// has and the render lacks is a failure.
 pub fn golden_thresholds() -> Thresholds {
-    Thresholds {
-        fail: 1e-6,
-        fail_relative: 1e-6,
-        fail_class: vec![(ChannelClass::Integer, 0.0)],
-        fail_percent: 0.0,
-        warn: 1e-6,
-        flip: true,
-        new_channels: true,
-        ..Thresholds::default()
-    }
+    set::thresholds()
 }
 
 fn preview_png(img: &exr::ExrImage, path: &Path) {
@@ -225,17 +119,17 @@ fn goldens_match() {
         render(&g, &actual_path, &[], &[]);
         let actual = exr::read(&actual_path).unwrap();
         preview_png(&actual, &report_dir.join(format!("{name}-actual.png")));
-        let golden = match exr::read(&g.path()) {
+        let golden = match exr::read(&g.path(&root())) {
             Ok(img) => img,
             Err(e) => {
                 if bless {
-                    bless_from(&actual_path, &g.path());
+                    bless_from(&actual_path, &g.path(&root()));
                     blessed.push(format!("{name}: new golden"));
                     continue;
                 }
                 failures.push(format!(
                     "{name}: missing golden {} ({e}); bless with ISOVIEW_BLESS=1",
-                    g.path().display()
+                    g.path(&root()).display()
                 ));
                 outcomes.push(Outcome {
                     name,
@@ -262,7 +156,7 @@ fn goldens_match() {
             Err(e) => {
                 // Not comparable (e.g. the channel set changed): blessing replaces it too.
                 if bless {
-                    bless_from(&actual_path, &g.path());
+                    bless_from(&actual_path, &g.path(&root()));
                     blessed.push(format!("{name}: re-blessed ({e})"));
                 } else {
                     failures.push(format!("{name}: {e}"));
@@ -283,7 +177,7 @@ fn goldens_match() {
         let failed = report.verdict == Verdict::Fail;
         if failed {
             if bless {
-                bless_from(&actual_path, &g.path());
+                bless_from(&actual_path, &g.path(&root()));
                 blessed.push(format!("{name}: re-blessed\n{report}"));
                 continue;
             }
@@ -330,7 +224,7 @@ fn goldens_match() {
 /// Every golden on disk belongs to a golden the suite renders (no stale files).
 #[test]
 fn no_stale_goldens() {
-    let expected: Vec<PathBuf> = goldens().iter().map(Golden::path).collect();
+    let expected: Vec<PathBuf> = goldens().iter().map(|g| g.path(&root())).collect();
     for e in std::fs::read_dir(root().join("golden")).unwrap() {
         let p = e.unwrap().path();
         if p.extension().is_some_and(|x| x == "exr") {
@@ -344,7 +238,7 @@ fn no_stale_goldens() {
 #[test]
 fn a_golden_lacking_a_new_channel_is_compared_on_the_others() {
     let g = Golden { scene: "torus".into(), method: "analytic".into(), time: 0.0 };
-    let actual = exr::read(&g.path()).unwrap();
+    let actual = exr::read(&g.path(&root())).unwrap();
     assert!(actual.channel("cell.Z").is_some() && actual.channel("steps").is_some());
     let mut old = actual.clone();
     old.channels.retain(|c| c.name != "cell.Z" && c.name != "steps");
@@ -368,7 +262,7 @@ fn torus_verdict(name: &str, sets: &[String]) -> Verdict {
     let g = Golden { scene: "torus".into(), method: METHODS[0].into(), time: 0.0 };
     let out = crate::common::scratch(name).join("actual.exr");
     render(&g, &out, sets, &[]);
-    let golden = exr::read(&g.path()).unwrap();
+    let golden = exr::read(&g.path(&root())).unwrap();
     let actual = exr::read(&out).unwrap();
     compare::compare(&golden, &actual, &golden_thresholds()).unwrap().verdict
 }
@@ -404,7 +298,7 @@ fn goldens_catch_small_changes() {
     let g = Golden { scene: "torus".into(), method: "analytic".into(), time: 0.0 };
     let out = crate::common::scratch("golden-method").join("actual.exr");
     render(&g, &out, &[], &[]);
-    let fixed = exr::read(&Golden { method: METHODS[0].into(), ..g }.path()).unwrap();
+    let fixed = exr::read(&Golden { method: METHODS[0].into(), ..g }.path(&root())).unwrap();
     let common: Vec<String> = fixed.channel_names().map(String::from).collect();
     let t = Thresholds { only: Some(common), ..golden_thresholds() };
     let r = compare::compare(&fixed, &exr::read(&out).unwrap(), &t).unwrap();

@@ -129,6 +129,11 @@ fn with_renderer<T>(work: impl FnOnce(&mut Renderer) -> Result<T, Fail>) -> Resu
     work(renderer)
 }
 
+/// `extract(device="auto")`'s answer from `extract::Probe`: for the Vulkan device asked for
+/// (`ISOVIEW_DEVICE`), the name of the device when it is a CPU.
+type Probed = (Option<String>, Option<String>);
+static PROBED: Mutex<Option<Probed>> = Mutex::new(None);
+
 /// Where a [`PyScene`] came from, so that keyword arguments can be applied to it as `--set`
 /// overrides and the scene validated again.
 #[derive(Clone)]
@@ -542,9 +547,20 @@ fn extract<'py>(
         if let Some(why) = scene.interpolation_refusal(isoview::field::interpolant::Reader::Mesh) {
             return Err(Fail::Input(why));
         }
-        let probe = Probe::start(&job);
+        // `auto` asks Vulkan once per process whether its device is a CPU (as `Probe` does for
+        // each CLI run: 50-150 ms of loading drivers on lavapipe), then reuses the answer.
+        let cpu_device = match (device, PROBED.lock().ok().and_then(|p| p.clone())) {
+            (Device::Auto, Some((wanted, answer))) if wanted == job.vulkan.device => answer,
+            (Device::Auto, _) => {
+                let answer = Probe::start(&job).cpu_device();
+                if let Ok(mut p) = PROBED.lock() {
+                    *p = Some((job.vulkan.device.clone(), answer.clone()));
+                }
+                answer
+            }
+            _ => None,
+        };
         let grid = scene.field.sample(time).map_err(input)?;
-        let cpu_device = probe.cpu_device();
         let done =
             isoview::extract::surfaces(&job, &grid, cpu_device.as_deref()).map_err(
                 |e| match e {

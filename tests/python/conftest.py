@@ -17,7 +17,7 @@ def repo():
 
 @pytest.fixture(scope="session")
 def cli_path():
-    path = pathlib.Path(os.environ.get("ISOVIEW_CLI", REPO / "target" / "release" / "isoview"))
+    path = pathlib.Path(os.environ.get("ISOVIEW_CLI", REPO / "target" / "debug" / "isoview"))
     if not path.is_file():
         pytest.fail(f"{path}: the CLI is not built (tests/python/run builds it; or set "
                     "ISOVIEW_CLI)")

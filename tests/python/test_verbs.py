@@ -54,6 +54,8 @@ def test_stats_are_the_cli_stats(cli):
     assert s["mean"] == float(line["mean"]) and s["sigma"] == float(line["sigma"])
     assert tuple(s["dims"]) == (48, 48, 48) and s["count"] == 48**3
     assert sum(s["histogram"]) == s["count"] and len(s["histogram"]) == 24
+    a = np.arange(24, dtype=">i2").reshape(2, 3, 4)
+    assert isoview.stats(a)["dtype"] == ">i2" and isoview.stats(a)["max"] == 23
 
 
 def test_compare_is_the_cli_compare(cli, tmp_path):
@@ -67,5 +69,7 @@ def test_compare_is_the_cli_compare(cli, tmp_path):
     assert (report.status, report.report) == (p.returncode, p.stdout)
     assert p.returncode == 1 and not report.passed
     assert isoview.compare(a, a).passed
-    with pytest.raises(ValueError, match="nope.exr"):
+    p = cli("compare", a, tmp_path / "nope.exr", check=False)
+    with pytest.raises(ValueError) as e:
         isoview.compare(a, tmp_path / "nope.exr")
+    assert p.returncode == 2 and p.stderr.strip() == f"isoview: {e.value}"

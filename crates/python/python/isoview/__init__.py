@@ -537,7 +537,8 @@ def slice(volume, axis="z", at=None, isovalue=None, *, time=0.0, set=(), **kwarg
 
 
 def stats(volume, *, bins=24, time=0.0, set=(), **kwargs):
-    """What the field holds, as ``isoview stats`` prints it (a dict): dims, dtype, spacing,
+    """What the field holds, as ``isoview stats`` prints it (a dict): dims, dtype (numpy's
+    spelling for an array or a .npy file), spacing,
     box, count, non_finite, min, max, mean, sigma, percentiles [(p, value)], histogram
     (``bins`` counts over [min, max]) and the scene's isovalue."""
     volume = _as_input(volume)
@@ -545,7 +546,10 @@ def stats(volume, *, bins=24, time=0.0, set=(), **kwargs):
     spacing, origin = kwargs.pop("spacing", None), kwargs.pop("origin", None)
     _common(keyword, kwargs.pop("isovalue", None), None, None, None, None, kwargs, False)
     native = _scene(volume, keyword, set, spacing, origin, None)
-    return _native.stats(native, int(bins), float(time))
+    figures = _native.stats(native, int(bins), float(time))
+    if not isinstance(volume, (Scene, str, os.PathLike)):
+        figures["dtype"] = np.asarray(volume).dtype.str  # the array's, as a .npy file's
+    return figures
 
 
 CompareReport = collections.namedtuple("CompareReport", "passed status report notes")
@@ -577,6 +581,6 @@ def compare(a, b, **options):
             args += [flag, os.fspath(v) if isinstance(v, os.PathLike) else str(v)]
     status, report, notes = _native.compare(args)
     if status >= 2:
-        raise ValueError(notes.strip().splitlines()[-1] if notes.strip() else
-                         f"compare failed with status {status}")
+        line = notes.strip().splitlines()[-1] if notes.strip() else f"exit status {status}"
+        raise ValueError(line[len("isoview: "):] if line.startswith("isoview: ") else line)
     return CompareReport(status == 0, status, report, notes)

@@ -94,3 +94,15 @@ def test_a_scene_extracts_as_the_cli_extract(cli, tmp_path):
     raw = np.frombuffer(data[header_end:header_end + stride * len(mesh.verts)], dtype="<f4")
     ply_verts = raw.reshape(len(mesh.verts), len(props))[:, :3]
     assert ply_verts.tobytes() == mesh.verts.tobytes()
+
+
+def test_gpu_extraction_runs_on_the_process_device_and_agrees_with_the_cpu():
+    volume = np.random.default_rng(11).random((12, 11, 10), dtype=np.float32)
+    isoview.render(volume, 0.5, width=4, height=4)          # the device is opened once here
+    cpu = isoview.extract(volume, 0.5, device="cpu")
+    gpu = isoview.extract(volume, 0.5, device="gpu")
+    assert cpu.ran_on.startswith("cpu") and gpu.ran_on.startswith("gpu")
+    assert len(gpu.faces) == len(cpu.faces) and len(gpu.verts) == len(cpu.verts)
+    assert np.abs(_rows(gpu.verts) - _rows(cpu.verts)).max() < 2e-4
+    with pytest.raises(ValueError, match='^device "tpu": expected "auto", "cpu" or "gpu"$'):
+        isoview.extract(volume, 0.5, device="tpu")

@@ -561,13 +561,20 @@ fn extract<'py>(
             _ => None,
         };
         let grid = scene.field.sample(time).map_err(input)?;
-        let done =
-            isoview::extract::surfaces(&job, &grid, cpu_device.as_deref()).map_err(
-                |e| match e {
-                    isoview::extract::ExtractError::Input(m) => Fail::Input(m),
-                    isoview::extract::ExtractError::Gpu(g) => gpu(g),
-                },
-            )?;
+        let failed = |e| match e {
+            isoview::extract::ExtractError::Input(m) => Fail::Input(m),
+            isoview::extract::ExtractError::Gpu(g) => gpu(g),
+        };
+        // On the CPU (asked, or `auto` with the device a CPU) no device is opened; else the
+        // extraction runs on the process's one device, held while it runs.
+        let done = match (device, &cpu_device) {
+            (Device::Cpu, _) | (Device::Auto, Some(_)) => {
+                isoview::extract::surfaces(&job, &grid, cpu_device.as_deref()).map_err(failed)?
+            }
+            _ => with_renderer(|r| {
+                isoview::extract::surfaces_on(&job, &grid, None, Some(r.context())).map_err(failed)
+            })?,
+        };
         let (mesh, labels) = isoview::mesh::merge(&done.meshes);
         Ok((mesh, labels, format!("{}{}", done.ran_on.name(), done.why)))
     })?;

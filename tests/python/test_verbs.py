@@ -13,6 +13,8 @@ def test_to_toml_writes_a_scene_that_loads_to_the_same_render(repo, tmp_path):
                                     set=["image.width=24", "image.height=20",
                                          "render.shading=normal"])
     text = scene.to_toml()
+    assert text.startswith("# Written by isoview.Scene.to_toml from scenes/volume-npy.toml with "
+                           "--set image.width=24 --set image.height=20 --set render.shading=normal\n")
     copy = repo / "scenes" / f".pytest-copy-{tmp_path.name}.toml"  # relative data paths
     try:
         copy.write_text(text)

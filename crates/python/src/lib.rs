@@ -220,7 +220,10 @@ impl PyScene {
     fn to_toml(&self) -> PyResult<String> {
         match &self.origin {
             Origin::File { path, sets } => {
-                isoview::serve::state::scene_toml(path, sets, 0.0).map_err(|m| input(m).into())
+                let text = isoview::serve::state::scene_toml(path, sets, 0.0).map_err(input)?;
+                // serve's header line, worded for where this text comes from.
+                let by = "# Written by isoview.Scene.to_toml from";
+                Ok(text.replacen("# Saved by isoview serve from", by, 1))
             }
             Origin::Text { .. } | Origin::Array { .. } => Err(input(
                 "a scene over an array or a data file has no scene file: save the array with numpy.save and write \

@@ -195,6 +195,22 @@ pub fn surfaces(
     grid: &Grid,
     probed_cpu: Option<&str>,
 ) -> Result<Surfaces, ExtractError> {
+    surfaces_on(job, grid, probed_cpu, None)
+}
+
+/// [`surfaces`] on `opened`, a Vulkan context the caller keeps (a binding's one device per
+/// process), where it would open one from `job.vulkan`; None: as [`surfaces`]. The decision
+/// is the same either way.
+pub fn surfaces_on(
+    job: &Job,
+    grid: &Grid,
+    probed_cpu: Option<&str>,
+    opened: Option<&Arc<Context>>,
+) -> Result<Surfaces, ExtractError> {
+    let open = || match opened {
+        Some(ctx) => Ok(ctx.clone()),
+        None => Context::new(&job.vulkan),
+    };
     if let Some(why) = job.scene.interpolation_refusal(crate::field::interpolant::Reader::Mesh) {
         return Err(ExtractError::Input(why));
     }
@@ -206,7 +222,7 @@ pub fn surfaces(
             // Knowing the device type costs opening the device (instance, device and
             // allocator: tens of milliseconds on lavapipe), which the GPU path needs anyway.
             None => {
-                let ctx = Context::new(&job.vulkan);
+                let ctx = open();
                 match auto_on(ctx.as_ref().map(|c| &c.info)) {
                     Ok(why) => (ctx.ok(), why),
                     Err(why) => (None, why),
@@ -219,7 +235,7 @@ pub fn surfaces(
             );
             (None, String::new())
         }
-        Device::Gpu => (Some(Context::new(&job.vulkan).map_err(ExtractError::Gpu)?), String::new()),
+        Device::Gpu => (Some(open().map_err(ExtractError::Gpu)?), String::new()),
     };
     let ctx = ctx.filter(|ctx| match cpu_instead_on(job.scene, &ctx.info) {
         Some(note) => {

@@ -8,7 +8,6 @@ use super::console::note;
 use super::{Cli, Failure};
 use crate::cluster::{BlockError, Ranks};
 use crate::output;
-use crate::output::frame_files::FrameFiles;
 use crate::render::{GpuGrid, Renderer};
 use crate::scene::Scene;
 use crate::vocab::{echo, echo_number};
@@ -196,12 +195,8 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         }
         let (grid, gpu_grid) = cached.as_ref().expect("sampled above");
         // Each band goes to the EXR, the PNG and tev as it is drawn; none is kept.
-        let channels = crate::render::scene_channels(&scene);
-        let mut outputs = FrameFiles::new(&exr, png.as_deref(), channels);
-        // How the isovalue was picked, beside `isoview/isovalue` in the header.
-        if let Some(how) = scene.surface.rule.describe(scene.surface.isovalue) {
-            outputs = outputs.with_header("isovalue_rule", &how);
-        }
+        // The scene's channels, and how the isovalue was picked beside `isoview/isovalue`.
+        let mut outputs = crate::render::scene_files(&scene, &exr, png.as_deref());
         // With --tev, tev shows each band as it finishes (CreateImage first). Once tev has
         // failed it is not tried again; the failure is reported after the last frame.
         if let (Some(address), None) = (&args.tev, &tev_failed) {

@@ -229,6 +229,21 @@ fn descr(dtype: &DType) -> String {
     dtype.descr().trim_matches('\'').to_string()
 }
 
+/// The sample type and byte order of an in-memory array whose NumPy dtype string is `descr`
+/// (`<f4`, `|b1`, `>i2`: `numpy.dtype.str`), by the rule `.npy` files are read with (the same
+/// types accepted, the same refusals); `what` names the array in the error, as a path names a
+/// file.
+pub fn sample_type_of_descr(what: &Path, descr: &str) -> Result<(SampleType, Endian), FieldError> {
+    match descr.parse::<npyz::TypeStr>() {
+        Ok(ts) => sample_type(what, &DType::Plain(ts)),
+        Err(_) => Err(FieldError::UnsupportedDtype {
+            path: what.to_path_buf(),
+            dtype: crate::vocab::echo(descr),
+            hint: "expected a boolean, integer or real dtype".to_string(),
+        }),
+    }
+}
+
 /// Maps a NumPy dtype onto a sample type and byte order, or says why it cannot be read.
 fn sample_type(path: &Path, dtype: &DType) -> Result<(SampleType, Endian), FieldError> {
     let unsupported = |hint: &str| FieldError::UnsupportedDtype {

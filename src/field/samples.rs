@@ -201,6 +201,30 @@ pub(crate) fn layout(dims: [usize; 3], ty: SampleType) -> String {
     format!("[{}, {}, {}] x {}", dims[0], dims[1], dims[2], ty.name())
 }
 
+/// The samples of an array already in memory (`bytes`: `dims` samples of `ty` in `order`,
+/// exactly `nx * ny * nz * ty.size()` bytes), x fastest: the conversion a `.npy` file's
+/// samples go through ([`read_samples`]), so an array and the same array saved as `.npy` give
+/// the same grid bit for bit. `what` names the array in errors (a sample past f32's range).
+pub fn from_memory(
+    bytes: &[u8],
+    what: &Path,
+    ty: SampleType,
+    endian: Endian,
+    dims: [usize; 3],
+    order: StorageOrder,
+) -> Result<Vec<f32>, FieldError> {
+    let count = dims.iter().try_fold(1usize, |n, &d| n.checked_mul(d));
+    if count.and_then(|n| n.checked_mul(ty.size())) != Some(bytes.len()) {
+        return Err(FieldError::SizeMismatch {
+            path: what.to_path_buf(),
+            expected: count.map_or(u64::MAX, |n| (n as u64).saturating_mul(ty.size() as u64)),
+            actual: bytes.len() as u64,
+            layout: layout(dims, ty),
+        });
+    }
+    read_samples(&mut &bytes[..], what, ty, endian, dims, order)
+}
+
 /// Reads `dims` samples of `ty` from `reader` (positioned at the first sample) and returns them
 /// x fastest. The caller has already checked the memory cap and the file size.
 pub(crate) fn read_samples(

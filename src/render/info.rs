@@ -23,6 +23,23 @@ pub fn scene_channels(scene: &Scene) -> Vec<Channel> {
         .collect()
 }
 
+/// The files `isoview render` writes for one frame of `scene` (its EXR at `exr`, its PNG
+/// preview at `png`): the channels of [`scene_channels`], and beside the frame's own header
+/// how the isovalue was picked (`isoview/extra/isovalue_rule`) when the data picked it. Every
+/// caller that writes a scene's frame goes through here, so its files are the CLI's byte for
+/// byte.
+pub fn scene_files(
+    scene: &Scene,
+    exr: &std::path::Path,
+    png: Option<&std::path::Path>,
+) -> crate::output::frame_files::FrameFiles {
+    let mut files = crate::output::frame_files::FrameFiles::new(exr, png, scene_channels(scene));
+    if let Some(how) = scene.surface.rule.describe(scene.surface.isovalue) {
+        files = files.with_header("isovalue_rule", &how);
+    }
+    files
+}
+
 impl Renderer {
     pub(crate) fn frame_info(&self, scene: &Scene, grid: &Grid, time: f64) -> FrameInfo {
         let r = &scene.render;

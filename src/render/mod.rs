@@ -37,7 +37,7 @@ use crate::passes::mesh_render::MeshPipelines;
 use crate::scene::{Method, Scene};
 pub use color::{colormap, linear_colormap};
 pub use grid::GpuGrid;
-pub use info::scene_channels;
+pub use info::{scene_channels, scene_files};
 use rays::RayShader;
 pub use sink::{Collect, FrameSink};
 

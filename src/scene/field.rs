@@ -9,6 +9,7 @@
 //! [`crate::field::FieldSpec::sample`].
 
 use std::path::Path;
+use std::sync::Arc;
 
 use crate::field::DataAccess;
 use glam::DVec3;
@@ -20,7 +21,7 @@ use super::validate::show_vec;
 use super::Bounds;
 use crate::field::interpolant::{Interpolant, Reader};
 use crate::field::{
-    FieldError, FieldSource, FieldSpec, GridLimits, NanPolicy, Need, Params, Residency, Rule,
+    FieldError, FieldSource, FieldSpec, Grid, GridLimits, NanPolicy, Need, Params, Residency, Rule,
     SourceKind,
 };
 use crate::vocab::Placement;
@@ -39,14 +40,61 @@ fn all_keys() -> Vec<&'static str> {
     all
 }
 
-/// Reads and checks `[field]`.
+/// Reads and checks `[field]`; with `memory`, a field of samples in memory
+/// ([`super::from_str_with_grid`]).
 pub(crate) fn field(
     root: &View,
     base_dir: &Path,
     limits: &GridLimits,
     access: &DataAccess,
+    memory: Option<&Arc<Grid>>,
 ) -> Result<FieldSpec> {
-    field_named(root, "field", base_dir, limits, access)
+    match memory {
+        Some(grid) => field_in_memory(root, grid, limits),
+        None => field_named(root, "field", base_dir, limits, access),
+    }
+}
+
+/// `[field]` over samples already in memory: no `source`, only the keys every source takes;
+/// the grid's dims are the resolution, the box `bounds` or the index space.
+fn field_in_memory(root: &View, grid: &Arc<Grid>, limits: &GridLimits) -> Result<FieldSpec> {
+    let t = root.table("field")?;
+    let allowed: Vec<&str> = COMMON.iter().copied().filter(|&k| k != "source").collect();
+    t.check_keys_with(&allowed, |key| {
+        (key == "source").then(|| {
+            "not a key here: the field is the array passed in (its samples are the source)"
+                .to_string()
+        })
+    })?;
+    let dims = grid.dims;
+    let what = "the array";
+    limits.check(dims.map(|d| d as u64), what).map_err(|e| data_error(t.src, &t.path, t.at, e))?;
+    let nan = match t.get("nan") {
+        Some(node) => choice(t.src, &t.key("nan"), node, &NanPolicy::NAMES)?,
+        None => NanPolicy::default(),
+    };
+    let interpolation = match t.get("interpolation") {
+        Some(node) => {
+            let names = Interpolant::ALL.map(|i| (i.name(), i));
+            choice(t.src, &t.key("interpolation"), node, &names)?
+        }
+        None => Interpolant::default(),
+    };
+    let source = FieldSource::Grid(grid.clone());
+    let bounds = match t.get("bounds") {
+        Some(_) => bounds(&t.table("bounds")?)?,
+        None => Bounds::index_space(dims),
+    };
+    check_box(&t, &source, &bounds, &Placement::IDENTITY)?;
+    Ok(FieldSpec {
+        source,
+        resolution: dims,
+        bounds,
+        placement: Placement::IDENTITY,
+        residency: Residency::Whole,
+        nan,
+        interpolation,
+    })
 }
 
 /// `[field2]`, the second scalar field `[color] by = "field2"` samples: the keys of `[field]`.

@@ -100,6 +100,28 @@ pub fn from_str_with(
     from_str_confined(text, origin, base_dir, overrides, limits, &DataAccess::Any)
 }
 
+/// A scene whose field is `grid`, samples already in memory (an array handed over by a
+/// binding): `text` and `overrides` as for [`from_str`], except that `[field]` has no
+/// `source` and takes only the keys every source takes (`bounds`, `nan`, `interpolation`);
+/// without `bounds` the box is the grid's index space, as for a `.npy` file. `grid`'s own box
+/// is not used (the scene's field holds `grid` itself, not a copy). The samples are checked as a file's are (`field.nan`), and an isovalue picked
+/// from the data is picked from them.
+pub fn from_str_with_grid(
+    text: &str,
+    origin: &str,
+    base_dir: &Path,
+    overrides: &[String],
+    grid: &std::sync::Arc<crate::field::Grid>,
+) -> Result<Scene, SceneError> {
+    let limits = env_limits()?;
+    let src = Source::new(origin, text, overrides);
+    let mut root = src.parse()?;
+    for i in 0..overrides.len() {
+        src.apply_override(&mut root, i)?;
+    }
+    validate::scene(&src, &root, base_dir, &limits, &DataAccess::Any, Some(grid))
+}
+
 fn from_str_confined(
     text: &str,
     origin: &str,
@@ -113,7 +135,7 @@ fn from_str_confined(
     for i in 0..overrides.len() {
         src.apply_override(&mut root, i)?;
     }
-    validate::scene(&src, &root, base_dir, limits, access)
+    validate::scene(&src, &root, base_dir, limits, access, None)
 }
 
 /// The memory cap from the environment, as a scene error if the variable is malformed:

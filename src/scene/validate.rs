@@ -43,6 +43,7 @@ pub(crate) fn scene(
     base_dir: &Path,
     limits: &GridLimits,
     access: &DataAccess,
+    memory: Option<&std::sync::Arc<crate::field::Grid>>,
 ) -> Result<Scene> {
     let Value::Table(t) = &root.value else {
         return Err(src.err(SceneErrorKind::Type, root.at, "", "the scene must be a TOML table"));
@@ -50,7 +51,7 @@ pub(crate) fn scene(
     let root = View { src, path: String::new(), table: Some(t), at: root.at };
     root.check_keys(&TABLES)?;
     // [field] first: a scene without a field is the most basic mistake.
-    let field = super::field::field(&root, base_dir, limits, access)?;
+    let field = super::field::field(&root, base_dir, limits, access, memory)?;
     let slice = slice(&root.table("slice")?, &field)?;
     let image = image(&root.table("image")?)?;
     let camera = camera(&root.table("camera")?, &field, &image)?;

@@ -190,6 +190,84 @@ fn npy_reads_every_real_and_integer_dtype_in_both_orders_and_byte_orders() {
     }
 }
 
+/// An array handed over in memory (the Python module's path: `field::from_memory`, then
+/// `scene::from_str_with_grid`) gives the grid the same bytes saved as `.npy` give, bit for
+/// bit, for every dtype, order and byte order; its scene takes the keys every source takes and
+/// refuses `source`.
+#[test]
+fn arrays_in_memory_become_the_grid_their_npy_file_gives() {
+    let d = dir("memory");
+    let dims = [2, 3, 4];
+    let what = Path::new("the array");
+    let mut n = 0;
+    for ty in ["b1", "u1", "i1", "u2", "i2", "u4", "i4", "u8", "i8", "f2", "f4", "f8"] {
+        let signed = ty.starts_with('i') || ty.starts_with('f');
+        for (big, fortran) in [(false, false), (false, true), (true, false), (true, true)] {
+            let one_byte = matches!(ty, "b1" | "u1" | "i1");
+            let order = match (one_byte, big) {
+                (true, _) => "|",
+                (false, true) => ">",
+                (false, false) => "<",
+            };
+            let f = |i, j, k| match ty {
+                "b1" => ((i + j + k) % 2) as f64,
+                _ => value(i, j, k, signed) + 0.25 * (ty.starts_with('f') as u8 as f64),
+            };
+            let bytes = payload(ty, big, fortran, dims, f);
+            let name = format!("m{n}.npy");
+            n += 1;
+            let descr = format!("{order}{ty}");
+            std::fs::write(d.join(&name), npy(&format!("'{descr}'"), fortran, &[2, 3, 4], &bytes))
+                .unwrap();
+            let file = load(&d, &format!("source = \"npy\"\npath = \"{name}\"\n")).unwrap();
+            let (st, endian) = isoview::field::sample_type_of_descr(what, &descr).unwrap();
+            let order = match fortran {
+                true => isoview::field::StorageOrder::XFastest,
+                false => isoview::field::StorageOrder::ZFastest,
+            };
+            let values =
+                isoview::field::from_memory(&bytes, what, st, endian, dims, order).unwrap();
+            assert_eq!(values, sample(&file).unwrap().values, "{descr} fortran={fortran}");
+            let zero = DVec3::ZERO;
+            let grid = std::sync::Arc::new(Grid { dims, min: zero, max: zero, values });
+            let s = scene::from_str_with_grid("[field]\n", "array", &d, &[], &grid).unwrap();
+            assert_eq!(s.field.bounds, Bounds::index_space(dims));
+            assert_eq!(sample(&s).unwrap().values, grid.values);
+        }
+    }
+    // The dtype rule is the .npy files' (the same refusals), and the byte count is checked.
+    let e = isoview::field::sample_type_of_descr(what, "<c8").unwrap_err().to_string();
+    assert_eq!(e, "the array: unsupported dtype <c8 (complex samples are not supported; save the real part or the magnitude)");
+    let e = isoview::field::sample_type_of_descr(what, "|O").unwrap_err().to_string();
+    assert!(e.starts_with("the array: unsupported dtype |O ("), "{e}");
+    let (st, endian) = isoview::field::sample_type_of_descr(what, "<f4").unwrap();
+    let order = isoview::field::StorageOrder::ZFastest;
+    let short = isoview::field::from_memory(&[0; 95], what, st, endian, dims, order);
+    assert!(matches!(short, Err(FieldError::SizeMismatch { actual: 95, expected: 96, .. })));
+    // Only the keys every source takes; the array is the source; the box is `bounds`.
+    let grid = std::sync::Arc::new(Grid {
+        dims,
+        min: DVec3::ZERO,
+        max: DVec3::ZERO,
+        values: (0..24).map(|v| v as f32).collect(),
+    });
+    let sets = ["field.bounds.min=[0, 0, 0]".to_string(), "field.bounds.max=[1, 2, 6]".into()];
+    let s = scene::from_str_with_grid("[field]\n", "array", &d, &sets, &grid).unwrap();
+    assert_eq!(s.field.bounds.max, DVec3::new(1.0, 2.0, 6.0));
+    assert_eq!(s.field.describe(), "grid in memory 2x3x4 in [0, 0, 0]..[1, 2, 6]");
+    let e = scene::from_str_with_grid("[field]\nsource = \"npy\"\n", "array", &d, &[], &grid)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("field.source: ") && e.contains("the field is the array passed in"), "{e}");
+    let e = scene::from_str_with_grid("[field]\npath = \"a.npy\"\n", "array", &d, &[], &grid)
+        .unwrap_err();
+    assert_eq!(e.kind, SceneErrorKind::UnknownKey, "{e}");
+    let sets = ["surface.isovalue_percentile=50".to_string()];
+    let s = scene::from_str_with_grid("[field]\n", "array", &d, &sets, &grid).unwrap();
+    let p50 = isoview::field::stats::Stats::of(&grid.values).percentile(50.0);
+    assert_eq!(s.surface.isovalue, p50, "the percentile is the array's samples'");
+}
+
 #[test]
 fn npy_path_is_relative_to_the_scene_file() {
     let d = dir("npy-relative");

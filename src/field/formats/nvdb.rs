@@ -177,7 +177,7 @@ fn read_at(
     len: u64,
 ) -> Result<Vec<u8>, FieldError> {
     use std::os::unix::fs::FileExt;
-    if at.checked_add(n).is_none_or_past(len) {
+    if at.checked_add(n).map_or(true, |e| e > len) {
         return Err(err
             .bad(format!("the file ends at byte {len}, inside the {n}-byte record at byte {at}")));
     }
@@ -190,16 +190,6 @@ fn read_at(
         _ => err.io(&e),
     })?;
     Ok(b)
-}
-
-trait PastEnd {
-    fn is_none_or_past(self, len: u64) -> bool;
-}
-
-impl PastEnd for Option<u64> {
-    fn is_none_or_past(self, len: u64) -> bool {
-        self.map_or(true, |e| e > len)
-    }
 }
 
 /// The grid's buffer, decompressed.

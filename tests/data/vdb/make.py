@@ -69,6 +69,16 @@ s.name = "sphere"
 vdb.write("sphere.vdb", grids=[s])
 add("sphere.vdb", **reference("sphere.vdb", "sphere", "sphere"))
 
+# A sphere of radius 16 voxels, half width 2: its interior beyond the band is tiles of
+# -background in the lower internal nodes (and +background tiles outside), as .vdb and .nvdb.
+t = vdb.createLevelSetSphere(radius=8.0, center=(0.0, 0.0, 0.0), voxelSize=0.5, halfWidth=2.0)
+t.name = "tiled"
+assert any(it.depth == 2 and it.value < 0 for it in t.citerOffValues() if it.count > 1)
+vdb.write("sphere_tiles.vdb", grids=[t])
+add("sphere_tiles.vdb", **reference("sphere_tiles.vdb", "tiled", "sphere_tiles"))
+vdb_tool("-read", "sphere_tiles.vdb", "-write", "codec=zip", "sphere_tiles.nvdb")
+add("sphere_tiles.nvdb", **REF["sphere_tiles.vdb"])
+
 # The same sphere saved as half floats.
 h = s.deepCopy()
 h.saveFloatAsHalf = True

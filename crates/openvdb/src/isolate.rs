@@ -31,8 +31,17 @@ pub struct Limits {
     pub max_reply: u64,
 }
 
+/// The bytes a child's `work` returned (behind the reply's tag byte, kept: no copy).
+pub struct Reply(Vec<u8>);
+
+impl Reply {
+    pub fn bytes(&self) -> &[u8] {
+        &self.0[1..]
+    }
+}
+
 /// Runs `work` in a forked child under `limits`; its `Ok` bytes or `Err` message come back.
-pub fn isolated<F>(limits: Limits, work: F) -> Result<Vec<u8>, Error>
+pub fn isolated<F>(limits: Limits, work: F) -> Result<Reply, Error>
 where
     F: FnOnce() -> Result<Vec<u8>, String>,
 {
@@ -191,12 +200,9 @@ fn reap(pid: i32, killed: bool) -> Result<(), Error> {
     }
 }
 
-fn decode(mut reply: Vec<u8>) -> Result<Vec<u8>, Error> {
+fn decode(reply: Vec<u8>) -> Result<Reply, Error> {
     match reply.first() {
-        Some(0) => {
-            reply.remove(0);
-            Ok(reply)
-        }
+        Some(0) => Ok(Reply(reply)),
         Some(1) => Err(Error(String::from_utf8_lossy(&reply[1..]).into_owned())),
         _ => Err(Error("the reader stopped without a reply".into())),
     }

@@ -15,7 +15,7 @@
 
 mod isolate;
 
-pub use isolate::{isolated, Limits};
+pub use isolate::{isolated, Limits, Reply};
 
 use std::ffi::{c_char, CStr, CString};
 use std::path::Path;

@@ -183,7 +183,7 @@ mod with_library {
         let wanted = opts.grid.clone();
         let reply = ovdb::isolated(limits, move || child(&path, wanted.as_deref(), cap))
             .map_err(|e| err.bad(e.to_string()))?;
-        parse(err, opts, &reply)
+        parse(err, opts, reply.bytes())
     }
 
     /// What the child does: open, pick, read, sample, encode.
@@ -223,10 +223,6 @@ mod with_library {
             return Ok(r);
         }
         let count = count.unwrap_or(0) as usize;
-        let mut values = vec![0f32; count];
-        if let Err(e) = grid.sample(info.bbox.0, dims, &mut values) {
-            return bad(format!("grid \"{}\": {e}", short(&name)));
-        }
         let mut r = Vec::with_capacity(count * 4 + 1024);
         r.push(OK);
         put_str(&mut r, &name);
@@ -249,8 +245,23 @@ mod with_library {
         r.push(info.half as u8);
         r.extend_from_slice(&info.active_voxels.to_le_bytes());
         r.extend_from_slice(&info.leaf_count.to_le_bytes());
-        for v in &values {
-            r.extend_from_slice(&v.to_le_bytes());
+        // The box's values, a slab of z layers at a time straight into the reply: the child
+        // holds one copy of the samples, not two.
+        let layer = (dims[0] * dims[1]) as usize;
+        let per_slab = ((16usize << 20) / layer.max(1)).max(1) as u64;
+        let mut slab = Vec::new();
+        let mut z = 0u64;
+        while z < dims[2] {
+            let nz = per_slab.min(dims[2] - z);
+            slab.resize(layer * nz as usize, 0f32);
+            let min = [info.bbox.0[0], info.bbox.0[1], info.bbox.0[2] + z as i32];
+            if let Err(e) = grid.sample(min, [dims[0], dims[1], nz], &mut slab) {
+                return bad(format!("grid \"{}\": {e}", short(&name)));
+            }
+            for v in &slab {
+                r.extend_from_slice(&v.to_le_bytes());
+            }
+            z += nz;
         }
         Ok(r)
     }

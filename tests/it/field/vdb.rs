@@ -331,3 +331,12 @@ fn a_vdb_level_set_extracts_and_renders_as_its_dense_equivalent() {
         assert_eq!(probes[k], probes[0], "{name}: probe");
     }
 }
+
+/// Built without the `openvdb` feature, `.vdb` is refused in one line saying how to get it.
+#[cfg(not(feature = "openvdb"))]
+#[test]
+fn without_the_feature_vdb_is_refused_saying_how_to_get_it() {
+    let e = read_entry("sphere.vdb").map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("built without OpenVDB") && e.contains("libopenvdb-dev"), "{e}");
+    assert_eq!(e.lines().count(), 1, "{e}");
+}

@@ -82,14 +82,27 @@ fn child<F>(wr: i32, limits: Limits, work: F) -> !
 where
     F: FnOnce() -> Result<Vec<u8>, String>,
 {
+    // The hard limit a little above the soft one: at the soft CPU limit the child gets
+    // SIGXCPU (said as such), at the hard one SIGKILL.
     let set = |what, n: u64| {
-        let r = libc::rlimit { rlim_cur: n, rlim_max: n };
+        let r = libc::rlimit { rlim_cur: n, rlim_max: n.saturating_add(5) };
         // SAFETY: a plain rlimit struct.
         unsafe { libc::setrlimit(what, &r) };
     };
     set(libc::RLIMIT_AS, limits.address_space);
     set(libc::RLIMIT_CPU, limits.cpu_seconds);
     set(libc::RLIMIT_CORE, 0);
+    // The child says nothing on the caller's terminal (an allocation failure's message, a
+    // library's warnings): what it has to say comes back through the pipe, as one line.
+    // SAFETY: a NUL-terminated path; dup2 onto the standard descriptors.
+    unsafe {
+        let null = libc::open(c"/dev/null".as_ptr(), libc::O_WRONLY);
+        if null >= 0 {
+            libc::dup2(null, 1);
+            libc::dup2(null, 2);
+            libc::close(null);
+        }
+    }
     let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work));
     let (tag, body) = match out {
         Ok(Ok(bytes)) => (0u8, bytes),
@@ -186,7 +199,9 @@ fn reap(pid: i32, killed: bool) -> Result<(), Error> {
         let sig = libc::WTERMSIG(status);
         let why = match sig {
             libc::SIGXCPU => "it ran past its CPU-time limit".to_string(),
-            libc::SIGKILL => "it was killed (out of memory?)".to_string(),
+            libc::SIGKILL => {
+                "it was killed (out of memory, or past its CPU-time limit)".to_string()
+            }
             libc::SIGBUS => "it read past the end of a mapped file (SIGBUS)".to_string(),
             libc::SIGSEGV => "it crashed (SIGSEGV)".to_string(),
             libc::SIGABRT => "it aborted (SIGABRT)".to_string(),

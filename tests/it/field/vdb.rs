@@ -340,3 +340,50 @@ fn without_the_feature_vdb_is_refused_saying_how_to_get_it() {
     assert!(e.contains("built without OpenVDB") && e.contains("libopenvdb-dev"), "{e}");
     assert_eq!(e.lines().count(), 1, "{e}");
 }
+
+/// The forked reader (`isoview_openvdb::isolated`): what the child hands back, and each way
+/// it can fail (a crash, memory, CPU time, wall time, a reply too long) as one line, with the
+/// caller untouched.
+#[cfg(feature = "openvdb")]
+#[test]
+fn the_forked_reader_contains_crashes_and_runaways() {
+    use isoview_openvdb::{isolated, Limits};
+    use std::time::Duration;
+    let limits = Limits {
+        address_space: 2 << 30,
+        cpu_seconds: 60,
+        wall: Duration::from_secs(60),
+        max_reply: 1 << 20,
+    };
+    let ok = isolated(limits, || Ok(vec![7u8; 1000])).unwrap();
+    assert_eq!(ok.bytes(), &[7u8; 1000][..]);
+    let e = isolated(limits, || Err("no such grid".into())).map(|_| ()).unwrap_err();
+    assert_eq!(e.to_string(), "no such grid");
+    let crash = isolated(limits, || {
+        // SAFETY: not safe at all: the crash the child is there to contain.
+        unsafe { std::ptr::null_mut::<u64>().write_volatile(1) };
+        Ok(Vec::new())
+    });
+    let e = crash.map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("SIGSEGV"), "{e}");
+    let greedy = isolated(limits, || Ok(vec![1u8; 8 << 30]));
+    let e = greedy.map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("the reader stopped"), "{e}");
+    let spin = Limits { cpu_seconds: 1, ..limits };
+    let e = isolated(spin, || loop {
+        std::hint::black_box(0u64);
+    });
+    let e = e.map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("it ran past its CPU-time limit"), "{e}");
+    let slow = Limits { wall: Duration::from_secs(2), ..limits };
+    let start = std::time::Instant::now();
+    let e = isolated(slow, || loop {
+        std::thread::sleep(Duration::from_secs(1));
+    });
+    let e = e.map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("ran past its limit of 2 s"), "{e}");
+    assert!(start.elapsed() < Duration::from_secs(20), "{:?}", start.elapsed());
+    let long = isolated(limits, || Ok(vec![0u8; 4 << 20]));
+    let e = long.map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("reply is over"), "{e}");
+}

@@ -85,8 +85,8 @@ h.saveFloatAsHalf = True
 vdb.write("sphere_half.vdb", grids=[h])
 add("sphere_half.vdb", **reference("sphere_half.vdb", "sphere", "sphere_half"))
 
-# A torus mesh (OBJ) turned into a level set by vdb_tool, written as .vdb and .nvdb (zip
-# codec; blosc and 16-bit quantization to be refused).
+# A torus mesh (OBJ) turned into a level set by vdb_tool, written as .vdb (blosc) and .nvdb
+# (zip codec; blosc and 16-bit quantization to be refused).
 R, r, nu, nv = 6.0, 2.0, 48, 24
 with open("torus.obj", "w") as f:
     for i in range(nu):
@@ -111,18 +111,6 @@ vdb_tool("-read", "torus.vdb", "-write", "codec=blosc", "torus_blosc.nvdb")
 add("torus_blosc.nvdb", refused="BLOSC-compressed NanoVDB")
 vdb_tool("-read", "torus.vdb", "-write", "bits=16", "codec=zip", "torus_fp16.nvdb")
 add("torus_fp16.nvdb", refused="(fp16)")
-# What pyopenvdb cannot write (make_extra.cpp, OpenVDB's C++ API): a ZIP .vdb
-# (OpenVDB 10 writes BLOSC by default: every other .vdb here is BLOSC), a double grid.
-subprocess.run(["g++", "-std=c++17", "-O1", "-o", "/tmp/isoview_make_extra", "make_extra.cpp",
-                "-lopenvdb", "-ltbb", "-lImath"], check=True)
-subprocess.run(["/tmp/isoview_make_extra"], check=True)
-# pyopenvdb reads the same values as from torus.vdb (checked here: same reference file).
-add("torus_zip.vdb", **reference("torus_zip.vdb", torus, "torus_zip"))
-assert open("torus_zip.f32", "rb").read() == open("torus.f32", "rb").read()
-os.remove("torus_zip.f32")
-REF["torus_zip.vdb"]["values"] = "torus.f32"
-# pyopenvdb reads no double grid: its reference is the float sphere's (each float exact).
-add("sphere_double.vdb", **REF["sphere.vdb"])
 vdb_tool("-read", "sphere.vdb", "-write", "codec=zip", "sphere.nvdb")
 add("sphere.nvdb", **REF["sphere.vdb"])
 
@@ -157,6 +145,26 @@ fr.transform = vdb.createFrustumTransform(xyzMin=(0, 0, 0), xyzMax=(10, 10, 10),
                                           depth=5.0, voxelSize=1.0)
 vdb.write("frustum.vdb", grids=[fr])
 add("frustum.vdb", refused="not a linear map")
+
+# What pyopenvdb cannot write (make_extra.cpp, OpenVDB's C++ API): ZIP .vdb files (OpenVDB 10
+# writes BLOSC by default: every other .vdb here is BLOSC; it leaves ZIP out for level sets,
+# so torus_zip.vdb has the active-mask compression only, dense_zip.vdb is ZIP), a double grid.
+subprocess.run(["g++", "-std=c++17", "-O1", "-o", "/tmp/isoview_make_extra", "make_extra.cpp",
+                "-lopenvdb", "-ltbb", "-lImath"], check=True)
+subprocess.run(["/tmp/isoview_make_extra"], check=True)
+# pyopenvdb reads the same values as from the originals (checked here: same reference files).
+add("dense_zip.vdb", **reference("dense_zip.vdb", "dense", "dense_zip"))
+assert open("dense_zip.f32", "rb").read() == open("dense.f32", "rb").read()
+os.remove("dense_zip.f32")
+REF["dense_zip.vdb"]["values"] = "dense.f32"
+assert "zip" in subprocess.run(["vdb_print", "-m", "dense_zip.vdb"], capture_output=True,
+                               text=True, check=True).stdout
+add("torus_zip.vdb", **reference("torus_zip.vdb", torus, "torus_zip"))
+assert open("torus_zip.f32", "rb").read() == open("torus.f32", "rb").read()
+os.remove("torus_zip.f32")
+REF["torus_zip.vdb"]["values"] = "torus.f32"
+# pyopenvdb reads no double grid: its reference is the float sphere's (each float exact).
+add("sphere_double.vdb", **REF["sphere.vdb"])
 
 # A fog volume: the sphere turned into density by vdb_tool.
 vdb_tool("-read", "sphere.vdb", "-ls2fog", "-write", "fog.vdb")

@@ -1,11 +1,23 @@
-// Compiled and run by make.py: what pyopenvdb cannot write. a ZIP-compressed copy of
-// torus.vdb (OpenVDB 10 writes BLOSC by default), and the sphere of sphere.vdb as a double grid (pyopenvdb has no DoubleGrid).
+// Compiled and run by make.py: what pyopenvdb cannot write (OpenVDB 10 writes BLOSC by
+// default). ZIP copies of dense.vdb and torus.vdb (OpenVDB leaves ZIP out for level sets and
+// fog volumes, Archive::setGridCompression: the torus keeps the active-mask compression
+// only), and the sphere of sphere.vdb as a double grid (pyopenvdb has no DoubleGrid).
 // g++ -std=c++17 make_extra.cpp -lopenvdb -ltbb -lImath
 #include <openvdb/openvdb.h>
 #include <openvdb/io/File.h>
 
 int main() {
     openvdb::initialize();
+    {
+        openvdb::io::File in("dense.vdb");
+        in.open(false);
+        auto grids = in.getGrids();
+        in.close();
+        openvdb::io::File zip("dense_zip.vdb");
+        zip.setCompression(openvdb::io::COMPRESS_ZIP | openvdb::io::COMPRESS_ACTIVE_MASK);
+        zip.write(*grids);
+        zip.close();
+    }
     {
         openvdb::io::File in("torus.vdb");
         in.open(false);

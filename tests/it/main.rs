@@ -49,6 +49,7 @@ mod field {
     mod residency;
     mod sources;
     mod stats;
+    mod vdb;
 }
 
 /// `compare`, goldens, and the one-copy checks of the streamed writers.

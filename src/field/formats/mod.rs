@@ -1,5 +1,6 @@
 //! Readers for the volume formats users have: NRRD, NIfTI-1, MRC/CCP4, MetaImage, VTK image
-//! data (XML `.vti` and legacy `.vtk`) and TIFF stacks. Each reader returns a [`Volume`]: the
+//! data (XML `.vti` and legacy `.vtk`), TIFF stacks, OpenVDB (`.vdb`, through the OpenVDB
+//! library) and NanoVDB (`.nvdb`, natively). Each reader returns a [`Volume`]: the
 //! samples as `f32`, x fastest, and the grid's geometry from the header, decomposed into an
 //! origin, a spacing per axis and unit axis directions:
 //!
@@ -19,9 +20,11 @@ mod metaimage;
 mod mrc;
 mod nifti;
 mod nrrd;
+mod nvdb;
 mod payload;
 mod text;
 mod tiff;
+mod vdb;
 mod vti;
 mod vtk_legacy;
 
@@ -44,10 +47,12 @@ pub enum Format {
     Vti,
     Vtk,
     Tiff,
+    Vdb,
+    Nvdb,
 }
 
 impl Format {
-    pub const ALL: [Format; 7] = [
+    pub const ALL: [Format; 9] = [
         Format::Nrrd,
         Format::Nifti,
         Format::Mrc,
@@ -55,6 +60,8 @@ impl Format {
         Format::Vti,
         Format::Vtk,
         Format::Tiff,
+        Format::Vdb,
+        Format::Nvdb,
     ];
 
     /// The name of `format = "..."` in scene files.
@@ -67,6 +74,8 @@ impl Format {
             Format::Vti => "vti",
             Format::Vtk => "vtk",
             Format::Tiff => "tiff",
+            Format::Vdb => "vdb",
+            Format::Nvdb => "nvdb",
         }
     }
 
@@ -80,6 +89,8 @@ impl Format {
             Format::Vti => "VTK XML image data",
             Format::Vtk => "legacy VTK",
             Format::Tiff => "TIFF",
+            Format::Vdb => "OpenVDB",
+            Format::Nvdb => "NanoVDB",
         }
     }
 
@@ -93,6 +104,7 @@ impl Format {
             Format::Vti => "Origin, Spacing, Direction, WholeExtent",
             Format::Vtk => "ORIGIN, SPACING",
             Format::Tiff => "field.spacing",
+            Format::Vdb | Format::Nvdb => "the grid's transform and active-voxel bounding box",
         }
     }
 
@@ -106,6 +118,8 @@ impl Format {
             Format::Vti => &["vti"],
             Format::Vtk => &["vtk"],
             Format::Tiff => &["tif", "tiff"],
+            Format::Vdb => &["vdb"],
+            Format::Nvdb => &["nvdb"],
         }
     }
 
@@ -142,6 +156,11 @@ pub struct ReadOptions {
     /// `ElementDataFile`): the rule of the scene's own `path` keys, so a header inside the
     /// folders `serve` reads cannot lead it out of them.
     pub access: DataAccess,
+    /// Which grid of a file holding several (`.vdb`, `.nvdb`): `[field] grid`.
+    pub grid: Option<String>,
+    /// Whether `[field] bounds` places the grid (a `.vdb` transform isoview cannot represent
+    /// is then not needed).
+    pub has_bounds: bool,
 }
 
 /// A volume read from a file: samples and geometry.
@@ -227,6 +246,8 @@ pub fn read(path: &Path, format: Format, opts: &ReadOptions) -> Result<Volume, F
         Format::Vti => vti::read(&err, opts)?,
         Format::Vtk => vtk_legacy::read(&err, opts)?,
         Format::Tiff => tiff::read(&err, opts)?,
+        Format::Vdb => vdb::read(&err, opts)?,
+        Format::Nvdb => nvdb::read(&err, opts)?,
     };
     check(&err, &v)?;
     Ok(v)

@@ -1,7 +1,7 @@
 //! `source = "file"`: a volume in one of the formats users have (NRRD, NIfTI-1, MRC/CCP4,
-//! MetaImage, VTK image data, TIFF stacks; readers in `field/formats/`). `path` (relative to
+//! MetaImage, VTK image data, TIFF stacks, OpenVDB and NanoVDB; readers in `field/formats/`). `path` (relative to
 //! the scene file) and, when the extension does not say, `format`; `spacing` gives a TIFF
-//! stack its voxel size. The grid's dims, box and orientation come from the header: the box
+//! stack its voxel size, `grid` picks one grid of a `.vdb` or `.nvdb` file holding several. The grid's dims, box and orientation come from the header: the box
 //! is `origin .. origin + spacing * (dims - 1)` in the grid's own frame, and axis directions
 //! other than the world's become the field's placement. A `bounds` key overrides both.
 //!
@@ -20,7 +20,7 @@ use crate::vocab::{Bounds, Placement};
 
 pub(super) const INFO: Info = Info {
     name: "file",
-    keys: &["path", "format", "spacing"],
+    keys: &["path", "format", "spacing", "grid"],
     own_box: None,
     supports: Supports { point: false, time: false },
 };
@@ -35,7 +35,8 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
                 "path",
                 format!(
                     "cannot tell the format from the file name (known extensions: {}); add \
-                     format = \"nrrd\", \"nifti\", \"mrc\", \"metaimage\", \"vti\", \"vtk\" or \"tiff\"",
+                     format = \"nrrd\", \"nifti\", \"mrc\", \"metaimage\", \"vti\", \"vtk\", \"tiff\", \
+                     \"vdb\" or \"nvdb\"",
                     Format::all_extensions()
                 ),
             )
@@ -54,7 +55,28 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
             ))
         }
     };
-    let opts = ReadOptions { limits: *p.limits(), spacing, access: p.access().clone() };
+    let grid = match p.has("grid") {
+        false => None,
+        true if matches!(format, Format::Vdb | Format::Nvdb) => {
+            let g = p.string("grid", Need::Required("the name of one grid of the file"))?;
+            if g.is_empty() {
+                return Err(p.value_error("grid", "must not be empty".into()));
+            }
+            Some(g)
+        }
+        true => {
+            return Err(p.value_error(
+                "grid",
+                format!(
+                    "only .vdb and .nvdb files hold named grids; a {} file has one",
+                    format.title()
+                ),
+            ))
+        }
+    };
+    let has_bounds = p.has("bounds");
+    let opts =
+        ReadOptions { limits: *p.limits(), spacing, access: p.access().clone(), grid, has_bounds };
     let volume = formats::read(&path, format, &opts).map_err(|e| p.data_error("path", e))?;
     let max =
         volume.origin + volume.spacing * DVec3::from_array(volume.dims.map(|d| (d - 1) as f64));

@@ -193,6 +193,8 @@ fn read_volume(path: &Path) -> Result<(), String> {
         limits: limits(),
         spacing: None,
         access: DataAccess::Any,
+        grid: None,
+        has_bounds: false,
     };
     match isoview::field::formats::read(path, format, &opts) {
         Ok(v) => {

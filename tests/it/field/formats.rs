@@ -17,7 +17,13 @@ fn data() -> PathBuf {
 }
 
 fn opts() -> ReadOptions {
-    ReadOptions { limits: GridLimits::default(), spacing: None, access: DataAccess::Any }
+    ReadOptions {
+        limits: GridLimits::default(),
+        spacing: None,
+        access: DataAccess::Any,
+        grid: None,
+        has_bounds: false,
+    }
 }
 
 fn read(path: &Path) -> Result<Volume, FieldError> {
@@ -76,7 +82,8 @@ fn every_reader_matches_its_reference_reader() {
             assert_eq!(got, s[1].as_f64().unwrap() as f32, "{name}: value at {p:?}");
         }
     }
-    for f in Format::ALL {
+    // OpenVDB and NanoVDB have their own reference files, from pyopenvdb (field::vdb).
+    for f in Format::ALL.into_iter().filter(|f| !matches!(f, Format::Vdb | Format::Nvdb)) {
         assert!(formats_seen.contains(&f), "no reference file for {}", f.name());
     }
 }
@@ -235,6 +242,8 @@ fn the_memory_cap_refuses_before_reading() {
         limits: GridLimits { max_bytes: 1 << 14 },
         spacing: None,
         access: DataAccess::Any,
+        grid: None,
+        has_bounds: false,
     };
     let e = formats::read(&data().join("EMD-3197.map"), Format::Mrc, &small).unwrap_err();
     assert!(matches!(e, FieldError::TooLarge { .. }), "{e}");

@@ -14,7 +14,13 @@ use isoview::scene;
 use crate::common::*;
 
 fn opts() -> ReadOptions {
-    ReadOptions { limits: GridLimits::default(), spacing: None, access: DataAccess::Any }
+    ReadOptions {
+        limits: GridLimits::default(),
+        spacing: None,
+        access: DataAccess::Any,
+        grid: None,
+        has_bounds: false,
+    }
 }
 
 /// The error reading `path` (its format from the extension) as one line.
@@ -218,6 +224,8 @@ fn a_tiff_stack_over_the_cap_is_refused_from_its_headers() {
         limits: GridLimits { max_bytes: 10 << 20 },
         spacing: None,
         access: DataAccess::Any,
+        grid: None,
+        has_bounds: false,
     };
     let m = refusal(&p, &capped);
     assert!(m.contains("a grid of 1024x1024x3 points needs 12 MiB"), "{m}");
@@ -457,6 +465,8 @@ fn whole_file_readers_check_the_declared_dims_first() {
         limits: GridLimits { max_bytes: 1 << 20 },
         spacing: None,
         access: DataAccess::Any,
+        grid: None,
+        has_bounds: false,
     };
     let p = dir.join("big.vti");
     let text = "<VTKFile type=\"ImageData\"><ImageData WholeExtent=\"0 999 0 999 0 999\">\

@@ -1,0 +1,219 @@
+// isoview's bridge to the OpenVDB library: a C ABI over io::File, so the Rust side links
+// against libopenvdb without a C++ binding generator. Every entry point catches every C++
+// exception and hands back its message (one line; the Rust side locates it); nothing here
+// throws across the boundary or aborts.
+//
+// Files are opened with delayed loading off (io::File::open(false)): OpenVDB then reads
+// through a stream instead of mapping the file, so a file truncated while it is read is an
+// exception, never SIGBUS.
+
+#include <openvdb/openvdb.h>
+#include <openvdb/io/File.h>
+
+#include <cctype>
+#include <cstdint>
+#include <cstring>
+#include <exception>
+#include <fstream>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace {
+
+// Error messages: at most this many bytes are handed back (an exception quoting file
+// contents cannot make a message grow with the input).
+constexpr size_t MAX_MESSAGE = 400;
+
+void set_error(char* err, size_t cap, const std::string& what) {
+    if (!err || cap == 0) return;
+    // OpenVDB pads some messages with spaces (a KeyError's name field): trimmed.
+    size_t end = what.size();
+    while (end > 0 && std::isspace(static_cast<unsigned char>(what[end - 1]))) --end;
+    size_t n = std::min(end, std::min(cap - 1, MAX_MESSAGE));
+    std::memcpy(err, what.data(), n);
+    err[n] = 0;
+}
+
+std::once_flag init_flag;
+
+void init() {
+    std::call_once(init_flag, [] { openvdb::initialize(); });
+}
+
+}  // namespace
+
+struct ivdb_file {
+    std::unique_ptr<openvdb::io::File> file;
+    openvdb::GridPtrVecPtr metas;
+    std::vector<std::string> names;
+    std::vector<std::string> types;
+    std::vector<std::string> classes;
+    uint64_t size = 0;
+};
+
+struct ivdb_grid {
+    openvdb::GridBase::Ptr grid;
+    openvdb::FloatGrid::Ptr f32;
+    openvdb::DoubleGrid::Ptr f64;
+};
+
+// The transform and tree of one grid, as the Rust side reads them.
+struct ivdb_grid_info {
+    // 1: a linear map (scale, rotation, translation, affine); 0: not (frustum and others).
+    int32_t linear;
+    // The map's type name (openvdb::math::MapBase::type()), NUL-terminated.
+    char map_type[64];
+    // world = [i j k 1] * mat (row vectors, OpenVDB's convention), row-major.
+    double mat[16];
+    // Active-voxel index bounding box, inclusive; empty: min > max.
+    int32_t bbox_min[3];
+    int32_t bbox_max[3];
+    double background;
+    // 0 unknown, 1 level set, 2 fog volume, 3 staggered (GridClass).
+    int32_t grid_class;
+    // 32 or 64: the grid's value type is float or double.
+    int32_t bits;
+    // Half floats on disk (the grid's "is_saved_as_half_float" metadata).
+    int32_t half;
+    uint64_t active_voxels;
+    uint64_t leaf_count;
+};
+
+extern "C" {
+
+ivdb_file* ivdb_open(const char* path, char* err, size_t cap) {
+    try {
+        init();
+        auto f = std::make_unique<ivdb_file>();
+        {
+            std::ifstream probe(path, std::ios::binary | std::ios::ate);
+            if (!probe) {
+                set_error(err, cap, "cannot be opened");
+                return nullptr;
+            }
+            f->size = static_cast<uint64_t>(probe.tellg());
+        }
+        f->file = std::make_unique<openvdb::io::File>(path);
+        f->file->setCopyMaxBytes(0);
+        f->file->open(/*delayLoad=*/false);
+        f->metas = f->file->readAllGridMetadata();
+        for (const auto& g : *f->metas) {
+            f->names.push_back(g->getName());
+            f->types.push_back(g->valueType());
+            f->classes.push_back(openvdb::GridBase::gridClassToString(g->getGridClass()));
+        }
+        return f.release();
+    } catch (const std::exception& e) {
+        set_error(err, cap, e.what());
+    } catch (...) {
+        set_error(err, cap, "unknown C++ exception");
+    }
+    return nullptr;
+}
+
+void ivdb_close(ivdb_file* f) {
+    try {
+        if (f && f->file && f->file->isOpen()) f->file->close();
+    } catch (...) {
+    }
+    delete f;
+}
+
+size_t ivdb_grid_count(const ivdb_file* f) { return f->names.size(); }
+
+const char* ivdb_grid_name(const ivdb_file* f, size_t i) { return f->names[i].c_str(); }
+
+const char* ivdb_grid_type(const ivdb_file* f, size_t i) { return f->types[i].c_str(); }
+
+const char* ivdb_grid_class(const ivdb_file* f, size_t i) { return f->classes[i].c_str(); }
+
+// Reads grid `index` (a float or double grid) whole into memory and describes it.
+ivdb_grid* ivdb_read(ivdb_file* f, size_t index, ivdb_grid_info* info, char* err, size_t cap) {
+    try {
+        const std::string& name = f->names.at(index);
+        // readGrid(name) reads the first grid of that name; names in a file are unique
+        // (OpenVDB writes duplicates as "name[1]"), and the index picked the grid by name.
+        auto g = std::make_unique<ivdb_grid>();
+        g->grid = f->file->readGrid(name);
+        if (!g->grid) {
+            set_error(err, cap, "grid not found");
+            return nullptr;
+        }
+        g->f32 = openvdb::gridPtrCast<openvdb::FloatGrid>(g->grid);
+        g->f64 = openvdb::gridPtrCast<openvdb::DoubleGrid>(g->grid);
+        if (!g->f32 && !g->f64) {
+            set_error(err, cap, "not a float or double grid");
+            return nullptr;
+        }
+        std::memset(info, 0, sizeof(*info));
+        const auto& xf = g->grid->transform();
+        auto map = xf.baseMap();
+        info->linear = xf.isLinear() ? 1 : 0;
+        std::string mt = map->type();
+        std::strncpy(info->map_type, mt.c_str(), sizeof(info->map_type) - 1);
+        if (info->linear) {
+            openvdb::math::Mat4d m = map->getAffineMap()->getMat4();
+            for (int r = 0; r < 4; ++r)
+                for (int c = 0; c < 4; ++c) info->mat[r * 4 + c] = m(r, c);
+        }
+        openvdb::CoordBBox box = g->grid->evalActiveVoxelBoundingBox();
+        for (int k = 0; k < 3; ++k) {
+            info->bbox_min[k] = box.min()[k];
+            info->bbox_max[k] = box.max()[k];
+        }
+        info->grid_class = static_cast<int32_t>(g->grid->getGridClass());
+        info->half = g->grid->saveFloatAsHalf() ? 1 : 0;
+        info->active_voxels = g->grid->activeVoxelCount();
+        if (g->f32) {
+            info->bits = 32;
+            info->background = g->f32->background();
+            info->leaf_count = g->f32->tree().leafCount();
+        } else {
+            info->bits = 64;
+            info->background = g->f64->background();
+            info->leaf_count = g->f64->tree().leafCount();
+        }
+        return g.release();
+    } catch (const std::exception& e) {
+        set_error(err, cap, e.what());
+    } catch (...) {
+        set_error(err, cap, "unknown C++ exception");
+    }
+    return nullptr;
+}
+
+void ivdb_grid_free(ivdb_grid* g) { delete g; }
+
+// The values of the box min .. min + dims - 1 (index space), x fastest, as OpenVDB's
+// tree gives them (active voxels, inactive values, tiles, background). Double grids are
+// rounded to float. `out` holds dims[0] * dims[1] * dims[2] floats.
+int ivdb_sample(const ivdb_grid* g, const int32_t* min, const uint64_t* dims, float* out,
+                char* err, size_t cap) {
+    try {
+        auto fill = [&](const auto& grid) {
+            auto acc = grid->getConstAccessor();
+            size_t n = 0;
+            for (uint64_t z = 0; z < dims[2]; ++z)
+                for (uint64_t y = 0; y < dims[1]; ++y)
+                    for (uint64_t x = 0; x < dims[0]; ++x) {
+                        openvdb::Coord c(min[0] + int32_t(x), min[1] + int32_t(y),
+                                         min[2] + int32_t(z));
+                        out[n++] = static_cast<float>(acc.getValue(c));
+                    }
+        };
+        if (g->f32)
+            fill(g->f32);
+        else
+            fill(g->f64);
+        return 0;
+    } catch (const std::exception& e) {
+        set_error(err, cap, e.what());
+    } catch (...) {
+        set_error(err, cap, "unknown C++ exception");
+    }
+    return 1;
+}
+
+}  // extern "C"

@@ -69,17 +69,7 @@ fn field_in_memory(root: &View, grid: &Arc<Grid>, limits: &GridLimits) -> Result
     let dims = grid.dims;
     let what = "the array";
     limits.check(dims.map(|d| d as u64), what).map_err(|e| data_error(t.src, &t.path, t.at, e))?;
-    let nan = match t.get("nan") {
-        Some(node) => choice(t.src, &t.key("nan"), node, &NanPolicy::NAMES)?,
-        None => NanPolicy::default(),
-    };
-    let interpolation = match t.get("interpolation") {
-        Some(node) => {
-            let names = Interpolant::ALL.map(|i| (i.name(), i));
-            choice(t.src, &t.key("interpolation"), node, &names)?
-        }
-        None => Interpolant::default(),
-    };
+    let (nan, interpolation) = (nan_of(&t)?, interpolation_of(&t, "field")?);
     let source = FieldSource::Grid(grid.clone());
     let bounds = match t.get("bounds") {
         Some(_) => bounds(&t.table("bounds")?)?,
@@ -164,27 +154,7 @@ fn field_named(
         None if kind.keys().contains(&"residency") => Residency::default(),
         None => Residency::Whole,
     };
-    // `nan` (every kind): what a NaN or infinite sample means.
-    let nan = match t.get("nan") {
-        Some(node) => choice(t.src, &t.key("nan"), node, &NanPolicy::NAMES)?,
-        None => NanPolicy::default(),
-    };
-    // `interpolation` (every kind): how the field is evaluated between its samples. Which
-    // readers take which is asked where each reads (`Interpolant::refusal`); `[field2]` is
-    // sampled for colour, trilinearly.
-    let interpolation = match t.get("interpolation") {
-        Some(node) => {
-            let names = Interpolant::ALL.map(|i| (i.name(), i));
-            let chosen = choice(t.src, &t.key("interpolation"), node, &names)?;
-            if name == "field2" {
-                if let Some(why) = chosen.refusal(Reader::Colour) {
-                    return Err(t.err(SceneErrorKind::Value, "interpolation", why));
-                }
-            }
-            chosen
-        }
-        None => Interpolant::default(),
-    };
+    let (nan, interpolation) = (nan_of(&t)?, interpolation_of(&t, name)?);
     let unlimited = GridLimits { max_bytes: u64::MAX };
     let limits = if residency == Residency::Whole { limits } else { &unlimited };
     let parsed = kind.parse(&FieldParams { t: &t, base_dir, limits, access })?;
@@ -340,6 +310,31 @@ pub(super) fn bounds(t: &View) -> Result<Bounds> {
 /// placement are known: rays meet its corners in f32, in the grid's frame and the world's, so
 /// each must be within the camera's range ([`super::within_coordinate_range`]). The error
 /// names what set the box: `field.bounds`, else the file whose header (or vertices) did.
+/// `nan` (every kind): what a NaN or infinite sample means.
+fn nan_of(t: &View) -> Result<NanPolicy> {
+    match t.get("nan") {
+        Some(node) => choice(t.src, &t.key("nan"), node, &NanPolicy::NAMES),
+        None => Ok(NanPolicy::default()),
+    }
+}
+
+/// `interpolation` (every kind) of the table `name`: how the field is evaluated between its
+/// samples. Which readers take which is asked where each reads (`Interpolant::refusal`);
+/// `[field2]` is sampled for colour, trilinearly.
+fn interpolation_of(t: &View, name: &str) -> Result<Interpolant> {
+    let Some(node) = t.get("interpolation") else {
+        return Ok(Interpolant::default());
+    };
+    let names = Interpolant::ALL.map(|i| (i.name(), i));
+    let chosen = choice(t.src, &t.key("interpolation"), node, &names)?;
+    if name == "field2" {
+        if let Some(why) = chosen.refusal(Reader::Colour) {
+            return Err(t.err(SceneErrorKind::Value, "interpolation", why));
+        }
+    }
+    Ok(chosen)
+}
+
 fn check_box(t: &View, source: &FieldSource, b: &Bounds, placement: &Placement) -> Result<()> {
     let corners = (0..8).map(|n| {
         DVec3::new(

@@ -409,9 +409,10 @@ class Mesh(collections.namedtuple("Mesh", "verts faces normals values")):
     (F, 3) int32, normals (V, 3) float32 unit, values (V,) float32. Unpacks and slices as a
     tuple (``verts, faces = mesh[:2]``).
 
-    ``values`` holds each vertex's isovalue (every vertex lies on its level set), not
-    scikit-image's "maximum of the data near the vertex". ``surface`` gives each vertex's
-    surface index (scenes with several isovalues), ``ran_on`` where the extraction ran.
+    ``values`` is scikit-image's "maximum value of the data in the local region near each
+    vertex" by its rule: the largest range of the 8 corner samples (minus the level) over the
+    grid cells that hold the vertex. ``surface`` gives each vertex's surface index (scenes
+    with several isovalues), ``ran_on`` where the extraction ran.
     """
 
     # No __slots__: a Mesh also carries `surface` (each vertex's surface index) and `ran_on`.

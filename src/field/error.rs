@@ -90,6 +90,16 @@ pub enum FieldError {
     )]
     Unaddressable { what: String, dims: [u64; 3], bytes: u128 },
 
+    /// The grid's `f32` samples would take more than this machine's memory, under a cap the
+    /// user raised past it: refused before the allocation would abort the process.
+    #[error(
+        "{what}: a grid of {}x{}x{} points needs {} of f32 samples, more than this machine's \
+         {} of memory ({GRID_CAP_ENV} allows it); use a coarser grid, or field.residency = \
+         \"active\" for a raw or npy file",
+        dims[0], dims[1], dims[2], mib(*bytes), mib(*memory as u128)
+    )]
+    OverMemory { what: String, dims: [u64; 3], bytes: u128, memory: u64 },
+
     /// `field.residency = "active"`: the bricks the isovalues need, with the brick tables
     /// (min/max and page table: 12 bytes a brick), would exceed the memory cap.
     #[error(

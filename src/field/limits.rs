@@ -69,6 +69,14 @@ impl GridLimits {
                 hint: "",
             });
         }
+        // A cap raised past the machine's memory would let the allocation fail, which aborts
+        // the process (Rust's allocation is infallible): refused with a line instead. The
+        // unlimited cap (u64::MAX, which ISOVIEW_MAX_GRID_MIB cannot reach) is the readers'
+        // of grids read in parts (`field.residency`): they allocate no whole grid.
+        let allocates = self.max_bytes != u64::MAX;
+        if let Some(memory) = physical_memory().filter(|&m| allocates && bytes > m as u128) {
+            return Err(FieldError::OverMemory { what: what.to_string(), dims, bytes, memory });
+        }
         // Under a u64 cap, so the count fits a u64; usize is 64-bit on every supported target.
         usize::try_from(points).map_err(|_| FieldError::TooLarge {
             what: what.to_string(),
@@ -94,6 +102,14 @@ pub(crate) fn with_hint(e: FieldError, hint: &'static str) -> FieldError {
         }
         other => other,
     }
+}
+
+/// This machine's physical memory in bytes (Linux's `sysconf`), None where it cannot say.
+fn physical_memory() -> Option<u64> {
+    // SAFETY: sysconf reads two system constants and has no preconditions.
+    let (pages, size) =
+        unsafe { (libc::sysconf(libc::_SC_PHYS_PAGES), libc::sysconf(libc::_SC_PAGESIZE)) };
+    (pages > 0 && size > 0).then(|| (pages as u64).saturating_mul(size as u64))
 }
 
 #[cfg(test)]

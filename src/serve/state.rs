@@ -166,6 +166,7 @@ fn redacted(e: &FieldError) -> Option<String> {
         | FieldError::SizeMismatch { .. }
         | FieldError::TooLarge { .. }
         | FieldError::Unaddressable { .. }
+        | FieldError::OverMemory { .. }
         | FieldError::PoolTooLarge { .. }
         | FieldError::TablesTooLarge { .. }
         | FieldError::NonFinite { .. }

@@ -84,3 +84,35 @@ def test_no_device_raises_no_device_error_naming_what_to_install():
         assert p.stdout.startswith("NoDeviceError: "), p.stdout + p.stderr
     assert issubclass(isoview.NoDeviceError, isoview.GpuError)
     assert issubclass(isoview.GpuError, RuntimeError)
+
+
+def test_a_broadcast_view_over_the_cap_is_refused_before_any_copy():
+    # np.broadcast_to makes an array of 800^3 samples (1953 MiB as float32) out of one: the
+    # cap's line must come before the view is copied into one block (the attack pass saw 2 GB
+    # of RSS first, and a MemoryError rather than ValueError at 2000^3). Run in a child so its
+    # peak RSS is its own.
+    import subprocess
+    import sys
+    code = """
+import resource, numpy as np, isoview
+for fn in (isoview.extract, isoview.render, isoview.stats):
+    try:
+        fn(np.broadcast_to(np.float32(1), (800, 800, 800)))
+    except ValueError as e:
+        assert "over the cap" in str(e), e
+    else:
+        raise SystemExit("no ValueError")
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    peak_kib = int(out.stdout.split()[-1])
+    assert peak_kib < 600 * 1024, f"peak {peak_kib} KiB: the view was copied"
+
+
+def test_a_probe_pixel_that_is_not_two_whole_numbers_is_a_value_error():
+    volume = np.random.default_rng(3).random((6, 6, 6)).astype(np.float32)
+    for pixel in [(-1, 0), (0, float("nan")), "ab", (1, 2, 3), (2**40, 0)]:
+        with pytest.raises(ValueError) as e:
+            isoview.probe(volume, pixel, 0.5, width=8, height=8)
+        assert "pixel" in _one_line(e)

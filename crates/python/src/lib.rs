@@ -328,6 +328,19 @@ fn scene_from_text(
 /// A scene over a numpy array's samples (shape (nx, ny, nz), element [i, j, k] at grid point
 /// (i, j, k); C or Fortran contiguous: the caller copies any other layout first); `keyword`
 /// and `sets` as for `_Scene.with_sets`.
+/// The grid cap's check of an array's `shape`, before Python copies a strided view (or a
+/// broadcast one, tiny in memory and huge in samples) into one block: the same line as
+/// [`scene_from_array`]'s, without the copy. Shapes that are not 3-D pass: the scene refuses
+/// them with scikit-image's line.
+#[pyfunction]
+fn check_array_shape(shape: Vec<u64>) -> PyResult<()> {
+    if let [nx, ny, nz] = shape[..] {
+        let limits = GridLimits::from_env().map_err(input)?;
+        limits.check([nx, ny, nz], ARRAY).map_err(input)?;
+    }
+    Ok(())
+}
+
 #[pyfunction]
 fn scene_from_array(
     py: Python<'_>,
@@ -792,6 +805,7 @@ fn _isoview(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyImage>()?;
     m.add_function(wrap_pyfunction!(scene_from_toml, m)?)?;
     m.add_function(wrap_pyfunction!(scene_from_array, m)?)?;
+    m.add_function(wrap_pyfunction!(check_array_shape, m)?)?;
     m.add_function(wrap_pyfunction!(scene_from_text, m)?)?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
     m.add_function(wrap_pyfunction!(extract, m)?)?;

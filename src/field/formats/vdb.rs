@@ -160,12 +160,18 @@ mod with_library {
     use isoview_openvdb as ovdb;
 
     use super::{box_dims, placed, select, short, Located, ReadOptions, Volume};
-    use crate::field::FieldError;
+    use crate::field::{FieldError, GRID_CAP_ENV};
 
     /// The child's reply, in its own little format: a tag byte, then the fields.
     const OK: u8 = b'O';
     const BAD: u8 = b'E';
     const OVER_CAP: u8 = b'C';
+
+    /// The child's address space for a grid cap of `cap` bytes: the tree (at most about the
+    /// box's dense size), the samples and the library.
+    fn read_limit(cap: u64) -> u64 {
+        cap.saturating_mul(3).saturating_add(2 << 30)
+    }
 
     pub(crate) fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         // The file is opened here first, as every reader's is (missing file, a FIFO, serve's
@@ -173,8 +179,7 @@ mod with_library {
         drop(err.access.open(err.path).map_err(|e| err.io(&e))?);
         let cap = opts.limits.max_bytes;
         let limits = ovdb::Limits {
-            // The tree (at most about the box's dense size), the samples and the library.
-            address_space: cap.saturating_mul(3).saturating_add(2 << 30),
+            address_space: read_limit(cap),
             cpu_seconds: 600,
             wall: Duration::from_secs(1200),
             max_reply: cap.saturating_add(1 << 20),
@@ -308,7 +313,20 @@ mod with_library {
         let mut c = Cursor(reply);
         let tag = c.u8().map_err(|m| err.bad(m))?;
         match tag {
-            BAD => return Err(err.bad(String::from_utf8_lossy(c.0).into_owned())),
+            BAD => {
+                let message = String::from_utf8_lossy(c.0).into_owned();
+                // OpenVDB allocates as the file's node headers say: a corrupt count asks for
+                // gigabytes, and the child's address space (3 x the grid cap + 2 GiB) ends it.
+                if message.contains("bad_alloc") {
+                    return Err(err.bad(format!(
+                        "{message}: OpenVDB asked for more memory than the reader allows ({} MiB: \
+                         3 x the grid cap + 2 GiB); the file is corrupt, or its tree is too \
+                         large for the cap ({GRID_CAP_ENV})",
+                        read_limit(opts.limits.max_bytes) >> 20
+                    )));
+                }
+                return Err(err.bad(message));
+            }
             OVER_CAP => {
                 let mut dims = [0u64; 3];
                 for d in &mut dims {

@@ -757,3 +757,25 @@ fn a_metaimage_header_size_past_the_end_names_the_key() {
     let m = refusal(&p, &opts());
     assert!(m.contains("line 4: HeaderSize = 100 puts the data at byte"), "{m}");
 }
+
+/// A grid cap raised past the machine's memory let the samples' allocation fail, which aborts
+/// the process (exit 134, `memory allocation of ... failed`, the attack pass's F2): the grid is
+/// refused with one line naming the machine's memory, every verb that samples it.
+#[test]
+fn a_grid_over_the_machine_s_memory_is_refused_whatever_the_cap() {
+    let dir = crate::common::scratch("over-memory");
+    let scene = crate::common::write(
+        &dir,
+        "s.toml",
+        "[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 0.5\nresolution = [8, 8, 8]\n",
+    );
+    let out = dir.join("o.ply").display().to_string();
+    let huge = "field.resolution=[1000000,1000000,1000000]";
+    for args in [vec!["extract", &scene, "-o", &out], vec!["stats", &scene]] {
+        let mut a = args.clone();
+        a.extend(["--set", huge]);
+        let o = crate::common::isoview(&a, &[("ISOVIEW_MAX_GRID_MIB", "4000000000000")]);
+        crate::common::assert_fails(&o, 2, &["field.resolution", "more than this machine's"]);
+    }
+    assert!(!std::path::Path::new(&out).exists());
+}

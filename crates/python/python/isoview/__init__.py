@@ -222,6 +222,7 @@ def _scene(volume, keyword, sets, spacing=None, origin=None, camera=None):
         text = f"[field]\nsource = \"{source}\"\npath = {_toml(path)}\n"
         return _native.scene_from_text(text, os.path.dirname(path), keyword, sets)
     array = np.asarray(volume)
+    _native.check_array_shape([int(n) for n in array.shape])  # the cap, before any copy
     if array.ndim == 3 and not (array.flags.c_contiguous or array.flags.f_contiguous):
         array = np.ascontiguousarray(array)  # strided views: one copy into C order
     box = []
@@ -481,6 +482,7 @@ def extract(volume, level=None, *, spacing=None, origin=None, method=None,
         keyword.append(f"render.mesh={_toml(_MESH_ALIASES.get(str(method), str(method)))}")
     if level is None and not isinstance(volume, (Scene, str, os.PathLike)):
         a = np.asarray(volume)
+        _native.check_array_shape([int(n) for n in a.shape])  # the cap, before the copy
         if a.ndim == 3 and a.size and a.dtype.kind in "biuf":
             a = a.astype(np.float32)
             level = (float(np.nanmin(a)) + float(np.nanmax(a))) / 2.0
@@ -505,8 +507,13 @@ def probe(volume, pixel, isovalue=None, *, time=0.0, set=(), **kwargs):
             kwargs.pop("width", None), kwargs.pop("height", None), kwargs,
             _is_array_like(volume))
     native = _scene(volume, keyword, set, spacing, origin, camera)
-    x, y = pixel
-    return json.loads(_native.probe(native, int(x), int(y), float(time)))
+    try:
+        x, y = (int(v) for v in pixel)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"pixel {pixel!r}: expected two whole numbers (x, y)") from None
+    if not (0 <= x < 2**32 and 0 <= y < 2**32):
+        raise ValueError(f"pixel ({x}, {y}): outside the image (x and y from 0)")
+    return json.loads(_native.probe(native, x, y, float(time)))
 
 
 class Contours(list):

@@ -135,6 +135,10 @@ mod tests {
         assert!(e.contains("raise the cap with ISOVIEW_MAX_GRID_MIB="), "{e}");
         let mib = e.split("ISOVIEW_MAX_GRID_MIB=").nth(1).unwrap().split(' ').next().unwrap();
         let raised = GridLimits::from_mib_str(mib).expect("the suggested cap can be set");
-        assert!(raised.check([1 << 20, 1 << 20, (1 << 22) - 1], "big.npy").is_ok());
+        // The cap admits it; a machine with less memory than that then refuses it as such.
+        match raised.check([1 << 20, 1 << 20, (1 << 22) - 1], "big.npy") {
+            Ok(_) | Err(FieldError::OverMemory { .. }) => {}
+            Err(e) => panic!("the raised cap still refuses it: {e}"),
+        }
     }
 }

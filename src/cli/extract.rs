@@ -138,10 +138,16 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: &Ranks) -> Result<i32, Failure> 
             }
         };
     }
-    if let Some(mapped) =
-        MappedGrid::for_residency(&scene.field, &limits).map_err(Failure::input)?
+    if let Some(parts) =
+        crate::field::parts::for_residency(&scene.field, &limits).map_err(Failure::input)?
     {
-        return extract_mapped(args, format, &scene, &mapped, opts, started, &budget);
+        // A sparse tree streams trilinear cells at mesh_refine = 1; other meshes of it need
+        // the lattice whole, so its box is densified under the cap (below).
+        let streams =
+            !crate::field::parts::is_sparse(&scene.field) || scene.mesh_request(0, None).on_grid();
+        if streams {
+            return extract_mapped(args, format, &scene, &*parts, opts, started, &budget);
+        }
     }
     let job = Job {
         scene: &scene,
@@ -316,13 +322,14 @@ fn extract_streamed(
     Ok(0)
 }
 
-/// `field.residency = "active"`: every surface extracted on the CPU from the memory-mapped
-/// file, a window of point layers at a time (`mesh::mapped`), the mesh the whole grid's.
+/// A grid read in parts (`field.residency = "active"`, a sparse `.vdb`/`.nvdb` tree): every
+/// surface extracted on the CPU, a window of point layers at a time (`mesh::mapped`), the
+/// mesh the whole grid's.
 fn extract_mapped(
     args: &ExtractArgs,
     format: Format,
     scene: &Scene,
-    grid: &MappedGrid,
+    grid: &dyn crate::field::parts::Parts,
     opts: ExtractOptions,
     started: Instant,
     budget: &Arc<MeshBudget>,
@@ -335,10 +342,8 @@ fn extract_mapped(
             .map_err(|e| Failure::input(format!("{}: {e}", scene_name(scene))))?;
         meshes.push(mesh.in_world(&scene.field.placement, &scene.clip));
     }
-    let why = format!(
-        "; field.residency: streamed from the {}x{}x{} memory-mapped file",
-        grid.dims[0], grid.dims[1], grid.dims[2]
-    );
+    let [nx, ny, nz] = grid.dims();
+    let why = format!("; streamed from the {nx}x{ny}x{nz} grid {}", grid.how());
     let what = Summary { scene, ran_on: Device::Cpu, why, started, samples: None };
     write_meshes(args, format, meshes, what)
 }

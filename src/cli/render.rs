@@ -144,8 +144,9 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
     // Under MPI each rank reads its block of the file (below): the default "auto" leaves the
     // brick pool to a single process; "active", asked for, is refused.
     let mapped = match (ranks.is_single(), scene.field.residency) {
-        (false, crate::field::Residency::Auto) => None,
-        _ => mapped,
+        (true, _) | (false, crate::field::Residency::Active) => mapped,
+        // "auto" for raw and npy, and a .vdb/.nvdb tree: each rank samples its block whole.
+        (false, _) => None,
     };
     if let Some(mapped) = mapped {
         if !ranks.is_single() {
@@ -154,7 +155,7 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
                  block of the whole grid instead)",
             ));
         }
-        let pooled = crate::render::pool::upload_for(&ctx, &scene, &mapped, &limits)
+        let pooled = crate::render::pool::upload_for(&ctx, &scene, &*mapped, &limits)
             .map_err(pool_failure)?;
         if rank0 {
             note!("{}", pooled.summary);

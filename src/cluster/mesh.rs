@@ -19,6 +19,7 @@ use std::time::{Duration, Instant};
 
 use super::Ranks;
 use crate::field::mapped::MappedGrid;
+use crate::field::parts::Parts;
 use crate::field::Grid;
 use crate::mesh::window::{self, Joiner, Lattice, SlabMesh};
 use crate::mesh::{Mesh, MeshBudget, Request};

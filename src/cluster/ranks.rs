@@ -146,6 +146,7 @@ impl Ranks {
             Ranks::Single => Ok(None),
             #[cfg(feature = "mpi")]
             Ranks::Mpi(w) => {
+                use crate::field::parts::Parts;
                 let Some(m) =
                     crate::field::mapped::MappedGrid::open(field).map_err(BlockError::Open)?
                 else {

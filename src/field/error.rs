@@ -11,6 +11,11 @@ pub const RESIDENCY_HINT: &str =
 
 /// Appended to [`FieldError::TooLarge`] when an npy or raw grid that `field.residency` lets
 /// be read in parts ("auto", "active") reaches a command that needs it whole.
+/// What a `.vdb`/`.nvdb` grid over the cap can still do (the paths that read its tree).
+pub const SPARSE_HINT: &str =
+    "; this command needs the whole grid (a .vdb or .nvdb grid over the cap is read sparsely by \
+     the ray methods of `render` and by `extract`, with trilinear cells at render.mesh_refine = 1)";
+
 pub const WHOLE_GRID_HINT: &str =
     "; this command needs the whole grid (the ray methods of `render` and `extract` read one \
      over the cap in parts)";

@@ -24,7 +24,7 @@ use rayon::prelude::*;
 use super::interpolant::STENCIL;
 use super::samples::{self, Endian, SampleType, StorageOrder};
 use super::source::FieldSource;
-use super::{FieldError, FieldSpec, Grid, NanPolicy};
+use super::{FieldError, FieldSpec, NanPolicy};
 
 /// A `raw` or `npy` grid read from its file on demand (the name is from when it was mapped).
 pub struct MappedGrid {
@@ -85,25 +85,15 @@ impl MappedGrid {
         }
         let Some(grid) = MappedGrid::open(spec)? else { return Ok(None) };
         let mapped = match spec.residency {
-            super::Residency::Auto => grid.f32_bytes() > limits.max_bytes,
+            super::Residency::Auto => super::parts::Parts::f32_bytes(&grid) > limits.max_bytes,
             _ => true,
         };
         Ok(mapped.then_some(grid))
     }
 
-    /// The grid's geometry: dims and box, no values (what the render path reads of a grid).
-    pub fn shape(&self) -> Grid {
-        Grid { dims: self.dims, min: self.min, max: self.max, values: Vec::new() }
-    }
-
     /// The file, for messages.
     pub fn label(&self) -> String {
         super::npy::path_str(&self.path)
-    }
-
-    /// Bytes the whole grid takes as `f32` samples.
-    pub fn f32_bytes(&self) -> u64 {
-        self.dims.iter().map(|&d| d as u64).product::<u64>() * 4
     }
 
     /// The points `lo .. lo + n` (each inside the grid), x fastest, decoded to `f32`; fails
@@ -137,28 +127,6 @@ impl MappedGrid {
             }
         }
         Ok(out)
-    }
-
-    /// [`MappedGrid::read_box`], checked finite under `field.nan` (the first non-finite point,
-    /// x fastest, is named): what a process reading only its part of the file (an MPI rank's
-    /// block or window) takes instead of sampling the grid.
-    pub fn read_finite(&self, lo: [usize; 3], n: [usize; 3]) -> Result<Vec<f32>, FieldError> {
-        let values = self.read_box(lo, n)?;
-        if self.nan == NanPolicy::Empty {
-            return Ok(values);
-        }
-        match values.iter().position(|v| !v.is_finite()) {
-            None => Ok(values),
-            Some(at) => {
-                let p = [at % n[0], (at / n[0]) % n[1], at / (n[0] * n[1])];
-                Err(FieldError::NonFinite {
-                    what: self.label(),
-                    index: [0, 1, 2].map(|a| lo[a] + p[a]),
-                    value: values[at],
-                    detail: String::new(),
-                })
-            }
-        }
     }
 
     /// Samples `first .. first + count` in file order, decoded into `run` (`raw`: scratch for

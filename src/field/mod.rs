@@ -44,9 +44,11 @@ mod limits;
 pub mod mapped;
 pub mod mesh_sdf;
 mod npy;
+pub mod parts;
 mod raw;
 mod samples;
 mod source;
+pub mod sparse;
 mod spec;
 pub mod stats;
 

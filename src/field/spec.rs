@@ -158,6 +158,9 @@ impl FieldSpec {
             {
                 super::limits::with_hint(e, super::error::WHOLE_GRID_HINT)
             }
+            (FieldError::TooLarge { .. }, FieldSource::File(f)) if f.volume.sparse.is_some() => {
+                super::limits::with_hint(e, super::error::SPARSE_HINT)
+            }
             _ => e,
         })?;
         let mut grid = Grid {

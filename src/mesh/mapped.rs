@@ -12,7 +12,7 @@ use std::sync::Arc;
 
 use super::window::{self, Joiner, Lattice, SlabMesh};
 use super::{Mesh, MeshBudget, MeshError, Request};
-use crate::field::mapped::MappedGrid;
+use crate::field::parts::Parts;
 use crate::field::NanPolicy;
 
 /// Bytes of samples one window holds at most (at least its range's point layers).
@@ -21,7 +21,7 @@ pub const WINDOW_BYTES: usize = 256 << 20;
 /// The mesh of `x` over the whole mapped grid, read `window_bytes` at a time (at most; at least
 /// the layers one cell layer needs).
 pub fn extract_mapped(
-    grid: &MappedGrid,
+    grid: &dyn Parts,
     x: &Request,
     window_bytes: usize,
 ) -> Result<Mesh, MeshError> {
@@ -31,7 +31,7 @@ pub fn extract_mapped(
 /// [`extract_mapped`], adding every window's mesh to `budget` as it is joined: past its cap,
 /// [`MeshError::OverCap`] (checked per window: a window's own slabs are held until then).
 pub fn extract_mapped_within(
-    grid: &MappedGrid,
+    grid: &dyn Parts,
     x: &Request,
     window_bytes: usize,
     budget: &Arc<MeshBudget>,
@@ -48,9 +48,11 @@ pub fn extract_mapped_within(
             x.refine
         )));
     }
-    let lattice = Lattice { dims: grid.dims, min: grid.min, max: grid.max };
-    let [nx, ny, _] = grid.dims;
-    let layers = window::cell_layers(x.algo, grid.dims);
+    let dims = grid.dims();
+    let (min, max) = grid.bounds();
+    let lattice = Lattice { dims, min, max };
+    let [nx, ny, _] = dims;
+    let layers = window::cell_layers(x.algo, dims);
     // Cell layers per range: the window holds them plus up to window::GHOST_LAYERS more.
     let plane = nx * ny * 4;
     let depth = (window_bytes / plane).saturating_sub(window::GHOST_LAYERS).max(1);
@@ -58,10 +60,10 @@ pub fn extract_mapped_within(
     let mut start = 0;
     while start < layers {
         let cells = start..(start + depth).min(layers);
-        let points = window::point_layers(x.algo, grid.dims, cells.clone());
+        let points = window::point_layers(x.algo, dims, cells.clone());
         let n = [nx, ny, points.len()];
         // `field.nan = "error"` refuses a non-finite sample as the whole grid's read would.
-        let values = match grid.nan {
+        let values = match grid.nan() {
             NanPolicy::Error => grid.read_finite([0, 0, points.start], n)?,
             NanPolicy::Empty => grid.read_box([0, 0, points.start], n)?,
         };
@@ -69,7 +71,7 @@ pub fn extract_mapped_within(
         let part = if outside {
             SlabMesh::default()
         } else {
-            let held = crate::field::Grid { dims: n, min: grid.min, max: grid.max, values };
+            let held = crate::field::Grid { dims: n, min, max, values };
             window::extract_window(&held, points.start, &lattice, x, cells.clone())?
         };
         joiner.push(part)?;

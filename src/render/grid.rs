@@ -98,25 +98,25 @@ impl GpuGrid {
 
     /// Uploads the bricks of a grid read from its file (`field.residency`) that `residency` names into a brick pool
     /// ([`pool`]), with the grid's brick min/max grid (`ranges`, from
-    /// [`MappedGrid::brick_ranges`](crate::field::mapped::MappedGrid::brick_ranges); its
+    /// [`Parts::brick_ranges`](crate::field::parts::Parts::brick_ranges); its
     /// superbricks are added here).
     pub fn upload_pool(
         ctx: &Arc<Context>,
-        grid: &crate::field::mapped::MappedGrid,
+        grid: &dyn crate::field::parts::Parts,
         ranges: &[[f32; 2]],
         residency: pool::Residency,
     ) -> Result<Self, pool::PoolError> {
         let pool = pool::Pool::upload(ctx, grid, residency)?;
         let gpu = GpuGrid {
             storage: Storage::Pool(Box::new(pool)),
-            dims: grid.dims,
+            dims: grid.dims(),
             bricks: std::cell::OnceCell::new(),
             supers: std::cell::OnceCell::new(),
             points: std::cell::OnceCell::new(),
             block: None,
             largest: largest_finite(ranges.iter().flatten().copied()),
         };
-        gpu.set_bricks(ctx, bricks::levels(grid.dims, ranges))?;
+        gpu.set_bricks(ctx, bricks::levels(grid.dims(), ranges))?;
         Ok(gpu)
     }
 

@@ -36,7 +36,7 @@ use ash::vk;
 use rayon::prelude::*;
 
 use crate::field::interpolant::{SMOOTH_NORMAL_REACH, STENCIL};
-use crate::field::mapped::MappedGrid;
+use crate::field::parts::{self, Parts};
 use crate::field::{FieldError, GridLimits};
 use crate::gpu::{Buffer, Context, GpuError, MemoryLocation, Tracker};
 use crate::passes::bricks::{brick_counts, clear_by, BRICK, SKIP_MARGIN};
@@ -169,8 +169,8 @@ impl Residency {
 /// The slot of brick `b`: its points and [`APRON`] more per side, x fastest, [`SLOT`]³ values;
 /// positions past the grid's faces repeat the nearest point (nothing reads them with weight).
 /// Fails if the file shrank since it was opened.
-pub fn slot(grid: &MappedGrid, b: [usize; 3]) -> Result<Vec<f32>, FieldError> {
-    let dims = grid.dims;
+pub fn slot(grid: &dyn Parts, b: [usize; 3]) -> Result<Vec<f32>, FieldError> {
+    let dims = grid.dims();
     // The slot's first point, per axis (may be -APRON), and the points of the grid it covers.
     let first = [0, 1, 2].map(|a| (b[a] * BRICK) as i64 - APRON as i64);
     let lo = [0, 1, 2].map(|a| first[a].max(0) as usize);
@@ -206,7 +206,7 @@ impl Pool {
     /// Reads every resident brick of `grid` into slots and uploads them, a chunk at a time.
     pub fn upload(
         ctx: &Arc<Context>,
-        grid: &MappedGrid,
+        grid: &dyn Parts,
         residency: Residency,
     ) -> Result<Pool, PoolError> {
         let slot_bytes = (SLOT * SLOT * SLOT * 4) as u64;
@@ -268,21 +268,39 @@ pub enum PoolError {
     Refused(String),
 }
 
-/// Whether `scene` renders from a brick pool read from its file: `field.residency = "active"`, or
-/// `"auto"` with the whole grid over the cap; the grid mapped, or None to sample it whole.
+/// Whether `scene` renders from a brick pool read in parts: a `.vdb`/`.nvdb` tree (sparse by
+/// default), or a raw/npy file under `field.residency = "active"`, or `"auto"` with the whole
+/// grid over the cap; the grid to read, or None to sample it whole.
 pub fn mapped_for(
     scene: &crate::scene::Scene,
     limits: &GridLimits,
-) -> Result<Option<MappedGrid>, PoolError> {
-    let Some(grid) = MappedGrid::for_residency(&scene.field, limits)? else { return Ok(None) };
-    if let Some(why) = scene.interpolation_refusal(crate::field::interpolant::Reader::BrickPool) {
+) -> Result<Option<Box<dyn Parts>>, PoolError> {
+    let Some(grid) = parts::for_residency(&scene.field, limits)? else { return Ok(None) };
+    let refusal = scene.interpolation_refusal(crate::field::interpolant::Reader::BrickPool);
+    let mesh = scene.render.method == crate::scene::Method::Mesh;
+    if parts::is_sparse(&scene.field) {
+        // Sparse where the pool can read it; otherwise the box densified, under the cap.
+        let Some(why) = refusal
+            .or_else(|| mesh.then(|| "render.method = \"mesh\" needs the whole grid".to_string()))
+        else {
+            return Ok(Some(grid));
+        };
+        return match limits.check(grid.dims().map(|d| d as u64), &grid.label()) {
+            Ok(_) => Ok(None),
+            Err(e) => Err(PoolError::Refused(format!(
+                "{e}; {why} (the ray methods with trilinear interpolation read a .vdb or .nvdb \
+                 grid sparsely, and so does `isoview extract`)"
+            ))),
+        };
+    }
+    if let Some(why) = refusal {
         return Err(PoolError::Refused(why));
     }
-    if scene.render.method == crate::scene::Method::Mesh {
+    if mesh {
         // Under "auto" (the default) the user asked for nothing: say why the grid is too large
         // (the cap's own message) and which paths read it in parts.
         if scene.field.residency == crate::field::Residency::Auto {
-            let over = limits.check(grid.dims.map(|d| d as u64), &grid.label()).err();
+            let over = limits.check(grid.dims().map(|d| d as u64), &grid.label()).err();
             let why = over.map_or_else(|| grid.label(), |e| e.to_string());
             return Err(PoolError::Refused(format!(
                 "{why}; render.method = \"mesh\" needs the whole grid (a ray method or \
@@ -303,28 +321,29 @@ pub fn mapped_for(
 pub fn upload_for(
     ctx: &Arc<Context>,
     scene: &crate::scene::Scene,
-    grid: &MappedGrid,
+    grid: &dyn Parts,
     limits: &GridLimits,
 ) -> Result<PooledGrid, PoolError> {
     let started = std::time::Instant::now();
     let shape = grid.shape();
-    check_tables(grid.dims, limits, &grid.label())?;
+    check_tables(grid.dims(), limits, &grid.label())?;
     let ranges = grid.brick_ranges(BRICK)?;
     let scanned = started.elapsed();
     let thresholds = super::params::RenderParams::new(scene, &shape).surface_thresholds();
     let neighbours = scene.render.method == crate::scene::Method::FixedStep;
-    let residency = Residency::select(grid.dims, &ranges, &thresholds, neighbours);
+    let residency = Residency::select(grid.dims(), &ranges, &thresholds, neighbours);
     residency.check(limits, &grid.label())?;
     let (active, bricks) = (residency.active, residency.pages.len());
     let (resident, pool_mib) =
         (residency.resident.len(), residency.pool_bytes() as f64 / (1 << 20) as f64);
     let gpu = super::GpuGrid::upload_pool(ctx, grid, &ranges, residency)?;
     let summary = format!(
-        "{}x{}x{} grid read from the file in parts ({} MiB of f32): {active} of {bricks} bricks of {BRICK}^3 \
+        "{}x{}x{} grid {} ({} MiB as dense f32): {active} of {bricks} bricks of {BRICK}^3 \
          cells active, {resident} resident, {pool_mib:.1} MiB pool (scan {:.1} s, upload {:.1} s)",
-        grid.dims[0],
-        grid.dims[1],
-        grid.dims[2],
+        grid.dims()[0],
+        grid.dims()[1],
+        grid.dims()[2],
+        grid.how(),
         grid.f32_bytes() >> 20,
         scanned.as_secs_f64(),
         (started.elapsed() - scanned).as_secs_f64(),

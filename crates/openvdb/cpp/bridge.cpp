@@ -186,27 +186,109 @@ ivdb_grid* ivdb_read(ivdb_file* f, size_t index, ivdb_grid_info* info, char* err
 
 void ivdb_grid_free(ivdb_grid* g) { delete g; }
 
-// The values of the box min .. min + dims - 1 (index space), x fastest, as OpenVDB's
-// tree gives them (active voxels, inactive values, tiles, background). Double grids are
-// rounded to float. `out` holds dims[0] * dims[1] * dims[2] floats.
-int ivdb_sample(const ivdb_grid* g, const int32_t* min, const uint64_t* dims, float* out,
-                char* err, size_t cap) {
+// How many nodes of each kind the grid's tree has: counts[0] root tiles (active or not),
+// counts[1] upper internal nodes (32^3 entries), counts[2] lower internal nodes (16^3),
+// counts[3] leaves (8^3 voxels). What `ivdb_tree_export` writes is sized from them.
+int ivdb_tree_counts(const ivdb_grid* g, uint64_t* counts, char* err, size_t cap) {
     try {
-        auto fill = [&](const auto& grid) {
-            auto acc = grid->getConstAccessor();
-            size_t n = 0;
-            for (uint64_t z = 0; z < dims[2]; ++z)
-                for (uint64_t y = 0; y < dims[1]; ++y)
-                    for (uint64_t x = 0; x < dims[0]; ++x) {
-                        openvdb::Coord c(min[0] + int32_t(x), min[1] + int32_t(y),
-                                         min[2] + int32_t(z));
-                        out[n++] = static_cast<float>(acc.getValue(c));
-                    }
+        auto count = [&](const auto& grid) {
+            const auto& root = grid->tree().root();
+            counts[0] = counts[1] = counts[2] = counts[3] = 0;
+            for (auto t = root.cbeginValueAll(); t; ++t) ++counts[0];
+            for (auto u = root.cbeginChildOn(); u; ++u) {
+                ++counts[1];
+                for (auto l = u->cbeginChildOn(); l; ++l) {
+                    ++counts[2];
+                    counts[3] += l->getChildMask().countOn();
+                }
+            }
         };
         if (g->f32)
-            fill(g->f32);
+            count(g->f32);
         else
-            fill(g->f64);
+            count(g->f64);
+        return 0;
+    } catch (const std::exception& e) {
+        set_error(err, cap, e.what());
+    } catch (...) {
+        set_error(err, cap, "unknown C++ exception");
+    }
+    return 1;
+}
+
+// The tree's nodes as records, little-endian, in this order (counts from ivdb_tree_counts):
+//   root tiles:  origin (3 x int32), value (float)
+//   upper nodes: origin (3 x int32), 32^3 floats: each entry's tile value (0 where a child is)
+//   lower nodes: origin (3 x int32), 16^3 floats, the same
+//   leaves:      origin (3 x int32), 8^3 floats, active or not
+// Entries are in OpenVDB's offset order (x slowest, z fastest). Double grids are rounded to
+// float. `out` holds `len` bytes: exactly what the counts make, else nothing is written.
+int ivdb_tree_export(const ivdb_grid* g, const uint64_t* counts, uint8_t* out, size_t len,
+                     char* err, size_t cap) {
+    try {
+        const uint64_t need = counts[0] * 16 + counts[1] * (12 + 4 * 32768) +
+                              counts[2] * (12 + 4 * 4096) + counts[3] * (12 + 4 * 512);
+        if (need != len) {
+            set_error(err, cap, "the export's size does not match the tree's counts");
+            return 1;
+        }
+        uint8_t* p = out;
+        uint8_t* const end = out + len;
+        auto put_coord = [&](const openvdb::Coord& c) {
+            for (int k = 0; k < 3; ++k) {
+                int32_t v = c[k];
+                std::memcpy(p, &v, 4);
+                p += 4;
+            }
+        };
+        auto put_float = [&](float v) {
+            std::memcpy(p, &v, 4);
+            p += 4;
+        };
+        auto run = [&](const auto& grid) -> bool {
+            const auto& root = grid->tree().root();
+            uint64_t seen[4] = {0, 0, 0, 0};
+            for (auto t = root.cbeginValueAll(); t; ++t) {
+                if (++seen[0] > counts[0]) return false;
+                put_coord(t.getCoord());
+                put_float(static_cast<float>(*t));
+            }
+            // Internal nodes: every entry that is not a child holds a tile value (active or
+            // inactive); entries holding children are written as 0 and never read.
+            auto put_node = [&](const auto& node, size_t entries) {
+                put_coord(node.origin());
+                uint8_t* table = p;
+                std::memset(table, 0, entries * 4);
+                for (auto v = node.cbeginValueAll(); v; ++v) {
+                    float f = static_cast<float>(*v);
+                    std::memcpy(table + 4 * v.pos(), &f, 4);
+                }
+                p += entries * 4;
+            };
+            for (auto u = root.cbeginChildOn(); u; ++u) {
+                if (++seen[1] > counts[1]) return false;
+                put_node(*u, 32768);
+            }
+            for (auto u = root.cbeginChildOn(); u; ++u)
+                for (auto l = u->cbeginChildOn(); l; ++l) {
+                    if (++seen[2] > counts[2]) return false;
+                    put_node(*l, 4096);
+                }
+            for (auto u = root.cbeginChildOn(); u; ++u)
+                for (auto l = u->cbeginChildOn(); l; ++l)
+                    for (auto leaf = l->cbeginChildOn(); leaf; ++leaf) {
+                        if (++seen[3] > counts[3]) return false;
+                        put_coord(leaf->origin());
+                        for (openvdb::Index n = 0; n < 512; ++n)
+                            put_float(static_cast<float>(leaf->getValue(n)));
+                    }
+            return p == end;
+        };
+        bool ok = g->f32 ? run(g->f32) : run(g->f64);
+        if (!ok) {
+            set_error(err, cap, "the tree changed while it was exported");
+            return 1;
+        }
         return 0;
     } catch (const std::exception& e) {
         set_error(err, cap, e.what());

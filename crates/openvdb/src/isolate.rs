@@ -38,6 +38,11 @@ impl Reply {
     pub fn bytes(&self) -> &[u8] {
         &self.0[1..]
     }
+
+    /// The reply's buffer, to keep without a copy: [`Reply::bytes`] from byte 1 on.
+    pub fn into_buffer(self) -> Vec<u8> {
+        self.0
+    }
 }
 
 /// Runs `work` in a forked child under `limits`; its `Ok` bytes or `Err` message come back.

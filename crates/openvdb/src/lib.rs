@@ -4,7 +4,7 @@
 //!
 //! The C++ side (`cpp/bridge.cpp`) is a small C ABI: open a file (delayed loading off, so
 //! OpenVDB reads through a stream, never a mapping a truncation could turn into SIGBUS), list
-//! its grids, read one float or double grid and sample a box of it. Every C++ exception is
+//! its grids, read one float or double grid and export its tree's nodes. Every C++ exception is
 //! caught there and comes back as an [`Error`] holding its message (at most 400 bytes).
 //!
 //! OpenVDB trusts its input (a flipped length byte made it allocate 17 GB), so callers read
@@ -72,11 +72,12 @@ extern "C" {
         cap: usize,
     ) -> *mut RawGrid;
     fn ivdb_grid_free(g: *mut RawGrid);
-    fn ivdb_sample(
+    fn ivdb_tree_counts(g: *const RawGrid, counts: *mut u64, err: *mut c_char, cap: usize) -> i32;
+    fn ivdb_tree_export(
         g: *const RawGrid,
-        min: *const i32,
-        dims: *const u64,
-        out: *mut f32,
+        counts: *const u64,
+        out: *mut u8,
+        len: usize,
         err: *mut c_char,
         cap: usize,
     ) -> i32;
@@ -217,7 +218,7 @@ pub struct GridInfo {
     pub background: f64,
     /// OpenVDB's GridClass: 0 unknown, 1 level set, 2 fog volume, 3 staggered.
     pub class: i32,
-    /// A double grid (read to f32 by [`Grid::sample`]).
+    /// A double grid (rounded to f32 by [`Grid::export`]).
     pub double: bool,
     /// Saved as half floats.
     pub half: bool,
@@ -231,36 +232,75 @@ pub struct Grid {
     pub info: GridInfo,
 }
 
-// SAFETY: the grid is read-only after ivdb_read; sampling uses a fresh accessor per call.
+// SAFETY: the grid is read-only after ivdb_read; the exports only read it.
 unsafe impl Send for Grid {}
 unsafe impl Sync for Grid {}
 
+/// How many nodes of each kind a grid's tree holds (OpenVDB's 5-4-3 tree: a root table over
+/// upper internal nodes of 32³ entries, lower ones of 16³, leaves of 8³ voxels).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TreeCounts {
+    /// Tiles of the root's table (active or not); coordinates outside the table and every
+    /// node are the background.
+    pub root_tiles: u64,
+    pub upper: u64,
+    pub lower: u64,
+    pub leaves: u64,
+}
+
+/// Bytes of one record of [`Grid::export`]: an origin (3 × i32) and the node's values.
+pub const ROOT_TILE_RECORD: u64 = 16;
+pub const UPPER_RECORD: u64 = 12 + 4 * 32768;
+pub const LOWER_RECORD: u64 = 12 + 4 * 4096;
+pub const LEAF_RECORD: u64 = 12 + 4 * 512;
+
+impl TreeCounts {
+    /// Bytes [`Grid::export`] writes for these counts (None past u64).
+    pub fn export_bytes(&self) -> Option<u64> {
+        let parts = [
+            self.root_tiles.checked_mul(ROOT_TILE_RECORD)?,
+            self.upper.checked_mul(UPPER_RECORD)?,
+            self.lower.checked_mul(LOWER_RECORD)?,
+            self.leaves.checked_mul(LEAF_RECORD)?,
+        ];
+        parts.iter().try_fold(0u64, |a, &b| a.checked_add(b))
+    }
+}
+
 impl Grid {
-    /// The values at index points `min .. min + dims` (x fastest) into `out`, as OpenVDB's
-    /// tree gives them: active and inactive voxel values, tiles, background. `out` must hold
-    /// `dims[0] * dims[1] * dims[2]` values, and `min + dims - 1` must fit an i32.
-    pub fn sample(&self, min: [i32; 3], dims: [u64; 3], out: &mut [f32]) -> Result<(), Error> {
-        let n = dims.iter().try_fold(1u64, |a, &d| a.checked_mul(d));
-        if n != Some(out.len() as u64) {
-            return Err(Error(format!(
-                "{} values asked into room for {}",
-                n.unwrap_or(0),
-                out.len()
-            )));
-        }
-        for k in 0..3 {
-            if dims[k] == 0 || i64::from(min[k]) + dims[k] as i64 - 1 > i64::from(i32::MAX) {
-                return Err(Error(format!("box {min:?} + {dims:?} outside the index range")));
-            }
-        }
+    /// The counts of the tree's nodes.
+    pub fn tree_counts(&self) -> Result<TreeCounts, Error> {
+        let mut c = [0u64; 4];
         let mut err = [0 as c_char; ERR_CAP];
-        // SAFETY: min and dims hold 3 values, out holds their product, err is writable.
+        // SAFETY: c holds 4 values, err is writable.
+        let rc = unsafe { ivdb_tree_counts(self.raw, c.as_mut_ptr(), err.as_mut_ptr(), ERR_CAP) };
+        match rc {
+            0 => Ok(TreeCounts { root_tiles: c[0], upper: c[1], lower: c[2], leaves: c[3] }),
+            _ => Err(message(&err)),
+        }
+    }
+
+    /// The tree's nodes as records into `out` (exactly [`TreeCounts::export_bytes`] of
+    /// `counts`), little-endian, in this order: root tiles (origin, value), upper nodes
+    /// (origin, 32³ entry values: a tile's value, 0 where a child is), lower nodes (origin, 16³
+    /// entry values), leaves (origin, 8³ values, active or not); entries in OpenVDB's offset
+    /// order (x slowest, z fastest), doubles rounded to f32. The values are what OpenVDB's
+    /// `getValue` gives: a voxel in a leaf its value, else the tile holding it, else the
+    /// background.
+    pub fn export(&self, counts: &TreeCounts, out: &mut [u8]) -> Result<(), Error> {
+        if counts.export_bytes() != Some(out.len() as u64) {
+            return Err(Error("the export's room does not match the tree's counts".into()));
+        }
+        let c = [counts.root_tiles, counts.upper, counts.lower, counts.leaves];
+        let mut err = [0 as c_char; ERR_CAP];
+        // SAFETY: c holds 4 values, out holds exactly the bytes they make (checked above and
+        // again on the C++ side), err is writable.
         let rc = unsafe {
-            ivdb_sample(
+            ivdb_tree_export(
                 self.raw,
-                min.as_ptr(),
-                dims.as_ptr(),
+                c.as_ptr(),
                 out.as_mut_ptr(),
+                out.len(),
                 err.as_mut_ptr(),
                 ERR_CAP,
             )

@@ -182,6 +182,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         dtype: et.to_string(),
         data_file: (path != err.path).then(|| path.clone()),
+        sparse: None,
     };
     let spacing = vec3(&["ElementSpacing", "ElementSize"])?.unwrap_or(DVec3::ONE);
     let axes = match get(&["TransformMatrix", "Rotation", "Orientation"]) {

@@ -168,7 +168,7 @@ pub struct ReadOptions {
 pub struct Volume {
     /// Grid points along x, y, z (each at least 2).
     pub dims: [usize; 3],
-    /// `dims[0] * dims[1] * dims[2]` finite samples, x fastest.
+    /// `dims[0] * dims[1] * dims[2]` finite samples, x fastest; empty for a sparse grid.
     pub values: Vec<f32>,
     /// World position of grid point (0, 0, 0).
     pub origin: DVec3,
@@ -182,9 +182,20 @@ pub struct Volume {
     /// `ElementDataFile`); None when they are in the file itself. An input like the header:
     /// no output of the run may replace it (`cli::scene_inputs`).
     pub data_file: Option<std::path::PathBuf>,
+    /// A `.vdb` or `.nvdb` grid's tree, held sparse ([`crate::field::sparse`]): `values` is
+    /// then empty and [`Volume::samples`] densifies it for the paths that need it whole.
+    pub sparse: Option<crate::field::sparse::SparseTree>,
 }
 
 impl Volume {
+    /// Every sample, x fastest: `values`, or the sparse tree densified.
+    pub fn samples(&self) -> std::borrow::Cow<'_, [f32]> {
+        match &self.sparse {
+            Some(tree) => std::borrow::Cow::Owned(tree.dense()),
+            None => std::borrow::Cow::Borrowed(&self.values),
+        }
+    }
+
     /// Splits a world-from-index matrix (columns: the index axes' steps) into spacing (column
     /// lengths) and unit directions; fails on a zero or non-finite column, naming the header
     /// `field` it came from.
@@ -257,7 +268,10 @@ pub fn read(path: &Path, format: Format, opts: &ReadOptions) -> Result<Volume, F
 /// a box whose every corner is a finite point (each reader has already named a bad header
 /// field; this catches what only the sum overflows, e.g. a spacing of 1e308 times the points).
 fn check(err: &Located, v: &Volume) -> Result<(), FieldError> {
-    debug_assert_eq!(v.values.len(), v.dims.iter().product::<usize>());
+    debug_assert!(
+        v.sparse.is_some() || v.values.len() == v.dims.iter().product::<usize>(),
+        "a dense volume holds every sample"
+    );
     if v.dims.iter().any(|&d| d < 2) {
         return Err(err.bad(format!(
             "every axis needs at least 2 points, got {}x{}x{}",

@@ -142,6 +142,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         dtype: dtype.into(),
         data_file: None,
+        sparse: None,
     })
 }
 

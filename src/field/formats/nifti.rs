@@ -146,6 +146,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         dtype: name.into(),
         data_file: None,
+        sparse: None,
     };
     if sform_code > 0 {
         let row = |o: usize| [f32_at(o), f32_at(o + 4), f32_at(o + 8), f32_at(o + 12)];

@@ -61,6 +61,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         dtype: h.type_name.clone(),
         data_file: (data_path != err.path).then(|| data_path.clone()),
+        sparse: None,
     };
     match &h.directions {
         Some(dirs) => {

@@ -10,17 +10,21 @@
 //! or child offsets) and leaves of 8³ values. Float grids are read, uncompressed or ZIP (zlib);
 //! BLOSC and the quantized types (Fp4, Fp8, Fp16, FpN, half) are refused with one line.
 //!
-//! The grid's box is the root's active-voxel index bounding box; it is sampled densely (under
-//! the memory cap) leaf block by leaf block: a leaf's values (active or not) as stored, a
-//! tile's value, or the background where the tree has nothing, as NanoVDB's getValue.
+//! The grid's box is the root's active-voxel index bounding box. The buffer is kept as it is
+//! and becomes a sparse tree ([`crate::field::sparse::NodeTree`], every node checked to lie
+//! in the buffer once, when the tree is walked here): a voxel is a leaf's value (active or
+//! not) as stored, a tile's value, or the background where the tree has nothing, as
+//! NanoVDB's getValue.
 
 use std::collections::HashMap;
 use std::io::Read;
+use std::sync::Arc;
 
 use glam::DVec3;
 
 use super::vdb::{box_dims, placed, select, short};
 use super::{Located, ReadOptions, Volume};
+use crate::field::sparse::{NodeTree, SparseTree};
 use crate::field::FieldError;
 
 const MAGIC: u64 = 0x3042_4456_6f6e_614e; // "NanoVDB0"
@@ -70,25 +74,38 @@ pub(super) fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldErr
     let index = select(&listed, opts.grid.as_deref(), &|t| t == "float", "float")
         .map_err(|m| err.bad(m))?;
     let g = &grids[index];
-    // The buffer holds the tree, which is at most about the dense box's size (it is checked
-    // against the cap once the box is known); a buffer far over the cap is refused first.
-    let most = opts.limits.max_bytes.saturating_mul(2).saturating_add(64 << 20);
-    if g.grid_size > most {
+    // The buffer is the tree, and it is what is held (sparse, never densified here): it is
+    // checked against the cap before it is read.
+    let cap = opts.limits.max_bytes;
+    if g.grid_size > cap {
+        let mib = g.grid_size.div_ceil(1 << 20);
         return Err(err.over_limit(format!(
-            "grid {index}'s buffer is {} bytes, over the {} this reader takes at a memory cap of \
-             {} MiB",
-            g.grid_size,
-            most,
-            opts.limits.max_bytes >> 20
+            "grid {index}'s buffer (its tree) is {mib} MiB, over the cap of {} MiB; raise the \
+             cap with {}={mib}",
+            cap >> 20,
+            crate::field::GRID_CAP_ENV
         )));
     }
     let buf = grid_bytes(err, &mut file, g)?;
-    let tree = Tree::new(&buf).map_err(|m| err.bad(format!("grid \"{}\": {m}", short(&g.name))))?;
+    let named = |m: String| err.bad(format!("grid \"{}\": {m}", short(&g.name)));
+    let tree = Tree::new(&buf).map_err(named)?;
     let dims = box_dims(tree.bbox.0, tree.bbox.1, &g.name).map_err(|m| err.bad(m))?;
-    err.limits_check(&opts.limits, dims)?;
-    let values =
-        tree.sample(dims).map_err(|m| err.bad(format!("grid \"{}\": {m}", short(&g.name))))?;
-    let class = match tree.class {
+    let nodes = tree.nodes().map_err(named)?;
+    let (background, class, columns, translation, min) =
+        (tree.background, tree.class, tree.columns, tree.translation, tree.bbox.0);
+    let mut sparse = NodeTree::new(buf, background, 8);
+    for (kind, origin, at, value) in nodes {
+        match kind {
+            Kind::RootTile => sparse.add_root_tile(origin, value),
+            Kind::Upper => sparse.add_upper(origin, at),
+            Kind::Lower => sparse.add_lower(origin, at),
+            Kind::Leaf => sparse.add_leaf(origin, at),
+        }
+        .map_err(named)?;
+    }
+    let tree =
+        SparseTree { tree: Arc::new(sparse), index_min: min, dims: dims.map(|d| d as usize) };
+    let class = match class {
         1 => "level set",
         2 => "fog volume",
         3 => "staggered",
@@ -97,9 +114,23 @@ pub(super) fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldErr
     let dtype = format!(
         "NanoVDB float {class} \"{}\" (background {})",
         short(&g.name),
-        super::num(f64::from(tree.background))
+        super::num(f64::from(background))
     );
-    placed(err, dims, tree.bbox.0, tree.columns, tree.translation, values, dtype)
+    placed(err, dims, min, columns, translation, Vec::new(), dtype)
+        .map(|v| Volume { sparse: Some(tree), ..v })
+}
+
+/// A node [`Tree::nodes`] found: its kind, origin, where its entries or values start, and a
+/// root tile's value.
+type Found = (Kind, [i32; 3], usize, f32);
+
+/// A node of the tree, as [`Tree::nodes`] finds it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    RootTile,
+    Upper,
+    Lower,
+    Leaf,
 }
 
 /// Every grid's metadata, segment by segment, up to the end of the file.
@@ -268,12 +299,6 @@ struct Tree<'a> {
     translation: DVec3,
 }
 
-/// Where a voxel's value comes from.
-enum Node {
-    Leaf(usize),
-    Value(f32),
-}
-
 impl<'a> Tree<'a> {
     fn new(buf: &'a [u8]) -> Result<Tree<'a>, String> {
         if buf.len() < GRID_DATA + TREE_DATA {
@@ -343,68 +368,53 @@ impl<'a> Tree<'a> {
         self.buf[mask + (n >> 3)] & (1 << (n & 7)) != 0
     }
 
-    /// The leaf (or the constant) holding voxel `p`.
-    fn find(&self, p: [i32; 3]) -> Result<Node, String> {
-        let u = p.map(|c| c as u32);
-        let key =
-            u64::from(u[2] >> 12) | (u64::from(u[1] >> 12) << 21) | (u64::from(u[0] >> 12) << 42);
-        let Some(&tile) = self.tiles.get(&key) else {
-            return Ok(Node::Value(self.background));
-        };
-        let child = le_u64(self.buf, tile + 8) as i64;
-        if child == 0 {
-            return Ok(Node::Value(self.f32_at(tile + 20)));
-        }
-        let upper = self.child(self.root, child, UPPER_SIZE, "upper node")?;
-        let n = (((u[0] & 4095) >> 7) << 10 | ((u[1] & 4095) >> 7) << 5 | ((u[2] & 4095) >> 7))
-            as usize;
-        let entry = upper + UPPER_TABLE + 8 * n;
-        if !self.mask_on(upper + 32 + 4096, n) {
-            return Ok(Node::Value(self.f32_at(entry)));
-        }
-        let lower = self.child(upper, le_u64(self.buf, entry) as i64, LOWER_SIZE, "lower node")?;
-        let n =
-            (((u[0] & 127) >> 3) << 8 | ((u[1] & 127) >> 3) << 4 | ((u[2] & 127) >> 3)) as usize;
-        let entry = lower + LOWER_TABLE + 8 * n;
-        if !self.mask_on(lower + 32 + 512, n) {
-            return Ok(Node::Value(self.f32_at(entry)));
-        }
-        let leaf = self.child(lower, le_u64(self.buf, entry) as i64, LEAF_SIZE, "leaf")?;
-        Ok(Node::Leaf(leaf))
-    }
-
-    /// The box's values, x fastest, one 8³ block's lookup at a time.
-    fn sample(&self, dims: [u64; 3]) -> Result<Vec<f32>, String> {
-        let (min, max) = (self.bbox.0.map(i64::from), self.bbox.1.map(i64::from));
-        let d = dims.map(|v| v as usize);
-        let mut out = vec![0f32; d[0] * d[1] * d[2]];
-        let block = |c: i64| c & !7;
-        let mut bz = block(min[2]);
-        while bz <= max[2] {
-            let mut by = block(min[1]);
-            while by <= max[1] {
-                let mut bx = block(min[0]);
-                while bx <= max[0] {
-                    let node = self.find([bx as i32, by as i32, bz as i32])?;
-                    for z in bz.max(min[2])..=(bz + 7).min(max[2]) {
-                        for y in by.max(min[1])..=(by + 7).min(max[1]) {
-                            let row = ((z - min[2]) as usize * d[1] + (y - min[1]) as usize) * d[0];
-                            for x in bx.max(min[0])..=(bx + 7).min(max[0]) {
-                                out[row + (x - min[0]) as usize] = match node {
-                                    Node::Value(v) => v,
-                                    Node::Leaf(leaf) => {
-                                        let n = ((x & 7) << 6 | (y & 7) << 3 | (z & 7)) as usize;
-                                        self.f32_at(leaf + LEAF_VALUES + 4 * n)
-                                    }
-                                };
-                            }
-                        }
-                    }
-                    bx += 8;
-                }
-                by += 8;
+    /// Every node under the root, checked to lie in the buffer: root tiles with their value,
+    /// internal nodes with where their entries start, leaves with where their values start;
+    /// origins from the walk (a root tile's key, then each child's entry). A buffer that names
+    /// more nodes than it can hold (children shared by several entries) is refused: the walk
+    /// is bounded by the buffer's size.
+    fn nodes(&self) -> Result<Vec<Found>, String> {
+        let most = |size: usize| self.buf.len() / size;
+        let (mut lowers, mut leaves) = (0usize, 0usize);
+        let too_many = |what: &str| format!("the tree names more {what} than its buffer holds");
+        let mut out = Vec::new();
+        let mut tiles: Vec<(u64, usize)> = self.tiles.iter().map(|(&k, &a)| (k, a)).collect();
+        tiles.sort_unstable();
+        for (key, tile) in tiles {
+            let axis = |shift: u32| ((((key >> shift) & 0x1F_FFFF) as u32) << 12) as i32;
+            let origin = [axis(42), axis(21), axis(0)];
+            let child = le_u64(self.buf, tile + 8) as i64;
+            if child == 0 {
+                out.push((Kind::RootTile, origin, 0, self.f32_at(tile + 20)));
+                continue;
             }
-            bz += 8;
+            let upper = self.child(self.root, child, UPPER_SIZE, "upper node")?;
+            out.push((Kind::Upper, origin, upper + UPPER_TABLE, 0.0));
+            for n in (0..32768).filter(|&n| self.mask_on(upper + 32 + 4096, n)) {
+                lowers += 1;
+                if lowers > most(LOWER_SIZE) {
+                    return Err(too_many("lower nodes"));
+                }
+                let entry = upper + UPPER_TABLE + 8 * n;
+                let lower =
+                    self.child(upper, le_u64(self.buf, entry) as i64, LOWER_SIZE, "lower node")?;
+                let at = |n: usize, shift: usize, side: i32| {
+                    ((n >> shift) & if side == 128 { 31 } else { 15 }) as i32 * side
+                };
+                let lo = [0, 1, 2].map(|k| origin[k] + at(n, 10 - 5 * k, 128));
+                out.push((Kind::Lower, lo, lower + LOWER_TABLE, 0.0));
+                for m in (0..4096).filter(|&m| self.mask_on(lower + 32 + 512, m)) {
+                    leaves += 1;
+                    if leaves > most(LEAF_SIZE) {
+                        return Err(too_many("leaves"));
+                    }
+                    let entry = lower + LOWER_TABLE + 8 * m;
+                    let leaf =
+                        self.child(lower, le_u64(self.buf, entry) as i64, LEAF_SIZE, "leaf")?;
+                    let o = [0, 1, 2].map(|k| lo[k] + at(m, 8 - 4 * k, 8));
+                    out.push((Kind::Leaf, o, leaf + LEAF_VALUES, 0.0));
+                }
+            }
         }
         Ok(out)
     }

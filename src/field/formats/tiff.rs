@@ -114,5 +114,6 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         dtype: format!("{bits}-bit gray"),
         data_file: None,
+        sparse: None,
     })
 }

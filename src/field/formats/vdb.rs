@@ -120,7 +120,19 @@ pub(super) fn box_dims(min: [i32; 3], max: [i32; 3], name: &str) -> Result<[u64;
     if (0..3).any(|k| min[k] > max[k]) {
         return Err(format!("grid \"{}\" has no active voxels", short(name)));
     }
-    Ok([0, 1, 2].map(|k| (i64::from(max[k]) - i64::from(min[k]) + 1) as u64))
+    let dims = [0, 1, 2].map(|k| (i64::from(max[k]) - i64::from(min[k]) + 1) as u64);
+    // Every count derived from the box (its f32 bytes, its bricks) must fit a u64.
+    if dims.iter().try_fold(4u64, |a, &d| a.checked_mul(d)).is_none() {
+        return Err(format!(
+            "grid \"{}\": its active-voxel box of {}x{}x{} voxels is beyond what isoview \
+             addresses",
+            short(name),
+            dims[0],
+            dims[1],
+            dims[2]
+        ));
+    }
+    Ok(dims)
 }
 
 /// A placed grid's `Volume` from its index box and a linear map: `columns[k]` the world step
@@ -144,6 +156,7 @@ pub(super) fn placed(
         axes: [glam::DVec3::X, glam::DVec3::Y, glam::DVec3::Z],
         dtype,
         data_file: None,
+        sparse: None,
     };
     v.set_axes(columns, "the grid's transform", err)?;
     Ok(v)
@@ -156,10 +169,13 @@ pub(super) use with_library::read;
 mod with_library {
     use std::time::Duration;
 
+    use std::sync::Arc;
+
     use glam::DVec3;
     use isoview_openvdb as ovdb;
 
     use super::{box_dims, placed, select, short, Located, ReadOptions, Volume};
+    use crate::field::sparse::{NodeTree, SparseTree};
     use crate::field::{FieldError, GRID_CAP_ENV};
 
     /// The child's reply, in its own little format: a tag byte, then the fields.
@@ -188,7 +204,7 @@ mod with_library {
         let wanted = opts.grid.clone();
         let reply = ovdb::isolated(limits, move || child(&path, wanted.as_deref(), cap))
             .map_err(|e| err.bad(e.to_string()))?;
-        parse(err, opts, reply.bytes())
+        parse(err, opts, reply.into_buffer())
     }
 
     /// What the child does: open, pick, read, sample, encode.
@@ -219,16 +235,21 @@ mod with_library {
             Ok(d) => d,
             Err(m) => return bad(m),
         };
-        let count = dims.iter().try_fold(1u64, |a, &d| a.checked_mul(d));
-        if count.map_or(true, |n| n.saturating_mul(4) > cap) {
+        // The tree is what is held (sparse, never densified here): its export is checked
+        // against the cap before it is written.
+        let counts = match grid.tree_counts() {
+            Ok(c) => c,
+            Err(e) => return bad(format!("grid \"{}\": {e}", short(&name))),
+        };
+        let bytes = counts.export_bytes().unwrap_or(u64::MAX);
+        if bytes > cap {
             let mut r = vec![OVER_CAP];
-            for d in dims {
-                r.extend_from_slice(&d.to_le_bytes());
+            for v in [bytes, counts.leaves, counts.lower, counts.upper] {
+                r.extend_from_slice(&v.to_le_bytes());
             }
             return Ok(r);
         }
-        let count = count.unwrap_or(0) as usize;
-        let mut r = Vec::with_capacity(count * 4 + 1024);
+        let mut r = Vec::with_capacity(bytes as usize + 1024);
         r.push(OK);
         put_str(&mut r, &name);
         r.push(info.linear as u8);
@@ -249,24 +270,14 @@ mod with_library {
         r.push(info.double as u8);
         r.push(info.half as u8);
         r.extend_from_slice(&info.active_voxels.to_le_bytes());
-        r.extend_from_slice(&info.leaf_count.to_le_bytes());
-        // The box's values, a slab of z layers at a time straight into the reply: the child
-        // holds one copy of the samples, not two.
-        let layer = (dims[0] * dims[1]) as usize;
-        let per_slab = ((16usize << 20) / layer.max(1)).max(1) as u64;
-        let mut slab = Vec::new();
-        let mut z = 0u64;
-        while z < dims[2] {
-            let nz = per_slab.min(dims[2] - z);
-            slab.resize(layer * nz as usize, 0f32);
-            let min = [info.bbox.0[0], info.bbox.0[1], info.bbox.0[2] + z as i32];
-            if let Err(e) = grid.sample(min, [dims[0], dims[1], nz], &mut slab) {
-                return bad(format!("grid \"{}\": {e}", short(&name)));
-            }
-            for v in &slab {
-                r.extend_from_slice(&v.to_le_bytes());
-            }
-            z += nz;
+        for v in [counts.root_tiles, counts.upper, counts.lower, counts.leaves] {
+            r.extend_from_slice(&v.to_le_bytes());
+        }
+        // The nodes straight into the reply: the child holds OpenVDB's tree and one export.
+        let at = r.len();
+        r.resize(at + bytes as usize, 0);
+        if let Err(e) = grid.export(&counts, &mut r[at..]) {
+            return bad(format!("grid \"{}\": {e}", short(&name)));
         }
         Ok(r)
     }
@@ -309,14 +320,16 @@ mod with_library {
         }
     }
 
-    fn parse(err: &Located, opts: &ReadOptions, reply: &[u8]) -> Result<Volume, FieldError> {
-        let mut c = Cursor(reply);
+    fn parse(err: &Located, opts: &ReadOptions, reply: Vec<u8>) -> Result<Volume, FieldError> {
+        // Byte 0 is isolate's tag; the child's own reply follows.
+        let mut c = Cursor(&reply[1.min(reply.len())..]);
         let tag = c.u8().map_err(|m| err.bad(m))?;
         match tag {
             BAD => {
                 let message = String::from_utf8_lossy(c.0).into_owned();
                 // OpenVDB allocates as the file's node headers say: a corrupt count asks for
-                // gigabytes, and the child's address space (3 x the grid cap + 2 GiB) ends it.
+                // gigabytes, and the child's address space (3 x the grid cap + 2 GiB: a tree
+                // under the cap, its export and the library) ends it.
                 if message.contains("bad_alloc") {
                     return Err(err.bad(format!(
                         "{message}: OpenVDB asked for more memory than the reader allows ({} MiB: \
@@ -328,24 +341,46 @@ mod with_library {
                 return Err(err.bad(message));
             }
             OVER_CAP => {
-                let mut dims = [0u64; 3];
-                for d in &mut dims {
-                    *d = c.u64().map_err(|m| err.bad(m))?;
+                let mut v = [0u64; 4];
+                for x in &mut v {
+                    *x = c.u64().map_err(|m| err.bad(m))?;
                 }
-                err.limits_check(&opts.limits, dims)?;
-                return Err(err.bad("the grid is over the memory cap"));
+                let [bytes, leaves, lower, upper] = v;
+                let mib = |b: u64| b.div_ceil(1 << 20);
+                return Err(err.over_limit(format!(
+                    "the grid's tree ({leaves} leaves, {lower} lower and {upper} upper internal \
+                     nodes) takes {} MiB, over the cap of {} MiB; raise the cap with \
+                     {GRID_CAP_ENV}={}",
+                    mib(bytes),
+                    opts.limits.max_bytes >> 20,
+                    mib(bytes)
+                )));
             }
             OK => {}
             _ => return Err(err.bad("the reader's reply is not one it writes")),
         }
-        decode(err, opts, &mut c).map_err(|m| err.bad(m))?
+        let header = decode(&mut c).map_err(|m| err.bad(m))?;
+        let start = reply.len() - c.0.len();
+        let tree = nodes(reply, start, &header).map_err(|m| err.bad(m))?;
+        volume(err, opts, header, tree)
     }
 
-    fn decode(
-        err: &Located,
-        opts: &ReadOptions,
-        c: &mut Cursor,
-    ) -> Result<Result<Volume, FieldError>, String> {
+    /// What the reply says of the grid, before its nodes.
+    struct Header {
+        name: String,
+        linear: bool,
+        map_type: String,
+        rows: [[f64; 4]; 4],
+        min: [i32; 3],
+        dims: [u64; 3],
+        background: f64,
+        class: i32,
+        double: bool,
+        half: bool,
+        counts: [u64; 4],
+    }
+
+    fn decode(c: &mut Cursor) -> Result<Header, String> {
         let name = c.str()?;
         let linear = c.u8()? != 0;
         let map_type = c.str()?;
@@ -362,11 +397,72 @@ mod with_library {
         let double = c.u8()? != 0;
         let half = c.u8()? != 0;
         let _active = c.u64()?;
-        let _leaves = c.u64()?;
-        let n = dims.iter().product::<u64>() as usize;
-        let raw = c.take(n * 4)?;
-        let values: Vec<f32> =
-            raw.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
+        let counts = [c.u64()?, c.u64()?, c.u64()?, c.u64()?];
+        Ok(Header {
+            name,
+            linear,
+            map_type,
+            rows,
+            min,
+            dims,
+            background,
+            class,
+            double,
+            half,
+            counts,
+        })
+    }
+
+    /// The tree over the reply's records from byte `start` (`isoview_openvdb::Grid::export`'s
+    /// layout), the buffer kept as the nodes' storage.
+    fn nodes(reply: Vec<u8>, start: usize, h: &Header) -> Result<NodeTree, String> {
+        let [tiles, upper, lower, leaves] = h.counts;
+        let records = [
+            (tiles, ovdb::ROOT_TILE_RECORD),
+            (upper, ovdb::UPPER_RECORD),
+            (lower, ovdb::LOWER_RECORD),
+            (leaves, ovdb::LEAF_RECORD),
+        ];
+        let total =
+            records.iter().map(|&(n, b)| n.saturating_mul(b)).fold(0u64, u64::saturating_add);
+        if (reply.len() - start) as u64 != total {
+            return Err("the reader's reply is cut short".into());
+        }
+        let mut tree = NodeTree::new(reply, h.background as f32, 4);
+        let i32_at =
+            |b: &[u8], at: usize| i32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]]);
+        let mut at = start;
+        for (kind, &(n, size)) in records.iter().enumerate() {
+            for _ in 0..n {
+                let b = tree.buffer();
+                let origin = [i32_at(b, at), i32_at(b, at + 4), i32_at(b, at + 8)];
+                match kind {
+                    0 => {
+                        let v =
+                            f32::from_le_bytes([b[at + 12], b[at + 13], b[at + 14], b[at + 15]]);
+                        tree.add_root_tile(origin, v)?
+                    }
+                    1 => tree.add_upper(origin, at + 12)?,
+                    2 => tree.add_lower(origin, at + 12)?,
+                    _ => tree.add_leaf(origin, at + 12)?,
+                }
+                at += size as usize;
+            }
+        }
+        Ok(tree)
+    }
+
+    fn volume(
+        err: &Located,
+        opts: &ReadOptions,
+        h: Header,
+        tree: NodeTree,
+    ) -> Result<Volume, FieldError> {
+        let Header {
+            name, linear, map_type, rows, min, dims, background, class, double, half, ..
+        } = h;
+        let d = dims.map(|v| v as usize);
+        let sparse = SparseTree { tree: Arc::new(tree), index_min: min, dims: d };
         let class_name = match class {
             1 => "level set",
             2 => "fog volume",
@@ -382,19 +478,21 @@ mod with_library {
         );
         if !linear {
             if !opts.has_bounds {
-                return Ok(Err(err.bad(format!(
+                return Err(err.bad(format!(
                     "grid \"{}\": its transform ({}) is not a linear map isoview can place; \
                      set [field] bounds to place its index box",
                     short(&name),
                     short(&map_type)
-                ))));
+                )));
             }
             // `bounds` places the index box: the map's geometry is not used.
             let cols = [DVec3::X, DVec3::Y, DVec3::Z];
-            return Ok(placed(err, dims, min, cols, DVec3::ZERO, values, dtype));
+            return placed(err, dims, min, cols, DVec3::ZERO, Vec::new(), dtype)
+                .map(|v| Volume { sparse: Some(sparse), ..v });
         }
         let col = |k: usize| DVec3::new(rows[k][0], rows[k][1], rows[k][2]);
         let t = DVec3::new(rows[3][0], rows[3][1], rows[3][2]);
-        Ok(placed(err, dims, min, [col(0), col(1), col(2)], t, values, dtype))
+        placed(err, dims, min, [col(0), col(1), col(2)], t, Vec::new(), dtype)
+            .map(|v| Volume { sparse: Some(sparse), ..v })
     }
 }

@@ -191,6 +191,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         dtype: format!("{ty_name} ({})", array.attribute("Name").unwrap_or("unnamed")),
         data_file: None,
+        sparse: None,
     };
     let cols = [d.x_axis * spacing.x, d.y_axis * spacing.y, d.z_axis * spacing.z];
     v.set_axes(cols, "Spacing and Direction", err)?;

@@ -204,6 +204,7 @@ pub fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldError> {
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         dtype: format!("{} ({name})", type_name(ty)),
         data_file: None,
+        sparse: None,
     })
 }
 

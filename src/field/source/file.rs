@@ -6,7 +6,9 @@
 //! other than the world's become the field's placement. A `bounds` key overrides both.
 //!
 //! The file is read whole at load time (compressed formats cannot be checked otherwise), under
-//! the memory cap, and kept: sampling hands out a copy.
+//! the memory cap, and kept: sampling hands out a copy. `.vdb` and `.nvdb` grids are kept as
+//! their sparse trees (the cap applies to the tree); sampling densifies them under the cap,
+//! and the paths that read a grid in parts read the tree (`field::parts`).
 
 use std::sync::Arc;
 
@@ -100,7 +102,9 @@ pub(super) fn parse<P: Params>(p: &P) -> Result<Parsed, P::Error> {
 
 pub(super) fn sample(f: &FileSource, grid: &Grid) -> Result<Vec<f32>, FieldError> {
     check_file_dims(f.volume.dims, grid)?;
-    Ok(f.volume.values.clone())
+    // A sparse tree is densified here, for the paths that need the grid whole (the cap was
+    // checked against the box's dims before).
+    Ok(f.volume.samples().into_owned())
 }
 
 pub(super) fn describe(f: &FileSource) -> String {

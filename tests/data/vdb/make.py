@@ -114,6 +114,14 @@ add("torus_fp16.nvdb", refused="(fp16)")
 vdb_tool("-read", "sphere.vdb", "-write", "codec=zip", "sphere.nvdb")
 add("sphere.nvdb", **REF["sphere.vdb"])
 
+# Two small spheres far apart: a 155 x 145 x 135 box (12 MB densified) over a tree of one
+# upper node, two lower nodes and their leaves (0.2 MB): the sparse paths' test
+# (field::vdb::a_sparse_grid_over_the_cap_renders_and_extracts_as_its_dense_box). No reference
+# values: the test compares with the box densified.
+vdb_tool("-sphere", "voxel=1", "radius=4", "center=8,8,8", "-sphere", "voxel=1", "radius=4",
+         "center=150,140,130", "-union", "-write", "two.vdb")
+vdb_tool("-read", "two.vdb", "-write", "codec=zip", "two_zip.nvdb")
+
 # A dense array copied in (every voxel active: tolerance -1) with an affine transform: a
 # rotation about z by 30 degrees, voxel sizes 0.5, 0.25, 2 per axis, a translation.
 n = (7, 6, 5)

@@ -67,7 +67,7 @@ fn both(
     let mut mapped_scene = scene.clone();
     mapped_scene.field = raw_spec(file, grid, Residency::Active);
     let mapped = pool::mapped_for(&mapped_scene, &GridLimits::default()).unwrap().unwrap();
-    let pooled = pool::upload_for(ctx, &mapped_scene, &mapped, &GridLimits::default()).unwrap();
+    let pooled = pool::upload_for(ctx, &mapped_scene, &*mapped, &GridLimits::default()).unwrap();
     let residency = pooled.gpu.residency().unwrap().clone();
     let mut sink = Collect::default();
     renderer.render_to(&mapped_scene, &pooled.shape, &pooled.gpu, 0.0, &mut sink).unwrap();

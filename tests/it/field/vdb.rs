@@ -85,15 +85,18 @@ fn vdb_and_nvdb_grids_read_as_pyopenvdb_reads_them() {
             assert!((got - step).length() <= 1e-9 * step.length(), "{name}: axis {k} {got}");
         }
         let want = f32s(&data().join(r["values"].as_str().unwrap()));
-        assert_eq!(v.values.len(), want.len(), "{name}");
-        for (i, (a, b)) in v.values.iter().zip(&want).enumerate() {
+        // Held sparse: the box densified from the tree, as the paths that need it whole see it.
+        assert!(v.sparse.is_some() && v.values.is_empty(), "{name}: not held as a tree");
+        let values = v.samples();
+        assert_eq!(values.len(), want.len(), "{name}");
+        for (i, (a, b)) in values.iter().zip(&want).enumerate() {
             assert_eq!(a.to_bits(), b.to_bits(), "{name}: value {i}: {a} vs pyopenvdb's {b}");
         }
         // A level set's inactive values are ±background as OpenVDB's tree gives them: both
         // signs occur where the box holds inside and outside beyond the band.
         if r["class"].as_str() == Some("level set") {
             let bg = r["background"].as_f64().unwrap() as f32;
-            assert!(v.values.contains(&bg) && v.values.contains(&-bg), "{name}: ±background");
+            assert!(values.contains(&bg) && values.contains(&-bg), "{name}: ±background");
         }
         read += 1;
     }
@@ -234,15 +237,27 @@ fn openvdb_runaway_allocation_is_stopped() {
     assert!(e.contains(": OpenVDB: "), "{e}");
 }
 
-/// The memory cap applies to the densified box.
+/// The memory cap applies to the tree when the file is read (a tree over it is refused, naming
+/// its nodes), and to the densified box where a path needs the grid whole (refused naming the
+/// box and the paths that read it sparsely).
 #[test]
-fn a_grid_over_the_cap_is_refused() {
+fn a_tree_or_a_densified_box_over_the_cap_is_refused() {
     for file in ["sphere.vdb", "sphere.nvdb"].into_iter().filter(|f| readable(f)) {
         let small = ReadOptions { limits: GridLimits { max_bytes: 1 << 14 }, ..opts(None) };
         let p = data().join(file);
         let e = formats::read(&p, Format::from_path(&p).unwrap(), &small).unwrap_err();
+        assert!(matches!(e, FieldError::ReaderLimit { .. }), "{file}: {e}");
+        let e = e.to_string();
+        assert!(e.contains("over the cap of 0 MiB") && e.contains("ISOVIEW_MAX_GRID_MIB="), "{e}");
+        let dir = scratch("vdb-cap");
+        std::fs::copy(&p, dir.join(file)).unwrap();
+        let toml = format!("[field]\nsource = \"file\"\npath = \"{file}\"\n");
+        let scene = crate::common::write(&dir, "s.toml", &toml);
+        let scene = scene::load(Path::new(&scene), &[]).unwrap();
+        let e = scene.field.sample_with(0.0, &GridLimits { max_bytes: 1 << 14 }).unwrap_err();
         assert!(matches!(e, FieldError::TooLarge { .. }), "{file}: {e}");
-        assert!(e.to_string().contains("25x25x25"), "{file}: {e}");
+        let e = e.to_string();
+        assert!(e.contains("25x25x25") && e.contains("read sparsely"), "{file}: {e}");
     }
 }
 
@@ -329,6 +344,71 @@ fn a_vdb_level_set_extracts_and_renders_as_its_dense_equivalent() {
         }
         // The same cells with the same corner values.
         assert_eq!(probes[k], probes[0], "{name}: probe");
+    }
+}
+
+/// Two spheres far apart (`two.vdb`, `two_zip.nvdb`): a box of 155 x 145 x 135 points (12 MB
+/// densified) over a tree of 0.2 MB. Under a cap of 1 MiB the ray methods render it from the
+/// tree (the brick pool) and `extract` streams it, each exactly as the box densified and read
+/// as a raw file under the default cap; `slice`, which needs the grid whole, is refused in one
+/// line naming the cap and what reads the grid sparsely.
+#[test]
+fn a_sparse_grid_over_the_cap_renders_and_extracts_as_its_dense_box() {
+    use crate::common::{isoview, stderr, write};
+    let dir = scratch("vdb-sparse");
+    let files: Vec<&str> =
+        ["two.vdb", "two_zip.nvdb"].into_iter().filter(|f| readable(f)).collect();
+    let v = read_entry(files[files.len() - 1]).unwrap();
+    assert_eq!(v.dims, [155, 145, 135]);
+    let values = v.samples();
+    let bytes: Vec<u8> = values.iter().flat_map(|x| x.to_le_bytes()).collect();
+    std::fs::write(dir.join("two.f32"), bytes).unwrap();
+    let far = v.origin + v.spacing * DVec3::new(154.0, 144.0, 134.0);
+    let common = "[image]\nwidth = 64\nheight = 48\n[surface]\nisovalue = 0.0\n[camera]\neye = [300, 260, 240]\ntarget = [80, 75, 70]\nfov_y_deg = 40\n";
+    let raw = format!(
+        "[field]\nsource = \"raw\"\npath = \"two.f32\"\ndims = [155, 145, 135]\ndtype = \"f32\"\n\
+         residency = \"whole\"\nbounds = {{ min = [{}, {}, {}], max = [{}, {}, {}] }}\n{common}",
+        v.origin.x, v.origin.y, v.origin.z, far.x, far.y, far.z
+    );
+    let raw = write(&dir, "raw.toml", &raw);
+    let run = |args: &[&str], cap: &[(&str, &str)]| {
+        let o = isoview(args, cap);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        o
+    };
+    let small = [("ISOVIEW_MAX_GRID_MIB", "1")];
+    for method in ["analytic", "fixed-step"] {
+        let want = dir.join(format!("raw-{method}.exr")).display().to_string();
+        run(&["render", &raw, "-o", &want, "--set", &format!("render.method=\"{method}\"")], &[]);
+        for f in &files {
+            std::fs::copy(data().join(f), dir.join(f)).unwrap();
+            let toml = format!("[field]\nsource = \"file\"\npath = \"{f}\"\n{common}");
+            let scene = write(&dir, &format!("{f}.toml"), &toml);
+            let got = dir.join(format!("{f}-{method}.exr")).display().to_string();
+            let set = format!("render.method=\"{method}\"");
+            let o = run(&["render", &scene, "-o", &got, "--set", &set], &small);
+            assert!(stderr(&o).contains("a sparse tree of"), "{f}: {}", stderr(&o));
+            let o = isoview(&["compare", &want, &got], &[]);
+            let out = String::from_utf8_lossy(&o.stdout);
+            assert!(o.status.success() && out.contains("identical"), "{f} {method}: {out}");
+        }
+    }
+    let want = dir.join("raw.ply").display().to_string();
+    run(&["extract", &raw, "-o", &want, "--device", "cpu"], &[]);
+    let want = std::fs::read(&want).unwrap();
+    assert!(want.len() > 10_000, "the spheres' mesh is {} bytes", want.len());
+    for f in &files {
+        let scene = dir.join(format!("{f}.toml")).display().to_string();
+        let got = dir.join(format!("{f}.ply")).display().to_string();
+        let o = run(&["extract", &scene, "-o", &got], &small);
+        assert!(stderr(&o).contains("streamed from the 155x145x135 grid"), "{}", stderr(&o));
+        assert!(std::fs::read(&got).unwrap() == want, "{f}: the mesh differs from the box's");
+        let cut = dir.join(format!("{f}-slice.exr")).display().to_string();
+        let o = isoview(&["slice", &scene, "-o", &cut, "--axis", "z", "--at", "70"], &small);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{f}: {e}");
+        assert_eq!(e.trim().lines().count(), 1, "{f}: {e}");
+        assert!(e.contains("155x145x135") && e.contains("read sparsely"), "{f}: {e}");
     }
 }
 

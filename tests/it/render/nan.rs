@@ -663,7 +663,7 @@ fn brick_pool_renders_equal_whole_grid_renders_with_missing_samples() {
         };
         let limits = GridLimits::default();
         let mapped = pool::mapped_for(&mapped_scene, &limits).unwrap().unwrap();
-        let pooled = pool::upload_for(&ctx, &mapped_scene, &mapped, &limits).unwrap();
+        let pooled = pool::upload_for(&ctx, &mapped_scene, &*mapped, &limits).unwrap();
         let mut sink = Collect::default();
         renderer.render_to(&mapped_scene, &pooled.shape, &pooled.gpu, 0.0, &mut sink).unwrap();
         let pixels = sink.into_frame().unwrap().pixels;

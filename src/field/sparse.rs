@@ -15,11 +15,11 @@
 //! brick ranges of the brick pool ([`SparseTree::brick_ranges`]) a leaf block at a time; a
 //! block that is one value costs one lookup whatever its size.
 
-use std::collections::HashMap;
 use std::ops::Range;
 use std::sync::Arc;
 
 use rayon::prelude::*;
+use rustc_hash::FxHashMap as HashMap;
 
 use super::interpolant::{widen, STENCIL};
 use super::{FieldError, NanPolicy};
@@ -78,10 +78,10 @@ impl NodeTree {
             buf,
             background,
             stride,
-            root_tiles: HashMap::new(),
-            uppers: HashMap::new(),
-            lowers: HashMap::new(),
-            leaves: HashMap::new(),
+            root_tiles: HashMap::default(),
+            uppers: HashMap::default(),
+            lowers: HashMap::default(),
+            leaves: HashMap::default(),
         }
     }
 
@@ -198,6 +198,10 @@ impl std::fmt::Debug for SparseTree {
     }
 }
 
+fn out_len(n: [usize; 3]) -> usize {
+    n[0] * n[1] * n[2]
+}
+
 /// The blocks (their first voxel's index coordinate) a run of voxels `a ..= b` meets.
 fn blocks(a: i64, b: i64) -> impl Iterator<Item = i64> {
     let first = a.div_euclid(LEAF) * LEAF;
@@ -242,7 +246,7 @@ impl SparseTree {
         }
         let (x0, y0) = (self.index(0, lo[0]), self.index(1, lo[1]));
         let (x1, y1) = (x0 + n[0] as i64 - 1, y0 + n[1] as i64 - 1);
-        pieces.into_par_iter().for_each(|(za, zb, piece)| {
+        let fill = |(za, zb, piece): (i64, i64, &mut [f32])| {
             for by in blocks(y0, y1) {
                 for bx in blocks(x0, x1) {
                     let block = self.block_at([bx, by, za]);
@@ -265,7 +269,14 @@ impl SparseTree {
                     }
                 }
             }
-        });
+        };
+        // A brick pool's slot (11³ points) is read on a thread of the upload's own parallel
+        // loop: small boxes are filled in place, larger ones a block layer a thread.
+        if out_len(n) < 1 << 16 {
+            pieces.into_iter().for_each(fill);
+        } else {
+            pieces.into_par_iter().for_each(fill);
+        }
         out
     }
 
@@ -285,20 +296,40 @@ impl SparseTree {
             let r = STENCIL.brick_points(b, brick, self.dims[a]);
             self.index(a, r.start)..self.index(a, r.end)
         };
+        // The blocks along x and y the box meets: each brick layer looks its blocks up once
+        // (a block is shared by up to 8 bricks), the one or two block layers along z it meets.
+        let first = [0, 1].map(|a| self.index(a, 0).div_euclid(LEAF));
+        let across = [0, 1]
+            .map(|a| (self.index(a, self.dims[a] - 1).div_euclid(LEAF) - first[a] + 1) as usize);
         let layers: Vec<Result<Vec<[f32; 2]>, FieldError>> = (0..counts[2])
             .into_par_iter()
             .map(|bz| {
-                let mut out = Vec::with_capacity(counts[0] * counts[1]);
                 let zs = span(2, bz);
+                let table: Vec<(i64, Vec<Block>)> = blocks(zs.start, zs.end - 1)
+                    .map(|oz| {
+                        let row = (0..across[0] * across[1])
+                            .map(|k| {
+                                let bx = first[0] + (k % across[0]) as i64;
+                                let by = first[1] + (k / across[0]) as i64;
+                                self.block_at([bx * LEAF, by * LEAF, oz])
+                            })
+                            .collect();
+                        (oz, row)
+                    })
+                    .collect();
+                let mut out = Vec::with_capacity(counts[0] * counts[1]);
                 for by in 0..counts[1] {
                     let ys = span(1, by);
                     for bx in 0..counts[0] {
                         let xs = span(0, bx);
                         let mut mm = [f32::INFINITY, f32::NEG_INFINITY];
-                        for oz in blocks(zs.start, zs.end - 1) {
+                        for (oz, row) in &table {
+                            let oz = *oz;
                             for oy in blocks(ys.start, ys.end - 1) {
                                 for ox in blocks(xs.start, xs.end - 1) {
-                                    let block = self.block_at([ox, oy, oz]);
+                                    let k = (ox / LEAF - first[0]) as usize
+                                        + across[0] * (oy / LEAF - first[1]) as usize;
+                                    let block = row[k];
                                     let clip = |r: &Range<i64>, o: i64| {
                                         r.start.max(o)..r.end.min(o + LEAF)
                                     };

@@ -38,6 +38,25 @@ def test_spacing_must_be_three_positive_numbers():
         isoview.extract(a, 0.5, spacing=(1, 0, 1))
 
 
+@pytest.mark.parametrize("call,message", [
+    (lambda a: isoview.extract(a, 0.5, spacing="abc"),
+     "spacing: expected 3 numbers (x, y, z), got 'abc'"),
+    (lambda a: isoview.extract(a, 0.5, origin=(0, "x", 0)),
+     "origin: expected 3 numbers (x, y, z), got (0, 'x', 0)"),
+    (lambda a: isoview.extract(a, "half"), "level: expected a number, got 'half'"),
+    (lambda a: isoview.render(a, [0.5]), "isovalue: expected a number, got [0.5]"),
+    (lambda a: isoview.render(a, 0.5, time="now"), "time: expected a number, got 'now'"),
+    (lambda a: isoview.slice(a, "z", at="mid"), "at: expected a number, got 'mid'"),
+    (lambda a: isoview.stats(a, bins=2.5), "bins: expected a whole number, got 2.5"),
+])
+def test_a_keyword_of_the_wrong_type_is_a_value_error_naming_it(call, message):
+    # Python's own conversions name neither the keyword nor the value ("could not convert
+    # string to float: 'a'" for spacing="abc", a TypeError for a list).
+    with pytest.raises(ValueError) as e:
+        call(np.zeros((3, 3, 3), dtype=np.float32))
+    assert _one_line(e) == message
+
+
 def test_scene_errors_are_the_cli_line(cli, tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text('[field]\nsource = "sdf"\nshape = "sphere"\nradius = 0.5\nresolution = [8, 8, 8]\n'

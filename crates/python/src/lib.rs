@@ -487,7 +487,7 @@ fn render(py: Python<'_>, scene: &PyScene, time: f64) -> PyResult<PyImage> {
                 isoview::render::pool::mapped_for(&scene, &limits).map_err(pool_failure)?;
             let (grid, gpu_grid) = match mapped {
                 Some(mapped) => {
-                    let pooled = isoview::render::pool::upload_for(&ctx, &scene, &mapped, &limits)
+                    let pooled = isoview::render::pool::upload_for(&ctx, &scene, &*mapped, &limits)
                         .map_err(pool_failure)?;
                     (pooled.shape, pooled.gpu)
                 }

@@ -115,10 +115,32 @@ def _flatten(prefix, value, out):
         out.append(f"{prefix}={_toml(value)}")
 
 
+def _number(name, value):
+    """``value`` as a float, or a ValueError naming the keyword ``name`` (Python's own
+    message names neither)."""
+    try:
+        return float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name}: expected a number, got {value!r}") from None
+
+
+def _whole(name, value):
+    """``value`` as an int, or a ValueError naming the keyword ``name``."""
+    try:
+        if isinstance(value, float) and not value.is_integer():
+            raise ValueError
+        return int(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name}: expected a whole number, got {value!r}") from None
+
+
 def _vec3(name, value):
+    # A string is iterable (its characters), never three numbers.
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"{name}: expected 3 numbers (x, y, z), got {value!r}")
     try:
         v = [float(x) for x in value]
-    except TypeError:
+    except (TypeError, ValueError, OverflowError):
         raise ValueError(f"{name}: expected 3 numbers (x, y, z), got {value!r}") from None
     if len(v) != 3:
         raise ValueError(f"{name}: expected 3 numbers (x, y, z), one per axis, got {len(v)}")
@@ -245,9 +267,9 @@ def _array_box(shape, spacing, origin):
 
 
 def _common(keyword, isovalue=None, inside=None, interpolation=None, width=None, height=None,
-            scene_keys=None, array_like=False):
+            scene_keys=None, array_like=False, isovalue_name="isovalue"):
     if isovalue is not None:
-        keyword.append(f"surface.isovalue={_toml(float(isovalue))}")
+        keyword.append(f"surface.isovalue={_toml(_number(isovalue_name, isovalue))}")
     if inside is None and array_like:
         inside = "above"  # scikit-image's convention for arrays
     if inside is not None:
@@ -392,7 +414,7 @@ def render(volume, isovalue=None, *, spacing=None, origin=None, camera=None, wid
     _common(keyword, isovalue, inside, interpolation, width, height, scene_keys,
             _is_array_like(volume))
     native = _scene(volume, keyword, set, spacing, origin, camera)
-    frame = _native.render(native, float(time))
+    frame = _native.render(native, _number("time", time))
     if aovs is None:
         if isinstance(volume, Scene):
             written = frame.channels
@@ -487,10 +509,10 @@ def extract(volume, level=None, *, spacing=None, origin=None, method=None,
             a = a.astype(np.float32)
             level = (float(np.nanmin(a)) + float(np.nanmax(a))) / 2.0
     _common(keyword, level, inside, interpolation, None, None, scene_keys,
-            _is_array_like(volume))
+            _is_array_like(volume), isovalue_name="level")
     native = _scene(volume, keyword, set, spacing, origin, None)
     verts, faces, normals, values, surface, ran_on = _native.extract(native, str(device),
-                                                                     float(time))
+                                                                     _number("time", time))
     return _mesh(verts, faces, normals, values, surface, ran_on)
 
 
@@ -513,7 +535,7 @@ def probe(volume, pixel, isovalue=None, *, time=0.0, set=(), **kwargs):
         raise ValueError(f"pixel {pixel!r}: expected two whole numbers (x, y)") from None
     if not (0 <= x < 2**32 and 0 <= y < 2**32):
         raise ValueError(f"pixel ({x}, {y}): outside the image (x and y from 0)")
-    return json.loads(_native.probe(native, x, y, float(time)))
+    return json.loads(_native.probe(native, x, y, _number("time", time)))
 
 
 class Contours(list):
@@ -538,7 +560,7 @@ def slice(volume, axis="z", at=None, isovalue=None, *, time=0.0, set=(), **kwarg
         a = "xyz".index(str(axis)) if str(axis) in ("x", "y", "z") else 0
         lo, hi = native.bounds
         at = 0.5 * (lo[a] + hi[a])
-    lines = _native.slice(native, str(axis), float(at), float(time))
+    lines = _native.slice(native, str(axis), _number("at", at), _number("time", time))
     out = Contours(points for points, _ in lines)
     out.closed = tuple(closed for _, closed in lines)
     return out
@@ -554,7 +576,7 @@ def stats(volume, *, bins=24, time=0.0, set=(), **kwargs):
     spacing, origin = kwargs.pop("spacing", None), kwargs.pop("origin", None)
     _common(keyword, kwargs.pop("isovalue", None), None, None, None, None, kwargs, False)
     native = _scene(volume, keyword, set, spacing, origin, None)
-    figures = _native.stats(native, int(bins), float(time))
+    figures = _native.stats(native, _whole("bins", bins), _number("time", time))
     if not isinstance(volume, (Scene, str, os.PathLike)):
         figures["dtype"] = np.asarray(volume).dtype.str  # the array's, as a .npy file's
     return figures

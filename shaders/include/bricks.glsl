@@ -66,17 +66,27 @@ ivec3 brick_counts() {
 bool brick_is_empty(ivec3 cell) {
     // BRICK as a constant (RenderParams has no brick size): llvmpipe has no vector integer
     // division, and a division by a variable costs it one scalar division per lane.
+#ifdef GRID_POOL
+    // The pool's hierarchical tables (field.glsl).
+    return range_is_empty(pool_brick_range(cell / BRICK));
+#else
     ivec3 nb = brick_counts();
     ivec3 b = cell / BRICK;
     return range_is_empty(bricks[(b.z * nb.y + b.y) * nb.x + b.x]);
+#endif
 }
 
 // The same for the superbrick of `cell` (their ranges follow the bricks').
 bool superbrick_is_empty(ivec3 cell) {
+#ifdef GRID_POOL
+    // The pool's tables start with the superbricks (field.glsl).
+    return range_is_empty(bricks[pool_super(cell / BRICK)]);
+#else
     ivec3 nb = brick_counts();
     ivec3 ns = (nb - 1) / SUPER + 1;
     ivec3 s = cell / SUPER_CELLS;
     return range_is_empty(bricks[nb.x * nb.y * nb.z + (s.z * ns.y + s.y) * ns.x + s.x]);
+#endif
 }
 
 // Defined at the end, below the jumps that use it: that order keeps the SPIR-V (stripped of

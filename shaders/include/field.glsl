@@ -34,11 +34,45 @@ uint inside_mask(float v) {
 // Points per edge of a pool slot.
 const int SLOT = BRICK + 1 + 2 * POOL_APRON;
 
+// The pool's tables are hierarchical (render/pool.rs, `Residency`): pages[] holds, per
+// superbrick (SUPER^3 bricks), its block or NO_PAGE, then POOL_BLOCK entries per block, a
+// brick's slot or NO_PAGE; bricks[] holds the ranges in the same layout. A superbrick without a
+// block is clear of every isovalue and its bricks read as its range.
+const int POOL_BLOCK = SUPER * SUPER * SUPER;
+
+// Superbricks per axis.
+ivec3 pool_supers() {
+    ivec3 nb = (P.dims - 2) / BRICK + 1;  // bricks per axis: ceil(cells / BRICK)
+    return (nb - 1) / SUPER + 1;
+}
+
+// The superbrick of brick b.
+int pool_super(ivec3 b) {
+    ivec3 ns = pool_supers();
+    ivec3 s = b / SUPER;
+    return (s.z * ns.y + s.y) * ns.x + s.x;
+}
+
+// Brick b's entry in the blocks' part of pages[] and bricks[], or -1 when its superbrick has
+// no block.
+int pool_entry(ivec3 b) {
+    uint block = pages[pool_super(b)];
+    if (block == NO_PAGE) return -1;
+    ivec3 ns = pool_supers();
+    ivec3 l = b - (b / SUPER) * SUPER;
+    return ns.x * ns.y * ns.z + int(block) * POOL_BLOCK + (l.z * SUPER + l.y) * SUPER + l.x;
+}
+
+// Brick b's value range: its own, or its superbrick's.
+vec2 pool_brick_range(ivec3 b) {
+    int e = pool_entry(b);
+    return e < 0 ? bricks[pool_super(b)] : bricks[e];
+}
+
 // The page table entry of the brick holding `cell`: its slot in the pool, or NO_PAGE.
 uint page_of(ivec3 cell) {
-    ivec3 nb = (P.dims - 2) / BRICK + 1;  // bricks per axis: ceil(cells / BRICK)
-    ivec3 b = cell / BRICK;
-    return pages[(b.z * nb.y + b.y) * nb.x + b.x];
+    int e = pool_entry(cell / BRICK);
+    return e < 0 ? NO_PAGE : pages[e];
 }
 
 // Whether the pool holds the brick of `cell`.
@@ -52,10 +86,7 @@ bool resident(ivec3 cell) {
 float cell_value(ivec3 c, ivec3 p) {
     uint slot = page_of(c);
     ivec3 b = c / BRICK;
-    if (slot == NO_PAGE) {
-        ivec3 nb = (P.dims - 2) / BRICK + 1;
-        return bricks[(b.z * nb.y + b.y) * nb.x + b.x].x;
-    }
+    if (slot == NO_PAGE) return pool_brick_range(b).x;
     // Clamped: a smooth normal on a brick's far face reads one point past the apron with
     // weight 0 (see smooth_gradient); any finite value leaves it unchanged.
     ivec3 l = clamp(p - (b * BRICK - POOL_APRON), ivec3(0), ivec3(SLOT - 1));
@@ -94,12 +125,11 @@ ivec3 cell_of(vec3 u) {
 // One page lookup for the 8 corners (they are all in c's slot).
 Corners cell_corners(ivec3 c) {
     Corners k;
-    ivec3 nb = (P.dims - 2) / BRICK + 1;
     ivec3 b = c / BRICK;
-    int brick = (b.z * nb.y + b.y) * nb.x + b.x;
-    uint slot = pages[brick];
+    int e = pool_entry(b);
+    uint slot = e < 0 ? NO_PAGE : pages[e];
     if (slot == NO_PAGE) {
-        float v = bricks[brick].x;
+        float v = e < 0 ? bricks[pool_super(b)].x : bricks[e].x;
         k.lo = vec4(v);
         k.hi = vec4(v);
         return k;

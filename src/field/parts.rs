@@ -33,6 +33,12 @@ pub trait Parts: Send + Sync {
     /// "error"` fails on a non-finite sample, under `"empty"` leaves it out.
     fn brick_ranges(&self, brick: usize) -> Result<Vec<[f32; 2]>, FieldError>;
 
+    /// The sparse tree, for the scans that follow its structure (a superbrick in empty space
+    /// costs a lookup, not a pass over its points); None for a file read in parts.
+    fn sparse(&self) -> Option<&SparseTree> {
+        None
+    }
+
     /// [`Parts::read_box`], checked finite under `field.nan` (the first non-finite point,
     /// x fastest, is named): what a process reading only its part of a grid (an MPI rank's
     /// block, a window) takes instead of sampling it.
@@ -140,6 +146,9 @@ impl Parts for SparseGrid {
     }
     fn brick_ranges(&self, brick: usize) -> Result<Vec<[f32; 2]>, FieldError> {
         self.tree.brick_ranges(brick, self.nan, &self.label)
+    }
+    fn sparse(&self) -> Option<&SparseTree> {
+        Some(&self.tree)
     }
 }
 

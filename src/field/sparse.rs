@@ -134,6 +134,12 @@ impl NodeTree {
         Ok(())
     }
 
+    /// Whether a lower internal node has its origin at `o` (a region of 128³ voxels with no
+    /// lower node is one value: an upper node's tile, a root tile or the background).
+    pub fn has_lower(&self, o: [i32; 3]) -> bool {
+        self.lowers.contains_key(&o)
+    }
+
     pub fn leaf_count(&self) -> usize {
         self.leaves.len()
     }
@@ -382,6 +388,166 @@ impl SparseTree {
     }
 }
 
+/// Where a value checked under `field.nan = "error"` is refused: the grid's label and the
+/// first voxel of the box (index coordinates of point 0).
+struct Checked<'a> {
+    nan: NanPolicy,
+    what: &'a str,
+    index_min: [i32; 3],
+}
+
+impl Checked<'_> {
+    fn widen(&self, mm: &mut [f32; 2], v: f32, p: [i64; 3]) -> Result<(), FieldError> {
+        if self.nan == NanPolicy::Error && !v.is_finite() {
+            return Err(FieldError::NonFinite {
+                what: self.what.to_string(),
+                index: [0, 1, 2].map(|a| (p[a] - i64::from(self.index_min[a])) as usize),
+                value: v,
+                detail: String::new(),
+            });
+        }
+        widen(mm, v);
+        Ok(())
+    }
+
+    /// Widens `mm` by the values of `block` at the voxels `xs` × `ys` × `zs` (inside it).
+    fn widen_block(
+        &self,
+        mm: &mut [f32; 2],
+        block: Block<'_>,
+        xs: Range<i64>,
+        ys: Range<i64>,
+        zs: Range<i64>,
+    ) -> Result<(), FieldError> {
+        match block {
+            Block::Value(v) => self.widen(mm, v, [xs.start, ys.start, zs.start]),
+            Block::Leaf(_) => {
+                for z in zs {
+                    for y in ys.clone() {
+                        for x in xs.clone() {
+                            self.widen(mm, block.at([x, y, z]), [x, y, z])?;
+                        }
+                    }
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
+/// The runs of `a .. b` (exclusive end) cut at multiples of `side`.
+fn runs(a: i64, b: i64, side: i64) -> impl Iterator<Item = Range<i64>> {
+    let first = a.div_euclid(side) * side;
+    (first..b).step_by(side as usize).map(move |o| o.max(a)..(o + side).min(b))
+}
+
+impl SparseTree {
+    /// The min/max of the points of every superbrick (`sup`³ bricks of `brick` cells, over the
+    /// points its bricks read: the union of theirs), x fastest, `ceil(bricks / sup)` per axis:
+    /// the smallest minimum and the largest maximum of its bricks' ranges, as
+    /// `passes::bricks::levels` makes them. A 128³ region without a lower node is one value: one
+    /// lookup for all of it, so empty space costs a lookup per region, not per voxel.
+    pub fn super_ranges(
+        &self,
+        brick: usize,
+        sup: usize,
+        nan: NanPolicy,
+        what: &str,
+    ) -> Result<Vec<[f32; 2]>, FieldError> {
+        let bricks = self.dims.map(|n| (n - 1).div_ceil(brick));
+        let supers = bricks.map(|n| n.div_ceil(sup));
+        let span = |a: usize, s: usize| -> Range<i64> {
+            let first = STENCIL.brick_points(s * sup, brick, self.dims[a]).start;
+            let last = ((s + 1) * sup).min(bricks[a]) - 1;
+            let end = STENCIL.brick_points(last, brick, self.dims[a]).end;
+            self.index(a, first)..self.index(a, end)
+        };
+        let checked = Checked { nan, what, index_min: self.index_min };
+        let layers: Vec<Result<Vec<[f32; 2]>, FieldError>> = (0..supers[2])
+            .into_par_iter()
+            .map(|sz| {
+                let mut out = Vec::with_capacity(supers[0] * supers[1]);
+                for sy in 0..supers[1] {
+                    for sx in 0..supers[0] {
+                        let mut mm = [f32::INFINITY, f32::NEG_INFINITY];
+                        self.widen_box(&checked, &mut mm, [span(0, sx), span(1, sy), span(2, sz)])?;
+                        out.push(mm);
+                    }
+                }
+                Ok(out)
+            })
+            .collect();
+        let mut out = Vec::with_capacity(supers.iter().product());
+        for layer in layers {
+            out.extend(layer?);
+        }
+        Ok(out)
+    }
+
+    /// The min/max of brick `b`'s points (bricks of `brick` cells), as
+    /// [`SparseTree::brick_ranges`] gives it.
+    pub fn brick_range(
+        &self,
+        b: [usize; 3],
+        brick: usize,
+        nan: NanPolicy,
+        what: &str,
+    ) -> Result<[f32; 2], FieldError> {
+        let span = |a: usize| {
+            let r = STENCIL.brick_points(b[a], brick, self.dims[a]);
+            self.index(a, r.start)..self.index(a, r.end)
+        };
+        let checked = Checked { nan, what, index_min: self.index_min };
+        let mut mm = [f32::INFINITY, f32::NEG_INFINITY];
+        self.widen_box(&checked, &mut mm, [span(0), span(1), span(2)])?;
+        Ok(mm)
+    }
+
+    /// Widens `mm` by the voxels of the box `r` (index coordinates, exclusive ends).
+    fn widen_box(
+        &self,
+        checked: &Checked,
+        mm: &mut [f32; 2],
+        r: [Range<i64>; 3],
+    ) -> Result<(), FieldError> {
+        let side = i64::from(LOWER);
+        for rz in runs(r[2].start, r[2].end, side) {
+            for ry in runs(r[1].start, r[1].end, side) {
+                for rx in runs(r[0].start, r[0].end, side) {
+                    let origin =
+                        [rx.start, ry.start, rz.start].map(|c| (c.div_euclid(side) * side) as i32);
+                    if !self.tree.has_lower(origin) {
+                        let block = self.tree.block(origin);
+                        checked.widen_block(
+                            mm,
+                            block,
+                            rx.start..rx.start + 1,
+                            ry.start..ry.start + 1,
+                            rz.start..rz.start + 1,
+                        )?;
+                        continue;
+                    }
+                    for bz in runs(rz.start, rz.end, LEAF) {
+                        for by in runs(ry.start, ry.end, LEAF) {
+                            for bx in runs(rx.start, rx.end, LEAF) {
+                                let block = self.block_at([bx.start, by.start, bz.start]);
+                                checked.widen_block(
+                                    mm,
+                                    block,
+                                    bx.clone(),
+                                    by.clone(),
+                                    bz.clone(),
+                                )?;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -445,6 +611,39 @@ mod tests {
             for y in 0..d[1] {
                 for x in 0..d[0] {
                     assert_eq!(all[x + d[0] * (y + d[1] * z)], value([x, y, z]));
+                }
+            }
+        }
+        let dense_ranges = sparse.brick_ranges(8, NanPolicy::Error, "t").unwrap();
+        let counts = d.map(|n| (n - 1).div_ceil(8));
+        for bz in 0..counts[2] {
+            for by in 0..counts[1] {
+                for bx in 0..counts[0] {
+                    let got = sparse.brick_range([bx, by, bz], 8, NanPolicy::Error, "t").unwrap();
+                    assert_eq!(got, dense_ranges[bx + counts[0] * (by + counts[1] * bz)]);
+                }
+            }
+        }
+        // Superbricks of 2^3 bricks: the union of their bricks' ranges.
+        let supers = sparse.super_ranges(8, 2, NanPolicy::Error, "t").unwrap();
+        let sc = counts.map(|n| n.div_ceil(2));
+        for sz in 0..sc[2] {
+            for sy in 0..sc[1] {
+                for sx in 0..sc[0] {
+                    let mut mm = [f32::INFINITY, f32::NEG_INFINITY];
+                    for bz in 2 * sz..(2 * sz + 2).min(counts[2]) {
+                        for by in 2 * sy..(2 * sy + 2).min(counts[1]) {
+                            for bx in 2 * sx..(2 * sx + 2).min(counts[0]) {
+                                let r = dense_ranges[bx + counts[0] * (by + counts[1] * bz)];
+                                mm = [mm[0].min(r[0]), mm[1].max(r[1])];
+                            }
+                        }
+                    }
+                    assert_eq!(
+                        supers[sx + sc[0] * (sy + sc[1] * sz)],
+                        mm,
+                        "superbrick {sx} {sy} {sz}"
+                    );
                 }
             }
         }

@@ -96,16 +96,17 @@ impl GpuGrid {
         Ok(grid)
     }
 
-    /// Uploads the bricks of a grid read from its file (`field.residency`) that `residency` names into a brick pool
-    /// ([`pool`]), with the grid's brick min/max grid (`ranges`, from
-    /// [`Parts::brick_ranges`](crate::field::parts::Parts::brick_ranges); its
-    /// superbricks are added here).
+    /// Uploads the bricks of a grid read in parts that `residency` names into a brick pool
+    /// ([`pool`]), with its hierarchical tables (`residency.ranges`); `supers`: every
+    /// superbrick's range (the walk's choice of levels, the largest magnitude).
     pub fn upload_pool(
         ctx: &Arc<Context>,
         grid: &dyn crate::field::parts::Parts,
-        ranges: &[[f32; 2]],
+        supers: &[[f32; 2]],
         residency: pool::Residency,
     ) -> Result<Self, pool::PoolError> {
+        let buffer =
+            Buffer::upload(ctx, "bricks", &residency.ranges, vk::BufferUsageFlags::STORAGE_BUFFER)?;
         let pool = pool::Pool::upload(ctx, grid, residency)?;
         let gpu = GpuGrid {
             storage: Storage::Pool(Box::new(pool)),
@@ -114,9 +115,10 @@ impl GpuGrid {
             supers: std::cell::OnceCell::new(),
             points: std::cell::OnceCell::new(),
             block: None,
-            largest: largest_finite(ranges.iter().flatten().copied()),
+            largest: largest_finite(supers.iter().flatten().copied()),
         };
-        gpu.set_bricks(ctx, bricks::levels(grid.dims(), ranges))?;
+        let _ = gpu.supers.set(supers.to_vec());
+        let _ = gpu.bricks.set(buffer);
         Ok(gpu)
     }
 

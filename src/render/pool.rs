@@ -39,7 +39,7 @@ use crate::field::interpolant::{SMOOTH_NORMAL_REACH, STENCIL};
 use crate::field::parts::{self, Parts};
 use crate::field::{FieldError, GridLimits};
 use crate::gpu::{Buffer, Context, GpuError, MemoryLocation, Tracker};
-use crate::passes::bricks::{brick_counts, clear_by, BRICK, SKIP_MARGIN};
+use crate::passes::bricks::{brick_counts, clear_by, super_counts, BRICK, SKIP_MARGIN, SUPER};
 use crate::shaders;
 
 /// Points a slot holds around its brick's points, per side.
@@ -71,12 +71,35 @@ pub fn clear(mm: [f32; 2], iso: f32) -> bool {
     clear_by(mm, iso, CLEAR_MARGIN)
 }
 
-/// Device bytes per brick of the brick tables: the min/max grid (8) and the page table (4).
+/// Bytes per brick (or superbrick) of the brick tables: its range (8) and its page-table entry (4).
 pub const TABLE_BYTES: u64 = 12;
 
-/// Refuses, before the file is scanned, a grid whose brick tables alone are over the cap.
+/// Bricks per block of the tables: a superbrick's.
+pub const BLOCK: usize = SUPER * SUPER * SUPER;
+
+/// Refuses, before the file is scanned, a grid whose dense brick ranges are over the cap (a
+/// raw or npy file's scan holds one range per brick).
 pub fn check_tables(dims: [usize; 3], limits: &GridLimits, what: &str) -> Result<(), FieldError> {
-    let bricks = brick_counts(dims).iter().map(|&n| n as u64).product::<u64>();
+    check_table_count(brick_counts(dims), dims, limits, what)
+}
+
+/// Refuses, before a sparse tree is scanned, a grid whose superbrick tables alone are over the
+/// cap (the blocks of bricks the isovalues need are checked with the pool).
+pub fn check_super_tables(
+    dims: [usize; 3],
+    limits: &GridLimits,
+    what: &str,
+) -> Result<(), FieldError> {
+    check_table_count(super_counts(dims), dims, limits, what)
+}
+
+fn check_table_count(
+    counts: [usize; 3],
+    dims: [usize; 3],
+    limits: &GridLimits,
+    what: &str,
+) -> Result<(), FieldError> {
+    let bricks = counts.iter().map(|&n| n as u64).product::<u64>();
     let bytes = bricks.saturating_mul(TABLE_BYTES);
     if bytes > limits.max_bytes {
         return Err(FieldError::TablesTooLarge {
@@ -90,13 +113,96 @@ pub fn check_tables(dims: [usize; 3], limits: &GridLimits, what: &str) -> Result
     Ok(())
 }
 
-/// Which bricks are in the pool.
+/// The bricks' value ranges of a grid read in parts, in two levels: every superbrick's range
+/// (the smallest minimum and largest maximum of its bricks, as `bricks::levels`), and the
+/// ranges of the bricks of the superbricks that hold a block ([`BLOCK`] a block, x fastest
+/// within the superbrick; places past the grid's faces hold the empty range). A superbrick
+/// without a block is clear of every isovalue, and so is each of its bricks (`clear` is
+/// monotone: a range inside a clear range is clear), so none of their own ranges is needed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BrickRanges {
+    /// Bricks and superbricks per axis.
+    pub counts: [usize; 3],
+    pub supers: [usize; 3],
+    /// Per superbrick (x fastest) its range.
+    pub super_ranges: Vec<[f32; 2]>,
+    /// Per superbrick its block, or [`NO_PAGE`].
+    pub blocks: Vec<u32>,
+    /// [`BLOCK`] ranges per block.
+    pub bricks: Vec<[f32; 2]>,
+}
+
+const EMPTY_RANGE: [f32; 2] = [f32::INFINITY, f32::NEG_INFINITY];
+
+impl BrickRanges {
+    /// Both levels from every brick's range (a raw or npy file's scan): every superbrick a block.
+    pub fn from_dense(dims: [usize; 3], dense: &[[f32; 2]]) -> BrickRanges {
+        let counts = brick_counts(dims);
+        let supers = super_counts(dims);
+        let levels = crate::passes::bricks::levels(dims, dense);
+        let n_super = supers.iter().product::<usize>();
+        let mut bricks = vec![EMPTY_RANGE; n_super * BLOCK];
+        for (n, &mm) in dense.iter().enumerate() {
+            let b = unflat(n, counts);
+            bricks[block_entry(b, supers)] = mm;
+        }
+        BrickRanges {
+            counts,
+            supers,
+            super_ranges: levels[dense.len()..].to_vec(),
+            blocks: (0..n_super as u32).collect(),
+            bricks,
+        }
+    }
+
+    /// The range of brick `b`: its block's entry, or its superbrick's.
+    pub fn brick(&self, b: [usize; 3]) -> [f32; 2] {
+        let s = super_index(b, self.supers);
+        match self.blocks[s] {
+            NO_PAGE => self.super_ranges[s],
+            k => self.bricks[k as usize * BLOCK + local_index(b)],
+        }
+    }
+}
+
+/// Index `n` of a grid with `counts` per axis (x fastest) as coordinates.
+fn unflat(n: usize, counts: [usize; 3]) -> [usize; 3] {
+    [n % counts[0], (n / counts[0]) % counts[1], n / (counts[0] * counts[1])]
+}
+
+/// The superbrick (index) of brick `b`.
+fn super_index(b: [usize; 3], supers: [usize; 3]) -> usize {
+    let s = b.map(|c| c / SUPER);
+    s[0] + supers[0] * (s[1] + supers[1] * s[2])
+}
+
+/// Brick `b`'s place in its superbrick's block.
+fn local_index(b: [usize; 3]) -> usize {
+    let l = b.map(|c| c % SUPER);
+    l[0] + SUPER * (l[1] + SUPER * l[2])
+}
+
+/// Brick `b`'s entry in tables holding a block for every superbrick, in superbrick order.
+fn block_entry(b: [usize; 3], supers: [usize; 3]) -> usize {
+    super_index(b, supers) * BLOCK + local_index(b)
+}
+
+/// Which bricks are in the pool, and the device's tables (`shaders/include/field.glsl`): per
+/// superbrick its block or [`NO_PAGE`], then [`BLOCK`] entries per block (a brick's slot, or
+/// [`NO_PAGE`]); the ranges likewise. A superbrick gets a block where it is not clear of every
+/// isovalue or holds a resident brick; the others read as their superbrick's range (clear, so
+/// every decision on one of their bricks is the one its own range gives). Hierarchical, the
+/// tables grow with the superbricks (12 bytes each, a 32³-cell region) and the blocks near the
+/// surface, not with the bricks of the box.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Residency {
-    /// Bricks per axis.
+    /// Bricks and superbricks per axis.
     pub counts: [usize; 3],
-    /// Per brick (x fastest): its slot, or [`NO_PAGE`].
+    pub supers: [usize; 3],
+    /// The page table: superbricks' blocks, then the blocks' slots.
     pub pages: Vec<u32>,
+    /// The ranges in the same layout: superbricks', then the blocks' bricks'.
+    pub ranges: Vec<[f32; 2]>,
     /// The resident bricks, in slot order.
     pub resident: Vec<[usize; 3]>,
     /// Bricks that hold a crossing (before the fixed-step neighbours are added).
@@ -104,45 +210,97 @@ pub struct Residency {
 }
 
 impl Residency {
-    /// The bricks of a grid of `dims` points (ranges from [`MappedGrid::brick_ranges`]) that a
-    /// render of the isovalue thresholds `thresholds` needs; with `neighbours` (fixed-step) also
-    /// every brick next to one (faces, edges, corners).
-    pub fn select(
-        dims: [usize; 3],
-        ranges: &[[f32; 2]],
-        thresholds: &[f32],
-        neighbours: bool,
-    ) -> Residency {
-        let counts = brick_counts(dims);
-        let index = |b: [usize; 3]| b[0] + counts[0] * (b[1] + counts[1] * b[2]);
-        let is_active: Vec<bool> =
-            ranges.iter().map(|&mm| thresholds.iter().any(|&iso| !clear(mm, iso))).collect();
-        let active = is_active.iter().filter(|&&a| a).count();
-        let mut keep = is_active.clone();
-        if neighbours {
-            for (n, _) in is_active.iter().enumerate().filter(|(_, &a)| a) {
-                let b = [n % counts[0], (n / counts[0]) % counts[1], n / (counts[0] * counts[1])];
-                let span = |a: usize| b[a].saturating_sub(1)..=(b[a] + 1).min(counts[a] - 1);
-                for z in span(2) {
-                    for y in span(1) {
-                        for x in span(0) {
-                            keep[index([x, y, z])] = true;
+    /// The bricks of a grid (`ranges`) that a render of the isovalue thresholds `thresholds`
+    /// needs; with `neighbours` (fixed-step) also every brick next to one (faces, edges,
+    /// corners). Every superbrick not clear of an isovalue must hold a block of `ranges`, and
+    /// with `neighbours` every superbrick next to one.
+    pub fn select(ranges: &BrickRanges, thresholds: &[f32], neighbours: bool) -> Residency {
+        let (counts, supers) = (ranges.counts, ranges.supers);
+        let needed = |mm: [f32; 2]| thresholds.iter().any(|&iso| !clear(mm, iso));
+        let n_super = supers.iter().product::<usize>();
+        // The bricks kept, per host block.
+        let mut keep = vec![false; ranges.bricks.len()];
+        let mut active = 0;
+        let in_grid = |b: [usize; 3]| (0..3).all(|a| b[a] < counts[a]);
+        let entry = |b: [usize; 3]| {
+            let k = ranges.blocks[super_index(b, supers)];
+            (k != NO_PAGE).then(|| k as usize * BLOCK + local_index(b))
+        };
+        let mut marks = Vec::new();
+        for (s, &k) in ranges.blocks.iter().enumerate() {
+            if k == NO_PAGE || !needed(ranges.super_ranges[s]) {
+                continue;
+            }
+            let sb = unflat(s, supers);
+            for l in 0..BLOCK {
+                let lb = unflat(l, [SUPER; 3]);
+                let b = [0, 1, 2].map(|a| sb[a] * SUPER + lb[a]);
+                if !in_grid(b) || !needed(ranges.bricks[k as usize * BLOCK + l]) {
+                    continue;
+                }
+                active += 1;
+                marks.push(b);
+            }
+        }
+        for &b in &marks {
+            let span = |a: usize| {
+                if neighbours {
+                    b[a].saturating_sub(1)..=(b[a] + 1).min(counts[a] - 1)
+                } else {
+                    b[a]..=b[a]
+                }
+            };
+            for z in span(2) {
+                for y in span(1) {
+                    for x in span(0) {
+                        // The scan gave every superbrick next to a needed one a block.
+                        if let Some(e) = entry([x, y, z]) {
+                            keep[e] = true;
                         }
                     }
                 }
             }
         }
-        let mut pages = vec![NO_PAGE; keep.len()];
+        let mut pages = vec![NO_PAGE; n_super];
+        let mut table = ranges.super_ranges.clone();
         let mut resident = Vec::new();
-        for (n, _) in keep.iter().enumerate().filter(|(_, &k)| k) {
-            pages[n] = resident.len() as u32;
-            resident.push([
-                n % counts[0],
-                (n / counts[0]) % counts[1],
-                n / (counts[0] * counts[1]),
-            ]);
+        for (s, &k) in ranges.blocks.iter().enumerate() {
+            if k == NO_PAGE {
+                continue;
+            }
+            let host = k as usize * BLOCK..(k as usize + 1) * BLOCK;
+            if !needed(ranges.super_ranges[s]) && !keep[host.clone()].contains(&true) {
+                continue;
+            }
+            pages[s] = ((pages.len() - n_super) / BLOCK) as u32;
+            let sb = unflat(s, supers);
+            for l in 0..BLOCK {
+                let lb = unflat(l, [SUPER; 3]);
+                let b = [0, 1, 2].map(|a| sb[a] * SUPER + lb[a]);
+                table.push(ranges.bricks[host.start + l]);
+                if keep[host.start + l] {
+                    pages.push(resident.len() as u32);
+                    resident.push(b);
+                } else {
+                    pages.push(NO_PAGE);
+                }
+            }
         }
-        Residency { counts, pages, resident, active }
+        Residency { counts, supers, pages, ranges: table, resident, active }
+    }
+
+    /// Bricks of the grid.
+    pub fn bricks(&self) -> usize {
+        self.counts.iter().product()
+    }
+
+    /// Brick `b`'s slot, or [`NO_PAGE`] (as the shaders look it up).
+    pub fn page(&self, b: [usize; 3]) -> u32 {
+        let n_super = self.supers.iter().product::<usize>();
+        match self.pages[super_index(b, self.supers)] {
+            NO_PAGE => NO_PAGE,
+            k => self.pages[n_super + k as usize * BLOCK + local_index(b)],
+        }
     }
 
     /// Bytes of the pool.
@@ -150,14 +308,19 @@ impl Residency {
         self.resident.len() as u64 * (SLOT * SLOT * SLOT * 4) as u64
     }
 
+    /// Bytes of the tables on the device.
+    pub fn table_bytes(&self) -> u64 {
+        self.pages.len() as u64 * 4 + self.ranges.len() as u64 * 8
+    }
+
     /// Refuses a pool over the cap (with the brick tables), naming what it would need.
     pub fn check(&self, limits: &GridLimits, what: &str) -> Result<(), FieldError> {
-        let bytes = self.pool_bytes() + self.pages.len() as u64 * TABLE_BYTES;
+        let bytes = self.pool_bytes() + self.table_bytes();
         if bytes > limits.max_bytes {
             return Err(FieldError::PoolTooLarge {
                 what: what.to_string(),
                 resident: self.resident.len(),
-                bricks: self.pages.len(),
+                bricks: self.bricks(),
                 bytes,
                 cap: limits.max_bytes,
             });
@@ -316,6 +479,82 @@ pub fn mapped_for(
     Ok(Some(grid))
 }
 
+/// The ranges of `grid`'s bricks a selection for `thresholds` needs ([`Residency::select`]):
+/// a raw or npy file is scanned whole, one range per brick (its tables checked against the cap
+/// first); a sparse tree superbrick by superbrick, then the bricks of the superbricks not clear
+/// of every isovalue (with `neighbours`, and of those next to them), so that its tables grow
+/// with the superbricks and the surface, never with the bricks of the box.
+pub fn scan(
+    grid: &dyn Parts,
+    thresholds: &[f32],
+    neighbours: bool,
+    limits: &GridLimits,
+) -> Result<BrickRanges, FieldError> {
+    let (dims, label) = (grid.dims(), grid.label());
+    let Some(tree) = grid.sparse() else {
+        check_tables(dims, limits, &label)?;
+        return Ok(BrickRanges::from_dense(dims, &grid.brick_ranges(BRICK)?));
+    };
+    check_super_tables(dims, limits, &label)?;
+    let super_ranges = tree.super_ranges(BRICK, SUPER, grid.nan(), &label)?;
+    let (counts, supers) = (brick_counts(dims), super_counts(dims));
+    let needed = |mm: [f32; 2]| thresholds.iter().any(|&iso| !clear(mm, iso));
+    let mut want = vec![false; super_ranges.len()];
+    for s in (0..super_ranges.len()).filter(|&s| needed(super_ranges[s])) {
+        let c = unflat(s, supers);
+        let reach = usize::from(neighbours);
+        let span = |a: usize| c[a].saturating_sub(reach)..=(c[a] + reach).min(supers[a] - 1);
+        for z in span(2) {
+            for y in span(1) {
+                for x in span(0) {
+                    want[x + supers[0] * (y + supers[1] * z)] = true;
+                }
+            }
+        }
+    }
+    let listed: Vec<usize> = (0..want.len()).filter(|&s| want[s]).collect();
+    // The blocks' ranges on the host, before any is computed: bounded by the cap.
+    let bytes = (listed.len() * BLOCK) as u64 * TABLE_BYTES;
+    if bytes > limits.max_bytes {
+        return Err(FieldError::PoolTooLarge {
+            what: label,
+            resident: listed.len() * BLOCK,
+            bricks: counts.iter().product(),
+            bytes,
+            cap: limits.max_bytes,
+        });
+    }
+    let (nan, what) = (grid.nan(), label.as_str());
+    let blocks: Vec<Result<Vec<[f32; 2]>, FieldError>> = listed
+        .par_iter()
+        .map(|&s| {
+            let sb = unflat(s, supers);
+            (0..BLOCK)
+                .map(|l| {
+                    let lb = unflat(l, [SUPER; 3]);
+                    let b = [0, 1, 2].map(|a| sb[a] * SUPER + lb[a]);
+                    match (0..3).all(|a| b[a] < counts[a]) {
+                        true => tree.brick_range(b, BRICK, nan, what),
+                        false => Ok(EMPTY_RANGE),
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let mut out = BrickRanges {
+        counts,
+        supers,
+        super_ranges,
+        blocks: vec![NO_PAGE; want.len()],
+        bricks: Vec::with_capacity(listed.len() * BLOCK),
+    };
+    for (k, (&s, block)) in listed.iter().zip(blocks).enumerate() {
+        out.blocks[s] = k as u32;
+        out.bricks.extend(block?);
+    }
+    Ok(out)
+}
+
 /// Scans `grid`, picks the bricks `scene`'s isovalues need, checks them against the cap and
 /// uploads them.
 pub fn upload_for(
@@ -326,17 +565,16 @@ pub fn upload_for(
 ) -> Result<PooledGrid, PoolError> {
     let started = std::time::Instant::now();
     let shape = grid.shape();
-    check_tables(grid.dims(), limits, &grid.label())?;
-    let ranges = grid.brick_ranges(BRICK)?;
-    let scanned = started.elapsed();
     let thresholds = super::params::RenderParams::new(scene, &shape).surface_thresholds();
     let neighbours = scene.render.method == crate::scene::Method::FixedStep;
-    let residency = Residency::select(grid.dims(), &ranges, &thresholds, neighbours);
+    let ranges = scan(grid, &thresholds, neighbours, limits)?;
+    let scanned = started.elapsed();
+    let residency = Residency::select(&ranges, &thresholds, neighbours);
     residency.check(limits, &grid.label())?;
-    let (active, bricks) = (residency.active, residency.pages.len());
+    let (active, bricks) = (residency.active, residency.bricks());
     let (resident, pool_mib) =
         (residency.resident.len(), residency.pool_bytes() as f64 / (1 << 20) as f64);
-    let gpu = super::GpuGrid::upload_pool(ctx, grid, &ranges, residency)?;
+    let gpu = super::GpuGrid::upload_pool(ctx, grid, &ranges.super_ranges, residency)?;
     let summary = format!(
         "{}x{}x{} grid {} ({} MiB as dense f32): {active} of {bricks} bricks of {BRICK}^3 \
          cells active, {resident} resident, {pool_mib:.1} MiB pool (scan {:.1} s, upload {:.1} s)",

@@ -121,6 +121,12 @@ add("sphere.nvdb", **REF["sphere.vdb"])
 vdb_tool("-sphere", "voxel=1", "radius=4", "center=8,8,8", "-sphere", "voxel=1", "radius=4",
          "center=150,140,130", "-union", "-write", "two.vdb")
 vdb_tool("-read", "two.vdb", "-write", "codec=zip", "two_zip.nvdb")
+# Two spheres of radius 12 at opposite corners of a 715 x 705 x 695 box: dense brick tables
+# would take 8 MiB, the hierarchical ones (superbricks and the blocks near the spheres) 0.1 MiB
+# (field::vdb::hierarchical_tables_render_a_box_whose_dense_tables_are_over_the_cap).
+vdb_tool("-sphere", "voxel=1", "radius=12", "center=14,14,14", "-sphere", "voxel=1",
+         "radius=12", "center=700,690,680", "-union", "-write", "far.vdb")
+vdb_tool("-read", "far.vdb", "-write", "codec=zip", "far_zip.nvdb")
 
 # A dense array copied in (every voxel active: tolerance -1) with an affine transform: a
 # rotation about z by 30 degrees, voxel sizes 0.5, 0.25, 2 per axis, a translation.

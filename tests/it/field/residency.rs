@@ -124,10 +124,10 @@ fn pool_renders_equal_whole_grid_renders_bit_for_bit() {
         let (whole, pooled, residency) = both(&ctx, &mut renderer, &scene, &grid, &file);
         assert!(whole.iter().filter(|p| p.is_hit()).count() > 100, "case {c}: too few hits");
         assert!(
-            residency.resident.len() < residency.pages.len(),
+            residency.resident.len() < residency.bricks(),
             "case {c}: every brick resident, nothing tested"
         );
-        left_out += residency.pages.len() - residency.resident.len();
+        left_out += residency.bricks() - residency.resident.len();
         if let Some(i) = same_bits(&whole, &pooled) {
             panic!(
                 "case {c} ({method:?}): pixel {i} differs: whole {:?}, pool {:?}",
@@ -233,18 +233,24 @@ fn slots_hold_the_brick_and_its_apron() {
 #[test]
 fn residency_keeps_active_bricks_and_fixed_step_neighbours() {
     let dims = [8 * 4 + 1, 9, 9]; // 4 x 1 x 1 bricks
-    let ranges = [[0.0, 1.0], [2.0, 3.0], [2.0, 3.0], [2.0, 3.0]];
-    let r = pool::Residency::select(dims, &ranges, &[0.5], false);
+    let ranges =
+        pool::BrickRanges::from_dense(dims, &[[0.0, 1.0], [2.0, 3.0], [2.0, 3.0], [2.0, 3.0]]);
+    let r = pool::Residency::select(&ranges, &[0.5], false);
     assert_eq!((r.active, r.resident.clone()), (1, vec![[0, 0, 0]]));
-    assert_eq!(r.pages, vec![0, pool::NO_PAGE, pool::NO_PAGE, pool::NO_PAGE]);
-    let r = pool::Residency::select(dims, &ranges, &[0.5], true);
+    let pages: Vec<u32> = (0..4).map(|x| r.page([x, 0, 0])).collect();
+    assert_eq!(pages, vec![0, pool::NO_PAGE, pool::NO_PAGE, pool::NO_PAGE]);
+    let r = pool::Residency::select(&ranges, &[0.5], true);
     assert_eq!(r.resident, vec![[0, 0, 0], [1, 0, 0]]);
     // Two isovalues: the second makes brick 2.. active.
-    let r = pool::Residency::select(dims, &ranges, &[0.5, 2.5], false);
+    let r = pool::Residency::select(&ranges, &[0.5, 2.5], false);
     assert_eq!(r.active, 4);
     // Within the margin of the isovalue counts as active: 2.0 - 1.999 < 2/1024 (2 + 1.999).
-    let r = pool::Residency::select(dims, &ranges, &[1.999], false);
+    let r = pool::Residency::select(&ranges, &[1.999], false);
     assert_eq!(r.active, 3);
+    // A superbrick clear of the isovalue holds no block: its bricks read as its range.
+    let r = pool::Residency::select(&ranges, &[5.0], false);
+    assert_eq!((r.active, r.pages.len(), r.ranges.len()), (0, 1, 1));
+    assert_eq!(r.page([0, 0, 0]), pool::NO_PAGE);
     assert!(pool::clear([2.0, 3.0], 1.99));
 }
 
@@ -276,14 +282,15 @@ fn pool_errors_are_one_line() {
         2,
         &["field.residency = \"active\": render.method = \"mesh\" needs the whole grid"],
     );
-    let e = pool::Residency::select([9, 9, 9], &[[0.0, 1.0]], &[0.5], false)
+    let one = pool::BrickRanges::from_dense([9, 9, 9], &[[0.0, 1.0]]);
+    let e = pool::Residency::select(&one, &[0.5], false)
         .check(&GridLimits { max_bytes: 1024 }, "f.raw")
         .unwrap_err()
         .to_string();
     assert_eq!(
         e,
         "f.raw: the bricks the isovalues need (1 of 1 bricks of 8^3 cells) and the brick tables \
-         take 5.2 KiB on the device, over the cap of 1 KiB; raise the cap with \
+         take 6.0 KiB on the device, over the cap of 1 KiB; raise the cap with \
          ISOVIEW_MAX_GRID_MIB=1 (or GridLimits::max_bytes)"
     );
     // An 8192^3 grid's tables alone (2^30 bricks, 12 GiB) are refused before any scan.

@@ -412,6 +412,67 @@ fn a_sparse_grid_over_the_cap_renders_and_extracts_as_its_dense_box() {
     }
 }
 
+/// Two spheres of radius 12 at opposite corners of a 715 x 705 x 695 box (`far.vdb`,
+/// `far_zip.nvdb`): the box's dense brick tables (697,000 bricks, 8 MiB) are over a cap of
+/// 1 MiB, and the pool's hierarchical tables (superbricks, and blocks of bricks only near the
+/// spheres) with the resident bricks fit it. Every hit lies on a sphere (the trilinear
+/// interpolant of a distance field, within 0.05 voxels of radius 12), and every ray passing a
+/// centre well inside the radius hits.
+#[gpu_test]
+fn hierarchical_tables_render_a_box_whose_dense_tables_are_over_the_cap() {
+    use isoview::render::{pool, Collect, Renderer};
+    let ctx = crate::common::gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let small = GridLimits { max_bytes: 1 << 20 };
+    let dir = scratch("vdb-far");
+    let centres = [DVec3::new(14.0, 14.0, 14.0), DVec3::new(700.0, 690.0, 680.0)];
+    for f in ["far.vdb", "far_zip.nvdb"].into_iter().filter(|f| readable(f)) {
+        std::fs::copy(data().join(f), dir.join(f)).unwrap();
+        let toml = format!(
+            "[field]\nsource = \"file\"\npath = \"{f}\"\n[image]\nwidth = 320\nheight = 320\n\
+             [surface]\nisovalue = 0.0\n[camera]\neye = [1276, -572, 347]\ntarget = [357, 352, 347]\n\
+             fov_y_deg = 60\n"
+        );
+        let path = crate::common::write(&dir, &format!("{f}.toml"), &toml);
+        let scene = scene::load(Path::new(&path), &[]).unwrap();
+        assert_eq!(scene.field.resolution, [715, 705, 695]);
+        let dense = pool::check_tables(scene.field.resolution, &small, f).unwrap_err();
+        assert!(matches!(dense, FieldError::TablesTooLarge { .. }), "{f}: {dense}");
+        let parts = pool::mapped_for(&scene, &small).unwrap().expect("read in parts");
+        let pooled = pool::upload_for(&ctx, &scene, &*parts, &small).unwrap();
+        let r = pooled.gpu.residency().unwrap();
+        assert!(r.table_bytes() * 50 < r.bricks() as u64 * pool::TABLE_BYTES, "{f}: dense tables");
+        let mut sink = Collect::default();
+        renderer.render_to(&scene, &pooled.shape, &pooled.gpu, 0.0, &mut sink).unwrap();
+        let pixels = sink.into_frame().unwrap().pixels;
+        let mut seen = [0; 2];
+        for p in pixels.iter().filter(|p| p.is_hit()) {
+            let at = DVec3::from(p.position.map(f64::from));
+            let off = centres.map(|c| ((at - c).length() - 12.0).abs());
+            let k = if off[0] < off[1] { 0 } else { 1 };
+            assert!(off[k] < 0.05, "{f}: a hit at {at} is {} from sphere {k}", off[k]);
+            seen[k] += 1;
+        }
+        assert!(seen.iter().all(|&n| n >= 20), "{f}: hits per sphere {seen:?}");
+        // Every ray that passes a centre well inside the radius hits, every one that passes
+        // well outside misses: no part of a sphere is lost to a table's entry.
+        let camera = isoview::camera::Camera::for_scene(&scene);
+        for (n, p) in pixels.iter().enumerate() {
+            let (o, d) = camera.ray((n % 320) as u32, (n / 320) as u32);
+            let pass = centres.map(|c| (c - o).cross(d.normalize()).length());
+            let near = pass.iter().copied().fold(f64::INFINITY, f64::min);
+            assert!(
+                near > 11.0 || p.is_hit(),
+                "{f}: pixel {n} passes {near} from a centre, no hit"
+            );
+            assert!(
+                near < 13.0 || !p.is_hit(),
+                "{f}: pixel {n} passes {near} from a centre, a hit"
+            );
+        }
+    }
+}
+
 /// Built without the `openvdb` feature, `.vdb` is refused in one line saying how to get it.
 #[cfg(not(feature = "openvdb"))]
 #[test]

@@ -125,6 +125,16 @@ pub enum FieldError {
     )]
     TablesTooLarge { what: String, dims: [usize; 3], bricks: u64, bytes: u64, cap: u64 },
 
+    /// A sparse tree's superbrick tables alone would exceed the memory cap (refused before the
+    /// tree is scanned).
+    #[error(
+        "{what}: a grid of {}x{}x{} points has {supers} superbricks of 32^3 cells, whose tables \
+         (range and block, 12 bytes each) take {} on the device, over the cap of {}; raise the \
+         cap with {GRID_CAP_ENV}={} (or GridLimits::max_bytes)",
+        dims[0], dims[1], dims[2], mib(*bytes as u128), mib(*cap as u128), bytes.div_ceil(1 << 20)
+    )]
+    SuperTablesTooLarge { what: String, dims: [usize; 3], supers: u64, bytes: u64, cap: u64 },
+
     /// The grid has more points along an axis than the device's 3D images hold (a grid uploaded
     /// whole is one image). `what`: the key or header that sets the dims.
     #[error(

@@ -80,7 +80,18 @@ pub const BLOCK: usize = SUPER * SUPER * SUPER;
 /// Refuses, before the file is scanned, a grid whose dense brick ranges are over the cap (a
 /// raw or npy file's scan holds one range per brick).
 pub fn check_tables(dims: [usize; 3], limits: &GridLimits, what: &str) -> Result<(), FieldError> {
-    check_table_count(brick_counts(dims), dims, limits, what)
+    let bricks = brick_counts(dims).iter().map(|&n| n as u64).product::<u64>();
+    let bytes = bricks.saturating_mul(TABLE_BYTES);
+    if bytes > limits.max_bytes {
+        return Err(FieldError::TablesTooLarge {
+            what: what.to_string(),
+            dims,
+            bricks,
+            bytes,
+            cap: limits.max_bytes,
+        });
+    }
+    Ok(())
 }
 
 /// Refuses, before a sparse tree is scanned, a grid whose superbrick tables alone are over the
@@ -90,22 +101,13 @@ pub fn check_super_tables(
     limits: &GridLimits,
     what: &str,
 ) -> Result<(), FieldError> {
-    check_table_count(super_counts(dims), dims, limits, what)
-}
-
-fn check_table_count(
-    counts: [usize; 3],
-    dims: [usize; 3],
-    limits: &GridLimits,
-    what: &str,
-) -> Result<(), FieldError> {
-    let bricks = counts.iter().map(|&n| n as u64).product::<u64>();
-    let bytes = bricks.saturating_mul(TABLE_BYTES);
+    let supers = super_counts(dims).iter().map(|&n| n as u64).product::<u64>();
+    let bytes = supers.saturating_mul(TABLE_BYTES);
     if bytes > limits.max_bytes {
-        return Err(FieldError::TablesTooLarge {
+        return Err(FieldError::SuperTablesTooLarge {
             what: what.to_string(),
             dims,
-            bricks,
+            supers,
             bytes,
             cap: limits.max_bytes,
         });

@@ -169,6 +169,7 @@ fn redacted(e: &FieldError) -> Option<String> {
         | FieldError::OverMemory { .. }
         | FieldError::PoolTooLarge { .. }
         | FieldError::TablesTooLarge { .. }
+        | FieldError::SuperTablesTooLarge { .. }
         | FieldError::NonFinite { .. }
         | FieldError::OverDevice { .. }
         | FieldError::Shrank { .. }

@@ -438,6 +438,15 @@ fn hierarchical_tables_render_a_box_whose_dense_tables_are_over_the_cap() {
         assert_eq!(scene.field.resolution, [715, 705, 695]);
         let dense = pool::check_tables(scene.field.resolution, &small, f).unwrap_err();
         assert!(matches!(dense, FieldError::TablesTooLarge { .. }), "{f}: {dense}");
+        // The superbrick tables are what is checked before the tree is scanned.
+        pool::check_super_tables(scene.field.resolution, &small, f).unwrap();
+        let tiny = GridLimits { max_bytes: 1 << 16 };
+        let e = pool::check_super_tables(scene.field.resolution, &tiny, f).unwrap_err().to_string();
+        assert!(
+            e.contains("has 11132 superbricks of 32^3 cells")
+                && e.contains("over the cap of 64 KiB"),
+            "{e}"
+        );
         let parts = pool::mapped_for(&scene, &small).unwrap().expect("read in parts");
         let pooled = pool::upload_for(&ctx, &scene, &*parts, &small).unwrap();
         let r = pooled.gpu.residency().unwrap();

@@ -102,11 +102,13 @@ impl GpuGrid {
     pub fn upload_pool(
         ctx: &Arc<Context>,
         grid: &dyn crate::field::parts::Parts,
-        supers: &[[f32; 2]],
-        residency: pool::Residency,
+        supers: Vec<[f32; 2]>,
+        mut residency: pool::Residency,
     ) -> Result<Self, pool::PoolError> {
         let buffer =
             Buffer::upload(ctx, "bricks", &residency.ranges, vk::BufferUsageFlags::STORAGE_BUFFER)?;
+        // On the device now; the host keeps the page table (`Residency::page`) only.
+        residency.ranges = Vec::new();
         let pool = pool::Pool::upload(ctx, grid, residency)?;
         let gpu = GpuGrid {
             storage: Storage::Pool(Box::new(pool)),
@@ -117,7 +119,7 @@ impl GpuGrid {
             block: None,
             largest: largest_finite(supers.iter().flatten().copied()),
         };
-        let _ = gpu.supers.set(supers.to_vec());
+        let _ = gpu.supers.set(supers);
         let _ = gpu.bricks.set(buffer);
         Ok(gpu)
     }

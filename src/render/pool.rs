@@ -203,7 +203,8 @@ pub struct Residency {
     pub supers: [usize; 3],
     /// The page table: superbricks' blocks, then the blocks' slots.
     pub pages: Vec<u32>,
-    /// The ranges in the same layout: superbricks', then the blocks' bricks'.
+    /// The ranges in the same layout: superbricks', then the blocks' bricks' (emptied once on the
+    /// device).
     pub ranges: Vec<[f32; 2]>,
     /// The resident bricks, in slot order.
     pub resident: Vec<[usize; 3]>,
@@ -310,9 +311,9 @@ impl Residency {
         self.resident.len() as u64 * (SLOT * SLOT * SLOT * 4) as u64
     }
 
-    /// Bytes of the tables on the device.
+    /// Bytes of the tables on the device (the ranges as many as the page-table entries).
     pub fn table_bytes(&self) -> u64 {
-        self.pages.len() as u64 * 4 + self.ranges.len() as u64 * 8
+        self.pages.len() as u64 * TABLE_BYTES
     }
 
     /// Refuses a pool over the cap (with the brick tables), naming what it would need.
@@ -576,7 +577,10 @@ pub fn upload_for(
     let (active, bricks) = (residency.active, residency.bricks());
     let (resident, pool_mib) =
         (residency.resident.len(), residency.pool_bytes() as f64 / (1 << 20) as f64);
-    let gpu = super::GpuGrid::upload_pool(ctx, grid, &ranges.super_ranges, residency)?;
+    // Only the superbricks' ranges are kept (the walk's choice of levels): the blocks are in
+    // the residency's tables.
+    let BrickRanges { super_ranges, .. } = ranges;
+    let gpu = super::GpuGrid::upload_pool(ctx, grid, super_ranges, residency)?;
     let summary = format!(
         "{}x{}x{} grid {} ({} MiB as dense f32): {active} of {bricks} bricks of {BRICK}^3 \
          cells active, {resident} resident, {pool_mib:.1} MiB pool (scan {:.1} s, upload {:.1} s)",

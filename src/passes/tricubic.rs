@@ -2,19 +2,24 @@
 //! (`shaders/tricubic.comp`): the cell walk of `reference::analytic` over the tricubic
 //! interpolants (the degree-9 Bernstein polynomial of each segment, its root isolation and
 //! Newton refinement; `reference::analytic::tricubic` and `bernstein` are the specification)
-//! in f32, one invocation per pixel of a band of rows. Bound and recorded as the other ray
-//! passes ([`super::raymarch::RayPass`], the grid as an image; no brick grid: the walk does not
-//! skip yet).
+//! in f32, one invocation per pixel of a band of rows. Bound and recorded as the analytic pass
+//! ([`super::analytic::BINDINGS`]: the grid as an image, then the interpolant's own brick
+//! min/max grid, [`super::bricks::Bound`], whose empty bricks it jumps over) and specialized
+//! the same way ([`Walk`]).
 
 use std::sync::Arc;
 
-use super::raymarch::RAY_BINDINGS;
+use super::analytic::{Walk, BINDINGS};
 use crate::field::interpolant::Interpolant;
 use crate::gpu::{ComputePipeline, Context, GpuError};
 use crate::shaders;
 
-/// The walk of `interp`, one of the tricubic interpolants (`None` for another).
-pub fn pipeline(ctx: &Arc<Context>, interp: Interpolant) -> Result<ComputePipeline, GpuError> {
+/// The walk of `interp`, one of the tricubic interpolants (an error for another).
+pub fn pipeline(
+    ctx: &Arc<Context>,
+    interp: Interpolant,
+    walk: Walk,
+) -> Result<ComputePipeline, GpuError> {
     let (name, spirv) = match interp {
         Interpolant::CubicBspline => ("tricubic (cubic-bspline)", shaders::TRICUBIC),
         Interpolant::CatmullRom => ("tricubic (catmull-rom)", shaders::TRICUBIC_CATMULL_ROM),
@@ -25,5 +30,5 @@ pub fn pipeline(ctx: &Arc<Context>, interp: Interpolant) -> Result<ComputePipeli
             )))
         }
     };
-    ComputePipeline::new(ctx, name, spirv, &RAY_BINDINGS, std::mem::size_of::<super::Band>() as u32)
+    super::analytic::build(ctx, name, spirv, &BINDINGS, walk)
 }

@@ -270,14 +270,24 @@ bool step_cells(bvec3 crossed, inout ivec3 cell, inout vec3 tmax, vec3 o, vec3 d
     return !left_box;
 }
 
-// Whether a crossing may lie in `cell` of a brick that is not empty: it is not missing (a
-// missing cell holds none). No test of the cell's own samples' range: stepping over the cells
-// it calls clear (sound: the same bound as a brick's) made llvmpipe's results depend on the
-// neighbouring lanes (a ray of the 64^3 torus ended 15 cells early, losing a crossing, or
-// not, with the neighbours' `render.crossing`; the_other_walks_skip_bit_identically), which no
-// restructuring of the loops removed: left out until that is understood (docs/limitations.md).
-bool may_cross(ivec3 cell) {
-    return !samples_missing(cell_samples(cell));
+// Whether no surface can cross in a (non-missing) cell of samples k: their range, widened by
+// Catmull-Rom's bound as its bricks' are (bricks.comp), is clear of every isovalue
+// (range_is_empty). The candidate's isolation then does not run: the walk itself is
+// unchanged (see 6a on why it does not step over such cells).
+bool cell_is_clear(Samples k) {
+    float lo = k.s[0], hi = k.s[0];
+    for (int n = 1; n < 64; n++) {
+        lo = min(lo, k.s[n]);
+        hi = max(hi, k.s[n]);
+    }
+#ifdef INTERP_CATMULL_ROM
+    precise float spread = uintBitsToFloat(CATMULL_ROM_KAPPA_BITS) * (hi - lo);
+    precise float wlo = lo - spread;
+    precise float whi = hi + spread;
+    lo = wlo;
+    hi = whi;
+#endif
+    return range_is_empty(vec2(lo, hi));
 }
 
 void main() {
@@ -355,7 +365,14 @@ void main() {
                 known = false;  // t_b > t_in
             } else {
                 passes++;
-                candidate = !empty && may_cross(cell);
+                // A cell of a brick that is not empty: 6b reads it (a missing one holds no
+                // crossing: not evaluated there). No test of the cell's own samples' range:
+                // stepping over the cells it calls clear (sound: a brick's bound) made
+                // llvmpipe's results depend on the neighbouring lanes (a ray of the 64^3 torus
+                // ended 15 cells early, losing a crossing, or not, with the neighbours'
+                // `render.crossing`; the_other_walks_skip_bit_identically), which no
+                // restructuring of these loops removed: left out (docs/limitations.md).
+                candidate = !empty;
                 // A cell with no crossing: step over it, as 6.6 does.
                 if (!candidate) {
                     t_b = max(min(min(tmax.x, min(tmax.y, tmax.z)), t_hi), t_in);
@@ -378,6 +395,8 @@ void main() {
         // 6b. The candidate cell: 6.1 segment end, 6.2 exit point and values.
         q_in = known ? q_known : entry_point(entered, cell, t_in, o, d);
         k = cell_samples(cell);
+        bool missing = samples_missing(k);
+        bool clear = skip && !missing && cell_is_clear(k);
         float f_in = cubic_value(k, q_in);
         float t_out = max(min(min(tmax.x, min(tmax.y, tmax.z)), t_hi), t_in);
         bvec3 crossed = lessThanEqual(tmax, vec3(t_out));
@@ -392,7 +411,7 @@ void main() {
             }
         }
         float f_out = t_out == t_in ? f_in : cubic_value(k, q_out);
-        {
+        if (!missing) {
             // 6.3 The segment's polynomial, once for every surface.
             Poly fseg = cubic_segment(k, q_in, q_out);
             // The first crossing of this cell among the surfaces, for the hit.
@@ -406,7 +425,8 @@ void main() {
                 g.b[DEG] = f_out - iso;
                 // 6.4 The isolation's leaves in u order; 6.5 crossings, leaf by leaf.
                 uint level = 0u, kk = 0u, nodes = 0u;
-                bool done = false;
+                // A clear cell has no leaf whose ends differ: its isolation need not run.
+                bool done = clear;
                 for (uint guard = 0u; guard < BERNSTEIN_NODES + BERNSTEIN_DEPTH && !done; guard++) {
                     Poly c = restrict_to(g, level, kk);
                     nodes++;

@@ -133,6 +133,9 @@ const VARIANTS: &[(&str, &str, &[&str])] = &[
     ("raymarch.comp", "device", &["INTERP_DEVICE"]),
     // The tricubic walk: B-spline as it is, Catmull-Rom with its macro.
     ("tricubic.comp", "catmull_rom", &["INTERP_CATMULL_ROM"]),
+    // ... and reading a whole grid from a storage buffer, as analytic.comp's default.
+    ("tricubic.comp", "buffer", &["GRID_BUFFER"]),
+    ("tricubic.comp", "catmull_rom_buffer", &["INTERP_CATMULL_ROM", "GRID_BUFFER"]),
     // The tricubic walks' brick ranges: over the 4x4x4 stencils of a brick's cells, and for
     // Catmull-Rom widened by its overshoot bound (passes/bricks.rs, `Bound`).
     ("bricks.comp", "cubic", &["BRICKS_CUBIC"]),

@@ -42,7 +42,12 @@ layout(local_size_x = RAY_GROUP, local_size_y = RAY_GROUP) in;  // build.rs
 #include "pixel.glsl"
 
 layout(std140, binding = 0) uniform Params { RenderParams P; };
+#ifdef GRID_BUFFER
+// The whole grid's points, x fastest (render/mod.rs's copy of the image; field.glsl reads it).
+layout(std430, binding = 1) readonly buffer Grid { float grid[]; };
+#else
 layout(binding = 1) uniform sampler3D u_grid;
+#endif
 layout(std430, binding = 2) writeonly buffer Out { Pixel pixels[]; };
 layout(std430, binding = 3) readonly buffer Colormap { vec4 colormap[256]; };
 layout(std430, binding = 4) readonly buffer Bricks { vec2 bricks[]; };

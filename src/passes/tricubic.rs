@@ -9,26 +9,38 @@
 
 use std::sync::Arc;
 
-use super::analytic::{Walk, BINDINGS};
+use super::analytic::{Walk, BINDINGS, BUFFER_BINDINGS};
 use crate::field::interpolant::Interpolant;
 use crate::gpu::{ComputePipeline, Context, GpuError};
 use crate::shaders;
 
-/// The walk of `interp`, one of the tricubic interpolants (an error for another).
+/// The walk of `interp`, one of the tricubic interpolants (an error for another), reading the
+/// grid image or, with `buffer`, the whole grid's points from a storage buffer (the
+/// `GRID_BUFFER` variants, bindings [`BUFFER_BINDINGS`]: llvmpipe reads a point far faster).
 pub fn pipeline(
     ctx: &Arc<Context>,
     interp: Interpolant,
     walk: Walk,
+    buffer: bool,
 ) -> Result<ComputePipeline, GpuError> {
-    let (name, spirv) = match interp {
-        Interpolant::CubicBspline => ("tricubic (cubic-bspline)", shaders::TRICUBIC),
-        Interpolant::CatmullRom => ("tricubic (catmull-rom)", shaders::TRICUBIC_CATMULL_ROM),
-        other => {
+    let (name, spirv) = match (interp, buffer) {
+        (Interpolant::CubicBspline, false) => {
+            ("tricubic (cubic-bspline, image)", shaders::TRICUBIC)
+        }
+        (Interpolant::CatmullRom, false) => {
+            ("tricubic (catmull-rom, image)", shaders::TRICUBIC_CATMULL_ROM)
+        }
+        (Interpolant::CubicBspline, true) => ("tricubic (cubic-bspline)", shaders::TRICUBIC_BUFFER),
+        (Interpolant::CatmullRom, true) => {
+            ("tricubic (catmull-rom)", shaders::TRICUBIC_CATMULL_ROM_BUFFER)
+        }
+        (other, _) => {
             return Err(GpuError::Bug(format!(
                 "the tricubic walk traces no {} field",
                 other.name()
             )))
         }
     };
-    super::analytic::build(ctx, name, spirv, &BINDINGS, walk)
+    let bindings = if buffer { &BUFFER_BINDINGS } else { &BINDINGS };
+    super::analytic::build(ctx, name, spirv, bindings, walk)
 }

@@ -33,8 +33,9 @@ pub(super) enum RayShader {
     AnalyticPool(analytic::Walk),
     /// `interpolation = "nearest"`'s exact trace, the voxel walk, on the grid image.
     Voxels(analytic::Walk),
-    /// The tricubic interpolants' exact trace, the Bernstein walk, on the grid image.
-    Tricubic(Interpolant, analytic::Walk),
+    /// The tricubic interpolants' exact trace, the Bernstein walk: on the grid image, or
+    /// (`true`) on the whole grid's points in a storage buffer, as `AnalyticBuffer`.
+    Tricubic(Interpolant, analytic::Walk, bool),
 }
 
 impl RayShader {
@@ -46,7 +47,9 @@ impl RayShader {
             RayShader::AnalyticBuffer(walk) => analytic::buffer_pipeline(ctx, walk),
             RayShader::AnalyticPool(walk) => analytic::pool_pipeline(ctx, walk),
             RayShader::Voxels(walk) => voxels::pipeline(ctx, walk),
-            RayShader::Tricubic(interp, walk) => tricubic::pipeline(ctx, interp, walk),
+            RayShader::Tricubic(interp, walk, buffer) => {
+                tricubic::pipeline(ctx, interp, walk, buffer)
+            }
         }
     }
 }
@@ -152,19 +155,20 @@ impl Renderer {
             (Method::Analytic, Storage::Image(_)) if interp == Interpolant::Nearest => {
                 RayShader::Voxels(walk())
             }
-            (Method::Analytic, Storage::Image(_)) if bound != bricks::Bound::Corners => {
-                RayShader::Tricubic(interp, walk())
-            }
             (Method::Analytic, Storage::Pool(_)) => RayShader::AnalyticPool(walk()),
             (Method::Analytic, Storage::Image(image)) => {
+                // The whole grid from a storage buffer where it fits: llvmpipe reads a point
+                // with a fraction of a texelFetch's instructions.
                 let bytes = image.extent.iter().map(|&e| e as u64).product::<u64>() * 4;
-                if gpu_grid.block.is_none() && bytes <= self.ctx.info.max_storage_buffer_range {
-                    if gpu_grid.points.get().is_none() {
-                        let _ = gpu_grid.points.set(image.copy_to_buffer("grid points")?);
-                    }
-                    RayShader::AnalyticBuffer(walk())
-                } else {
-                    RayShader::Analytic(walk())
+                let buffer =
+                    gpu_grid.block.is_none() && bytes <= self.ctx.info.max_storage_buffer_range;
+                if buffer && gpu_grid.points.get().is_none() {
+                    let _ = gpu_grid.points.set(image.copy_to_buffer("grid points")?);
+                }
+                match (bound, buffer) {
+                    (bricks::Bound::Corners, true) => RayShader::AnalyticBuffer(walk()),
+                    (bricks::Bound::Corners, false) => RayShader::Analytic(walk()),
+                    _ => RayShader::Tricubic(interp, walk(), buffer),
                 }
             }
         };
@@ -194,12 +198,14 @@ impl Renderer {
         let bands = Bands::<Pixel>::with_max_rows(ctx, "pixels", width, height, band_rows)?;
         let bricks = if analytic { brick_buffer } else { None };
         let grid_input = match (&gpu_grid.storage, shader) {
-            (Storage::Image(_), RayShader::AnalyticBuffer(_)) => GridInput::Points(
-                gpu_grid
-                    .points
-                    .get()
-                    .ok_or_else(|| GpuError::Bug("grid points not copied".into()))?,
-            ),
+            (Storage::Image(_), RayShader::AnalyticBuffer(_) | RayShader::Tricubic(_, _, true)) => {
+                GridInput::Points(
+                    gpu_grid
+                        .points
+                        .get()
+                        .ok_or_else(|| GpuError::Bug("grid points not copied".into()))?,
+                )
+            }
             (Storage::Image(image), RayShader::FixedStep(Interpolant::Device)) => {
                 GridInput::Filtered(image)
             }

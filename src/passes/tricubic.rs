@@ -3,9 +3,10 @@
 //! interpolants (the degree-9 Bernstein polynomial of each segment, its root isolation and
 //! Newton refinement; `reference::analytic::tricubic` and `bernstein` are the specification)
 //! in f32, one invocation per pixel of a band of rows. Bound and recorded as the analytic pass
-//! ([`super::analytic::BINDINGS`]: the grid as an image, then the interpolant's own brick
-//! min/max grid, [`super::bricks::Bound`], whose empty bricks it jumps over) and specialized
-//! the same way ([`Walk`]).
+//! ([`super::analytic::BUFFER_BINDINGS`]: the whole grid as a storage buffer, the default, or
+//! [`super::analytic::BINDINGS`]: the grid image; then the interpolant's own brick min/max
+//! grid, [`super::bricks::Bound`], whose empty bricks it jumps over) and specialized the same
+//! way ([`Walk`]).
 
 use std::sync::Arc;
 

@@ -58,6 +58,19 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
     // passes/bricks.rs): the points a cell reads before its lower corner and after it.
     ("STENCIL_BELOW", 0, Glsl::Int, "Points a cell reads before its lower corner, per axis."),
     ("STENCIL_ABOVE", 1, Glsl::Int, "Points a cell reads after its lower corner, per axis."),
+    // The tricubic interpolants' stencil (Rust: `cubic::Cubic`'s `Kernel::STENCIL`, asserted
+    // equal in passes/bricks.rs), which their brick ranges (bricks.comp's BRICKS_CUBIC
+    // variants) cover.
+    ("CUBIC_STENCIL_BELOW", 1, Glsl::Int, "Points a tricubic cell reads before its lower corner, per axis."),
+    ("CUBIC_STENCIL_ABOVE", 2, Glsl::Int, "Points a tricubic cell reads after its lower corner, per axis."),
+    // Catmull-Rom's overshoot bound `cubic::CatmullRomWeights::KAPPA` = 37/54 as f32 bits
+    // (0.68518519, rounded up; passes/bricks.rs asserts it), for bricks.comp's widening.
+    (
+        "CATMULL_ROM_KAPPA_BITS",
+        0x3f2f_684c,
+        Glsl::Uint,
+        "f32 bits of Catmull-Rom's overshoot bound 37/54: values leave the samples' range by at most this times its width.",
+    ),
     // The tricubic interpolants' root isolation (src/reference/analytic/bernstein.rs, which
     // explains both caps): the walk's deepest level and its node budget per root isolation.
     (
@@ -120,6 +133,13 @@ const VARIANTS: &[(&str, &str, &[&str])] = &[
     ("raymarch.comp", "device", &["INTERP_DEVICE"]),
     // The tricubic walk: B-spline as it is, Catmull-Rom with its macro.
     ("tricubic.comp", "catmull_rom", &["INTERP_CATMULL_ROM"]),
+    // ... and reading a whole grid from a storage buffer, as analytic.comp's default.
+    ("tricubic.comp", "buffer", &["GRID_BUFFER"]),
+    ("tricubic.comp", "catmull_rom_buffer", &["INTERP_CATMULL_ROM", "GRID_BUFFER"]),
+    // The tricubic walks' brick ranges: over the 4x4x4 stencils of a brick's cells, and for
+    // Catmull-Rom widened by its overshoot bound (passes/bricks.rs, `Bound`).
+    ("bricks.comp", "cubic", &["BRICKS_CUBIC"]),
+    ("bricks.comp", "catmull_rom", &["BRICKS_CUBIC", "BRICKS_WIDEN"]),
     // Slices through the other interpolants (`slice::image`).
     ("slice.comp", "bspline", &["INTERP_BSPLINE"]),
     ("slice.comp", "catmull_rom", &["INTERP_CATMULL_ROM"]),

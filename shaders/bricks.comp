@@ -4,6 +4,12 @@
 // read (`Stencil::brick_points`; trilinear: (size + 1)^3, a brick's cells share their boundary
 // points with the next brick). Every value of the trilinear field inside the brick's cells is a
 // convex combination of these, so it lies in [min, max].
+//
+// Variants (build.rs): BRICKS_CUBIC covers the tricubic stencils instead (one point below a
+// brick's cells and two above: (size + 3)^3), whose B-spline values and Bernstein coefficients
+// are convex combinations of them; BRICKS_WIDEN (Catmull-Rom, not convex) then widens [m, M] to
+// [m - k (M - m), M + k (M - m)] with k = CATMULL_ROM_KAPPA_BITS (37/54, `cubic`'s "Bounds"
+// proves it), in `precise` f32 so the CPU twin (`bricks::reference_for`) has the same bits.
 
 #extension GL_GOOGLE_include_directive : require
 
@@ -24,8 +30,13 @@ void main() {
     int size = shape.bricks.w;
     // The brick's cells b size .. min((b + 1) size, n - 1) and their stencil, inside the grid.
     ivec3 cells = shape.points.xyz - 1;
-    ivec3 lo = max(min(b * size, cells) - STENCIL_BELOW, 0);
-    ivec3 hi = min(min(b * size + size, cells) - 1 + STENCIL_ABOVE, shape.points.xyz - 1);
+#ifdef BRICKS_CUBIC
+    const int below = CUBIC_STENCIL_BELOW, above = CUBIC_STENCIL_ABOVE;
+#else
+    const int below = STENCIL_BELOW, above = STENCIL_ABOVE;
+#endif
+    ivec3 lo = max(min(b * size, cells) - below, 0);
+    ivec3 hi = min(min(b * size + size, cells) - 1 + above, shape.points.xyz - 1);
     // Missing samples (NaN, inf) are left out (`field::interpolant::widen`): GLSL's min/max are undefined
     // with NaN. A brick with no finite sample keeps [inf, -inf], which no range test calls clear.
     float vmin = uintBitsToFloat(0x7f800000u);
@@ -40,5 +51,13 @@ void main() {
             }
         }
     }
+#ifdef BRICKS_WIDEN
+    // [inf, -inf] (no finite sample) stays itself: inf - k (-inf) = inf, -inf + k (-inf) = -inf.
+    precise float spread = uintBitsToFloat(CATMULL_ROM_KAPPA_BITS) * (vmax - vmin);
+    precise float wmin = vmin - spread;
+    precise float wmax = vmax + spread;
+    vmin = wmin;
+    vmax = wmax;
+#endif
     bricks[(b.z * shape.bricks.y + b.y) * shape.bricks.x + b.x] = vec2(vmin, vmax);
 }

@@ -16,8 +16,23 @@
 //   7.   the hit: the wanted crossing; normal the interpolant's exact gradient there.
 // Several surfaces share the walk: each cell's polynomial is the field's, minus each
 // surface's isovalue; the first crossing of any surface is the hit (ties: the lower surface),
-// the reference's nearest-hit rule over surfaces traced alone. No empty-space skipping yet:
-// `steps` is the cells visited, as the reference counts them.
+// the reference's nearest-hit rule over surfaces traced alone.
+//
+// Empty-space skipping (`P.skip`), analytic.comp's, with the interpolant's own min/max grid
+// (`bricks[]`, `passes::bricks::Bound`): a brick's range is over the points its cells' 4x4x4
+// stencils read, which bounds the B-spline (its values and every Bernstein coefficient of a
+// segment are convex combinations of them); Catmull-Rom's is widened by 37/54 of its width on
+// each side (its overshoot bound, `field::interpolant::cubic`'s "Bounds"). Every value the walk
+// decides a predicate on in a cell (face values, leaf ends: de Casteljau averages of the
+// coefficients) is then within the range up to f32 rounding, which SKIP_MARGIN covers
+// (bricks.glsl). The walk jumps over a clearly empty brick (or superbrick) to the cell and t
+// the cell-by-cell walk reaches (`leave_brick`), and steps over a cell whose own samples'
+// range (widened the same way) is clear without forming its polynomial; a candidate cell is
+// evaluated from its own samples and entry point, which are the bits the carried ones have
+// (face exactness: `cubic`'s module doc; the entry point is analytic.comp's `entry_point`).
+// So every channel is bit for bit the walk without skipping, but `steps`: cells tested plus one
+// per brick jumped (a superbrick jump counts the bricks it crosses), as the reference counts
+// them with `render.skip` (`reference::skipping`).
 
 #extension GL_GOOGLE_include_directive : require
 
@@ -27,9 +42,15 @@ layout(local_size_x = RAY_GROUP, local_size_y = RAY_GROUP) in;  // build.rs
 #include "pixel.glsl"
 
 layout(std140, binding = 0) uniform Params { RenderParams P; };
+#ifdef GRID_BUFFER
+// The whole grid's points, x fastest (render/mod.rs's copy of the image; field.glsl reads it).
+layout(std430, binding = 1) readonly buffer Grid { float grid[]; };
+#else
 layout(binding = 1) uniform sampler3D u_grid;
+#endif
 layout(std430, binding = 2) writeonly buffer Out { Pixel pixels[]; };
 layout(std430, binding = 3) readonly buffer Colormap { vec4 colormap[256]; };
+layout(std430, binding = 4) readonly buffer Bricks { vec2 bricks[]; };
 layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 
 // The build without a variant macro is the B-spline's (build.rs compiles every .comp as it is).
@@ -41,6 +62,7 @@ layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 #include "camera.glsl"
 #include "clip.glsl"
 #include "walk.glsl"
+#include "bricks.glsl"
 
 const int DEG = 9;
 // C(3, j) and C(9, j): the scaled Bernstein form's factors (`bernstein::Scaled`).
@@ -208,10 +230,69 @@ float segment_t(float t_in, float t_out, float u) {
     return u >= 1.0 ? t_out : min(t_in + u * (t_out - t_in), t_out);
 }
 
-float tmax_of(int a, int c, vec3 o, vec3 d) {
-    if (d[a] > 0.0) return (float(c + 1) - o[a]) / d[a];
-    if (d[a] < 0.0) return (float(c) - o[a]) / d[a];
-    return uintBitsToFloat(0x7f800000u);
+// Local coordinate `a` of the ray's point at t in `cell`: the one expression for a cell's exit
+// point and the next cell's entry point, so both have the same bits (analytic.comp's).
+float local_at(int a, float t, ivec3 cell, vec3 o, vec3 d) {
+    return clamp(o[a] + t * d[a] - float(cell[a]), 0.0, 1.0);
+}
+
+// Local coordinate `a` of the face a ray crossing planes of axis `a` enters a cell through.
+float entry_face(int a, vec3 d) {
+    return d[a] > 0.0 ? 0.0 : 1.0;
+}
+
+// The local entry point of a cell entered at t_in across the planes of `entered`: what 6.6
+// carries from the previous cell's exit point (1 - q on the crossed axes).
+vec3 entry_point(bvec3 entered, ivec3 cell, float t_in, vec3 o, vec3 d) {
+    vec3 q;
+    for (int a = 0; a < 3; a++) {
+        q[a] = entered[a] ? entry_face(a, d) : local_at(a, t_in, cell, o, d);
+    }
+    return q;
+}
+
+// The entry point of the next cell after a zero-length segment with entry point q: unchanged
+// but on the crossed axes.
+vec3 carried(bvec3 crossed, vec3 q, vec3 d) {
+    for (int a = 0; a < 3; a++) {
+        if (crossed[a]) q[a] = entry_face(a, d);
+    }
+    return q;
+}
+
+// 6.6 Steps every axis of `crossed` into the next cell and its next plane; false when that
+// leaves the grid.
+bool step_cells(bvec3 crossed, inout ivec3 cell, inout vec3 tmax, vec3 o, vec3 d) {
+    ivec3 ncell = P.dims - 1;
+    bool left_box = false;
+    for (int a = 0; a < 3; a++) {
+        if (crossed[a]) {
+            cell[a] += d[a] > 0.0 ? 1 : -1;
+            left_box = left_box || cell[a] < 0 || cell[a] > ncell[a] - 1;
+            tmax[a] = tmax_of(a, cell[a], o, d);
+        }
+    }
+    return !left_box;
+}
+
+// Whether no surface can cross in a (non-missing) cell of samples k: their range, widened by
+// Catmull-Rom's bound as its bricks' are (bricks.comp), is clear of every isovalue
+// (range_is_empty). The candidate's isolation then does not run: the walk itself is
+// unchanged (see 6a on why it does not step over such cells).
+bool cell_is_clear(Samples k) {
+    float lo = k.s[0], hi = k.s[0];
+    for (int n = 1; n < 64; n++) {
+        lo = min(lo, k.s[n]);
+        hi = max(hi, k.s[n]);
+    }
+#ifdef INTERP_CATMULL_ROM
+    precise float spread = uintBitsToFloat(CATMULL_ROM_KAPPA_BITS) * (hi - lo);
+    precise float wlo = lo - spread;
+    precise float whi = hi + spread;
+    lo = wlo;
+    hi = whi;
+#endif
+    return range_is_empty(vec2(lo, hi));
 }
 
 void main() {
@@ -240,15 +321,24 @@ void main() {
         cell[a] = int(c);
         q_in[a] = clamp(p[a] - c, 0.0, 1.0);
     }
-    Samples k = cell_samples(cell);
-    float f_in = cubic_value(k, q_in);
+    Samples k;
 
     // 5. Next planes.
     vec3 tmax = vec3(tmax_of(0, cell.x, o, d), tmax_of(1, cell.y, o, d), tmax_of(2, cell.z, o, d));
     float t_in = t_lo;
 
-    // 6. Loop.
-    uint total = 0u;
+    // Jumps need tmax strictly increasing along each axis (analytic.comp's may_jump).
+    bool skip = P.skip != 0u;
+    bool may_jump = skip && all(lessThan(abs(o), vec3(1048576.0)));
+    for (int a = 0; a < 3; a++) {
+        float m = abs(d[a]);
+        if (m != 0.0 && !(m > 8.0779356694631609e-28 && m < 1.2379400392853803e27)) may_jump = false;
+    }
+
+    // 6. Loop, as analytic.comp's: inner loops find the next cell that may hold a crossing
+    // (6a: brick jumps, then cells stepped over), the outer one evaluates it (6b). Without
+    // skipping every non-missing cell is a candidate: the reference's walk.
+    uint passes = 0u;
     uint crossings = 0u;
     bool hit = false;
     float t_hit = 0.0;
@@ -256,14 +346,65 @@ void main() {
     uint hit_steps = 0u;
     ivec3 hit_cell = cell;
     vec3 hit_q = vec3(0.0);
+    vec3 hit_grad = vec3(0.0);
     uint max_passes = uint(ncell.x + ncell.y + ncell.z);
-    for (uint pass_ = 0u; pass_ < max_passes; pass_++) {
-        total++;
+    bool known = true;        // q_in is `q_known` (step 4's, carried through zero-length cells)
+    vec3 q_known = q_in;
+    bvec3 entered = bvec3(false);  // the axes whose planes the walk crossed into `cell`
+    for (;;) {
+        // 6a. To the next candidate cell.
+        bool candidate = false;
+        // No `break` in this loop: with one (to leave at a candidate while other lanes step
+        // on), llvmpipe ended some rays early once clear cells were stepped over (the
+        // 64^3 torus of the_other_walks_skip_bit_identically lost crossings).
+        bool stop = false;
+        while (!candidate && !stop && passes < max_passes) {
+            bool empty = skip && brick_is_empty(cell);
+            float t_b = t_in;
+            if (empty && may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in) {
+                // Its whole superbrick at once when that is empty too, counted as the jumps
+                // through its bricks.
+                bool whole = BRICK_LEVELS > 1 && superbrick_is_empty(cell);
+                passes += whole ? brick_jumps(cell, t_hi, o, d) : 1u;
+                t_b = leave_brick(cell, tmax, t_hi, o, d, whole);
+                known = false;  // t_b > t_in
+            } else {
+                passes++;
+                // A cell of a brick that is not empty: 6b reads it (a missing one holds no
+                // crossing: not evaluated there). No test of the cell's own samples' range:
+                // stepping over the cells it calls clear (sound: a brick's bound) made
+                // llvmpipe's results depend on the neighbouring lanes (a ray of the 64^3 torus
+                // ended 15 cells early, losing a crossing, or not, with the neighbours'
+                // `render.crossing`; the_other_walks_skip_bit_identically), which no
+                // restructuring of these loops removed: left out (docs/limitations.md).
+                candidate = !empty;
+                // A cell with no crossing: step over it, as 6.6 does.
+                if (!candidate) {
+                    t_b = max(min(min(tmax.x, min(tmax.y, tmax.z)), t_hi), t_in);
+                    known = known && t_b == t_in;
+                }
+            }
+            if (!candidate) {
+                // The rest of the ray lies in this brick or cell: no crossing is left.
+                stop = t_b >= t_hi;
+                if (!stop) {
+                    entered = lessThanEqual(tmax, vec3(t_b));
+                    if (known) q_known = carried(entered, q_known, d);
+                    stop = !step_cells(entered, cell, tmax, o, d);
+                    t_in = t_b;
+                }
+            }
+        }
+        if (!candidate) break;
+
+        // 6b. The candidate cell: 6.1 segment end, 6.2 exit point and values.
+        q_in = known ? q_known : entry_point(entered, cell, t_in, o, d);
+        k = cell_samples(cell);
         bool missing = samples_missing(k);
-        // 6.1 Segment end, 6.2 exit point and value.
+        bool clear = skip && !missing && cell_is_clear(k);
+        float f_in = cubic_value(k, q_in);
         float t_out = max(min(min(tmax.x, min(tmax.y, tmax.z)), t_hi), t_in);
-        bool last = t_out >= t_hi;
-        bvec3 crossed = bvec3(tmax.x <= t_out, tmax.y <= t_out, tmax.z <= t_out);
+        bvec3 crossed = lessThanEqual(tmax, vec3(t_out));
         vec3 q_out;
         for (int a = 0; a < 3; a++) {
             if (crossed[a]) {
@@ -271,7 +412,7 @@ void main() {
             } else if (t_out == t_in) {
                 q_out[a] = q_in[a];
             } else {
-                q_out[a] = clamp(o[a] + t_out * d[a] - float(cell[a]), 0.0, 1.0);
+                q_out[a] = local_at(a, t_out, cell, o, d);
             }
         }
         float f_out = t_out == t_in ? f_in : cubic_value(k, q_out);
@@ -289,52 +430,57 @@ void main() {
                 g.b[DEG] = f_out - iso;
                 // 6.4 The isolation's leaves in u order; 6.5 crossings, leaf by leaf.
                 uint level = 0u, kk = 0u, nodes = 0u;
-                bool done = false;
+                // A clear cell has no leaf whose ends differ: its isolation need not run.
+                bool done = clear;
                 for (uint guard = 0u; guard < BERNSTEIN_NODES + BERNSTEIN_DEPTH && !done; guard++) {
                     Poly c = restrict_to(g, level, kk);
                     nodes++;
                     uint v = variations(c);
                     bool res = resolved(c, v);
-                    if (!(res || level == BERNSTEIN_DEPTH || nodes >= BERNSTEIN_NODES)) {
-                        level++;
-                        kk *= 2u;
-                        continue;
-                    }
+                    // No `continue` in this loop: llvmpipe gave wrong crossings with it once the
+                    // walk's loops around it jump and step (the_other_walks_skip_bit_identically).
+                    bool split = !(res || level == BERNSTEIN_DEPTH || nodes >= BERNSTEIN_NODES);
                     // A leaf: [kk 2^-level, (kk + 1) 2^-level].
                     float w = 1.0 / float(1u << level);
                     float lo = float(kk) * w;
                     float ga = c.b[0], gb = c.b[DEG];
-                    uint leaf_k = kk;
-                    uint leaf_level = level;
-                    while ((kk & 1u) == 1u) {
-                        kk >>= 1u;
-                        level--;
-                    }
-                    if (level == 0u) {
-                        done = true;
-                    } else {
-                        kk += 1u;
-                    }
-                    if (inside_g(ga) == inside_g(gb)) continue;
                     bool exact = ga == 0.0 || gb == 0.0;
                     float u_exact = ga == 0.0 ? lo : lo + w;
-                    if (exact && segment_t(t_in, t_out, u_exact) <= 0.0) continue;  // dropped
-                    crossings++;
-                    if (s == 0u && surfaces == 1u) {
-                        // One surface: the wanted-th crossing along the ray.
-                        if (!hit && crossings == wanted) {
+                    // A change of the predicate across the leaf, but one exactly at t <= 0.
+                    bool counted = !split && inside_g(ga) != inside_g(gb)
+                        && !(exact && segment_t(t_in, t_out, u_exact) <= 0.0);
+                    if (split) {
+                        level++;
+                        kk *= 2u;
+                    } else {
+                        while ((kk & 1u) == 1u) {
+                            kk >>= 1u;
+                            level--;
+                        }
+                        if (level == 0u) {
+                            done = true;
+                        } else {
+                            kk += 1u;
+                        }
+                    }
+                    if (counted) {
+                        crossings++;
+                        if (s == 0u && surfaces == 1u) {
+                            // One surface: the wanted-th crossing along the ray.
+                            if (!hit && crossings == wanted) {
+                                float u = exact ? u_exact : lo + w * refine_leaf(c, ga, gb, P.newton_steps);
+                                best_u = u;
+                                best_k = 0u;
+                            }
+                        } else if (!hit) {
+                            // Several surfaces (wanted = 1): each surface's first crossing here.
                             float u = exact ? u_exact : lo + w * refine_leaf(c, ga, gb, P.newton_steps);
-                            best_u = u;
-                            best_k = 0u;
+                            if (u < best_u) {
+                                best_u = u;
+                                best_k = s;
+                            }
+                            if (!count_all) done = true;
                         }
-                    } else if (!hit) {
-                        // Several surfaces (wanted = 1): each surface's first crossing here.
-                        float u = exact ? u_exact : lo + w * refine_leaf(c, ga, gb, P.newton_steps);
-                        if (u < best_u) {
-                            best_u = u;
-                            best_k = s;
-                        }
-                        if (!count_all) done = true;
                     }
                     if (!count_all && best_u <= 1.0 && surfaces == 1u) done = true;
                 }
@@ -343,37 +489,26 @@ void main() {
                 hit = true;
                 t_hit = segment_t(t_in, t_out, best_u);
                 hit_surface = best_k;
-                hit_steps = total;
+                hit_steps = passes;
                 hit_cell = cell;
                 hit_q = mix(q_in, q_out, best_u);
+                hit_grad = cubic_gradient(k, hit_q);
                 if (!count_all) break;
             }
         }
         // 6.6 Advance.
-        if (last) break;
-        bool left_box = false;
-        for (int a = 0; a < 3; a++) {
-            if (crossed[a]) {
-                cell[a] += d[a] > 0.0 ? 1 : -1;
-                left_box = left_box || cell[a] < 0 || cell[a] > ncell[a] - 1;
-                q_in[a] = 1.0 - q_out[a];
-                tmax[a] = tmax_of(a, cell[a], o, d);
-            } else {
-                q_in[a] = q_out[a];
-            }
-        }
-        if (left_box) break;
-        k = cell_samples(cell);
-        // After a missing cell, from the new cell's own samples.
-        f_in = missing ? cubic_value(k, q_in) : f_out;
+        if (t_out >= t_hi) break;
+        entered = crossed;
+        known = known && t_out == t_in;
+        if (known) q_known = carried(entered, q_in, d);
+        if (!step_cells(crossed, cell, tmax, o, d)) break;
         t_in = t_out;
     }
 
     if (count_all) r.crossings = int(crossings);
-    r.steps = float(hit ? hit_steps : total);
+    r.steps = float(hit ? hit_steps : passes);
     if (hit) {
-        Samples kh = cell_samples(hit_cell);
-        vec3 grad = cubic_gradient(kh, hit_q) * P.inv_spacing * P.inside_sign;
+        vec3 grad = hit_grad * P.inv_spacing * P.inside_sign;
         vec3 normal = unit_or(grad, -dir);
         vec3 u = vec3(hit_cell) + hit_q;
         r.depth = t_hit;

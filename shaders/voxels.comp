@@ -7,7 +7,23 @@
 // plane, exactly: no root to refine. The walk tests every surface at each face: the first
 // face where some surface reaches the wanted crossing is the hit (ties: the lower surface),
 // which is the reference's nearest-hit rule over the surfaces traced one by one.
-// No empty-space skipping yet: `steps` is the voxels visited, as the reference counts them.
+//
+// Empty-space skipping (`P.skip`): voxel bricks, BRICK^3 voxels (points b BRICK .. (b + 1)
+// BRICK - 1 per axis, the region [b BRICK - 1/2, (b + 1) BRICK - 1/2] clipped to the box), and
+// voxel superbricks of SUPER^3 of them. A voxel brick's values are its points' samples, all
+// among the corners of trilinear brick b's cells (b BRICK .. (b + 1) BRICK), so trilinear's
+// min/max grid (bricks.comp) covers it: brick min(b, last) (the one extra voxel brick of a grid
+// with a multiple of BRICK cells holds only the last point, the last trilinear brick's far
+// corner), and superbrick min(s, last) likewise. In a brick clearly on one side of every
+// isovalue (range_is_empty) every finite voxel has the same states, so no face inside it is a
+// crossing: the walk tests the face it enters the brick through (in its first voxel, as
+// always), then jumps to the voxel the ray leaves the brick from (voxel_leave_brick: exactly the
+// voxel, and the t, the voxel-by-voxel walk reaches there), reads that voxel's states and leaves
+// it as usual. Every channel is bit for bit the same as without skipping, but `steps`: the
+// voxels tested plus one per brick crossed in a jump (its first voxel and the jump are one
+// pass; a superbrick jump counts the bricks it crosses), as the reference counts them with
+// `render.skip` (`reference::skipping`). Rays for which a jump is not exact (`may_jump`, as
+// analytic.comp's) walk voxel by voxel.
 
 #extension GL_GOOGLE_include_directive : require
 
@@ -20,6 +36,7 @@ layout(std140, binding = 0) uniform Params { RenderParams P; };
 layout(binding = 1) uniform sampler3D u_grid;
 layout(std430, binding = 2) writeonly buffer Out { Pixel pixels[]; };
 layout(std430, binding = 3) readonly buffer Colormap { vec4 colormap[256]; };
+layout(std430, binding = 4) readonly buffer Bricks { vec2 bricks[]; };
 layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 
 // shade.glsl's `cells` shading checkers voxels (the cell is the inside voxel's point).
@@ -29,6 +46,7 @@ layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 #include "camera.glsl"
 #include "clip.glsl"
 #include "walk.glsl"
+#include "bricks.glsl"
 
 // Step 5: the t of the next voxel plane along axis a from voxel v: v + 1/2 going up while
 // v < N, v - 1/2 going down while v > 0, else none (+inf): from the plane index, never
@@ -42,6 +60,90 @@ float voxel_tmax(int a, int v, vec3 o, vec3 d, ivec3 ncell) {
 // The surfaces a finite value is inside of (bit k: surface k), for the walk's states.
 uint state_of(float v) {
     return inside_mask(v);
+}
+
+// Whether no crossing can lie between voxels of voxel `v`'s brick (the header says why
+// trilinear's brick min(b, last) covers it).
+bool voxel_brick_is_empty(ivec3 v) {
+    ivec3 nb = brick_counts();
+    ivec3 b = min(v / BRICK, nb - 1);
+    return range_is_empty(bricks[(b.z * nb.y + b.y) * nb.x + b.x]);
+}
+
+// The same for its superbrick (SUPER^3 voxel bricks; trilinear's superbrick min(s, last)
+// covers each of them, so each of its bricks passes when it does).
+bool voxel_superbrick_is_empty(ivec3 v) {
+    ivec3 nb = brick_counts();
+    ivec3 ns = (nb - 1) / SUPER + 1;
+    ivec3 s = min(v / SUPER_CELLS, ns - 1);
+    return range_is_empty(bricks[nb.x * nb.y * nb.z + (s.z * ns.y + s.y) * ns.x + s.x]);
+}
+
+// The last voxel, in travel order along axis a, of the voxel brick holding voxel v, or of its
+// superbrick when `whole`.
+int voxel_last_in_block(int a, int v, bool whole, vec3 d) {
+    int first = whole ? (v / SUPER_CELLS) * SUPER_CELLS : (v / BRICK) * BRICK;
+    int size = whole ? SUPER_CELLS : BRICK;
+    return d[a] > 0.0 ? min(first + size - 1, P.dims[a] - 1) : (d[a] < 0.0 ? first : v);
+}
+
+// The voxel bricks a brick-by-brick walk from `voxel` crosses before it leaves the superbrick,
+// `whole`, or the ray ends (bricks.glsl's brick_jumps on voxel planes).
+uint voxel_brick_jumps(ivec3 voxel, float t_hi, vec3 o, vec3 d, ivec3 ncell) {
+    ivec3 last;
+    vec3 t_next;
+    float t_end = t_hi;
+    for (int a = 0; a < 3; a++) {
+        last[a] = voxel_last_in_block(a, voxel[a], false, d);
+        t_next[a] = voxel_tmax(a, last[a], o, d, ncell);
+        t_end = min(t_end, voxel_tmax(a, voxel_last_in_block(a, voxel[a], true, d), o, d, ncell));
+    }
+    uint jumps = 1u;
+    for (int i = 0; i < 3 * SUPER; i++) {
+        float t_b = min(t_next.x, min(t_next.y, t_next.z));
+        if (t_b >= t_end) break;
+        jumps++;
+        for (int a = 0; a < 3; a++) {
+            if (t_next[a] <= t_b) {
+                last[a] = voxel_last_in_block(a, last[a] + (d[a] > 0.0 ? 1 : -1), false, d);
+                t_next[a] = voxel_tmax(a, last[a], o, d, ncell);
+            }
+        }
+    }
+    return jumps;
+}
+
+// Crosses the voxel brick (or superbrick, `whole`) holding `voxel` up to its last voxel on the
+// ray: returns t_b, where the ray leaves it (at most t_hi), and puts `voxel` and `tmax` in the
+// voxel the voxel-by-voxel walk is in when it leaves at t_b: per axis the first voxel, in travel
+// order, whose next plane is at t_b or later (found from the position at t_b, corrected
+// against the planes' own t, as bricks.glsl's leave_brick). Needs tmax strictly increasing
+// along each axis (may_jump) and min(tmax) > the voxel's t_in.
+float voxel_leave_brick(inout ivec3 voxel, inout vec3 tmax, float t_hi, vec3 o, vec3 d,
+                        bool whole, ivec3 ncell) {
+    ivec3 last;
+    float t_b = t_hi;
+    for (int a = 0; a < 3; a++) {
+        last[a] = voxel_last_in_block(a, voxel[a], whole, d);
+        t_b = min(t_b, voxel_tmax(a, last[a], o, d, ncell));
+    }
+    if (t_b >= t_hi) return t_b;
+    for (int a = 0; a < 3; a++) {
+        if (d[a] == 0.0) continue;
+        int s = d[a] > 0.0 ? 1 : -1;
+        float x = o[a] + t_b * d[a];
+        int c = s > 0 ? int(ceil(x - 0.5)) : int(floor(x + 0.5));
+        c = s > 0 ? clamp(c, voxel[a], last[a]) : clamp(c, last[a], voxel[a]);
+        for (int i = 0; i <= SUPER_CELLS && c != voxel[a]
+                 && voxel_tmax(a, c - s, o, d, ncell) >= t_b; i++)
+            c -= s;
+        for (int i = 0; i <= SUPER_CELLS && c != last[a]
+                 && voxel_tmax(a, c, o, d, ncell) < t_b; i++)
+            c += s;
+        voxel[a] = c;
+        tmax[a] = voxel_tmax(a, c, o, d, ncell);
+    }
+    return t_b;
 }
 
 void main() {
@@ -60,6 +162,14 @@ void main() {
     uint surfaces = P.surfaces;
     uint wanted = max(P.crossing, 1u);  // 1 with several surfaces (scene validation)
     bool count_all = P.count_crossings != 0u;
+    bool skip = P.skip != 0u;
+    // Jumps need tmax strictly increasing along each axis (analytic.comp's may_jump: plane
+    // numerators v +- 1/2 - o distinct and ordered, quotients finite and normal).
+    bool may_jump = skip && all(lessThan(abs(o), vec3(1048576.0)));
+    for (int a = 0; a < 3; a++) {
+        float m = abs(d[a]);
+        if (m != 0.0 && !(m > 8.0779356694631609e-28 && m < 1.2379400392853803e27)) may_jump = false;
+    }
 
     // 4. First voxel: the kernel's (half up), or exactly on a plane going down, the one the
     // ray heads into.
@@ -120,6 +230,18 @@ void main() {
                 }
             }
             if (hit && !count_all) break;
+        }
+        // 6.2b In a brick with no crossing: its last voxel on the ray, whose states the next
+        // face is decided on (this voxel's, when the ray leaves the brick from it).
+        if (may_jump && voxel_brick_is_empty(voxel) && min(tmax.x, min(tmax.y, tmax.z)) > t_in) {
+            bool whole = BRICK_LEVELS > 1 && voxel_superbrick_is_empty(voxel);
+            if (whole) visited += voxel_brick_jumps(voxel, t_hi, o, d, ncell) - 1u;
+            float t_b = voxel_leave_brick(voxel, tmax, t_hi, o, d, whole, ncell);
+            // The rest of the ray lies in the brick: no crossing is left.
+            if (t_b >= t_hi) break;
+            value = texelFetch(u_grid, voxel - P.block_origin, 0).r;
+            finite = !is_missing(value);
+            now = finite ? state_of(value) : 0u;
         }
         // 6.3 Leave the voxel.
         float t_out = max(min(min(tmax.x, min(tmax.y, tmax.z)), t_hi), t_in);

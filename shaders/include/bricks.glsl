@@ -1,5 +1,6 @@
-// Empty-space skipping for the ray walks over cells (analytic.comp; the voxel walk of the nearest
-// interpolant will share it): the min/max grid's bricks and superbricks (built by bricks.comp),
+// Empty-space skipping for the ray walks (analytic.comp and tricubic.comp over cells; voxels.comp
+// reads the range test and the grid, with jumps of its own on voxel planes): the min/max grid's
+// bricks and superbricks (built by bricks.comp),
 // the test that a value range holds no crossing, and the jumps out of an empty brick or
 // superbrick that land where the cell-by-cell walk would. analytic.comp's header says how that
 // keeps images bit for bit the same. Needs `RenderParams P`, the ranges `vec2 bricks[]` (bricks,

@@ -35,8 +35,9 @@ pub struct Walk {
     pub surfaces: u32,
 }
 
-/// One build of the shader, specialized for `walk`.
-fn build(
+/// One build of the shader, specialized for `walk` (the other interpolants' walks too, which
+/// include the same brick helpers: `voxels`, `tricubic`).
+pub(super) fn build(
     ctx: &Arc<Context>,
     name: &str,
     spirv: &[u8],

@@ -7,6 +7,14 @@
 //! A second, coarser level makes long empty stretches one jump: superbricks of [`SUPER`]³
 //! bricks, each with the smallest and largest of its bricks' ranges (`shaders/superbricks.comp`).
 //!
+//! The tricubic interpolants' walk (`shaders/tricubic.comp`) skips with ranges of its own
+//! ([`Bound`]): over the points its cells' 4×4×4 stencils read (one point below a brick's cells
+//! and two above), which bound the cubic B-spline (a convex combination of them); Catmull-Rom
+//! overshoots them, by at most `KAPPA` (37/54) times their spread on each side
+//! (`field::interpolant::cubic`'s "Bounds"), so its ranges are widened by that. The nearest
+//! interpolant's voxel walk reads [`Bound::Corners`]' grid (`shaders/voxels.comp` says why it
+//! covers a voxel brick's samples).
+//!
 //! Layout: one `vec2 (min, max)` per brick, x fastest, `ceil(cells / BRICK)` bricks per axis
 //! (the last brick along an axis may be partial), then one per superbrick, x fastest,
 //! `ceil(bricks / SUPER)` per axis ([`levels`]). Built once per uploaded grid, on the GPU, from
@@ -35,6 +43,72 @@ const _: () = assert!(
     shaders::consts::STENCIL_BELOW as usize == crate::field::interpolant::STENCIL.below
         && shaders::consts::STENCIL_ABOVE as usize == crate::field::interpolant::STENCIL.above
 );
+
+// The cubic variants of bricks.comp read the tricubic stencil, and widen by Catmull-Rom's bound.
+const _: () = {
+    use crate::field::interpolant::{cubic, Kernel};
+    let s = <cubic::BSpline as Kernel>::STENCIL;
+    assert!(
+        shaders::consts::CUBIC_STENCIL_BELOW as usize == s.below
+            && shaders::consts::CUBIC_STENCIL_ABOVE as usize == s.above
+    );
+};
+
+/// What a brick's range bounds: the samples it covers and how far the interpolant may leave
+/// their range.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Bound {
+    /// The (BRICK + 1)³ corners of the brick's cells: trilinear's walk, and nearest's voxel walk.
+    Corners,
+    /// The (BRICK + 3)³ points of the brick's cells' 4×4×4 stencils: the cubic B-spline.
+    Cubic,
+    /// Those, widened by Catmull-Rom's overshoot bound ([`kappa`]).
+    CatmullRom,
+}
+
+impl Bound {
+    /// The stencil the ranges cover.
+    pub fn stencil(self) -> crate::field::interpolant::Stencil {
+        use crate::field::interpolant::{cubic, Kernel};
+        match self {
+            Bound::Corners => crate::field::interpolant::STENCIL,
+            Bound::Cubic | Bound::CatmullRom => <cubic::BSpline as Kernel>::STENCIL,
+        }
+    }
+
+    /// The widening factor in units of the range's width: 0, or [`kappa`].
+    pub fn widening(self) -> f32 {
+        match self {
+            Bound::Corners | Bound::Cubic => 0.0,
+            Bound::CatmullRom => kappa(),
+        }
+    }
+
+    /// Its build of `bricks.comp` and the pass's name.
+    fn shader(self) -> (&'static str, &'static [u8]) {
+        match self {
+            Bound::Corners => ("bricks", shaders::BRICKS),
+            Bound::Cubic => ("bricks (cubic stencil)", shaders::BRICKS_CUBIC),
+            Bound::CatmullRom => ("bricks (catmull-rom, widened)", shaders::BRICKS_CATMULL_ROM),
+        }
+    }
+}
+
+/// Catmull-Rom's overshoot bound as the shaders have it (`CATMULL_ROM_KAPPA_BITS`): 37/54
+/// rounded up to f32, so never below `cubic::CatmullRomWeights::KAPPA`.
+pub fn kappa() -> f32 {
+    f32::from_bits(shaders::consts::CATMULL_ROM_KAPPA_BITS)
+}
+
+/// `[m, M]` widened by `k (M - m)` on each side in f32, as `bricks.comp`'s BRICKS_WIDEN
+/// (`precise`) computes it; `[inf, -inf]` stays itself.
+pub fn widen_range([lo, hi]: [f32; 2], k: f32) -> [f32; 2] {
+    if k == 0.0 {
+        return [lo, hi];
+    }
+    let spread = k * (hi - lo);
+    [lo - spread, hi + spread]
+}
 
 /// Workgroup size of `bricks.comp` along each axis.
 const GROUP: u32 = shaders::consts::BRICKS_GROUP;
@@ -99,44 +173,57 @@ pub fn levels(dims: [usize; 3], bricks: &[[f32; 2]]) -> Vec<[f32; 2]> {
 /// The bricks' min/max grid computed on the CPU, in the buffer's layout (without the
 /// superbricks: [`levels`] adds them): the test reference of `bricks.comp`.
 pub fn reference(grid: &crate::field::Grid) -> Vec<[f32; 2]> {
+    reference_for(grid, Bound::Corners)
+}
+
+/// [`reference`] for any [`Bound`]: the CPU twin of each build of `bricks.comp`, bit for bit
+/// (the reference walks count `steps` with it: `reference::skipping`).
+pub fn reference_for(grid: &crate::field::Grid, bound: Bound) -> Vec<[f32; 2]> {
     let counts = brick_counts(grid.dims);
+    let stencil = bound.stencil();
     let mut out = Vec::with_capacity(counts.iter().product());
     for bz in 0..counts[2] {
         for by in 0..counts[1] {
             for bx in 0..counts[0] {
-                let lo = [bx, by, bz].map(|b| b * BRICK);
-                let hi: Vec<usize> =
-                    (0..3).map(|a| (lo[a] + BRICK).min(grid.dims[a] - 1)).collect();
+                let span = |a: usize, b: usize| stencil.brick_points(b, BRICK, grid.dims[a]);
                 let mut mm = [f32::INFINITY, f32::NEG_INFINITY];
-                for k in lo[2]..=hi[2] {
-                    for j in lo[1]..=hi[1] {
-                        for i in lo[0]..=hi[0] {
+                for k in span(2, bz) {
+                    for j in span(1, by) {
+                        for i in span(0, bx) {
                             widen(&mut mm, grid.at(i, j, k));
                         }
                     }
                 }
-                out.push(mm);
+                out.push(widen_range(mm, bound.widening()));
             }
         }
     }
     out
 }
 
-/// The two passes that build the levels.
+/// The passes that build the levels: each [`Bound`]'s bricks, then the superbricks.
 pub struct Pipelines {
     bricks: ComputePipeline,
+    cubic: ComputePipeline,
+    catmull_rom: ComputePipeline,
     supers: ComputePipeline,
 }
 
 pub fn pipelines(ctx: &Arc<Context>) -> Result<Pipelines, GpuError> {
-    Ok(Pipelines {
-        bricks: ComputePipeline::new(
+    let bricks = |bound: Bound| {
+        let (name, spirv) = bound.shader();
+        ComputePipeline::new(
             ctx,
-            "bricks",
-            shaders::BRICKS,
+            name,
+            spirv,
             &[Binding::Sampled, Binding::Write],
             std::mem::size_of::<Shape>() as u32,
-        )?,
+        )
+    };
+    Ok(Pipelines {
+        bricks: bricks(Bound::Corners)?,
+        cubic: bricks(Bound::Cubic)?,
+        catmull_rom: bricks(Bound::CatmullRom)?,
         supers: ComputePipeline::new(
             ctx,
             "superbricks",
@@ -157,13 +244,14 @@ pub struct Built {
     pub ms: Option<f64>,
 }
 
-/// Builds both levels of the min/max grid of `image` (a grid of `dims` points) into a new
-/// device buffer.
+/// Builds both levels of the min/max grid of `image` (a grid of `dims` points) with the
+/// ranges of `bound` into a new device buffer.
 pub fn build(
     ctx: &Arc<Context>,
     pipelines: &Pipelines,
     image: &Image3d,
     dims: [usize; 3],
+    bound: Bound,
 ) -> Result<Built, GpuError> {
     let counts = brick_counts(dims);
     let supers = super_counts(dims);
@@ -185,7 +273,11 @@ pub fn build(
         vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
         MemoryLocation::GpuOnly,
     )?;
-    let pipeline = &pipelines.bricks;
+    let pipeline = match bound {
+        Bound::Corners => &pipelines.bricks,
+        Bound::Cubic => &pipelines.cubic,
+        Bound::CatmullRom => &pipelines.catmull_rom,
+    };
     let set = pipeline.bind(&[Resource::Sampled(image), Resource::Storage(&bricks)])?;
     let super_set = pipelines.supers.bind(&[Resource::Storage(&bricks)])?;
     let i = |v: [usize; 3], w: usize| [v[0] as i32, v[1] as i32, v[2] as i32, w as i32];

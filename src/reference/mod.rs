@@ -7,5 +7,6 @@ pub mod field;
 pub mod fixed_step;
 pub mod mesh;
 pub mod shade;
+pub mod skipping;
 pub mod trilinear;
 pub mod voxels;

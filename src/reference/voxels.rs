@@ -1,6 +1,6 @@
 //! Exact ray tracing of the nearest-point interpolant's surface, in `f64`: the CPU reference,
 //! and the definition, of `render.method = "analytic"` with `interpolation = "nearest"` (GPU:
-//! `shaders/voxels.comp`, to come, step for step).
+//! `shaders/voxels.comp`, step for step).
 //!
 //! # What is a hit
 //!
@@ -42,7 +42,8 @@
 //!    face's axis, pointing from the inside voxel to the outside one; `cell.*` the inside
 //!    voxel's point; grid coordinates `o + t d` with each stepped axis exactly on its plane.
 //!    `steps` = voxels visited up to and including the one entered at the hit (all of them on a
-//!    miss): the GPU adds the bricks it jumps with `render.skip`.
+//!    miss); with `render.skip`, counted as the GPU's brick jumps count them
+//!    (`reference::skipping`: a run of voxels in a brick it jumps over counts one).
 //!
 //! Near-ties: a ray within rounding of a voxel edge may step its axes one after the other with
 //! a zero-length visit between them (a diagonal neighbour seen for no length), and a start
@@ -58,6 +59,7 @@ use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::reference::analytic::{options, span, AnalyticOptions, Span};
 use crate::reference::shade::{nearest_surface, render_with_interp, RayHit};
+use crate::reference::skipping::Skipping;
 use crate::scene::{Inside, Scene};
 
 /// A ray's hit on a voxel face.
@@ -139,15 +141,36 @@ pub fn trace_detailed(
     (hit, visits)
 }
 
-/// The whole image of the nearest interpolant's surface, as the GPU's voxel pass will produce
-/// it: `steps` is [`VoxelTrace::voxels_visited`], `crossings` [`VoxelTrace::crossings`] with
+/// The whole image of the nearest interpolant's surface, as the GPU's voxel pass produces it:
+/// `steps` is [`VoxelTrace::voxels_visited`] (with `render.skip`, those counted as the GPU's
+/// jumps count them: [`Skipping`]), `crossings` [`VoxelTrace::crossings`] with
 /// `render.count_crossings` and -1 without.
 pub fn render(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
     let (isos, inside, opts) = (scene.surface.isovalues(), scene.surface.inside, options(scene));
     let count = scene.render.count_crossings;
+    let skipping = Skipping::for_scene(scene, grid);
     render_with_interp(scene, grid, Interpolant::Nearest, |o, d| {
         nearest_surface(isos.iter().map(|&iso| {
-            let v = trace(grid, iso, inside, o, d, &opts);
+            let (v, steps) = match &skipping {
+                None => {
+                    let v = trace(grid, iso, inside, o, d, &opts);
+                    (v, v.voxels_visited)
+                }
+                Some(s) => {
+                    let (v, visits) = trace_detailed(grid, iso, inside, o, d, &opts);
+                    let counted = visits.iter().take(v.voxels_visited as usize);
+                    (
+                        v,
+                        s.steps(
+                            grid,
+                            o,
+                            d,
+                            &opts.clip,
+                            counted.map(|x| (x.voxel, x.t_in, x.t_out)),
+                        ),
+                    )
+                }
+            };
             let hit = v.hit.map(|h| RayHit {
                 t: h.t,
                 position: h.position,
@@ -156,7 +179,7 @@ pub fn render(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
                 cell: h.voxel,
                 surface: 0,
             });
-            (hit, v.voxels_visited, if count { v.crossings as i32 } else { -1 })
+            (hit, steps, if count { v.crossings as i32 } else { -1 })
         }))
     })
 }

@@ -24,6 +24,9 @@ pub struct GpuGrid {
     pub(super) bricks: std::cell::OnceCell<Buffer>,
     /// A host copy of its superbricks' ranges, set with `bricks` (the choice of levels).
     pub(super) supers: std::cell::OnceCell<Vec<[f32; 2]>>,
+    /// The tricubic walks' min/max grids over their stencils (`bricks::Bound::Cubic`, then
+    /// `CatmullRom`), each built by the first analytic render through that interpolant.
+    pub(super) cubic_bricks: [std::cell::OnceCell<bricks::Built>; 2],
     /// The image's points in a storage buffer, copied on the device by the first analytic
     /// render of a whole grid (its `GRID_BUFFER` variant): a second copy of the grid on the
     /// device, read by llvmpipe far faster than the image (docs/methods.md "Exact ray tracing").
@@ -65,6 +68,7 @@ impl GpuGrid {
             dims: grid.dims,
             bricks: std::cell::OnceCell::new(),
             supers: std::cell::OnceCell::new(),
+            cubic_bricks: Default::default(),
             points: std::cell::OnceCell::new(),
             block: None,
             largest: largest_finite(grid.values.iter().copied()),
@@ -88,6 +92,7 @@ impl GpuGrid {
             dims: block.extent,
             bricks: std::cell::OnceCell::new(),
             supers: std::cell::OnceCell::new(),
+            cubic_bricks: Default::default(),
             points: std::cell::OnceCell::new(),
             block: Some(block),
             largest: largest_finite(bricks.iter().flatten().copied()),
@@ -115,6 +120,7 @@ impl GpuGrid {
             dims: grid.dims(),
             bricks: std::cell::OnceCell::new(),
             supers: std::cell::OnceCell::new(),
+            cubic_bricks: Default::default(),
             points: std::cell::OnceCell::new(),
             block: None,
             largest: largest_finite(supers.iter().flatten().copied()),
@@ -153,5 +159,23 @@ impl GpuGrid {
     /// (layout: [`bricks`]).
     pub fn bricks(&self) -> Option<&Buffer> {
         self.bricks.get()
+    }
+
+    /// A tricubic walk's min/max grid (`bound`: `Cubic` or `CatmullRom`), once an analytic
+    /// render through that interpolant has built it.
+    pub fn cubic_bricks(&self, bound: bricks::Bound) -> Option<&Buffer> {
+        self.cubic_levels(bound)?.get().map(|b| &b.buffer)
+    }
+
+    /// Where a tricubic walk's min/max grid is kept (None for `Corners`: `bricks`, `supers`).
+    pub(super) fn cubic_levels(
+        &self,
+        bound: bricks::Bound,
+    ) -> Option<&std::cell::OnceCell<bricks::Built>> {
+        match bound {
+            bricks::Bound::Corners => None,
+            bricks::Bound::Cubic => Some(&self.cubic_bricks[0]),
+            bricks::Bound::CatmullRom => Some(&self.cubic_bricks[1]),
+        }
     }
 }

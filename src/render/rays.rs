@@ -32,9 +32,10 @@ pub(super) enum RayShader {
     AnalyticBuffer(analytic::Walk),
     AnalyticPool(analytic::Walk),
     /// `interpolation = "nearest"`'s exact trace, the voxel walk, on the grid image.
-    Voxels,
-    /// The tricubic interpolants' exact trace, the Bernstein walk, on the grid image.
-    Tricubic(Interpolant),
+    Voxels(analytic::Walk),
+    /// The tricubic interpolants' exact trace, the Bernstein walk: on the grid image, or
+    /// (`true`) on the whole grid's points in a storage buffer, as `AnalyticBuffer`.
+    Tricubic(Interpolant, analytic::Walk, bool),
 }
 
 impl RayShader {
@@ -45,8 +46,10 @@ impl RayShader {
             RayShader::Analytic(walk) => analytic::pipeline(ctx, walk),
             RayShader::AnalyticBuffer(walk) => analytic::buffer_pipeline(ctx, walk),
             RayShader::AnalyticPool(walk) => analytic::pool_pipeline(ctx, walk),
-            RayShader::Voxels => voxels::pipeline(ctx),
-            RayShader::Tricubic(interp) => tricubic::pipeline(ctx, interp),
+            RayShader::Voxels(walk) => voxels::pipeline(ctx, walk),
+            RayShader::Tricubic(interp, walk, buffer) => {
+                tricubic::pipeline(ctx, interp, walk, buffer)
+            }
         }
     }
 }
@@ -69,26 +72,7 @@ impl Renderer {
         let interp = scene.field.interpolation;
         self.last_bricks_ms = None;
         self.last_brick_levels = None;
-        // The walks of the other interpolants: their own passes, which skip no bricks (none
-        // built for them).
-        let own_walk = scene.render.method == Method::Analytic && interp != Interpolant::Trilinear;
-        if scene.render.method == Method::Analytic && !own_walk && gpu_grid.bricks.get().is_none() {
-            let image = gpu_grid.image("the brick min/max grid of a brick pool")?;
-            let built = bricks::build(&self.ctx, &self.bricks, image, gpu_grid.dims)?;
-            let _ = gpu_grid.supers.set(built.supers);
-            let _ = gpu_grid.bricks.set(built.buffer);
-            self.last_bricks_ms = built.ms;
-        }
-        let mut walk = || {
-            let surfaces = params.surfaces;
-            let thresholds = params.surface_thresholds();
-            let supers = gpu_grid.supers.get().map_or(&[][..], |s| &s[..]);
-            let chosen =
-                self.brick_levels.unwrap_or_else(|| bricks::levels_for(supers, &thresholds));
-            let levels = if scene.render.skip { chosen.clamp(1, 2) } else { 1 };
-            self.last_brick_levels = Some(levels);
-            analytic::Walk { levels, surfaces }
-        };
+        let analytic = scene.render.method == Method::Analytic;
         if let (Storage::Pool(_), Some(why)) =
             (&gpu_grid.storage, scene.interpolation_refusal(Reader::BrickPool))
         {
@@ -115,24 +99,76 @@ impl Renderer {
                 instead: "use \"trilinear\", the exact filter, or another device (--device)".into(),
             }));
         }
+        if gpu_grid.block.is_some() {
+            if let Some(why) = scene.interpolation_refusal(Reader::Ranks) {
+                return Err(RenderError::Refused(why));
+            }
+        }
+        // The analytic walks skip empty space with a min/max grid over the samples their cells
+        // read (`bricks::Bound`): trilinear's and nearest's one, or a tricubic one's own, each
+        // built on the device the first time it is needed (given, for a pool or a block).
+        let bound = match interp {
+            Interpolant::CubicBspline => bricks::Bound::Cubic,
+            Interpolant::CatmullRom => bricks::Bound::CatmullRom,
+            Interpolant::Trilinear | Interpolant::Nearest | Interpolant::Device => {
+                bricks::Bound::Corners
+            }
+        };
+        let levels_cell = gpu_grid.cubic_levels(bound);
+        if analytic {
+            let unbuilt = match levels_cell {
+                None => gpu_grid.bricks.get().is_none(),
+                Some(cell) => cell.get().is_none(),
+            };
+            if unbuilt {
+                let image = gpu_grid.image("the brick min/max grid of a brick pool")?;
+                let built = bricks::build(&self.ctx, &self.bricks, image, gpu_grid.dims, bound)?;
+                self.last_bricks_ms = built.ms;
+                match levels_cell {
+                    None => {
+                        let _ = gpu_grid.supers.set(built.supers);
+                        let _ = gpu_grid.bricks.set(built.buffer);
+                    }
+                    Some(cell) => {
+                        let _ = cell.set(built);
+                    }
+                }
+            }
+        }
+        let (brick_buffer, supers) = match levels_cell {
+            None => (gpu_grid.bricks.get(), gpu_grid.supers.get().map_or(&[][..], |s| &s[..])),
+            Some(cell) => cell.get().map_or((None, &[][..]), |b| (Some(&b.buffer), &b.supers[..])),
+        };
+        let mut walk = || {
+            let surfaces = params.surfaces;
+            let thresholds = params.surface_thresholds();
+            let chosen =
+                self.brick_levels.unwrap_or_else(|| bricks::levels_for(supers, &thresholds));
+            let levels = if scene.render.skip { chosen.clamp(1, 2) } else { 1 };
+            self.last_brick_levels = Some(levels);
+            analytic::Walk { levels, surfaces }
+        };
         let shader = match (scene.render.method, &gpu_grid.storage) {
             (Method::Mesh, _) => return Err(RenderError::Unsupported("mesh (as a ray pass)")),
             (Method::FixedStep, Storage::Pool(_)) => RayShader::FixedStepPool,
             (Method::FixedStep, Storage::Image(_)) => RayShader::FixedStep(interp),
             (Method::Analytic, Storage::Image(_)) if interp == Interpolant::Nearest => {
-                RayShader::Voxels
+                RayShader::Voxels(walk())
             }
-            (Method::Analytic, Storage::Image(_)) if own_walk => RayShader::Tricubic(interp),
             (Method::Analytic, Storage::Pool(_)) => RayShader::AnalyticPool(walk()),
             (Method::Analytic, Storage::Image(image)) => {
+                // The whole grid from a storage buffer where it fits: llvmpipe reads a point
+                // with a fraction of a texelFetch's instructions.
                 let bytes = image.extent.iter().map(|&e| e as u64).product::<u64>() * 4;
-                if gpu_grid.block.is_none() && bytes <= self.ctx.info.max_storage_buffer_range {
-                    if gpu_grid.points.get().is_none() {
-                        let _ = gpu_grid.points.set(image.copy_to_buffer("grid points")?);
-                    }
-                    RayShader::AnalyticBuffer(walk())
-                } else {
-                    RayShader::Analytic(walk())
+                let buffer =
+                    gpu_grid.block.is_none() && bytes <= self.ctx.info.max_storage_buffer_range;
+                if buffer && gpu_grid.points.get().is_none() {
+                    let _ = gpu_grid.points.set(image.copy_to_buffer("grid points")?);
+                }
+                match (bound, buffer) {
+                    (bricks::Bound::Corners, true) => RayShader::AnalyticBuffer(walk()),
+                    (bricks::Bound::Corners, false) => RayShader::Analytic(walk()),
+                    _ => RayShader::Tricubic(interp, walk(), buffer),
                 }
             }
         };
@@ -146,9 +182,6 @@ impl Renderer {
         params.stride = stride;
         params.picture_width = width;
         if let Some(b) = &gpu_grid.block {
-            if let Some(why) = scene.interpolation_refusal(Reader::Ranks) {
-                return Err(RenderError::Refused(why));
-            }
             if scene.render.method != Method::Analytic {
                 return Err(RenderError::Unsupported("fixed-step (on a block of the grid)"));
             }
@@ -163,17 +196,16 @@ impl Renderer {
             vk::BufferUsageFlags::UNIFORM_BUFFER,
         )?;
         let bands = Bands::<Pixel>::with_max_rows(ctx, "pixels", width, height, band_rows)?;
-        let bricks = match scene.render.method {
-            Method::Analytic if !own_walk => gpu_grid.bricks.get(),
-            _ => None,
-        };
+        let bricks = if analytic { brick_buffer } else { None };
         let grid_input = match (&gpu_grid.storage, shader) {
-            (Storage::Image(_), RayShader::AnalyticBuffer(_)) => GridInput::Points(
-                gpu_grid
-                    .points
-                    .get()
-                    .ok_or_else(|| GpuError::Bug("grid points not copied".into()))?,
-            ),
+            (Storage::Image(_), RayShader::AnalyticBuffer(_) | RayShader::Tricubic(_, _, true)) => {
+                GridInput::Points(
+                    gpu_grid
+                        .points
+                        .get()
+                        .ok_or_else(|| GpuError::Bug("grid points not copied".into()))?,
+                )
+            }
             (Storage::Image(image), RayShader::FixedStep(Interpolant::Device)) => {
                 GridInput::Filtered(image)
             }

@@ -185,6 +185,7 @@ use crate::field::interpolant::{
 use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::reference::shade::{nearest_surface, render_with_interp, RayHit};
+use crate::reference::skipping::Skipping;
 use crate::reference::trilinear::{cell_corners, lerp3, trilerp};
 use crate::scene::{Inside, Scene};
 use crate::vocab::Clip;
@@ -439,10 +440,11 @@ pub fn options(scene: &Scene) -> AnalyticOptions {
 /// The whole image, as the GPU's analytic pass produces it: `steps` is
 /// [`AnalyticHit::cells_visited`], `crossings` is [`AnalyticHit::crossings`] with
 /// `render.count_crossings` and -1 without (the GPU then stops at the hit). (With
-/// `render.skip` on, the GPU's `steps` counts less work; every other channel is the same.)
-/// Through the scene's `field.interpolation`: the tricubic ones by their Bernstein walk
-/// (`shaders/tricubic.comp` does not skip: its `steps` are these), nearest by its voxel walk
-/// (`reference::voxels::render`); `device` is only sampled (scenes refuse it here).
+/// `render.skip` on, the GPU's trilinear `steps` counts less work; every other channel is the
+/// same.) Through the scene's `field.interpolation`: the tricubic ones by their Bernstein walk,
+/// whose `steps` with `render.skip` are counted as `shaders/tricubic.comp` counts its brick
+/// jumps ([`Skipping`]), nearest by its voxel walk (`reference::voxels::render`); `device` is
+/// only sampled (scenes refuse it here).
 pub fn render(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
     let interp = scene.field.interpolation;
     if interp == Interpolant::Nearest {
@@ -451,12 +453,18 @@ pub fn render(scene: &Scene, grid: &Grid) -> Vec<Pixel> {
     let (isos, inside, opts) = (scene.surface.isovalues(), scene.surface.inside, options(scene));
     let count = scene.render.count_crossings;
     let field = Interpolated::new(grid, interp);
+    let skipping = Skipping::for_scene(scene, grid);
     render_with_interp(scene, grid, interp, |o, d| {
-        nearest_surface(isos.iter().map(|&iso| trace_one(&field, iso, inside, o, d, &opts, count)))
+        nearest_surface(
+            isos.iter()
+                .map(|&iso| trace_one(&field, iso, inside, o, d, &opts, count, skipping.as_ref())),
+        )
     })
 }
 
-/// One surface's (hit, cells visited, crossings) for [`render`].
+/// One surface's (hit, steps, crossings) for [`render`]: steps are the cells visited, or with
+/// `skipping` those counted as the GPU's brick jumps count them.
+#[allow(clippy::too_many_arguments)]
 fn trace_one(
     field: &Interpolated,
     iso: f64,
@@ -465,9 +473,21 @@ fn trace_one(
     d: DVec3,
     opts: &AnalyticOptions,
     count_crossings: bool,
+    skipping: Option<&Skipping>,
 ) -> (Option<RayHit>, u32, i32) {
     {
-        let a = trace_interpolated(field, iso, inside, o, d, opts);
+        let (a, steps) = match skipping {
+            None => {
+                let a = trace_interpolated(field, iso, inside, o, d, opts);
+                (a, a.cells_visited)
+            }
+            Some(s) => {
+                let (a, visits) = trace_detailed_interpolated(field, iso, inside, o, d, opts);
+                let counted = visits.iter().take(a.cells_visited as usize);
+                let cells = counted.map(|v| (v.cell.map(|c| c as usize), v.t_in, v.t_out));
+                (a, s.steps(field.grid, o, d, &opts.clip, cells))
+            }
+        };
         let hit = a.hit.map(|h| RayHit {
             t: h.t,
             position: h.position,
@@ -477,7 +497,7 @@ fn trace_one(
             surface: 0,
         });
         let crossings = if count_crossings { a.crossings as i32 } else { -1 };
-        (hit, a.cells_visited, crossings)
+        (hit, steps, crossings)
     }
 }
 

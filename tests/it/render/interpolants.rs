@@ -747,3 +747,236 @@ fn samples_past_the_gpu_bound_are_refused_and_traced_below_it() {
     let p = isoview(&["probe", &scene, "--pixel", "7,9"], &[]);
     assert!(p.status.success(), "{}", stderr(&p));
 }
+
+/// Bitwise equality of every channel but `steps`.
+fn same_but_steps(a: &Pixel, b: &Pixel) -> bool {
+    let (mut a, mut b) = (*a, *b);
+    a.steps = 0.0;
+    b.steps = 0.0;
+    bytemuck::bytes_of(&a) == bytemuck::bytes_of(&b)
+}
+
+/// The walks that skip with their own bounds: nearest's voxel walk and the tricubic ones.
+const SKIPPING_WALKS: [Interpolant; 3] =
+    [Interpolant::Nearest, Interpolant::CubicBspline, Interpolant::CatmullRom];
+
+/// Empty-space skipping in the voxel walk and the tricubic walks (`render.skip`, their brick
+/// jumps) changes no bit of any channel but `steps`, which counts less
+/// work on sparse grids and is the same with superbricks (`brick_levels` 2) as with bricks
+/// alone; it is the reference's count (`reference::skipping`) on all but 0.2% of the pixels
+/// where the reference and the GPU walk the same cells (equal hit, cell and crossings; rays
+/// within rounding of a brick face may step through it differently in f32). Sparse SDFs (a
+/// torus, a sphere in a corner), random smooth fields with random isovalues, eyes inside and
+/// outside, the k-th crossing, several surfaces, stopping at the hit and counting every
+/// crossing, and a quantized grid seen along its planes (ties).
+#[gpu_test]
+fn the_other_walks_skip_bit_identically() {
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let mut rng = Rng::new(61);
+    let torus = grid_from([64, 64, 64], DVec3::splat(-1.0), DVec3::splat(1.0), |p| {
+        DVec3::new((p.x * p.x + p.z * p.z).sqrt() - 0.6, p.y, 0.0).length() - 0.25
+    });
+    let corner = grid_from([65, 62, 60], DVec3::splat(-1.0), DVec3::splat(1.0), |p| {
+        (p - DVec3::splat(-0.7)).length() - 0.2
+    });
+    let mut quantized = random_grid(&mut rng, [33, 25, 17]);
+    for (n, v) in quantized.values.iter_mut().enumerate() {
+        *v = if n % 33 < 20 { 2.0 } else { (*v * 2.0).round() / 2.0 };
+    }
+    quantized.min = DVec3::ZERO;
+    quantized.max = DVec3::new(32.0, 24.0, 16.0);
+    for interp in SKIPPING_WALKS {
+        let mut scenes: Vec<(String, &Grid, Scene, bool)> = Vec::new();
+        for (name, grid) in [("torus", &torus), ("corner sphere", &corner)] {
+            for (v, eye) in
+                [DVec3::new(2.2, 1.6, 2.4), DVec3::new(-0.3, -0.6, 0.5)].into_iter().enumerate()
+            {
+                let mut s = scene_with(grid, eye, 40, interp);
+                s.camera.target = DVec3::new(-0.3, -0.3, -0.3);
+                s.render.crossing = 1 + v as u32;
+                s.render.count_crossings = v == 0;
+                scenes.push((format!("{name} view {v}"), grid, s, true));
+            }
+        }
+        let smooth: Vec<Grid> = (0..3)
+            .map(|c| {
+                let waves: Vec<(DVec3, f64)> = (0..3)
+                    .map(|_| (rng.unit_vector() * rng.range(2.0, 5.0), rng.range(0.0, 6.3)))
+                    .collect();
+                let n = 18 + 5 * c;
+                grid_from([n, n + 3, n - 2], DVec3::splat(-1.0), DVec3::splat(1.0), |p| {
+                    waves.iter().map(|(k, ph)| 0.4 * (k.dot(p) + ph).sin()).sum::<f64>()
+                })
+            })
+            .collect();
+        for (c, grid) in smooth.iter().enumerate() {
+            let eye = random_eye(&mut rng, grid, c == 2);
+            let mut s = scene_with(grid, eye, 32, interp);
+            s.surface.isovalue = rng.range(-0.6, 0.6);
+            s.surface.inside = if c % 2 == 0 { Inside::Below } else { Inside::Above };
+            s.render.count_crossings = c == 1;
+            if c == 0 {
+                s.surface.more[0] = s.surface.isovalue + 0.3;
+                s.surface.count = 2;
+            }
+            scenes.push((format!("smooth {c}"), grid, s, false));
+        }
+        for (eye, target, up) in [
+            (DVec3::new(16.5, 12.5, 60.0), DVec3::new(16.5, 12.5, 0.0), DVec3::Y),
+            (DVec3::new(-8.0, -8.5, 8.5), DVec3::new(24.0, 24.5, 8.5), DVec3::Z),
+        ] {
+            let mut s = scene_with(&quantized, eye, 33, interp);
+            s.camera.target = target;
+            s.camera.up = up;
+            s.surface.isovalue = 0.25;
+            scenes.push(("quantized".into(), &quantized, s, false));
+        }
+        for (name, grid, scene, sparse) in &scenes {
+            let name = format!("{} {name}", interp.name());
+            let mut scene = scene.clone();
+            scene.render.method = Method::Analytic;
+            let gpu_grid = isoview::render::GpuGrid::upload(&ctx, grid).unwrap();
+            let mut frames = Vec::new();
+            for (skip, levels) in [(false, None), (true, Some(1)), (true, Some(2))] {
+                scene.render.skip = skip;
+                renderer.brick_levels = levels;
+                frames.push(renderer.render_uploaded(&scene, grid, &gpu_grid, 0.0).unwrap().pixels);
+            }
+            renderer.brick_levels = None;
+            let [off, bricks, supers] = &frames[..] else { unreachable!() };
+            let differ = off.iter().zip(bricks).filter(|(a, b)| !same_but_steps(a, b)).count();
+            let first =
+                off.iter().zip(bricks).enumerate().find(|(_, (a, b))| !same_but_steps(a, b));
+            assert_eq!(differ, 0, "{name}: {differ} pixels differ with skipping, first {first:?}");
+            let by_level = bricks.iter().zip(supers).filter(|(a, b)| a.steps != b.steps).count();
+            assert_eq!(by_level, 0, "{name}: superbricks change {by_level} pixels' steps");
+            let sum = |f: &[Pixel]| f.iter().map(|p| p.steps as f64).sum::<f64>();
+            let (s_on, s_off) = (sum(bricks), sum(off));
+            let hits = off.iter().filter(|p| p.is_hit()).count();
+            // Skipping's count against the reference's, where both walk the same cells.
+            let reference = isoview::reference::analytic::render(&scene, grid);
+            let (mut same, mut compared) = (0, 0);
+            for (g, r) in bricks.iter().zip(&reference) {
+                if g.is_hit() == r.is_hit() && g.cell == r.cell && g.crossings == r.crossings {
+                    compared += 1;
+                    same += (g.steps == r.steps) as usize;
+                }
+            }
+            eprintln!(
+                "{name}: {hits} hits, steps {s_on} with skipping vs {s_off} without ({:.2}x); \
+                 reference's count on {same} of {compared}",
+                s_off / s_on
+            );
+            assert!(s_on <= s_off, "{name}: skipping must not add work");
+            // Catmull-Rom's ranges are widened by 37/54 of their width on each side, so few of
+            // the torus SDF's bricks are clear of its surface (none on view 1's rays).
+            if *sparse && (interp != Interpolant::CatmullRom || name.contains("sphere")) {
+                assert!(s_on * 1.5 < s_off, "{name}: skipping must save work on sparse scenes");
+            }
+            // Rays along the quantized grid's planes are ties, where f32 and f64 may step
+            // through different zero-length visits (with or without skipping).
+            if !name.contains("quantized") {
+                assert!(compared * 10 > 9 * off.len(), "{name}: the reference walks elsewhere");
+                assert!(
+                    same * 1000 >= 998 * compared,
+                    "{name}: steps {same} of {compared} as the reference's"
+                );
+            }
+        }
+    }
+}
+
+/// The tricubic walks skip only where their interpolant cannot reach an isovalue, which needs
+/// both parts of the bound (`passes::bricks::Bound`): the brick's range over its cells' whole
+/// stencils (a step from 1 to 0 between points 7 and 8: the B-spline's surface at 0.01 lies in
+/// cell 8, of brick 1, whose own corners are all 0, and only the apron's point 7 reaches it),
+/// and for Catmull-Rom the widening by its overshoot (the same step: its undershoot to -2/27
+/// in cell 8 and overshoot to 1 + 2/27 in cell 6, surfaces at -0.03 and 1.03 beyond every
+/// sample). Skipping on and off must agree bit for bit, with the surface in nearly every
+/// pixel. Seen failing with the cubic brick ranges over trilinear's stencil (bricks.comp: all
+/// 1024 pixels of the B-spline's first view differ) and with Catmull-Rom's widening set to 0
+/// (bricks.comp: all 1024 of its first view at -0.03).
+#[gpu_test]
+fn the_tricubic_skip_bounds_hold_the_overshoot_and_the_apron() {
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let step = grid_from([40, 12, 12], DVec3::ZERO, DVec3::new(39.0, 11.0, 11.0), |p| {
+        if p.x <= 7.0 {
+            1.0
+        } else {
+            0.0
+        }
+    });
+    let cases = [
+        (Interpolant::CubicBspline, vec![0.01]),
+        (Interpolant::CatmullRom, vec![-0.03]),
+        (Interpolant::CatmullRom, vec![1.03]),
+        (Interpolant::CatmullRom, vec![-0.03, 1.03]),
+    ];
+    for (interp, isos) in cases {
+        for eye in [DVec3::new(60.0, 5.3, 5.6), DVec3::new(40.0, 28.0, -12.0)] {
+            let mut scene = scene_with(&step, eye, 32, interp);
+            scene.render.method = Method::Analytic;
+            scene.camera.target = DVec3::new(7.5, 5.5, 5.5);
+            scene.camera.fov_y_deg = 10.0;
+            scene.render.count_crossings = false;
+            scene.surface.isovalue = isos[0];
+            if isos.len() > 1 {
+                scene.surface.more[0] = isos[1];
+                scene.surface.count = 2;
+            }
+            scene.surface.inside = if isos[0] < 0.5 { Inside::Below } else { Inside::Above };
+            let gpu_grid = isoview::render::GpuGrid::upload(&ctx, &step).unwrap();
+            let mut frames = Vec::new();
+            for skip in [false, true] {
+                scene.render.skip = skip;
+                frames
+                    .push(renderer.render_uploaded(&scene, &step, &gpu_grid, 0.0).unwrap().pixels);
+            }
+            let name = format!("{} at {isos:?} from {eye}", interp.name());
+            let hits = frames[0].iter().filter(|p| p.is_hit()).count();
+            let differ =
+                frames[0].iter().zip(&frames[1]).filter(|(a, b)| !same_but_steps(a, b)).count();
+            let sum = |f: &[Pixel]| f.iter().map(|p| p.steps as f64).sum::<f64>();
+            eprintln!(
+                "{name}: {hits} hits, {differ} pixels differ, steps {} vs {}",
+                sum(&frames[1]),
+                sum(&frames[0])
+            );
+            assert!(hits * 20 > 19 * frames[0].len(), "{name}: only {hits} hits");
+            assert_eq!(differ, 0, "{name}: {differ} pixels differ with skipping");
+            assert!(sum(&frames[1]) < sum(&frames[0]), "{name}: nothing was skipped");
+        }
+    }
+}
+
+/// The tricubic walks' min/max grids (`bricks.comp`'s cubic builds), built on the device by the
+/// first render through each interpolant, equal their CPU twins (`bricks::reference_for`, with
+/// the superbricks of `bricks::levels`) bit for bit, missing samples included.
+#[gpu_test]
+fn the_tricubic_brick_grids_equal_their_cpu_twins() {
+    use isoview::passes::bricks::{self, Bound};
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let mut rng = Rng::new(67);
+    for dims in [[2, 2, 2], [9, 10, 11], [19, 10, 26], [34, 17, 9]] {
+        let mut grid = random_grid(&mut rng, dims);
+        let n = grid.values.len();
+        grid.values[(rng.next_u64() as usize) % n] = f32::NAN;
+        let gpu_grid = isoview::render::GpuGrid::upload(&ctx, &grid).unwrap();
+        for (interp, bound) in [
+            (Interpolant::CubicBspline, Bound::Cubic),
+            (Interpolant::CatmullRom, Bound::CatmullRom),
+        ] {
+            assert!(gpu_grid.cubic_bricks(bound).is_none());
+            let mut scene = scene_with(&grid, random_eye(&mut rng, &grid, false), 8, interp);
+            scene.render.method = Method::Analytic;
+            renderer.render_uploaded(&scene, &grid, &gpu_grid, 0.0).unwrap();
+            let built = gpu_grid.cubic_bricks(bound).expect("built by the analytic render");
+            let expected = bricks::levels(grid.dims, &bricks::reference_for(&grid, bound));
+            let seen: Vec<[f32; 2]> = read_device_buffer(&ctx, built, expected.len());
+            assert_eq!(seen, expected, "{} dims {dims:?}", interp.name());
+        }
+    }
+}

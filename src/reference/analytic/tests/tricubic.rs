@@ -495,3 +495,129 @@ fn a_missing_sample_empties_every_cell_whose_stencil_reads_it() {
         }
     }
 }
+
+/// The tricubic walks' skipping bound (`passes::bricks::Bound`, `shaders/tricubic.comp`): on
+/// random grids (sizes across brick boundaries and the grid's border, where the edge clamp
+/// repeats points), every value of each interpolant sampled densely in a brick's cells, and
+/// every Bernstein coefficient of random segments through them (what the walk decides the
+/// predicate on, before de Casteljau averages them), lies in the brick's range: the samples
+/// its cells' stencils read, for Catmull-Rom widened by `KAPPA` of its width on each side. In
+/// f64 against the exact widening, and the f32 range the GPU skips with (the CPU twin of
+/// bricks.comp) is that one up to rounding, far inside `SKIP_MARGIN`. The test also requires
+/// the widening to be needed: Catmull-Rom leaves the unwidened range (why the stencil's apron is
+/// needed too: `tests/it/render/interpolants.rs`, the skipping bounds test, which fails with
+/// either bound too tight).
+#[test]
+fn brick_ranges_bound_the_cubic_interpolants() {
+    use crate::field::interpolant::cubic::Weights;
+    use crate::passes::bricks::{self, Bound, BRICK};
+    let mut rng = Rng::new(57);
+    for interp in CUBICS {
+        let bound =
+            if interp == Interpolant::CatmullRom { Bound::CatmullRom } else { Bound::Cubic };
+        let kappa = if interp == Interpolant::CatmullRom { CatmullRomWeights::KAPPA } else { 0.0 };
+        let (mut overshoots, mut outside_corners, mut checked) = (0, 0, 0);
+        for case in 0..40 {
+            let dims = [0; 3].map(|_| 2 + rng.below(20));
+            let mut grid = random_grid(&mut rng, 3);
+            grid.dims = dims;
+            grid.values = (0..dims.iter().product::<usize>())
+                .map(|_| {
+                    // Steps and spikes make Catmull-Rom overshoot; smooth noise the rest.
+                    let v = rng.range(-1.0, 1.0);
+                    (if case % 2 == 0 { v.signum() } else { v }) as f32
+                })
+                .collect();
+            let field = Interpolated::new(&grid, interp);
+            let ranges = bricks::reference_for(&grid, bound);
+            let corners = bricks::reference(&grid);
+            let counts = bricks::brick_counts(dims);
+            let stencil = bound.stencil();
+            for (n, (&range, &corner)) in ranges.iter().zip(&corners).enumerate() {
+                let b = [n % counts[0], n / counts[0] % counts[1], n / (counts[0] * counts[1])];
+                // The exact range: the stencil's samples, widened in f64.
+                let span = |a: usize| stencil.brick_points(b[a], BRICK, dims[a]);
+                let (mut m, mut big_m) = (f64::INFINITY, f64::NEG_INFINITY);
+                for k in span(2) {
+                    for j in span(1) {
+                        for i in span(0) {
+                            let v = f64::from(grid.at(i, j, k));
+                            (m, big_m) = (m.min(v), big_m.max(v));
+                        }
+                    }
+                }
+                let (lo, hi) = (m - kappa * (big_m - m), big_m + kappa * (big_m - m));
+                let slack = 8.0 * f64::from(f32::EPSILON) * (lo.abs().max(hi.abs()));
+                assert!(
+                    (f64::from(range[0]) - lo).abs() <= slack
+                        && (f64::from(range[1]) - hi).abs() <= slack,
+                    "{} brick {b:?}: f32 range {range:?} vs [{lo}, {hi}]",
+                    interp.name()
+                );
+                // The brick's cells in grid coordinates.
+                let cell_lo = b.map(|c| (c * BRICK) as f64);
+                let cell_hi: [f64; 3] =
+                    std::array::from_fn(|a| (((b[a] + 1) * BRICK).min(dims[a] - 1)) as f64);
+                let point = |rng: &mut Rng| {
+                    DVec3::new(
+                        rng.range(cell_lo[0], cell_hi[0]),
+                        rng.range(cell_lo[1], cell_hi[1]),
+                        rng.range(cell_lo[2], cell_hi[2]),
+                    )
+                };
+                let tol = 1e-12 * (1.0 + lo.abs().max(hi.abs()));
+                for _ in 0..200 {
+                    let u = point(&mut rng);
+                    let v = field.value_at(u);
+                    checked += 1;
+                    assert!(
+                        v >= lo - tol && v <= hi + tol,
+                        "{} brick {b:?} at {u}: {v} not in [{lo}, {hi}]",
+                        interp.name()
+                    );
+                    overshoots += (v < m - 1e-9 || v > big_m + 1e-9) as usize;
+                    outside_corners += (v < f64::from(corner[0]) - 1e-9
+                        || v > f64::from(corner[1]) + 1e-9)
+                        as usize;
+                }
+                // Segments inside one cell of the brick: their Bernstein coefficients.
+                for _ in 0..20 {
+                    let u0 = point(&mut rng);
+                    let c = grid.cell_of(u0);
+                    let base = DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+                    let q_in = (u0 - base).clamp(DVec3::ZERO, DVec3::ONE);
+                    let q_out = rng.vec(0.0, 1.0);
+                    let s: [f64; 64] = std::array::from_fn(|i| {
+                        let at = |a: usize, o: usize| (c[a] + o).saturating_sub(1).min(dims[a] - 1);
+                        f64::from(grid.at(at(0, i & 3), at(1, i >> 2 & 3), at(2, i >> 4)))
+                    });
+                    let seg = match interp {
+                        Interpolant::CatmullRom => {
+                            segment::<CatmullRomWeights>(&s, q_in, q_out, 0.0, (0.0, 0.0))
+                        }
+                        _ => segment::<BSplineWeights>(&s, q_in, q_out, 0.0, (0.0, 0.0)),
+                    };
+                    // b_0 and b_9 are replaced by the face values (checked as values above).
+                    for &coefficient in &seg.coefficients()[1..9] {
+                        assert!(
+                            coefficient >= lo - tol && coefficient <= hi + tol,
+                            "{} brick {b:?} cell {c:?}: coefficient {coefficient} not in [{lo}, {hi}]",
+                            interp.name()
+                        );
+                    }
+                }
+            }
+        }
+        eprintln!(
+            "{}: {checked} values in their brick's range, {overshoots} past the samples', \
+             {outside_corners} past the corners'",
+            interp.name()
+        );
+        if interp == Interpolant::CatmullRom {
+            assert!(
+                overshoots > 0,
+                "Catmull-Rom never left the samples' range: the test is too weak"
+            );
+        }
+    }
+}

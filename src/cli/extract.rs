@@ -141,10 +141,12 @@ fn run_on(cli: &Cli, args: &ExtractArgs, ranks: &Ranks) -> Result<i32, Failure> 
     if let Some(parts) =
         crate::field::parts::for_residency(&scene.field, &limits).map_err(Failure::input)?
     {
-        // A sparse tree streams trilinear cells at mesh_refine = 1; other meshes of it need
-        // the lattice whole, so its box is densified under the cap (below).
-        let streams =
-            !crate::field::parts::is_sparse(&scene.field) || scene.mesh_request(0, None).on_grid();
+        // A sparse tree streams trilinear cells at mesh_refine = 1 by the methods extracted in
+        // z-ranges; other meshes of it need the lattice whole, so its box is densified under
+        // the cap (below).
+        let x = scene.mesh_request(0, None);
+        let streams = !crate::field::parts::is_sparse(&scene.field)
+            || (x.on_grid() && mesh::window::not_in_slabs(x.algo, &x.sharp).is_none());
         if streams {
             return extract_mapped(args, format, &scene, &*parts, opts, started, &budget);
         }

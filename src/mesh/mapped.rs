@@ -52,6 +52,20 @@ pub fn extract_mapped_within(
     let (min, max) = grid.bounds();
     let lattice = Lattice { dims, min, max };
     let [nx, ny, _] = dims;
+    // A window holds at least one cell layer and its ghost layers (and the marching's edge
+    // layers as large): a grid whose xy layers alone are over the window is refused, not
+    // allocated.
+    let least = (nx as u64 * ny as u64 * 4).saturating_mul(1 + window::GHOST_LAYERS as u64);
+    if least > window_bytes as u64 {
+        return Err(MeshError::Refused(format!(
+            "{}: an xy layer of {nx}x{ny} points takes {} MiB, and extract's window of {} MiB \
+             must hold {} of them; a grid this wide is not extracted in parts",
+            grid.label(),
+            (nx as u64 * ny as u64 * 4) >> 20,
+            window_bytes >> 20,
+            1 + window::GHOST_LAYERS
+        )));
+    }
     let layers = window::cell_layers(x.algo, dims);
     // Cell layers per range: the window holds them plus up to window::GHOST_LAYERS more.
     let plane = nx * ny * 4;

@@ -38,6 +38,10 @@ const TYPES: [&str; 19] = [
     "unknown", "float", "double", "int16", "int32", "int64", "vec3f", "vec3d", "mask", "half",
     "uint32", "bool", "rgba8", "fp4", "fp8", "fp16", "fpn", "vec4f", "vec4d",
 ];
+/// Bytes a node costs in the sparse tree's tables (a hash-map entry and its share of the
+/// table's slack) besides the buffer, counted against the cap.
+const NODE_BYTES: u64 = 64;
+
 /// The longest grid name a metadata record may declare.
 const MAX_NAME: u32 = 1 << 16;
 
@@ -91,6 +95,20 @@ pub(super) fn read(err: &Located, opts: &ReadOptions) -> Result<Volume, FieldErr
     let tree = Tree::new(&buf).map_err(named)?;
     let dims = box_dims(tree.bbox.0, tree.bbox.1, &g.name).map_err(|m| err.bad(m))?;
     let nodes = tree.nodes().map_err(named)?;
+    // The node tables come on top of the buffer (a tile-filled buffer holds millions of
+    // nodes): both under the cap, before the tables are built.
+    let held = buf.len() as u64 + nodes.len() as u64 * NODE_BYTES;
+    if held > cap {
+        let mib = held.div_ceil(1 << 20);
+        return Err(err.over_limit(format!(
+            "grid {index}'s tree ({} nodes in a buffer of {} MiB) takes {mib} MiB, over the cap \
+             of {} MiB; raise the cap with {}={mib}",
+            nodes.len(),
+            buf.len() >> 20,
+            cap >> 20,
+            crate::field::GRID_CAP_ENV
+        )));
+    }
     let (background, class, columns, translation, min) =
         (tree.background, tree.class, tree.columns, tree.translation, tree.bbox.0);
     let mut sparse = NodeTree::new(buf, background, 8);
@@ -375,7 +393,7 @@ impl<'a> Tree<'a> {
     /// is bounded by the buffer's size.
     fn nodes(&self) -> Result<Vec<Found>, String> {
         let most = |size: usize| self.buf.len() / size;
-        let (mut lowers, mut leaves) = (0usize, 0usize);
+        let (mut uppers, mut lowers, mut leaves) = (0usize, 0usize, 0usize);
         let too_many = |what: &str| format!("the tree names more {what} than its buffer holds");
         let mut out = Vec::new();
         let mut tiles: Vec<(u64, usize)> = self.tiles.iter().map(|(&k, &a)| (k, a)).collect();
@@ -387,6 +405,11 @@ impl<'a> Tree<'a> {
             if child == 0 {
                 out.push((Kind::RootTile, origin, 0, self.f32_at(tile + 20)));
                 continue;
+            }
+            // Tiles sharing one upper node would walk it once each: bounded like the others.
+            uppers += 1;
+            if uppers > most(UPPER_SIZE) {
+                return Err(too_many("upper nodes"));
             }
             let upper = self.child(self.root, child, UPPER_SIZE, "upper node")?;
             out.push((Kind::Upper, origin, upper + UPPER_TABLE, 0.0));

@@ -403,6 +403,9 @@ fn a_sparse_grid_over_the_cap_renders_and_extracts_as_its_dense_box() {
         let o = run(&["extract", &scene, "-o", &got], &small);
         assert!(stderr(&o).contains("streamed from the 155x145x135 grid"), "{}", stderr(&o));
         assert!(std::fs::read(&got).unwrap() == want, "{f}: the mesh differs from the box's");
+        // A method not extracted in z-ranges densifies the box (12 MB) under the default cap.
+        let emc = dir.join(format!("{f}-emc.ply")).display().to_string();
+        run(&["extract", &scene, "-o", &emc, "--set", "render.mesh=\"extended-mc\""], &[]);
         let cut = dir.join(format!("{f}-slice.exr")).display().to_string();
         let o = isoview(&["slice", &scene, "-o", &cut, "--axis", "z", "--at", "70"], &small);
         let e = stderr(&o);
@@ -480,6 +483,30 @@ fn hierarchical_tables_render_a_box_whose_dense_tables_are_over_the_cap() {
             );
         }
     }
+}
+
+/// A grid whose xy layers alone are over extract's window is refused in one line before any
+/// window is allocated (far10k's layers are 379 MiB each; here two.nvdb's 88 KiB against a
+/// window of 100 KB).
+#[test]
+fn a_grid_too_wide_for_the_window_is_refused_not_allocated() {
+    use isoview::field::parts::{Parts, SparseGrid};
+    let dir = scratch("vdb-wide");
+    std::fs::copy(data().join("two_zip.nvdb"), dir.join("two_zip.nvdb")).unwrap();
+    let toml = "[field]\nsource = \"file\"\npath = \"two_zip.nvdb\"\n[surface]\nisovalue = 0.0\n";
+    let path = crate::common::write(&dir, "s.toml", toml);
+    let scene = scene::load(Path::new(&path), &[]).unwrap();
+    let grid = SparseGrid::of(&scene.field).unwrap();
+    let x = scene.mesh_request(0, None);
+    let e = isoview::mesh::mapped::extract_mapped(&grid, &x, 100_000).unwrap_err().to_string();
+    assert!(
+        e.contains("an xy layer of 155x145 points") && e.contains("not extracted in parts"),
+        "{e}"
+    );
+    assert_eq!(e.lines().count(), 1);
+    // The same grid with room for its window streams.
+    let m = isoview::mesh::mapped::extract_mapped(&grid, &x, 1 << 20).unwrap();
+    assert!(m.positions.len() > 100, "{}", grid.label());
 }
 
 /// Built without the `openvdb` feature, `.vdb` is refused in one line saying how to get it.

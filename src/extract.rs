@@ -108,9 +108,11 @@ impl Probe {
     }
 }
 
-/// The scene's name in messages: its file, or "scene".
+/// The scene's name in messages: its file (control characters escaped, so the message stays
+/// one line), or "scene". Extract's refusals of a mesh name the scene first and then what
+/// they refuse, which may be the data file ("s.toml: far.vdb: an xy layer ...").
 pub fn scene_name(scene: &Scene) -> String {
-    scene.path.as_ref().map_or_else(|| "scene".to_string(), |p| p.display().to_string())
+    scene.path.as_ref().map_or_else(|| "scene".to_string(), |p| crate::field::shown(p))
 }
 
 /// `--device auto`: the reason to extract on the CPU when it is settled without opening a

@@ -173,7 +173,10 @@ pub enum FieldError {
 }
 
 /// A byte count for messages: `32768 MiB`, `4.3 KiB`, `12 bytes`.
-fn mib(bytes: u128) -> String {
+/// A size for messages, one rounding everywhere (a refusal and the pool's summary of the same
+/// grid print the same number): whole MiB/KiB when exact, else to 3 significant digits or the
+/// nearest whole unit.
+pub(crate) fn mib(bytes: u128) -> String {
     let (unit, name) = if bytes >= 1 << 20 {
         (1u128 << 20, "MiB")
     } else if bytes >= 1 << 10 {
@@ -220,6 +223,6 @@ pub(crate) fn one_line(s: &str) -> String {
 
 /// A path as messages show it: control characters escaped (a newline in a file name reads
 /// `\n`, not a line break, nor a space once the message is kept on one line).
-fn shown(path: &std::path::Path) -> String {
+pub(crate) fn shown(path: &std::path::Path) -> String {
     crate::vocab::escape_unprintable(&path.display().to_string()).into_owned()
 }

@@ -36,6 +36,7 @@
 
 mod access;
 mod error;
+pub(crate) use error::{mib, shown};
 mod expr;
 pub mod formats;
 mod grid;

@@ -3,9 +3,10 @@
 
 use glam::DVec3;
 
+use super::formats::Format;
 use super::interpolant::Interpolant;
 use super::source::show3;
-use super::{ExprSource, FieldError, FieldSource, Grid, GridLimits};
+use super::{shown, ExprSource, FieldError, FieldSource, Grid, GridLimits};
 use crate::vocab::{Bounds, Placement, SdfShape};
 
 /// A validated `[field]` table: the source, and the lattice it is sampled on.
@@ -184,9 +185,15 @@ impl FieldSpec {
         let pool = "; with field.residency = \"active\" the ray methods read it from a brick pool \
                     instead";
         let (what, hint) = match &self.source {
-            FieldSource::Npy(n) => (format!("{}: the array's shape", n.path.display()), pool),
+            FieldSource::Npy(n) => (format!("{}: the array's shape", shown(&n.path)), pool),
             FieldSource::Raw(_) => ("field.dims".to_string(), pool),
-            FieldSource::File(f) => (format!("{}: the header's dims", f.path.display()), ""),
+            // A VDB grid has no header dims: its size is the active voxels' index box (which
+            // the ray methods read sparsely, through the brick pool, whatever its extent).
+            FieldSource::File(f) if matches!(f.format, Format::Vdb | Format::Nvdb) => (
+                format!("{}: the grid's active box", shown(&f.path)),
+                "; render (analytic, fixed-step) reads the tree through a brick pool instead",
+            ),
+            FieldSource::File(f) => (format!("{}: the header's dims", shown(&f.path)), ""),
             _ => ("field.resolution".to_string(), ""),
         };
         Err(FieldError::OverDevice { what, dims: self.resolution, axis, max, hint })

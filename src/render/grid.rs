@@ -47,8 +47,26 @@ pub struct GpuGrid {
 /// bound of coordinates too. The CPU paths (probe, slice's contours, extract) read in f64.
 pub const GPU_SAMPLE_BOUND: f32 = 1e30;
 
+/// The ray methods' refusal of a grid whose finite samples reach `largest` past
+/// [`GPU_SAMPLE_BOUND`] (None: traced), naming the scene's data file (`path`). One home for
+/// the line: the render checks it on every grid, the brick pool before it prints its summary
+/// or uploads a brick (one line on stderr, not a pool summary and then a refusal).
+pub(crate) fn sample_bound_refusal(largest: f32, path: Option<&std::path::Path>) -> Option<String> {
+    (largest > GPU_SAMPLE_BOUND).then(|| {
+        let file = path.map(|p| crate::vocab::echo(&p.display().to_string()));
+        format!(
+            "{}samples reach ±{}, beyond the ±{:e} the ray methods' 32-bit arithmetic keeps \
+             finite (the images would lose or invent surface); scale the field, or read it in 64 \
+             bits with probe, slice or extract",
+            file.map_or(String::new(), |f| format!("{f}: ")),
+            crate::vocab::echo_number(largest),
+            GPU_SAMPLE_BOUND
+        )
+    })
+}
+
 /// The largest magnitude among finite values.
-fn largest_finite(values: impl IntoIterator<Item = f32>) -> f32 {
+pub(super) fn largest_finite(values: impl IntoIterator<Item = f32>) -> f32 {
     values.into_iter().filter(|v| v.is_finite()).fold(0.0, |m, v| m.max(v.abs()))
 }
 

@@ -580,15 +580,19 @@ pub fn upload_for(
     // Only the superbricks' ranges are kept (the walk's choice of levels): the blocks are in
     // the residency's tables.
     let BrickRanges { super_ranges, .. } = ranges;
+    let largest = super::grid::largest_finite(super_ranges.iter().flatten().copied());
+    if let Some(why) = super::grid::sample_bound_refusal(largest, scene.path.as_deref()) {
+        return Err(PoolError::Refused(why));
+    }
     let gpu = super::GpuGrid::upload_pool(ctx, grid, super_ranges, residency)?;
     let summary = format!(
-        "{}x{}x{} grid {} ({} MiB as dense f32): {active} of {bricks} bricks of {BRICK}^3 \
+        "{}x{}x{} grid {} ({} as dense f32): {active} of {bricks} bricks of {BRICK}^3 \
          cells active, {resident} resident, {pool_mib:.1} MiB pool (scan {:.1} s, upload {:.1} s)",
         grid.dims()[0],
         grid.dims()[1],
         grid.dims()[2],
         grid.how(),
-        grid.f32_bytes() >> 20,
+        crate::field::mib(grid.f32_bytes() as u128),
         scanned.as_secs_f64(),
         (started.elapsed() - scanned).as_secs_f64(),
     );

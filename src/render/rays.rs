@@ -78,16 +78,10 @@ impl Renderer {
         {
             return Err(RenderError::Refused(why));
         }
-        if gpu_grid.largest > super::grid::GPU_SAMPLE_BOUND {
-            let file = scene.path.as_ref().map(|p| crate::vocab::echo(&p.display().to_string()));
-            return Err(RenderError::Refused(format!(
-                "{}samples reach ±{}, beyond the ±{:e} the ray methods' 32-bit arithmetic keeps \
-                 finite (the images would lose or invent surface); scale the field, or read it \
-                 in 64 bits with probe, slice or extract",
-                file.map_or(String::new(), |f| format!("{f}: ")),
-                crate::vocab::echo_number(gpu_grid.largest),
-                super::grid::GPU_SAMPLE_BOUND
-            )));
+        if let Some(why) =
+            super::grid::sample_bound_refusal(gpu_grid.largest, scene.path.as_deref())
+        {
+            return Err(RenderError::Refused(why));
         }
         if interp == Interpolant::Device && !self.ctx.info.r32f_linear_filter {
             return Err(RenderError::Gpu(GpuError::Unsupported {

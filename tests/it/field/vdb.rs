@@ -261,6 +261,25 @@ fn a_tree_or_a_densified_box_over_the_cap_is_refused() {
     }
 }
 
+/// A VDB grid over the device's 3D image extent (the paths that upload it whole: slice,
+/// serve) is refused naming its active box, not "the header's dims" a VDB file does not
+/// have, and says the render reads it through the brick pool.
+#[test]
+fn a_vdb_box_over_the_device_extent_names_its_active_box() {
+    for file in ["sphere.vdb", "sphere.nvdb"].into_iter().filter(|f| readable(f)) {
+        let dir = scratch("vdb-extent");
+        std::fs::copy(data().join(file), dir.join(file)).unwrap();
+        let toml = format!("[field]\nsource = \"file\"\npath = \"{file}\"\n");
+        let scene = crate::common::write(&dir, "s.toml", &toml);
+        let scene = scene::load(Path::new(&scene), &[]).unwrap();
+        assert!(scene.field.check_image_extent(25).is_ok(), "{file}");
+        let e = scene.field.check_image_extent(24).unwrap_err().to_string();
+        let want = format!("{file}: the grid's active box [25, 25, 25]: 25 points along x");
+        assert!(e.contains(&want), "{e}");
+        assert!(e.ends_with("reads the tree through a brick pool instead"), "{e}");
+    }
+}
+
 /// The level-set sphere read from .vdb extracts and renders exactly as its values read as a
 /// raw file over the same box.
 #[cfg(feature = "openvdb")]

@@ -744,6 +744,20 @@ fn samples_past_the_gpu_bound_are_refused_and_traced_below_it() {
     let r = isoview(&["render", &scene, "-o", out.to_str().unwrap()], &[]);
     assert_fails(&r, 2, &["big.toml: samples reach ±3.4e38, beyond the ±1e30"]);
     assert!(!out.exists());
+    // The brick pool refuses it in the same one line, before its summary (which was printed
+    // first, a second line on stderr) and before uploading a brick.
+    let pooled = ["--set", "field.residency=\"active\""];
+    let r = isoview(&["render", &scene, "-o", out.to_str().unwrap(), pooled[0], pooled[1]], &[]);
+    assert_fails(&r, 2, &["big.toml: samples reach ±3.4e38, beyond the ±1e30"]);
+    assert!(!stderr(&r).contains("bricks"), "{}", stderr(&r));
+    assert!(!out.exists());
+    // `serve` takes the state (only sampling the field shows its samples) and its frame
+    // answers 400 with the command line's line.
+    let server = crate::serve::api::Server::start(&scene, &[]);
+    let frame = server.get("/api/frame");
+    assert_eq!(frame.status, 400, "{}", frame.text());
+    let line = stderr(&isoview(&["render", &scene, "-o", out.to_str().unwrap()], &[]));
+    assert_eq!(frame.json()["error"].as_str().unwrap(), line.trim_end());
     let p = isoview(&["probe", &scene, "--pixel", "7,9"], &[]);
     assert!(p.status.success(), "{}", stderr(&p));
 }

@@ -278,10 +278,17 @@ impl<'a> Source<'a> {
             )));
         }
         let value = value.trim();
-        let node = match DeValue::parse(value) {
-            Ok(v) => self.convert(&v, key, Some(index))?,
-            Err(_) => Node { value: Value::String(value.to_string()), at },
-        };
+        let node =
+            match DeValue::parse(value) {
+                Ok(v) => self.convert(&v, key, Some(index))?,
+                // A quoted value that TOML refuses is a string the user meant but mistyped: taken
+                // bare, its quotes would be echoed inside the message's own (`""bo\u{1b}g""`).
+                Err(_) if value.starts_with(['"', '\'']) => return Err(syntax(
+                    "the value is quoted but not a TOML string (a quote left open, or a control \
+                     character that TOML strings must escape, e.g. \\u001b)",
+                )),
+                Err(_) => Node { value: Value::String(value.to_string()), at },
+            };
 
         let Value::Table(root_table) = &mut root.value else {
             return Err(syntax("the scene is not a table"));

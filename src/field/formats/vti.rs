@@ -330,8 +330,12 @@ fn peek_extent(head: &[u8]) -> Option<[u64; 3]> {
     let quote = *head.get(at)?;
     let len = head[at + 1..].iter().position(|&c| c == quote)?;
     let text = std::str::from_utf8(&head[at + 1..at + 1 + len]).ok()?;
-    let e: Vec<i64> =
-        text.split_ascii_whitespace().map(|w| w.parse().ok()).collect::<Option<_>>()?;
+    // Parsed as VTK's 32-bit ints: an extent past them is left to the full parse, which
+    // names it (the cap's "needs 45776 MiB" would hide that the number is no extent at all).
+    let e: Vec<i64> = text
+        .split_ascii_whitespace()
+        .map(|w| w.parse::<i32>().ok().map(i64::from))
+        .collect::<Option<_>>()?;
     let [x0, x1, y0, y1, z0, z1] = e.as_slice() else { return None };
     let n = |a: i64, b: i64| u64::try_from(b.checked_sub(a)?.checked_add(1)?).ok();
     Some([n(*x0, *x1)?, n(*y0, *y1)?, n(*z0, *z1)?])

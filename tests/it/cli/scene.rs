@@ -554,6 +554,13 @@ fn override_errors_name_the_override() {
         error(&format!("{CELL}[render]\nsteps = 10\n"), &["render.steps.max=3"]),
         "--set render.steps.max=3: render.steps: is an integer, not a table"
     );
+    // A quoted value TOML refuses: one syntax line, not the value's quotes inside the
+    // message's (`unknown value ""bo\u{1b}g""`), the control character escaped.
+    for bad in ["render.method=\"bo\u{1b}g\"", "render.method=\"fixed-step", "render.method='x"] {
+        let e = error(CELL, &[bad]);
+        assert!(e.ends_with(": the value is quoted but not a TOML string (a quote left open, or a control character that TOML strings must escape, e.g. \\u001b)"), "{e}");
+        assert!(!e.contains('\u{1b}') && !e.contains("\"\""), "{e}");
+    }
     assert_eq!(
         error(CELL, &["camera.eye=[1,2"]),
         "--set camera.eye=[1,2: camera.eye: expected an array of 3 numbers, got a string \"[1,2\""

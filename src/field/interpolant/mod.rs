@@ -240,10 +240,13 @@ impl Interpolant {
             ),
             // The contract lets the pool refuse the cubic interpolants: its apron and ranges
             // would have to hold their 4x4x4 stencils.
+            // The pool serves field.residency = "active" at any size, and "auto" over the cap
+            // (a .vdb/.nvdb tree too): the line names both, and how to read the grid whole.
             (_, Reader::BrickPool) => Some(format!(
-                "the brick pool (a grid over the memory cap) holds trilinear cells only, not \
-                 \"{name}\" ones; raise the memory cap (ISOVIEW_MAX_GRID_MIB) so the grid is \
-                 read whole"
+                "the brick pool (field.residency = \"active\", or a grid over the memory cap) \
+                 holds trilinear cells only, not \"{name}\" ones; read the grid whole: under the \
+                 memory cap (ISOVIEW_MAX_GRID_MIB) with field.residency = \"auto\" (the default) \
+                 or \"whole\""
             )),
             (_, Reader::Ranks) => Some(format!(
                 "MPI splits trilinear fields only (the blocks' ghost planes and walks are \

@@ -282,6 +282,27 @@ fn pool_errors_are_one_line() {
         2,
         &["field.residency = \"active\": render.method = \"mesh\" needs the whole grid"],
     );
+    // A small grid the user put in the pool: the refusal names the key that did it (it
+    // said "a grid over the memory cap", which this grid is not) and how to read it whole.
+    let o = isoview(
+        &[
+            "render",
+            &scene,
+            "-o",
+            out.to_str().unwrap(),
+            "--set",
+            "field.interpolation=\"cubic-bspline\"",
+        ],
+        &[],
+    );
+    assert_fails(
+        &o,
+        2,
+        &["the brick pool (field.residency = \"active\", or a grid over the memory cap) holds \
+           trilinear cells only, not \"cubic-bspline\" ones; read the grid whole: under the \
+           memory cap (ISOVIEW_MAX_GRID_MIB) with field.residency = \"auto\" (the default) or \
+           \"whole\""],
+    );
     let one = pool::BrickRanges::from_dense([9, 9, 9], &[[0.0, 1.0]]);
     let e = pool::Residency::select(&one, &[0.5], false)
         .check(&GridLimits { max_bytes: 1024 }, "f.raw")

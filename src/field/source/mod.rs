@@ -393,17 +393,25 @@ const PARALLEL_MIN_POINTS: usize = 1 << 15;
 /// x fastest, splitting z-slabs over the available cores for large grids; fails on the
 /// first value beyond f32's range ([`samples::narrow`]; `at`: its grid index).
 fn fill(grid: &Grid, f: impl Fn(DVec3) -> f64 + Sync) -> Result<Vec<f32>, samples::Overflow> {
+    let (min, spacing) = (grid.min, grid.spacing());
+    fill_indexed(grid, |i, j, k| f(min + spacing * DVec3::new(i as f64, j as f64, k as f64)))
+}
+
+/// [`fill`] with `f` given the grid index (i, j, k) rather than the point, for sources that
+/// tabulate what depends on one axis only (the gyroid's sines and cosines).
+fn fill_indexed(
+    grid: &Grid,
+    f: impl Fn(usize, usize, usize) -> f64 + Sync,
+) -> Result<Vec<f32>, samples::Overflow> {
     let [nx, ny, nz] = grid.dims;
     let slab = nx * ny;
-    let (min, spacing) = (grid.min, grid.spacing());
     let mut values = vec![0.0f32; slab * nz];
     let fill_slabs = |first_k: usize, out: &mut [f32]| -> Result<(), samples::Overflow> {
         for (dk, slab_out) in out.chunks_mut(slab).enumerate() {
             let k = first_k + dk;
             for j in 0..ny {
                 for i in 0..nx {
-                    let p = min + spacing * DVec3::new(i as f64, j as f64, k as f64);
-                    slab_out[i + nx * j] = samples::narrow(f(p))
+                    slab_out[i + nx * j] = samples::narrow(f(i, j, k))
                         .map_err(|value| samples::Overflow { at: i + nx * (j + ny * k), value })?;
                 }
             }

@@ -5,7 +5,7 @@
 use glam::DVec3;
 
 use super::params::{self, Need, Params, Rule};
-use super::{fill, show3, FieldSource, Info, Parsed, PointField, Supports};
+use super::{fill, fill_indexed, show3, FieldSource, Info, Parsed, PointField, Supports};
 use crate::field::Grid;
 use crate::vocab::SdfShape;
 
@@ -136,6 +136,27 @@ pub(super) fn sample(
     center: DVec3,
     grid: &Grid,
 ) -> Result<Vec<f32>, crate::field::samples::Overflow> {
+    if let SdfShape::Gyroid { scale: s, thickness: w } = *shape {
+        // Separable: the sine and cosine of each lattice coordinate are taken once per axis
+        // rather than three sincos a point (they were half of a 256³ gyroid render's wall
+        // time). Each coordinate is `fill`'s point minus the centre, and the sum is
+        // `distance`'s, the same f64 operations in the same order: the same bits
+        // (`the_tabulated_gyroid_is_distance_bit_for_bit`).
+        let (min, spacing) = (grid.min, grid.spacing());
+        let axis = |a: usize| -> Vec<(f64, f64)> {
+            (0..grid.dims[a])
+                .map(|i| {
+                    let at = min + spacing * DVec3::new(i as f64, i as f64, i as f64) - center;
+                    (s * at[a]).sin_cos()
+                })
+                .collect()
+        };
+        let (x, y, z) = (axis(0), axis(1), axis(2));
+        return fill_indexed(grid, |i, j, k| {
+            let g = x[i].0 * y[j].1 + y[j].0 * z[k].1 + z[k].0 * x[i].1;
+            g.abs() / s - w
+        });
+    }
     fill(grid, |p| shape.distance(p - center))
 }
 
@@ -198,6 +219,42 @@ impl SdfShape {
                 format!("torus R={major_radius} r={minor_radius}")
             }
             SdfShape::Gyroid { scale, thickness } => format!("gyroid s={scale} w={thickness}"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The gyroid's tabulated sampling is `distance` at every grid point, bit for bit, over
+    /// odd boxes, scales, centres and sizes (one thread and several). Seen failing with the
+    /// centre left out of the tables and with the y and z tables swapped.
+    #[test]
+    fn the_tabulated_gyroid_is_distance_bit_for_bit() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for dims in [[2, 3, 4], [17, 9, 5], [64, 48, 40]] {
+            let min = DVec3::new(next() - 2.0, -1.3 * next(), next() - 0.5);
+            let max = min + DVec3::new(0.5 + 3.0 * next(), 0.1 + next(), 1.0 + 5.0 * next());
+            let center = DVec3::new(next(), -next(), 0.25 * next());
+            let shape = SdfShape::Gyroid { scale: 1.0 + 9.0 * next(), thickness: 0.1 * next() };
+            let grid = Grid { dims, min, max, values: Vec::new() };
+            let fast = sample(&shape, center, &grid).unwrap();
+            for k in 0..dims[2] {
+                for j in 0..dims[1] {
+                    for i in 0..dims[0] {
+                        let want = shape.distance(grid.point(i, j, k) - center) as f32;
+                        let got = fast[i + dims[0] * (j + dims[1] * k)];
+                        assert_eq!(got.to_bits(), want.to_bits(), "{dims:?} at {i},{j},{k}");
+                    }
+                }
+            }
         }
     }
 }

@@ -6,6 +6,7 @@
 pub mod compare;
 pub mod console;
 pub mod extract;
+pub mod interrupt;
 pub mod probe;
 pub mod render;
 pub mod serve;
@@ -136,6 +137,7 @@ pub(crate) fn cut_device(e: GpuError) -> GpuError {
 
 /// Runs the command line and returns the process exit status.
 pub fn main() -> i32 {
+    interrupt::install();
     // clap's `get_matches` would print help and errors itself and exit, ignoring a failed
     // write; console::print_clap prints them under the verbs' rules.
     let matches = match Cli::command().try_get_matches() {

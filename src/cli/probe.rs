@@ -31,7 +31,7 @@ pub struct ProbeArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
     /// Time of the field in seconds.
-    #[arg(long, default_value_t = 0.0, value_parser = super::number)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = super::number)]
     pub time: f64,
     /// Print JSON instead of text.
     #[arg(long)]

@@ -26,13 +26,13 @@ pub struct RenderArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
     /// Time of the field in seconds (`t` in expr fields).
-    #[arg(long, default_value_t = 0.0, conflicts_with = "frames", value_parser = super::number)]
+    #[arg(long, default_value_t = 0.0, conflicts_with = "frames", allow_negative_numbers = true, value_parser = super::number)]
     pub time: f64,
     /// Render frames A to B inclusive (`A..B`), at time frame / fps.
-    #[arg(long, value_name = "A..B")]
+    #[arg(long, value_name = "A..B", allow_hyphen_values = true)]
     pub frames: Option<String>,
     /// Frames per second for --frames.
-    #[arg(long, default_value_t = 24.0, value_parser = super::number)]
+    #[arg(long, default_value_t = 24.0, allow_negative_numbers = true, value_parser = super::number)]
     pub fps: f64,
     /// Also show each frame in the tev HDR viewer (every EXR channel), sent over tev's TCP
     /// protocol; HOST:PORT defaults to 127.0.0.1:14158 (tev's own default).
@@ -105,6 +105,17 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
     }
     super::finite("--time", args.time)?;
     let range = args.frames.as_deref().map(parse_frames).transpose().map_err(Failure::input)?;
+    // A frame's time is n / fps: the range's ends are its largest magnitudes, and a tiny fps
+    // (5e-324) makes them infinite, which the field would be sampled at without a word.
+    if let Some((a, b)) = range {
+        if let Some(n) = [a, b].into_iter().find(|&n| !(n as f64 / args.fps).is_finite()) {
+            return Err(Failure::input(format!(
+                "--frames {} at --fps {}: frame {n}'s time ({n} / fps) is not a finite number",
+                echo(args.frames.as_deref().unwrap_or_default()),
+                echo_number(args.fps)
+            )));
+        }
+    }
     let scene = super::load_scene(&args.scene, &args.sets)?;
     let frames = Frames { args, range };
 

@@ -22,7 +22,7 @@ pub struct ServeArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
     /// Time of the field in seconds (`t` in expr fields) to start at.
-    #[arg(long, default_value_t = 0.0, value_parser = super::number)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = super::number)]
     pub time: f64,
     /// A folder whose files the page may point the field at, besides the scene's folder and
     /// the scene's own data files (repeatable).

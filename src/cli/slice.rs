@@ -41,7 +41,7 @@ pub struct SliceArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
     /// Time of the field in seconds (`t` in expr fields).
-    #[arg(long, default_value_t = 0.0, value_parser = super::number)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = super::number)]
     pub time: f64,
     /// Largest picture, in pixels (width x height): it is drawn whole in memory.
     #[arg(long, value_name = "N", default_value_t = scene::DEFAULT_MAX_PIXELS,

@@ -40,10 +40,13 @@ pub fn extract_mapped_within(
         // Before any window is read: an all-outside window would skip the check in
         // `window::extract_window` and mesh trilinear cells silently.
         return Err(MeshError::Refused(format!(
-            "field.residency = \"active\" streams trilinear cells at render.mesh_refine = 1, \
-             not field.interpolation = \"{}\" at render.mesh_refine = {} (a lattice held \
-             whole); use field.residency = \"auto\", which reads a grid under the memory cap \
-             (ISOVIEW_MAX_GRID_MIB) whole",
+            // Said of the stream, not of a key: a grid over the cap under the default "auto"
+            // (or a .vdb tree) streams as well as one the user set to "active".
+            "extract reads a grid in parts (field.residency = \"active\", or a grid over the \
+             memory cap) as trilinear cells at render.mesh_refine = 1, not field.interpolation \
+             = \"{}\" at render.mesh_refine = {} (a lattice held whole); a grid under the \
+             memory cap (ISOVIEW_MAX_GRID_MIB) is read whole with field.residency = \"auto\" \
+             (the default) or \"whole\"",
             x.interp.name(),
             x.refine
         )));

@@ -14,16 +14,48 @@
 //!
 //! A destination that is a symbolic link is replaced by a regular file (the link's target is
 //! not written); permissions of a replaced file are not carried over.
+//!
+//! Every temporary file not yet renamed or removed is listed ([`remove_live_temps`]): an
+//! interrupted run (Ctrl-C, SIGTERM, SIGHUP: `cli::interrupt`) removes them before it ends,
+//! so it leaves no `.NAME.<pid>.<n>.tmp` behind (the EXR's is created before the render
+//! starts, and could hold most of the image).
 
 use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, MutexGuard};
 
 use super::OutputError;
 
 /// Distinguishes temporary files of concurrent writers in one process.
 static COUNTER: AtomicU64 = AtomicU64::new(0);
+
+/// The temporary files that exist now: created, not yet renamed into place or removed.
+static LIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// [`LIVE`], also after a panic elsewhere held it (the list itself is always whole).
+fn live() -> MutexGuard<'static, Vec<PathBuf>> {
+    LIVE.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// Drops `temp` from [`LIVE`] (its last entry first: the newest is usually the one done).
+fn forget(list: &mut Vec<PathBuf>, temp: &Path) {
+    if let Some(at) = list.iter().rposition(|t| t == temp) {
+        list.swap_remove(at);
+    }
+}
+
+/// Removes every temporary file of this process that is not yet renamed into place, and
+/// keeps the list locked, so that no writer renames or creates one after it: for a process
+/// about to end on a signal (the guard is held until it has).
+pub fn remove_live_temps() -> MutexGuard<'static, Vec<PathBuf>> {
+    let mut list = live();
+    for temp in list.drain(..) {
+        let _ = std::fs::remove_file(temp);
+    }
+    list
+}
 
 /// Writes `path` atomically: `write` fills a buffered temporary file in the same folder,
 /// which is then flushed, fsynced and renamed over `path`.
@@ -82,7 +114,13 @@ impl TempFile {
         self.file.sync_all().map_err(|e| OutputError::io(path, "sync", e))?;
         let temp =
             self.guard.0.clone().ok_or_else(|| OutputError::invalid(path, "committed twice"))?;
-        std::fs::rename(&temp, path).map_err(|e| OutputError::io(path, "rename into place", e))?;
+        {
+            // Renamed and unlisted under the lock: an interrupt removes it before or not at all.
+            let mut list = live();
+            std::fs::rename(&temp, path)
+                .map_err(|e| OutputError::io(path, "rename into place", e))?;
+            forget(&mut list, &temp);
+        }
         self.guard.0 = None;
         sync_parent(path);
         Ok(())
@@ -97,7 +135,11 @@ pub fn scratch(path: &Path) -> Result<(File, File), OutputError> {
     let (write, temp) = create_temp(path)?;
     let read = File::open(&temp);
     // Unix: the open handles keep the data until they close.
-    let _ = std::fs::remove_file(&temp);
+    {
+        let mut list = live();
+        let _ = std::fs::remove_file(&temp);
+        forget(&mut list, &temp);
+    }
     Ok((write, read.map_err(|e| OutputError::io(path, "create", e))?))
 }
 
@@ -122,8 +164,13 @@ fn create_temp(path: &Path) -> Result<(File, PathBuf), OutputError> {
     loop {
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
         let temp = dir.join(temp_name(name, pid, n));
+        // Created and listed under the lock: an interrupt sees every file made before it.
+        let mut list = live();
         match OpenOptions::new().write(true).create_new(true).open(&temp) {
-            Ok(file) => return Ok((file, temp)),
+            Ok(file) => {
+                list.push(temp.clone());
+                return Ok((file, temp));
+            }
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
             Err(e) => return Err(OutputError::io(path, "create", e)),
         }
@@ -157,8 +204,10 @@ struct TempGuard(Option<PathBuf>);
 impl Drop for TempGuard {
     fn drop(&mut self) {
         if let Some(temp) = self.0.take() {
+            let mut list = live();
             // Best effort: the original error is what the caller needs to see.
-            let _ = std::fs::remove_file(temp);
+            let _ = std::fs::remove_file(&temp);
+            forget(&mut list, &temp);
         }
     }
 }

@@ -271,6 +271,15 @@ impl<'a> Source<'a> {
         let bare = |s: &str| {
             !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
         };
+        // Scene keys are at most 3 deep (field.bounds.min); a path of thousands of segments
+        // would build as many nested tables, whose recursive walks and drops overflowed the
+        // stack (a 40 KB `POST /api/state` aborted `serve`).
+        if segments.len() > MAX_KEY_SEGMENTS {
+            return Err(syntax(&format!(
+                "a key path of {} segments; scene keys have at most {MAX_KEY_SEGMENTS}",
+                segments.len()
+            )));
+        }
         if !segments.iter().all(|s| bare(s)) {
             return Err(syntax(&format!(
                 "\"{}\" is not a key path like render.steps or field.bounds.min",
@@ -319,6 +328,9 @@ impl<'a> Source<'a> {
         Ok(())
     }
 }
+
+/// Most dot-separated segments a `--set` key path may have: every scene key has 3 or fewer.
+pub const MAX_KEY_SEGMENTS: usize = 16;
 
 /// `a.b` from `a` and `b` (just `b` at the root).
 pub(crate) fn join(path: &str, key: &str) -> String {

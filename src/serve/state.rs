@@ -136,7 +136,14 @@ pub fn scene_error_for_page(e: &SceneError) -> String {
 /// the request's thread).
 fn server_note(e: &dyn std::fmt::Display) {
     use std::io::Write;
-    let _ = writeln!(std::io::stderr(), "isoview: {e}");
+    let _ = writeln!(std::io::stderr(), "{}", server_line(e));
+}
+
+/// The server's line for `e`, escaped as every `isoview:` line on stderr is: the reason can
+/// quote the file (a MetaImage ElementType, OpenVDB's text), whose ESC or BEL reached the
+/// terminal raw.
+fn server_line(e: &dyn std::fmt::Display) -> String {
+    format!("isoview: {}", crate::vocab::escape_unprintable(&e.to_string()))
 }
 
 /// The short form of an error that quotes a file's contents; None for the others.
@@ -397,6 +404,14 @@ mod tests {
         assert_eq!(quote("surface.isovalue=0.25"), "surface.isovalue=0.25");
         assert_eq!(quote("render.method=\"fixed-step\""), "'render.method=\"fixed-step\"'");
         assert_eq!(quote("a'b"), "'a'\\''b'");
+    }
+
+    /// Second #29 pass on the sparse work: a file's reason quoted its ESC and BEL raw on the
+    /// server's stderr (the page gets the redacted line).
+    #[test]
+    fn the_servers_own_lines_are_escaped() {
+        let line = server_line(&"f.mhd: ElementType \u{1b}[31mred\u{7} is not supported");
+        assert_eq!(line, "isoview: f.mhd: ElementType \\u{1b}[31mred\\u{7} is not supported");
     }
 
     /// Fifth attack pass M7: `time: 1e308` wrote a 309-digit `--time` into the saved scene's

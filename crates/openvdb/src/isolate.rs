@@ -97,6 +97,16 @@ where
     set(libc::RLIMIT_AS, limits.address_space);
     set(libc::RLIMIT_CPU, limits.cpu_seconds);
     set(libc::RLIMIT_CORE, 0);
+    // The caller may block SIGINT/SIGTERM/SIGHUP for its own clean-up thread (isoview's
+    // `cli::interrupt`), which the child does not have: it takes them as a process does, and
+    // dies with its parent rather than read on for a caller that is gone.
+    // SAFETY: an empty signal set; prctl with a signal number.
+    unsafe {
+        let mut none: libc::sigset_t = std::mem::zeroed();
+        libc::sigemptyset(&mut none);
+        libc::pthread_sigmask(libc::SIG_SETMASK, &none, std::ptr::null_mut());
+        libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL);
+    }
     // The child says nothing on the caller's terminal (an allocation failure's message, a
     // library's warnings): what it has to say comes back through the pipe, as one line.
     // SAFETY: a NUL-terminated path; dup2 onto the standard descriptors.

@@ -35,10 +35,12 @@ pub(super) fn sample(
     nan: NanPolicy,
 ) -> Result<Vec<f32>, FieldError> {
     let spacing = grid.spacing();
-    let what = || format!("expression \"{}\" at t = {time}", e.text);
+    // Numbers in their short form (`--time 1e308` printed 309 digits), the text cut and escaped.
+    let n = crate::vocab::echo_number::<f64>;
+    let what = || format!("expression \"{}\" at t = {}", crate::vocab::echo(&e.text), n(time));
     let at = |[i, j, k]: [usize; 3]| {
         let p = grid.min + spacing * DVec3::new(i as f64, j as f64, k as f64);
-        format!(" (x = {}, y = {}, z = {})", p.x, p.y, p.z)
+        format!(" (x = {}, y = {}, z = {})", n(p.x), n(p.y), n(p.z))
     };
     let values = fill(grid, |p| e.eval(p, time)).map_err(|o| {
         o.error(what(), grid.dims, at(crate::field::samples::grid_index(o.at, grid.dims)))

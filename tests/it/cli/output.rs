@@ -472,3 +472,57 @@ fn write_channels_round_trip() {
     // Mismatched lengths are refused.
     assert!(out_exr::write_channels(&path, 3, 3, vec![("x".into(), vec![0.0])], &[]).is_err());
 }
+
+/// Ctrl-C, SIGTERM or SIGHUP during a render left the writers' temporary files (the EXR's
+/// is created before the render starts, up to the image's size) in the output folder: now
+/// the run removes them, leaves the previous output as it was, says so in one line and ends
+/// by the signal as before (seen failing before `cli::interrupt`: `.out.exr.<pid>.0.tmp`
+/// and `.out.png.<pid>.1.tmp` left, no line).
+#[test]
+fn an_interrupted_render_leaves_no_temporary_file() {
+    use std::os::unix::process::ExitStatusExt;
+    let dir = crate::common::scratch("interrupted");
+    let scene = crate::common::write(
+        &dir,
+        "s.toml",
+        "[image]\nwidth = 2048\nheight = 2048\n[field]\nsource = \"sdf\"\nshape = \"sphere\"\n\
+         radius = 0.7\nresolution = [8, 8, 8]\n",
+    );
+    let mut interrupted = 0;
+    for (sig, name) in
+        [(libc::SIGINT, "SIGINT"), (libc::SIGTERM, "SIGTERM"), (libc::SIGHUP, "SIGHUP")]
+    {
+        std::fs::write(dir.join("out.exr"), b"the previous file").unwrap();
+        let child = std::process::Command::new(env!("CARGO_BIN_EXE_isoview"))
+            .args(["render", &scene, "-o"])
+            .arg(dir.join("out.exr"))
+            .arg("--png")
+            .arg(dir.join("out.png"))
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Interrupted once its temporary file exists (the render is under way).
+        let started = std::time::Instant::now();
+        while !entries(&dir).iter().any(|e| e.ends_with(".tmp")) {
+            assert!(started.elapsed().as_secs() < 120, "no temporary file: {:?}", entries(&dir));
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        // SAFETY: a signal to our own child.
+        unsafe { libc::kill(child.id() as i32, sig) };
+        let out = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        if out.status.success() {
+            // The render finished before the signal arrived: nothing to check this time.
+            continue;
+        }
+        assert_eq!(out.status.signal(), Some(sig), "{name}: {:?} {err}", out.status);
+        let left: Vec<String> = entries(&dir).into_iter().filter(|e| e.ends_with(".tmp")).collect();
+        assert!(left.is_empty(), "{name}: left {left:?}");
+        assert_eq!(std::fs::read(dir.join("out.exr")).unwrap(), b"the previous file", "{name}");
+        assert!(!dir.join("out.png").exists(), "{name}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{name}: {err}");
+        assert!(err.starts_with(&format!("isoview: interrupted by {name}; ")), "{err}");
+        interrupted += 1;
+    }
+    assert!(interrupted >= 2, "only {interrupted} of 3 renders were still running when signalled");
+}

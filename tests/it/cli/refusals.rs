@@ -673,6 +673,28 @@ fn every_verb_refuses_a_time_that_is_not_finite() {
         }
     }
     assert!(!Path::new(&exr).exists() && !Path::new(&ply).exists());
+    // A negative time is a time: `--time -1` was taken for a flag by the argument parser
+    // (seven lines of usage, exit 2) where `--time=-1` worked.
+    let o = isoview_output(&["stats", &scene, "--time", "-1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = isoview_output(&["render", &scene, "-o", &exr, "--frames", "0..1", "--fps", "-2"]);
+    assert_fails(&o, 2, &["--fps -2: must be a positive number"]);
+    // An fps so small that a frame's time is infinite (5e-324: 1 / fps overflows) sampled the
+    // field at t = inf, wrote an empty frame and said nothing.
+    let pattern = out("f####.exr");
+    let o =
+        isoview_output(&["render", &scene, "-o", &pattern, "--frames", "1..1", "--fps", "5e-324"]);
+    assert_fails(
+        &o,
+        2,
+        &["--frames 1..1 at --fps 5e-324: frame 1's time (1 / fps) is not a finite number"],
+    );
+    let o = isoview_output(&["render", &scene, "-o", &pattern, "--frames", "-3..0", "--fps", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        !Path::new(&exr).exists() && Path::new(&out("f-0003.exr")).exists()
+            || Path::new(&out("f0000.exr")).exists()
+    );
 }
 
 #[test]

@@ -561,6 +561,12 @@ fn override_errors_name_the_override() {
         assert!(e.ends_with(": the value is quoted but not a TOML string (a quote left open, or a control character that TOML strings must escape, e.g. \\u001b)"), "{e}");
         assert!(!e.contains('\u{1b}') && !e.contains("\"\""), "{e}");
     }
+    // A key path of 60,000 segments built as many nested tables and overflowed the stack
+    // (rc 134; through serve's /api/state, 20,000 killed the server).
+    let deep = format!("{}=1", vec!["a"; 60_000].join("."));
+    let e = error(CELL, &[&deep]);
+    assert!(e.ends_with(": a key path of 60000 segments; scene keys have at most 16"), "{e}");
+    assert!(e.len() < 400, "{e}");
     assert_eq!(
         error(CELL, &["camera.eye=[1,2"]),
         "--set camera.eye=[1,2: camera.eye: expected an array of 3 numbers, got a string \"[1,2\""

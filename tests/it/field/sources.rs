@@ -594,6 +594,12 @@ fn non_finite_expression_values_name_the_point_and_time() {
         e.starts_with("expression \"1/(t - 2) + x\" at t = 2: value inf at grid point [0, 0, 0]"),
         "{e}"
     );
+    // Numbers in their short form: `--time 1e308` printed t's 309 digits (a 496-byte line).
+    let big = Bounds { min: DVec3::splat(1e300), max: DVec3::splat(2e300) };
+    let spec = error(FieldSpec::expr("t * x", [2, 2, 2], big).unwrap());
+    let e = spec.sample_with(1e308, &GridLimits::default()).unwrap_err().to_string();
+    assert!(e.starts_with("expression \"t * x\" at t = 1e308: "), "{e}");
+    assert!(e.contains("(x = 1e300, y = 1e300, z = 1e300)") && e.len() < 200, "{e}");
 }
 
 #[test]

@@ -269,7 +269,7 @@ fn the_cli_meshes_each_interpolant() {
             assert_fails(
                 &r,
                 2,
-                &["m.toml", "field.residency = \"active\" streams trilinear cells"],
+                &["m.toml", "extract reads a grid in parts (field.residency = \"active\", or a grid over the memory cap) as trilinear cells"],
             );
         }
     }

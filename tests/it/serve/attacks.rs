@@ -344,6 +344,19 @@ fn expression_errors_are_one_clean_line() {
     }
 }
 
+/// A 40 KB state whose key path has 20,000 segments overflowed a worker's stack and killed
+/// the server (rc 134); now 400 with the command line's line, and the server serves on.
+#[gpu_test]
+fn a_deep_key_path_is_refused_not_a_stack_overflow() {
+    let server = small_server();
+    let deep = format!("{}=1", vec!["a"; 20_000].join("."));
+    let a = server.post("/api/state", &json!({ "set": [deep] }));
+    assert_eq!(a.status, 400, "{}", a.text());
+    let e = a.json()["error"].as_str().unwrap().to_string();
+    assert!(e.ends_with("a key path of 20000 segments; scene keys have at most 16"), "{e}");
+    alive(&server);
+}
+
 #[gpu_test]
 fn serve_expression_errors_are_one_clean_line() {
     let server = Server::start(

@@ -30,7 +30,7 @@ mod validate;
 use std::path::Path;
 
 pub use error::{SceneError, SceneErrorKind};
-pub use tree::MAX_SCENE_BYTES;
+pub use tree::{MAX_KEY_SEGMENTS, MAX_SCENE_BYTES};
 pub use types::*;
 pub use validate::{
     DEFAULT_MAX_PIXELS, MAX_IMAGE_SIDE, MAX_NEWTON_STEPS, MAX_SLICE_DEPTH, MAX_STEPS,

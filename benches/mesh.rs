@@ -16,6 +16,7 @@
 //! rows (no Vulkan device is opened: the CPU rows alone, on a host where lavapipe would take
 //! the same cores); `ISOVIEW_BENCH_SHARP=0` leaves out the sharp-feature table;
 //! `ISOVIEW_BENCH_ALGOS=surface-nets,marching-cubes` times only those methods;
+//! `ISOVIEW_BENCH_FIELDS=gyroid` only those fields (sphere, gyroid, noise);
 //! `ISOVIEW_BENCH_SCENE=path.toml` adds a table for that scene's sampled field (e.g. the peer
 //! script's `target/peers/gyroid-256.toml`, the grid VTK's flying edges is timed on there).
 
@@ -86,6 +87,11 @@ fn noise_grid(n: usize) -> Grid {
 /// Whether `ISOVIEW_BENCH_ALGOS` (comma-separated method names; unset: all) names `algo`.
 fn picked(algo: &str) -> bool {
     std::env::var("ISOVIEW_BENCH_ALGOS").map_or(true, |v| v.split(',').any(|a| a.trim() == algo))
+}
+
+/// Whether `ISOVIEW_BENCH_FIELDS` (comma-separated field names; unset: all) names `field`.
+fn picked_field(field: &str) -> bool {
+    std::env::var("ISOVIEW_BENCH_FIELDS").map_or(true, |v| v.split(',').any(|a| a.trim() == field))
 }
 
 /// `/proc/loadavg`'s first three fields (other work on the host skews every time here,
@@ -166,12 +172,12 @@ fn main() {
 
     let mut rows = Vec::new();
     for &n in &sizes {
-        let fields: [(&'static str, Grid); 3] = [
-            ("sphere", sdf_grid(SdfShape::Sphere { radius: 0.6 }, n)),
-            ("gyroid", sdf_grid(SdfShape::Gyroid { scale: 10.0, thickness: 0.05 }, n)),
-            ("noise", noise_grid(n)),
-        ];
-        for (field, grid) in &fields {
+        for field in ["sphere", "gyroid", "noise"].into_iter().filter(|f| picked_field(f)) {
+            let grid = &match field {
+                "sphere" => sdf_grid(SdfShape::Sphere { radius: 0.6 }, n),
+                "gyroid" => sdf_grid(SdfShape::Gyroid { scale: 10.0, thickness: 0.05 }, n),
+                _ => noise_grid(n),
+            };
             let image = ctx.as_ref().map(|c| {
                 Image3d::upload(c, "grid", grid.dims.map(|d| d as u32), &grid.values).unwrap()
             });

@@ -54,6 +54,12 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
         "Cells per side of a brick of the min/max grid (empty-space skipping).",
     ),
     ("SUPER", 4, Glsl::Int, "Bricks per side of a superbrick, the min/max grid's coarser level."),
+    (
+        "FINE",
+        2,
+        Glsl::Int,
+        "Cells per side of a fine brick, the tricubic min/max grids' finer level (their per-cell test).",
+    ),
     // The interpolant's stencil (Rust: `field::interpolant::STENCIL`, asserted equal in
     // passes/bricks.rs): the points a cell reads before its lower corner and after it.
     ("STENCIL_BELOW", 0, Glsl::Int, "Points a cell reads before its lower corner, per axis."),

@@ -20,8 +20,8 @@ layout(local_size_x = BRICKS_GROUP, local_size_y = BRICKS_GROUP, local_size_z = 
 layout(binding = 0) uniform sampler3D u_grid;
 layout(std430, binding = 1) writeonly buffer Bricks { vec2 bricks[]; };
 layout(push_constant) uniform Shape {
-    ivec4 points;  // xyz: grid points per axis
-    ivec4 bricks;  // xyz: bricks per axis, w: brick size in cells
+    ivec4 points;  // xyz: grid points per axis, w: the buffer index of the level's first range
+    ivec4 bricks;  // xyz: bricks per axis, w: brick size in cells (BRICK, or FINE)
 } shape;
 
 void main() {
@@ -59,5 +59,5 @@ void main() {
     vmin = wmin;
     vmax = wmax;
 #endif
-    bricks[(b.z * shape.bricks.y + b.y) * shape.bricks.x + b.x] = vec2(vmin, vmax);
+    bricks[shape.points.w + (b.z * shape.bricks.y + b.y) * shape.bricks.x + b.x] = vec2(vmin, vmax);
 }

@@ -26,8 +26,10 @@
 // decides a predicate on in a cell (face values, leaf ends: de Casteljau averages of the
 // coefficients) is then within the range up to f32 rounding, which SKIP_MARGIN covers
 // (bricks.glsl). The walk jumps over a clearly empty brick (or superbrick) to the cell and t
-// the cell-by-cell walk reaches (`leave_brick`), and steps over a cell whose own samples'
-// range (widened the same way) is clear without forming its polynomial; a candidate cell is
+// the cell-by-cell walk reaches (`leave_brick`), steps over a cell whose fine brick (FINE^3
+// cells, the grid's finer level with the same bound) is clear without reading its samples,
+// and runs no isolation in a cell whose own samples' range (widened the same way) is clear
+// (its segment is formed: skipping that in a loop of its own measured slower); a candidate cell is
 // evaluated from its own samples and entry point, which are the bits the carried ones have
 // (face exactness: `cubic`'s module doc; the entry point is analytic.comp's `entry_point`).
 // So every channel is bit for bit the walk without skipping, but `steps`: cells tested plus one
@@ -35,6 +37,16 @@
 // them with `render.skip` (`reference::skipping`).
 
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
+
+// The loops over a cell's 64 samples (field.glsl's cell_samples and samples_missing,
+// cell_is_clear) unrolled, so that every index into `Samples` is a constant. With a loop index
+// (64 iterations: not unrolled) the array is indexed at run time, which costs llvmpipe about a
+// third of the gyroid's render, and its results depended on the neighbouring lanes where the
+// samples were read under divergent control flow (in 6a's loop: rays lost crossings, the
+// lane-dependence docs/limitations.md recorded); the same code with these loops unrolled is
+// bit for bit the walk without skipping (the_other_walks_skip_bit_identically).
+#define CUBIC_UNROLL [[unroll]]
 
 layout(local_size_x = RAY_GROUP, local_size_y = RAY_GROUP) in;  // build.rs
 
@@ -277,11 +289,10 @@ bool step_cells(bvec3 crossed, inout ivec3 cell, inout vec3 tmax, vec3 o, vec3 d
 
 // Whether no surface can cross in a (non-missing) cell of samples k: their range, widened by
 // Catmull-Rom's bound as its bricks' are (bricks.comp), is clear of every isovalue
-// (range_is_empty). The candidate's isolation then does not run: the walk itself is
-// unchanged (see 6a on why it does not step over such cells).
+// (range_is_empty). The candidate's isolation then does not run.
 bool cell_is_clear(Samples k) {
     float lo = k.s[0], hi = k.s[0];
-    for (int n = 1; n < 64; n++) {
+    CUBIC_UNROLL for (int n = 1; n < 64; n++) {
         lo = min(lo, k.s[n]);
         hi = max(hi, k.s[n]);
     }
@@ -370,14 +381,11 @@ void main() {
                 known = false;  // t_b > t_in
             } else {
                 passes++;
-                // A cell of a brick that is not empty: 6b reads it (a missing one holds no
-                // crossing: not evaluated there). No test of the cell's own samples' range:
-                // stepping over the cells it calls clear (sound: a brick's bound) made
-                // llvmpipe's results depend on the neighbouring lanes (a ray of the 64^3 torus
-                // ended 15 cells early, losing a crossing, or not, with the neighbours'
-                // `render.crossing`; the_other_walks_skip_bit_identically), which no
-                // restructuring of these loops removed: left out (docs/limitations.md).
-                candidate = !empty;
+                // A cell of a brick that is not empty: 6b reads it unless its fine brick is
+                // clear (one range read, not 64 samples; a missing cell holds no crossing: not
+                // evaluated there). Its samples are not read here: carried out of this loop
+                // they cost llvmpipe more than they save (2-3x slower on the gyroid).
+                candidate = !empty && !(skip && fine_brick_is_empty(cell));
                 // A cell with no crossing: step over it, as 6.6 does.
                 if (!candidate) {
                     t_b = max(min(min(tmax.x, min(tmax.y, tmax.z)), t_hi), t_in);
@@ -402,7 +410,6 @@ void main() {
         k = cell_samples(cell);
         bool missing = samples_missing(k);
         bool clear = skip && !missing && cell_is_clear(k);
-        float f_in = cubic_value(k, q_in);
         float t_out = max(min(min(tmax.x, min(tmax.y, tmax.z)), t_hi), t_in);
         bvec3 crossed = lessThanEqual(tmax, vec3(t_out));
         vec3 q_out;
@@ -415,8 +422,9 @@ void main() {
                 q_out[a] = local_at(a, t_out, cell, o, d);
             }
         }
-        float f_out = t_out == t_in ? f_in : cubic_value(k, q_out);
         if (!missing) {
+            float f_in = cubic_value(k, q_in);
+            float f_out = t_out == t_in ? f_in : cubic_value(k, q_out);
             // 6.3 The segment's polynomial, once for every surface.
             Poly fseg = cubic_segment(k, q_in, q_out);
             // The first crossing of this cell among the surfaces, for the hit.

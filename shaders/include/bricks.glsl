@@ -90,6 +90,19 @@ bool superbrick_is_empty(ivec3 cell) {
 #endif
 }
 
+#ifndef GRID_POOL
+// The same for the fine brick (FINE^3 cells) of `cell`: the tricubic grids' finer level, after
+// the superbricks (passes/bricks.rs's layout; no pool or block reads it).
+bool fine_brick_is_empty(ivec3 cell) {
+    ivec3 nb = brick_counts();
+    ivec3 ns = (nb - 1) / SUPER + 1;
+    ivec3 nf = (P.dims - 2) / FINE + 1;
+    ivec3 f = cell / FINE;
+    int first = nb.x * nb.y * nb.z + ns.x * ns.y * ns.z;
+    return range_is_empty(bricks[first + (f.z * nf.y + f.y) * nf.x + f.x]);
+}
+#endif
+
 // Defined at the end, below the jumps that use it: that order keeps the SPIR-V (stripped of
 // debug info) what it was before these helpers left analytic.comp.
 int last_in_block(int a, int c, bool whole, vec3 d);

@@ -17,7 +17,10 @@
 //!
 //! Layout: one `vec2 (min, max)` per brick, x fastest, `ceil(cells / BRICK)` bricks per axis
 //! (the last brick along an axis may be partial), then one per superbrick, x fastest,
-//! `ceil(bricks / SUPER)` per axis ([`levels`]). Built once per uploaded grid, on the GPU, from
+//! `ceil(bricks / SUPER)` per axis ([`levels`]). The tricubic grids then have a finer level,
+//! fine bricks of [`FINE`]³ cells, x fastest, `ceil(cells / FINE)` per axis, with the same
+//! bound as their bricks: the walk's test of a cell in a brick that is not empty, one range
+//! read instead of its 64 samples (`shaders/tricubic.comp`). Built once per uploaded grid, on the GPU, from
 //! the grid image itself; for an MPI block or a brick pool, on the CPU from the brick ranges.
 
 use std::sync::Arc;
@@ -37,6 +40,9 @@ pub const BRICK: usize = shaders::consts::BRICK as usize;
 
 /// Bricks per superbrick edge.
 pub const SUPER: usize = shaders::consts::SUPER as usize;
+
+/// Cells per fine brick edge (the tricubic grids' finer level).
+pub const FINE: usize = shaders::consts::FINE as usize;
 
 // bricks.comp reads each brick's stencil with build.rs's numbers; they must be Rust's.
 const _: () = assert!(
@@ -117,9 +123,9 @@ const GROUP: u32 = shaders::consts::BRICKS_GROUP;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Shape {
-    /// xyz: grid points per axis.
+    /// xyz: grid points per axis, w: the index of the level's first range in the buffer.
     pub points: [i32; 4],
-    /// xyz: bricks per axis, w: [`BRICK`].
+    /// xyz: bricks per axis, w: cells per brick edge ([`BRICK`], or [`FINE`]).
     pub bricks: [i32; 4],
 }
 
@@ -135,7 +141,17 @@ pub struct SuperShape {
 
 /// Bricks per axis of a grid with `dims` points.
 pub fn brick_counts(dims: [usize; 3]) -> [usize; 3] {
-    dims.map(|n| n.saturating_sub(1).max(1).div_ceil(BRICK))
+    counts_of(dims, BRICK)
+}
+
+/// Fine bricks per axis of a grid with `dims` points.
+pub fn fine_counts(dims: [usize; 3]) -> [usize; 3] {
+    counts_of(dims, FINE)
+}
+
+/// Blocks of `size`³ cells per axis of a grid with `dims` points.
+fn counts_of(dims: [usize; 3], size: usize) -> [usize; 3] {
+    dims.map(|n| n.saturating_sub(1).max(1).div_ceil(size))
 }
 
 /// Superbricks per axis of a grid with `dims` points.
@@ -179,13 +195,24 @@ pub fn reference(grid: &crate::field::Grid) -> Vec<[f32; 2]> {
 /// [`reference`] for any [`Bound`]: the CPU twin of each build of `bricks.comp`, bit for bit
 /// (the reference walks count `steps` with it: `reference::skipping`).
 pub fn reference_for(grid: &crate::field::Grid, bound: Bound) -> Vec<[f32; 2]> {
-    let counts = brick_counts(grid.dims);
+    reference_sized(grid, bound, BRICK)
+}
+
+/// The fine level of a tricubic grid ([`FINE`]) computed on the CPU, in its layout: the CPU
+/// twin of the build's last pass.
+pub fn fine_reference_for(grid: &crate::field::Grid, bound: Bound) -> Vec<[f32; 2]> {
+    reference_sized(grid, bound, FINE)
+}
+
+/// The ranges of `bound` over blocks of `size`³ cells, x fastest.
+fn reference_sized(grid: &crate::field::Grid, bound: Bound, size: usize) -> Vec<[f32; 2]> {
+    let counts = counts_of(grid.dims, size);
     let stencil = bound.stencil();
     let mut out = Vec::with_capacity(counts.iter().product());
     for bz in 0..counts[2] {
         for by in 0..counts[1] {
             for bx in 0..counts[0] {
-                let span = |a: usize, b: usize| stencil.brick_points(b, BRICK, grid.dims[a]);
+                let span = |a: usize, b: usize| stencil.brick_points(b, size, grid.dims[a]);
                 let mut mm = [f32::INFINITY, f32::NEG_INFINITY];
                 for k in span(2, bz) {
                     for j in span(1, by) {
@@ -255,9 +282,12 @@ pub fn build(
 ) -> Result<Built, GpuError> {
     let counts = brick_counts(dims);
     let supers = super_counts(dims);
+    let fine = fine_counts(dims);
     let n_bricks = counts.iter().product::<usize>();
     let n_supers = supers.iter().product::<usize>();
-    let entries = n_bricks + n_supers;
+    // Only the tricubic walks read a fine level.
+    let n_fine = if bound == Bound::Corners { 0 } else { fine.iter().product::<usize>() };
+    let entries = n_bricks + n_supers + n_fine;
     let host = Buffer::new(
         ctx,
         "superbricks readback",
@@ -283,6 +313,7 @@ pub fn build(
     let i = |v: [usize; 3], w: usize| [v[0] as i32, v[1] as i32, v[2] as i32, w as i32];
     let shape = Shape { points: i(dims, 0), bricks: i(counts, BRICK) };
     let super_shape = SuperShape { supers: i(supers, SUPER), bricks: i(counts, 0) };
+    let fine_shape = Shape { points: i(dims, n_bricks + n_supers), bricks: i(fine, FINE) };
     let timer = Timer::new(ctx)?;
     ctx.record(&pipeline.name, &mut Tracker::default(), |rec| {
         rec.timed(timer.as_ref(), |rec| {
@@ -292,6 +323,11 @@ pub fn build(
             // Then one per superbrick, reading the bricks' ranges the first pass wrote.
             let groups = grid_groups(supers.map(|c| c as u32), [GROUP; 3]);
             rec.dispatch(&pipelines.supers, &super_set, bytemuck::bytes_of(&super_shape), groups);
+            if n_fine > 0 {
+                // Then the fine bricks, after the superbricks (the same pass, other blocks).
+                let groups = grid_groups(fine.map(|c| c as u32), [GROUP; 3]);
+                rec.dispatch(pipeline, &set, bytemuck::bytes_of(&fine_shape), groups);
+            }
             Ok(())
         })?;
         rec.copy(&bricks, (n_bricks * 8) as u64, &host, 0, (n_supers * 8) as u64);

@@ -967,7 +967,8 @@ fn the_tricubic_skip_bounds_hold_the_overshoot_and_the_apron() {
 
 /// The tricubic walks' min/max grids (`bricks.comp`'s cubic builds), built on the device by the
 /// first render through each interpolant, equal their CPU twins (`bricks::reference_for`, with
-/// the superbricks of `bricks::levels`) bit for bit, missing samples included.
+/// the superbricks of `bricks::levels`, then the fine level of `bricks::fine_reference_for`)
+/// bit for bit, missing samples included.
 #[gpu_test]
 fn the_tricubic_brick_grids_equal_their_cpu_twins() {
     use isoview::passes::bricks::{self, Bound};
@@ -991,6 +992,10 @@ fn the_tricubic_brick_grids_equal_their_cpu_twins() {
             let expected = bricks::levels(grid.dims, &bricks::reference_for(&grid, bound));
             let seen: Vec<[f32; 2]> = read_device_buffer(&ctx, built, expected.len());
             assert_eq!(seen, expected, "{} dims {dims:?}", interp.name());
+            // Then the fine level (the walk's per-cell test).
+            let fine = bricks::fine_reference_for(&grid, bound);
+            let all: Vec<[f32; 2]> = read_device_buffer(&ctx, built, expected.len() + fine.len());
+            assert_eq!(all[expected.len()..], fine[..], "{} dims {dims:?}: fine", interp.name());
         }
     }
 }

@@ -32,27 +32,27 @@ pub struct CompareArgs {
     pub png: Option<PathBuf>,
     /// Absolute difference over which a float value fails (integer channels: exact unless
     /// --fail-class integer=T).
-    #[arg(long, value_name = "T", default_value_t = DEFAULT_FAIL, value_parser = non_negative)]
+    #[arg(long, allow_hyphen_values = true, value_name = "T", default_value_t = DEFAULT_FAIL, value_parser = non_negative)]
     pub fail: f64,
     /// Percentage of pixels allowed to fail.
-    #[arg(long, value_name = "P", default_value_t = 0.0, value_parser = non_negative)]
+    #[arg(long, allow_hyphen_values = true, value_name = "P", default_value_t = 0.0, value_parser = non_negative)]
     pub fail_percent: f64,
     /// Relative threshold: a value fails only when its difference is also over
     /// R * max(|a|, |b|).
-    #[arg(long, value_name = "R", default_value_t = 0.0, value_parser = non_negative)]
+    #[arg(long, allow_hyphen_values = true, value_name = "R", default_value_t = 0.0, value_parser = non_negative)]
     pub fail_relative: f64,
     /// Fail if any value differs by more than H, whatever the percentage.
-    #[arg(long, value_name = "H", value_parser = non_negative)]
+    #[arg(long, allow_hyphen_values = true, value_name = "H", value_parser = non_negative)]
     pub hard_fail: Option<f64>,
     /// Fail threshold for one channel class: colour, depth, normal, position, integer, other
     /// (repeatable).
     #[arg(long, value_name = "CLASS=T", value_parser = class_threshold)]
     pub fail_class: Vec<(ChannelClass, f64)>,
     /// Absolute difference over which a value warns.
-    #[arg(long, value_name = "T", default_value_t = DEFAULT_WARN, value_parser = non_negative)]
+    #[arg(long, allow_hyphen_values = true, value_name = "T", default_value_t = DEFAULT_WARN, value_parser = non_negative)]
     pub warn: f64,
     /// Percentage of pixels allowed over the warn threshold before the verdict is WARN.
-    #[arg(long, value_name = "P", default_value_t = 0.0, value_parser = non_negative)]
+    #[arg(long, allow_hyphen_values = true, value_name = "P", default_value_t = 0.0, value_parser = non_negative)]
     pub warn_percent: f64,
     /// Forgive failing pixels where a silhouette moved by one pixel.
     #[arg(long)]
@@ -61,7 +61,7 @@ pub struct CompareArgs {
     #[arg(long, conflicts_with = "flip_fail")]
     pub no_flip: bool,
     /// Fail when the FLIP mean of the beauty is over this.
-    #[arg(long, value_name = "MEAN", value_parser = non_negative)]
+    #[arg(long, allow_hyphen_values = true, value_name = "MEAN", value_parser = non_negative)]
     pub flip_fail: Option<f64>,
     /// Compare only these channels (comma-separated); others may differ between the files.
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]

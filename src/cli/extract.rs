@@ -65,7 +65,7 @@ pub struct ExtractArgs {
     #[arg(long)]
     pub stats: bool,
     /// Time of the field in seconds (`t` in expr fields).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = super::number)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = super::number)]
     pub time: f64,
     /// Write the quads of surface-nets and dual-contouring instead of their triangles (PLY and
     /// OBJ; STL holds triangles only).

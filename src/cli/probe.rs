@@ -18,7 +18,13 @@ pub struct ProbeArgs {
     /// Scene file (TOML).
     pub scene: PathBuf,
     /// Pixel column and row (row 0 at the top), e.g. --pixel 120,64.
-    #[arg(long, value_name = "X,Y", required_unless_present = "slice", conflicts_with = "slice")]
+    #[arg(
+        long,
+        allow_hyphen_values = true,
+        value_name = "X,Y",
+        required_unless_present = "slice",
+        conflicts_with = "slice"
+    )]
     pub pixel: Option<String>,
     /// Probe a slicing plane instead of a pixel, e.g. --slice z=0.1 (needs --segment).
     #[arg(long, value_name = "AXIS=C", requires = "segment")]
@@ -31,7 +37,7 @@ pub struct ProbeArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
     /// Time of the field in seconds.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = super::number)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = super::number)]
     pub time: f64,
     /// Print JSON instead of text.
     #[arg(long)]

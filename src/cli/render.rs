@@ -26,13 +26,13 @@ pub struct RenderArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
     /// Time of the field in seconds (`t` in expr fields).
-    #[arg(long, default_value_t = 0.0, conflicts_with = "frames", allow_negative_numbers = true, value_parser = super::number)]
+    #[arg(long, default_value_t = 0.0, conflicts_with = "frames", allow_hyphen_values = true, value_parser = super::number)]
     pub time: f64,
     /// Render frames A to B inclusive (`A..B`), at time frame / fps.
     #[arg(long, value_name = "A..B", allow_hyphen_values = true)]
     pub frames: Option<String>,
     /// Frames per second for --frames.
-    #[arg(long, default_value_t = 24.0, allow_negative_numbers = true, value_parser = super::number)]
+    #[arg(long, default_value_t = 24.0, allow_hyphen_values = true, value_parser = super::number)]
     pub fps: f64,
     /// Also show each frame in the tev HDR viewer (every EXR channel), sent over tev's TCP
     /// protocol; HOST:PORT defaults to 127.0.0.1:14158 (tev's own default).

@@ -12,7 +12,7 @@ pub struct ServeArgs {
     /// Scene file (TOML).
     pub scene: PathBuf,
     /// TCP port (0: any free port; the printed URL says which).
-    #[arg(long, default_value_t = 8000)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 8000)]
     pub port: u16,
     /// Address to listen on. The default serves this machine only; reach it from elsewhere
     /// with `ssh -L 8000:127.0.0.1:8000 HOST`.
@@ -22,14 +22,14 @@ pub struct ServeArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
     /// Time of the field in seconds (`t` in expr fields) to start at.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = super::number)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = super::number)]
     pub time: f64,
     /// A folder whose files the page may point the field at, besides the scene's folder and
     /// the scene's own data files (repeatable).
     #[arg(long = "allow-dir", value_name = "DIR")]
     pub allow_dirs: Vec<PathBuf>,
     /// Largest image, in pixels (width x height), the page may ask for.
-    #[arg(long, value_name = "N", default_value_t = crate::scene::DEFAULT_MAX_PIXELS,
+    #[arg(long, allow_hyphen_values = true, value_name = "N", default_value_t = crate::scene::DEFAULT_MAX_PIXELS,
           value_parser = clap::value_parser!(u64).range(1..))]
     pub max_pixels: u64,
 }

@@ -26,7 +26,7 @@ pub struct SliceArgs {
     #[arg(long, value_enum, ignore_case = true)]
     pub axis: Axis,
     /// World coordinate of the plane along the axis (inside the grid box).
-    #[arg(long, allow_negative_numbers = true, value_parser = super::number)]
+    #[arg(long, allow_hyphen_values = true, value_parser = super::number)]
     pub at: f64,
     /// Write the contours as JSON (world coordinates).
     #[arg(long)]
@@ -41,10 +41,10 @@ pub struct SliceArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
     /// Time of the field in seconds (`t` in expr fields).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = super::number)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = super::number)]
     pub time: f64,
     /// Largest picture, in pixels (width x height): it is drawn whole in memory.
-    #[arg(long, value_name = "N", default_value_t = scene::DEFAULT_MAX_PIXELS,
+    #[arg(long, allow_hyphen_values = true, value_name = "N", default_value_t = scene::DEFAULT_MAX_PIXELS,
           value_parser = clap::value_parser!(u64).range(1..))]
     pub max_pixels: u64,
 }

@@ -19,10 +19,10 @@ pub struct StatsArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
     /// Time t for fields that depend on it.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = super::number)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = super::number)]
     pub time: f64,
     /// Histogram bins.
-    #[arg(long, default_value_t = 24)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 24)]
     pub bins: usize,
 }
 

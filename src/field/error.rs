@@ -164,7 +164,7 @@ pub enum FieldError {
     OutOfRange { what: String, index: [usize; 3], value: f64, detail: String },
 
     /// An expression that does not parse, or names something unknown.
-    #[error("expression \"{text}\": {message}")]
+    #[error("expression \"{}\": {message}", crate::vocab::echo(text))]
     Expr { text: String, message: String },
 
     /// `ISOVIEW_MAX_GRID_MIB` is set to something that is not a positive whole number.

@@ -14,6 +14,9 @@ use super::FieldError;
 /// The variables an expression may use, in the order [`ExprSource::eval`] fills them.
 const VARIABLES: [&str; 4] = ["x", "y", "z", "t"];
 
+/// The longest `field.expression` read, in bytes.
+pub const MAX_EXPRESSION_BYTES: usize = 4096;
+
 /// A compiled expression field.
 #[derive(Clone, Debug)]
 pub struct ExprSource {
@@ -37,6 +40,16 @@ impl ExprSource {
         let err = |message: String| FieldError::Expr { text: text.to_string(), message };
         if text.trim().is_empty() {
             return Err(err("the expression is empty".into()));
+        }
+        // The parser's cost grows faster than the text (100,000 nested sin( took 8 s, 300,000
+        // over a minute) and every grid point evaluates every term: a bound before any work
+        // (a `serve` state is parsed on a worker). Scene expressions are a line or two.
+        if text.len() > MAX_EXPRESSION_BYTES {
+            return Err(err(format!(
+                "{} bytes, over the {MAX_EXPRESSION_BYTES} an expression may have (sample a \
+                 longer formula into a raw or npy file)",
+                text.len()
+            )));
         }
         check_syntax(text).map_err(err)?;
         // exmex's message is not shown (see check_syntax).

@@ -526,3 +526,67 @@ fn an_interrupted_render_leaves_no_temporary_file() {
     }
     assert!(interrupted >= 2, "only {interrupted} of 3 renders were still running when signalled");
 }
+
+/// Third #29 pass: a signal during `compare --diff` hung the process for good (the signal
+/// thread waited for the stderr lock compare holds, compare for the writer's lock the signal
+/// thread held); SIGQUIT left the temporary file; an ignored SIGHUP (`nohup`) still killed.
+#[test]
+fn signals_never_hang_and_ignored_ones_stay_ignored() {
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::{Command, Stdio};
+    let dir = crate::common::scratch("interrupted-compare");
+    let scene = crate::common::write(
+        &dir,
+        "s.toml",
+        "[image]\nwidth = 1024\nheight = 1024\n[field]\nsource = \"sdf\"\nshape = \"sphere\"\n\
+         radius = 0.7\nresolution = [8, 8, 8]\n",
+    );
+    let a = dir.join("a.exr");
+    let r = crate::common::isoview(&["render", &scene, "-o", a.to_str().unwrap()], &[]);
+    assert!(r.status.success(), "{}", crate::common::stderr(&r));
+    let run = |args: Vec<String>, sig: i32, ignore: bool| {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_isoview"));
+        cmd.args(&args).stderr(Stdio::piped()).stdout(Stdio::null());
+        if ignore {
+            // SAFETY: in the child before exec: set the signal to be ignored, as nohup does.
+            unsafe {
+                use std::os::unix::process::CommandExt;
+                cmd.pre_exec(move || {
+                    libc::signal(sig, libc::SIG_IGN);
+                    Ok(())
+                });
+            }
+        }
+        let mut child = cmd.spawn().unwrap();
+        // Signalled once an output is being written (or at once if it ended first).
+        while !entries(&dir).iter().any(|e| e.ends_with(".tmp")) {
+            if child.try_wait().unwrap().is_some() {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        // SAFETY: a signal to our own child.
+        unsafe { libc::kill(child.id() as i32, sig) };
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || tx.send(child.wait_with_output().unwrap()));
+        let out = rx.recv_timeout(std::time::Duration::from_secs(120)).expect("it hung");
+        let left: Vec<String> = entries(&dir).into_iter().filter(|e| e.ends_with(".tmp")).collect();
+        assert!(left.is_empty(), "left {left:?}");
+        out
+    };
+    let s = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    let diff = dir.join("d.exr").display().to_string();
+    let compare = s(&["compare", a.to_str().unwrap(), a.to_str().unwrap(), "--diff", &diff]);
+    let out = run(compare, libc::SIGINT, false);
+    if !out.status.success() {
+        assert_eq!(out.status.signal(), Some(libc::SIGINT), "{:?}", out.status);
+    }
+    let o = dir.join("o.exr").display().to_string();
+    let out = run(s(&["render", &scene, "-o", &o]), libc::SIGQUIT, false);
+    if !out.status.success() {
+        assert_eq!(out.status.signal(), Some(libc::SIGQUIT), "{:?}", out.status);
+    }
+    let out = run(s(&["render", &scene, "-o", &o]), libc::SIGHUP, true);
+    assert!(out.status.success(), "an ignored SIGHUP ended it: {:?}", out.status);
+    assert!(std::path::Path::new(&o).exists());
+}

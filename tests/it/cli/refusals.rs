@@ -675,8 +675,23 @@ fn every_verb_refuses_a_time_that_is_not_finite() {
     assert!(!Path::new(&exr).exists() && !Path::new(&ply).exists());
     // A negative time is a time: `--time -1` was taken for a flag by the argument parser
     // (seven lines of usage, exit 2) where `--time=-1` worked.
-    let o = isoview_output(&["stats", &scene, "--time", "-1"]);
+    // ... also with an exponent, which clap's negative-number test does not take (`-1e-3`
+    // was "unexpected argument"), and on every number flag.
+    for t in ["-1", "-1e-3", "-2.5E+1"] {
+        let o = isoview_output(&["stats", &scene, "--time", t]);
+        assert!(o.status.success(), "--time {t}: {}", stderr(&o));
+    }
+    let o = isoview_output(&["slice", &scene, "-o", &exr, "--axis", "z", "--at", "-1e-1"]);
     assert!(o.status.success(), "{}", stderr(&o));
+    let o = isoview_output(&["render", &scene, "-o", &exr, "--time", "-inf"]);
+    assert_fails(&o, 2, &["--time -inf: must be a finite number"]);
+    for (verb, flag) in [("probe", "--pixel"), ("stats", "--bins")] {
+        let o = isoview_output(&[verb, &scene, flag, "-1"]);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(!err.contains("unexpected argument"), "{flag}: {err}");
+    }
+    std::fs::remove_file(&exr).unwrap();
     let o = isoview_output(&["render", &scene, "-o", &exr, "--frames", "0..1", "--fps", "-2"]);
     assert_fails(&o, 2, &["--fps -2: must be a positive number"]);
     // An fps so small that a frame's time is infinite (5e-324: 1 / fps overflows) sampled the

@@ -342,6 +342,22 @@ fn expression_errors_are_one_clean_line() {
         );
         assert_eq!(e.trim_end().lines().count(), 1, "{expr}: {e}");
     }
+    // Third #29 pass: 100,000 nested `sin(` took the parser 8 s (300,000 over a minute, and
+    // ten such states held every serve worker); over 4096 bytes is refused before parsing,
+    // the expression echoed cut.
+    let deep = format!("{}x{}", "sin(".repeat(100_000), ")".repeat(100_000));
+    let scene = format!(
+        "[field]\nsource = \"expr\"\nexpression = \"{deep}\"\nresolution = [4, 4, 4]\n\
+         bounds = {{ min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 1.0] }}\n"
+    );
+    let long = write(&dir, "long.toml", &scene);
+    let started = std::time::Instant::now();
+    let o = isoview(&["stats", &long], &[]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("500001 bytes, over the 4096 an expression may have"), "{e}");
+    assert!(e.len() < 600 && e.trim_end().lines().count() == 1, "{} bytes", e.len());
+    assert!(started.elapsed().as_secs() < 30, "refused before parsing");
 }
 
 /// A 40 KB state whose key path has 20,000 segments overflowed a worker's stack and killed

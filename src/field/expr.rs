@@ -64,8 +64,9 @@ impl ExprSource {
                 Some(slot) => slots.push(slot),
                 None => {
                     return Err(err(format!(
-                        "unknown variable \"{name}\" (the variables are x, y, z and t; \
-                         constants are PI, E and TAU)"
+                        "unknown variable \"{}\" (the variables are x, y, z and t; \
+                         constants are PI, E and TAU)",
+                        crate::vocab::echo(name)
                     )))
                 }
             }
@@ -156,7 +157,9 @@ fn check_syntax(text: &str) -> Result<(), String> {
                     j += 1;
                 }
                 if j < chars.len() && chars[j].is_ascii_digit() {
+                    // Cut and escaped as every echoed value (a 4 KiB mantissa, a control char).
                     let mantissa: String = chars[start..i].iter().collect();
+                    let mantissa = crate::vocab::echo(&mantissa);
                     return Err(format!(
                         "cannot parse: the number at character {at} has an exponent, which \
                          expressions do not read; write {mantissa} * 10^..."
@@ -169,13 +172,14 @@ fn check_syntax(text: &str) -> Result<(), String> {
             while i < chars.len() && (chars[i].is_alphanumeric() || chars[i] == '_') {
                 i += 1;
             }
-            let name: String = chars[start..i].iter().collect();
+            let whole: String = chars[start..i].iter().collect();
+            let name = crate::vocab::echo(&whole);
             let mut j = i;
             while j < chars.len() && chars[j].is_whitespace() {
                 j += 1;
             }
             let called = j < chars.len() && chars[j] == '(';
-            if known.contains(&name.as_str()) {
+            if known.contains(&whole.as_str()) {
                 if prev == Prev::Value {
                     return Err(format!(
                         "cannot parse: function \"{name}\" at character {at} follows a value \

@@ -44,6 +44,11 @@ void init() {
 
 }  // namespace
 
+// OpenVDB's one-time set-up, for the parent to run before it forks a reader: the set-up
+// registers exit handlers (atexit), and a child forked while another thread of the parent held
+// glibc's atexit lock waited on that lock for ever (seen in the test suite's threads).
+extern "C" void ivdb_initialize() { init(); }
+
 struct ivdb_file {
     std::unique_ptr<openvdb::io::File> file;
     openvdb::GridPtrVecPtr metas;

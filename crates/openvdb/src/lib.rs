@@ -17,6 +17,14 @@ mod isolate;
 
 pub use isolate::{isolated, Limits, Reply};
 
+/// Runs OpenVDB's one-time set-up in this process (idempotent). Call it before
+/// [`isolated`] forks a reader: the set-up registers exit handlers, and a child forked while
+/// another thread held the C library's atexit lock would wait on it for ever.
+pub fn initialize() {
+    // SAFETY: no arguments; the bridge runs openvdb::initialize once (std::call_once).
+    unsafe { ivdb_initialize() }
+}
+
 use std::ffi::{c_char, CStr, CString};
 use std::path::Path;
 
@@ -58,6 +66,7 @@ struct RawInfo {
 }
 
 extern "C" {
+    fn ivdb_initialize();
     fn ivdb_open(path: *const c_char, err: *mut c_char, cap: usize) -> *mut RawFile;
     fn ivdb_close(f: *mut RawFile);
     fn ivdb_grid_count(f: *const RawFile) -> usize;

@@ -202,6 +202,9 @@ mod with_library {
         };
         let path = err.path.to_path_buf();
         let wanted = opts.grid.clone();
+        // In this process first: the child then finds OpenVDB set up and registers no exit
+        // handler (a fork while another thread held the atexit lock hung the child).
+        ovdb::initialize();
         let reply = ovdb::isolated(limits, move || child(&path, wanted.as_deref(), cap))
             .map_err(|e| err.bad(e.to_string()))?;
         parse(err, opts, reply.into_buffer())

@@ -358,6 +358,21 @@ fn expression_errors_are_one_clean_line() {
     assert!(e.contains("500001 bytes, over the 4096 an expression may have"), "{e}");
     assert!(e.len() < 600 && e.trim_end().lines().count() == 1, "{} bytes", e.len());
     assert!(started.elapsed().as_secs() < 30, "refused before parsing");
+    // Fourth pass: names and numbers inside the expression were quoted whole (4 KiB lines)
+    // and unescaped (ESC, U+202E reached serve's page).
+    for expr in [
+        format!("x + {}", "a".repeat(3000)),
+        format!("x + f{}(x)", "b".repeat(3000)),
+        format!("{}e5 * x", "1".repeat(3000)),
+        "x + a\u{1b}b\u{202e}c".to_string(),
+    ] {
+        let set = format!("field.expression={expr:?}");
+        let o = isoview(&["stats", &file, "--set", &set], &[]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        assert!(e.len() < 700 && e.trim_end().lines().count() == 1, "{} bytes: {e}", e.len());
+        assert!(!e.contains('\u{1b}') && !e.contains('\u{202e}'), "{e}");
+    }
 }
 
 /// A 40 KB state whose key path has 20,000 segments overflowed a worker's stack and killed

@@ -73,6 +73,9 @@ pub struct RayInputs<'a> {
     pub colormap: &'a Buffer,
     /// The brick min/max grid ([`super::bricks`]): the analytic pass's fifth binding.
     pub bricks: Option<&'a Buffer>,
+    /// The entry map's buffers ([`super::entries`]): the `ENTRY_MAP` walk's last three
+    /// bindings; the pass is then dispatched indirectly over the rays the map lists.
+    pub entries: Option<&'a super::entries::Buffers>,
 }
 
 /// A ray pass bound to its inputs; records one band at a time.
@@ -80,7 +83,7 @@ pub struct RayPass<'a> {
     pipeline: &'a ComputePipeline,
     set: Dispatch,
     /// Keeps the bound buffers borrowed while the set refers to them.
-    _inputs: RayInputs<'a>,
+    inputs: RayInputs<'a>,
 }
 
 impl<'a> RayPass<'a> {
@@ -98,6 +101,9 @@ impl<'a> RayPass<'a> {
                 r.extend(whole);
                 r.extend([Resource::Storage(inputs.pixels), Resource::Storage(inputs.colormap)]);
                 r.extend(inputs.bricks.map(Resource::Storage));
+                if let Some(e) = inputs.entries {
+                    r.extend([&e.entries, &e.active, &e.listed].map(Resource::Storage));
+                }
                 r
             }
             GridInput::Pool { pool, pages, bricks } => vec![
@@ -110,7 +116,7 @@ impl<'a> RayPass<'a> {
             ],
         };
         let set = pipeline.bind(&resources)?;
-        Ok(RayPass { pipeline, set, _inputs: inputs })
+        Ok(RayPass { pipeline, set, inputs })
     }
 
     /// The pass's name (its pipeline's).
@@ -119,9 +125,22 @@ impl<'a> RayPass<'a> {
     }
 
     /// Records the band: one invocation per pixel, [`GROUP`]² pixels per workgroup, the band as
-    /// push constants.
+    /// push constants; with the entry map, one per listed ray, as many workgroups as the map's
+    /// sort counted (recorded after it: [`super::entries::EntryPass::record`]).
     pub fn record(&self, rec: &mut Recorder, width: u32, band: Band) {
-        let groups = grid_groups([width, band.rows, 1], [GROUP, GROUP, 1]);
-        rec.dispatch(self.pipeline, &self.set, bytemuck::bytes_of(&band), groups);
+        let push = bytemuck::bytes_of(&band);
+        match self.inputs.entries {
+            Some(e) => rec.dispatch_indirect(
+                self.pipeline,
+                &self.set,
+                push,
+                &e.listed,
+                super::entries::Buffers::ARGS,
+            ),
+            None => {
+                let groups = grid_groups([width, band.rows, 1], [GROUP, GROUP, 1]);
+                rec.dispatch(self.pipeline, &self.set, push, groups);
+            }
+        }
     }
 }

@@ -37,7 +37,6 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
         "Workgroup side of slice.comp, also the side of its contour tiles in pixels.",
     ),
     ("BRICKS_GROUP", 4, Glsl::Int, "Workgroup side (x, y, z) of bricks.comp."),
-    ("ENTRIES_GROUP", 64, Glsl::Int, "Workgroup size of entries/raster.comp (bricks per group)."),
     ("EXTRACT_GROUP", 64, Glsl::Int, "Workgroup size of the extraction passes (shaders/extract/)."),
     ("RASTER_GROUP", 64, Glsl::Int, "Workgroup size of mesh_raster.comp."),
     ("SCAN_PER", 16, Glsl::Uint, "Elements each invocation of scan.comp / scan_add.comp handles."),
@@ -131,8 +130,6 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
 const VARIANTS: &[(&str, &str, &[&str])] = &[
     ("analytic.comp", "pool", &["GRID_POOL"]),
     ("analytic.comp", "buffer", &["GRID_BUFFER"]),
-    // ... and walking only the rays the entry map lists, from where it says (passes/entries.rs).
-    ("analytic.comp", "entries", &["GRID_BUFFER", "ENTRY_MAP"]),
     ("raymarch.comp", "pool", &["GRID_POOL"]),
     // Fixed-step through the other interpolants (`field.interpolation`; field.glsl): one
     // variant each, so the trilinear march keeps its code.

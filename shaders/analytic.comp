@@ -67,14 +67,6 @@ layout(std430, binding = 2) writeonly buffer Out { Pixel pixels[]; };
 layout(std430, binding = 3) readonly buffer Colormap { vec4 colormap[256]; };
 layout(std430, binding = 4) readonly buffer Bricks { vec2 bricks[]; };
 layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
-#ifdef ENTRY_MAP
-// The entry map (passes/entries.rs): per pixel of the band, the t where its ray enters the
-// first brick that may hold a surface (as float bits); the rays that need a walk, as pixel
-// indices, and how many (entries/compact.comp). One invocation per listed ray.
-layout(std430, binding = 5) readonly buffer Entries { uint entries[]; };
-layout(std430, binding = 6) readonly buffer Active { uint rays[]; };
-layout(std430, binding = 7) readonly buffer Listed { uint listed; uint listed_groups_x; uint listed_groups_y; uint listed_groups_z; };
-#endif
 
 #include "field.glsl"
 #include "shade.glsl"
@@ -253,15 +245,8 @@ bool owned(ivec3 cell) {
 }
 
 void main() {
-#ifdef ENTRY_MAP
-    uint listed_at = gl_WorkGroupID.x * uint(RAY_GROUP * RAY_GROUP) + gl_LocalInvocationIndex;
-    if (listed_at >= listed) return;
-    uint pix = rays[listed_at];
-    uvec2 px_local = uvec2(pix % P.picture_width, pix / P.picture_width);
-#else
     uvec2 px_local = gl_GlobalInvocationID.xy;
     if (px_local.x >= P.picture_width || px_local.y >= band.rows) return;
-#endif
     uvec2 px = uvec2(px_local.x, px_local.y + band.row_offset) * P.stride;
     vec3 eye;  // the ray's origin: the eye, or its pixel on the orthographic image plane
     vec3 dir;
@@ -356,8 +341,14 @@ void main() {
     float t_in = t_lo;
 
     // Jumps need tmax strictly increasing along each axis (so the cell-by-cell walk has no
-    // zero-length segments inside a brick: jumps_exact).
-    bool may_jump = P.skip != 0u && jumps_exact(o, d);
+    // zero-length segments inside a brick): plane numerators c - o distinct and ordered
+    // (|o| < 2^20), quotients finite and normal (2^-90 < |d| < 2^90). Always true for cameras within a million cells
+    // of the grid; other rays walk cell by cell.
+    bool may_jump = P.skip != 0u && all(lessThan(abs(o), vec3(1048576.0)));
+    for (int a = 0; a < 3; a++) {
+        float m = abs(d[a]);
+        if (m != 0.0 && !(m > 8.0779356694631609e-28 && m < 1.2379400392853803e27)) may_jump = false;
+    }
 
     // 6. The walk.
     uint max_passes = uint(ncell.x + ncell.y + ncell.z);
@@ -389,25 +380,6 @@ void main() {
     bool known = true;        // q_in is `q_known` (step 4's, carried through zero-length cells)
     vec3 q_known = q_in;
     bvec3 entered = bvec3(false);  // the axes whose planes the walk crossed into `cell`
-    // `steps` counts the passes from the first cell outside empty bricks: the passes before it
-    // (`lead`: jumps over empty bricks, cells of empty bricks stepped over) are what the entry
-    // map saves, so that `steps` is the same with and without it (and 0 for a ray that meets
-    // no brick that may hold a surface).
-    bool seen = false;
-    uint lead = 0u;
-#ifdef ENTRY_MAP
-    // Straight to the cell the walk is in where the ray enters the first brick that may hold
-    // a surface (or a little before: the map's margin): the walk would only have jumped empty
-    // bricks up to there, and land_at puts it in the state it would have had, bit for bit.
-    float t_entry = uintBitsToFloat(entries[pix]);
-    if (may_jump && t_entry > t_in && t_entry < t_hi && min(tmax.x, min(tmax.y, tmax.z)) > t_in) {
-        float t_landed = land_at(t_entry, cell, tmax, entered, t_in, o, d);
-        if (t_landed > t_in) {
-            known = false;
-            t_in = t_landed;
-        }
-    }
-#endif
     for (;;) {
         // 6a. To the next cell that may hold a crossing: cells one by one, and before each,
         // the empty bricks from there in jumps (a loop of its own: a jump reads one brick's
@@ -423,9 +395,7 @@ void main() {
                 // Its whole superbrick at once when that is empty too (then so is each of its
                 // bricks: range_is_empty), counted as the jumps through its bricks.
                 bool whole = BRICK_LEVELS > 1 && superbrick_is_empty(cell);
-                uint jumps = whole ? brick_jumps(cell, t_hi, o, d) : 1u;
-                passes += jumps;
-                if (!seen) lead += jumps;
+                passes += whole ? brick_jumps(cell, t_hi, o, d) : 1u;
                 float t_b = leave_brick(cell, tmax, t_hi, o, d, whole);
                 // The rest of the ray lies in this brick: no crossing is left.
                 ended = t_b >= t_hi;
@@ -438,8 +408,6 @@ void main() {
             }
             if (ended || passes >= max_passes) break;
             passes++;
-            seen = seen || !empty;
-            if (!seen) lead++;
             if (!empty && owned(cell)) {
                 corners = cell_corners(cell);
                 // A missing cell (field.glsl) holds no crossing: stepped over like a clear one.
@@ -531,7 +499,7 @@ void main() {
         r.rgba = vec4(shade(r.normal, dir, hit_t, float(visited), vec3(hit_cell) + hit_q,
                             hit_cell, P.surface_color[hit_surface].rgb), 1.0);
     }
-    r.steps = float((found ? visited : passes) - lead);
+    r.steps = float(found ? visited : passes);
     r.crossings = count_all ? int(crossings) : -1;
     pixels[px_local.y * P.picture_width + px_local.x] = r;
 }

@@ -340,7 +340,11 @@ void main() {
 
     // Jumps need tmax strictly increasing along each axis (analytic.comp's may_jump).
     bool skip = P.skip != 0u;
-    bool may_jump = skip && jumps_exact(o, d);
+    bool may_jump = skip && all(lessThan(abs(o), vec3(1048576.0)));
+    for (int a = 0; a < 3; a++) {
+        float m = abs(d[a]);
+        if (m != 0.0 && !(m > 8.0779356694631609e-28 && m < 1.2379400392853803e27)) may_jump = false;
+    }
 
     // 6. Loop, as analytic.comp's: inner loops find the next cell that may hold a crossing
     // (6a: brick jumps, then cells stepped over), the outer one evaluates it (6b). Without

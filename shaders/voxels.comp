@@ -165,7 +165,11 @@ void main() {
     bool skip = P.skip != 0u;
     // Jumps need tmax strictly increasing along each axis (analytic.comp's may_jump: plane
     // numerators v +- 1/2 - o distinct and ordered, quotients finite and normal).
-    bool may_jump = skip && jumps_exact(o, d);
+    bool may_jump = skip && all(lessThan(abs(o), vec3(1048576.0)));
+    for (int a = 0; a < 3; a++) {
+        float m = abs(d[a]);
+        if (m != 0.0 && !(m > 8.0779356694631609e-28 && m < 1.2379400392853803e27)) may_jump = false;
+    }
 
     // 4. First voxel: the kernel's (half up), or exactly on a plane going down, the one the
     // ray heads into.

@@ -10,8 +10,6 @@
 #ifndef BRICKS_GLSL
 #define BRICKS_GLSL
 
-#include "jumps.glsl"
-
 // A brick is skipped only when its whole value range is on one side of the isovalue by more
 // than this, relative to the magnitudes involved. Every value the walk decides the predicate on
 // inside a brick is a convex combination of the brick's corners (interp_value at segment ends)
@@ -167,48 +165,6 @@ float leave_brick(inout ivec3 cell, inout vec3 tmax, float t_hi, vec3 o, vec3 d,
         tmax[a] = tmax_of(a, c, o, d);
     }
     return t_b;
-}
-
-// Puts the walk, in `cell` since t_in with next planes `tmax` (min(tmax) > t_in; jumps_exact),
-// in the cell its cell-by-cell walk is in at t > t_in: per axis the first cell in travel order
-// whose far plane's t is t or later (leave_brick's rule), found from the position at t and
-// corrected against the planes' own t. Returns the t the walk enters that cell at (the largest
-// t of the planes crossed to reach it) and in `entered` the axes it enters it across: the state
-// the cell-by-cell walk has there, bit for bit. Returns t_in, changing nothing, when t is not
-// past the next plane or the correction does not settle (it settles in a step or two).
-float land_at(float t, inout ivec3 cell, inout vec3 tmax, out bvec3 entered, float t_in, vec3 o,
-              vec3 d) {
-    entered = bvec3(false);
-    ivec3 to = cell;
-    bvec3 moved = bvec3(false);
-    bool settled = true;
-    for (int a = 0; a < 3; a++) {
-        if (d[a] == 0.0 || tmax[a] >= t) continue;
-        int s = d[a] > 0.0 ? 1 : -1;
-        int first = cell[a] + s;
-        int last = s > 0 ? P.dims[a] - 2 : 0;
-        float x = o[a] + t * d[a];
-        int c = s > 0 ? int(floor(x)) : int(ceil(x)) - 1;
-        c = s > 0 ? clamp(c, first, last) : clamp(c, last, first);
-        for (int i = 0; i < 4 && c != first && tmax_of(a, c - s, o, d) >= t; i++) c -= s;
-        for (int i = 0; i < 4 && c != last && tmax_of(a, c, o, d) < t; i++) c += s;
-        settled = settled && (c == first || tmax_of(a, c - s, o, d) < t)
-            && (c == last || tmax_of(a, c, o, d) >= t);
-        to[a] = c;
-        moved[a] = true;
-    }
-    if (!settled || !any(moved)) return t_in;
-    float t_entry = t_in;
-    for (int a = 0; a < 3; a++) {
-        if (moved[a]) t_entry = max(t_entry, tmax_of(a, to[a] - (d[a] > 0.0 ? 1 : -1), o, d));
-    }
-    for (int a = 0; a < 3; a++) {
-        if (!moved[a]) continue;
-        entered[a] = tmax_of(a, to[a] - (d[a] > 0.0 ? 1 : -1), o, d) == t_entry;
-        tmax[a] = tmax_of(a, to[a], o, d);
-    }
-    cell = to;
-    return t_entry;
 }
 
 // The last cell, in travel order along axis `a`, of the brick holding cell index `c`, or of its

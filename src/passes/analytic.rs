@@ -76,22 +76,3 @@ pub const BUFFER_BINDINGS: [Binding; 5] =
 pub fn buffer_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, GpuError> {
     build(ctx, "analytic", shaders::ANALYTIC_BUFFER, &BUFFER_BINDINGS, walk)
 }
-
-/// Bindings of the `ENTRY_MAP` variant: [`BUFFER_BINDINGS`], then the entry map, the listed
-/// rays and their count ([`super::entries::Buffers`]).
-pub const ENTRY_BINDINGS: [Binding; 8] = [
-    Binding::Uniform,
-    Binding::Read,
-    Binding::Write,
-    Binding::Read,
-    Binding::Read,
-    Binding::Read,
-    Binding::Read,
-    Binding::Read,
-];
-
-/// The `GRID_BUFFER` variant that walks only the rays the entry map lists, each from where the
-/// map says ([`super::entries`]), dispatched indirectly.
-pub fn entries_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, GpuError> {
-    build(ctx, "analytic (entry map)", shaders::ANALYTIC_ENTRIES, &ENTRY_BINDINGS, walk)
-}

@@ -9,7 +9,6 @@ pub mod band;
 pub use band::{band_rows, Band, Bands, MAX_BAND_PIXELS};
 
 pub mod bricks;
-pub mod entries;
 pub mod extract;
 pub mod mesh_render;
 pub mod raymarch;

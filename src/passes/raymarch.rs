@@ -73,9 +73,6 @@ pub struct RayInputs<'a> {
     pub colormap: &'a Buffer,
     /// The brick min/max grid ([`super::bricks`]): the analytic pass's fifth binding.
     pub bricks: Option<&'a Buffer>,
-    /// The entry map's buffers ([`super::entries`]): the `ENTRY_MAP` walk's last three
-    /// bindings; the pass is then dispatched indirectly over the rays the map lists.
-    pub entries: Option<&'a super::entries::Buffers>,
 }
 
 /// A ray pass bound to its inputs; records one band at a time.
@@ -83,7 +80,7 @@ pub struct RayPass<'a> {
     pipeline: &'a ComputePipeline,
     set: Dispatch,
     /// Keeps the bound buffers borrowed while the set refers to them.
-    inputs: RayInputs<'a>,
+    _inputs: RayInputs<'a>,
 }
 
 impl<'a> RayPass<'a> {
@@ -101,9 +98,6 @@ impl<'a> RayPass<'a> {
                 r.extend(whole);
                 r.extend([Resource::Storage(inputs.pixels), Resource::Storage(inputs.colormap)]);
                 r.extend(inputs.bricks.map(Resource::Storage));
-                if let Some(e) = inputs.entries {
-                    r.extend([&e.entries, &e.active, &e.listed].map(Resource::Storage));
-                }
                 r
             }
             GridInput::Pool { pool, pages, bricks } => vec![
@@ -116,7 +110,7 @@ impl<'a> RayPass<'a> {
             ],
         };
         let set = pipeline.bind(&resources)?;
-        Ok(RayPass { pipeline, set, inputs })
+        Ok(RayPass { pipeline, set, _inputs: inputs })
     }
 
     /// The pass's name (its pipeline's).
@@ -125,22 +119,9 @@ impl<'a> RayPass<'a> {
     }
 
     /// Records the band: one invocation per pixel, [`GROUP`]² pixels per workgroup, the band as
-    /// push constants; with the entry map, one per listed ray, as many workgroups as the map's
-    /// sort counted (recorded after it: [`super::entries::EntryPass::record`]).
+    /// push constants.
     pub fn record(&self, rec: &mut Recorder, width: u32, band: Band) {
-        let push = bytemuck::bytes_of(&band);
-        match self.inputs.entries {
-            Some(e) => rec.dispatch_indirect(
-                self.pipeline,
-                &self.set,
-                push,
-                &e.listed,
-                super::entries::Buffers::ARGS,
-            ),
-            None => {
-                let groups = grid_groups([width, band.rows, 1], [GROUP, GROUP, 1]);
-                rec.dispatch(self.pipeline, &self.set, push, groups);
-            }
-        }
+        let groups = grid_groups([width, band.rows, 1], [GROUP, GROUP, 1]);
+        rec.dispatch(self.pipeline, &self.set, bytemuck::bytes_of(&band), groups);
     }
 }

@@ -126,12 +126,6 @@ pub struct Renderer {
     pub brick_levels: Option<u32>,
     /// The levels the last analytic frame's walk used.
     pub last_brick_levels: Option<u32>,
-    /// Whether the analytic walk may use the entry map where it applies
-    /// ([`crate::passes::entries`]; on by default). Images are the same bit for bit either
-    /// way, `steps` included; tests and benchmarks turn it off to compare.
-    pub entry_map: bool,
-    /// The entry map's passes, per surface count, built on first use.
-    entry_pipelines: std::collections::HashMap<u32, crate::passes::entries::Pipelines>,
 }
 
 impl Renderer {
@@ -142,7 +136,6 @@ impl Renderer {
     /// pipeline kept for the whole of `render --frames` grew memory by about 1 MiB a frame.
     pub fn release_pipelines(&mut self) {
         self.ray_pipelines.clear();
-        self.entry_pipelines.clear();
         self.mesh = None;
     }
 
@@ -161,8 +154,6 @@ impl Renderer {
             last_bricks_ms: None,
             brick_levels: None,
             last_brick_levels: None,
-            entry_map: true,
-            entry_pipelines: Default::default(),
         })
     }
 
@@ -176,7 +167,6 @@ impl Renderer {
     /// 1 MiB each). A long-running caller (`serve`) calls this every few dispatches.
     pub fn release_ray_pipelines(&mut self) {
         self.ray_pipelines.clear();
-        self.entry_pipelines.clear();
     }
 
     /// Renders `scene` over `grid` (sampled at `time`).

@@ -16,7 +16,7 @@ use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::gpu::{Buffer, ComputePipeline, Context, GpuError};
 use crate::passes::raymarch::{GridInput, RayInputs, RayPass};
-use crate::passes::{analytic, bricks, entries, raymarch, tricubic, voxels, Bands};
+use crate::passes::{analytic, bricks, raymarch, tricubic, voxels, Bands};
 use crate::scene::{Method, Scene};
 
 /// The ray passes' shaders: method and how the grid is on the device; the analytic builds
@@ -30,8 +30,6 @@ pub(super) enum RayShader {
     Analytic(analytic::Walk),
     /// The whole grid in a storage buffer: the default.
     AnalyticBuffer(analytic::Walk),
-    /// That walk over the rays the entry map lists ([`entries`]): the default where it applies.
-    AnalyticEntries(analytic::Walk),
     AnalyticPool(analytic::Walk),
     /// `interpolation = "nearest"`'s exact trace, the voxel walk, on the grid image.
     Voxels(analytic::Walk),
@@ -47,7 +45,6 @@ impl RayShader {
             RayShader::FixedStepPool => raymarch::pool_pipeline(ctx),
             RayShader::Analytic(walk) => analytic::pipeline(ctx, walk),
             RayShader::AnalyticBuffer(walk) => analytic::buffer_pipeline(ctx, walk),
-            RayShader::AnalyticEntries(walk) => analytic::entries_pipeline(ctx, walk),
             RayShader::AnalyticPool(walk) => analytic::pool_pipeline(ctx, walk),
             RayShader::Voxels(walk) => voxels::pipeline(ctx, walk),
             RayShader::Tricubic(interp, walk, buffer) => {
@@ -169,15 +166,6 @@ impl Renderer {
                 }
             }
         };
-        // The entry map where it applies (and is not turned off): the same image, faster.
-        let shader = match shader {
-            RayShader::AnalyticBuffer(walk)
-                if self.entry_map && scene.render.skip && entries::applies(&params) =>
-            {
-                RayShader::AnalyticEntries(walk)
-            }
-            other => other,
-        };
         if !self.ray_pipelines.contains_key(&shader) {
             self.ray_pipelines.insert(shader, shader.pipeline(&self.ctx)?);
         }
@@ -203,28 +191,15 @@ impl Renderer {
         )?;
         let bands = Bands::<Pixel>::with_max_rows(ctx, "pixels", width, height, band_rows)?;
         let bricks = if analytic { brick_buffer } else { None };
-        let map = match shader {
-            RayShader::AnalyticEntries(walk) => {
-                if !self.entry_pipelines.contains_key(&walk.surfaces) {
-                    self.entry_pipelines.insert(walk.surfaces, entries::Pipelines::new(ctx, walk)?);
-                }
-                let bricks = bricks::brick_counts(gpu_grid.dims).iter().product::<usize>();
-                Some(entries::Buffers::new(ctx, bands.band_pixels(), bricks as u64)?)
-            }
-            _ => None,
-        };
         let grid_input = match (&gpu_grid.storage, shader) {
-            (
-                Storage::Image(_),
-                RayShader::AnalyticBuffer(_)
-                | RayShader::AnalyticEntries(_)
-                | RayShader::Tricubic(_, _, true),
-            ) => GridInput::Points(
-                gpu_grid
-                    .points
-                    .get()
-                    .ok_or_else(|| GpuError::Bug("grid points not copied".into()))?,
-            ),
+            (Storage::Image(_), RayShader::AnalyticBuffer(_) | RayShader::Tricubic(_, _, true)) => {
+                GridInput::Points(
+                    gpu_grid
+                        .points
+                        .get()
+                        .ok_or_else(|| GpuError::Bug("grid points not copied".into()))?,
+                )
+            }
             (Storage::Image(image), RayShader::FixedStep(Interpolant::Device)) => {
                 GridInput::Filtered(image)
             }
@@ -245,21 +220,8 @@ impl Renderer {
                 pixels: &bands.out,
                 colormap: &self.colormap,
                 bricks,
-                entries: map.as_ref(),
             },
         )?;
-        let entry_pass = match (&map, shader) {
-            (Some(buffers), RayShader::AnalyticEntries(walk)) => Some(entries::EntryPass::new(
-                &self.entry_pipelines[&walk.surfaces],
-                &params_buf,
-                bricks.ok_or_else(|| GpuError::Bug("the entry map needs the brick grid".into()))?,
-                gpu_grid.dims,
-                &bands.out,
-                buffers,
-                width,
-            )?),
-            _ => None,
-        };
         let mut info = self.frame_info(scene, grid, time);
         if stride > 1 {
             info.extra.push(("stride".into(), stride.to_string()));
@@ -270,9 +232,6 @@ impl Renderer {
             pass.name(),
             |band, records| placed_band(sink, &placement, band, records),
             |rec, band| {
-                if let Some(e) = &entry_pass {
-                    e.record(rec, band)?;
-                }
                 pass.record(rec, width, band);
                 Ok(())
             },

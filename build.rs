@@ -37,6 +37,7 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
         "Workgroup side of slice.comp, also the side of its contour tiles in pixels.",
     ),
     ("BRICKS_GROUP", 4, Glsl::Int, "Workgroup side (x, y, z) of bricks.comp."),
+    ("OCCUPANCY_GROUP", 64, Glsl::Int, "Workgroup size of the occupancy passes (shaders/occupancy/)."),
     ("EXTRACT_GROUP", 64, Glsl::Int, "Workgroup size of the extraction passes (shaders/extract/)."),
     ("RASTER_GROUP", 64, Glsl::Int, "Workgroup size of mesh_raster.comp."),
     ("SCAN_PER", 16, Glsl::Uint, "Elements each invocation of scan.comp / scan_add.comp handles."),
@@ -54,6 +55,18 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
         "Cells per side of a brick of the min/max grid (empty-space skipping).",
     ),
     ("SUPER", 4, Glsl::Int, "Bricks per side of a superbrick, the min/max grid's coarser level."),
+    (
+        "MASK_WORDS",
+        16,
+        Glsl::Int,
+        "32-bit words of a brick's cell mask (BRICK^3 bits), the occupancy structure's.",
+    ),
+    (
+        "REACH_CAP",
+        7,
+        Glsl::Int,
+        "Largest distance in bricks the occupancy structure resolves (larger reads as CAP + 1).",
+    ),
     (
         "FINE",
         2,
@@ -130,6 +143,8 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
 const VARIANTS: &[(&str, &str, &[&str])] = &[
     ("analytic.comp", "pool", &["GRID_POOL"]),
     ("analytic.comp", "buffer", &["GRID_BUFFER"]),
+    // ... and walking with the occupancy structure (passes/occupancy.rs): its default.
+    ("analytic.comp", "occupancy", &["GRID_BUFFER", "OCCUPANCY"]),
     ("raymarch.comp", "pool", &["GRID_POOL"]),
     // Fixed-step through the other interpolants (`field.interpolation`; field.glsl): one
     // variant each, so the trilinear march keeps its code.

@@ -67,6 +67,13 @@ layout(std430, binding = 2) writeonly buffer Out { Pixel pixels[]; };
 layout(std430, binding = 3) readonly buffer Colormap { vec4 colormap[256]; };
 layout(std430, binding = 4) readonly buffer Bricks { vec2 bricks[]; };
 layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
+#ifdef OCCUPANCY
+// The occupancy structure (passes/occupancy.rs): per brick the distance in bricks to the nearest
+// brick that may hold a surface (0: this one may), and per such brick one bit per cell, set
+// where the cell is a candidate (the walk's own cell tests, made once per isovalue).
+layout(std430, binding = 5) readonly buffer Reach { uint reaches[]; };
+layout(std430, binding = 6) readonly buffer Masks { uint masks[]; };
+#endif
 
 #include "field.glsl"
 #include "shade.glsl"
@@ -74,20 +81,8 @@ layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 #include "clip.glsl"
 #include "analytic.glsl"
 
+#define CELL_TESTS
 #include "bricks.glsl"
-
-// The same test for one cell (`render.skip` too): every value the walk decides the predicate on
-// in the cell (the carried entry value, the exit value, the cubic at its split points) is a
-// convex combination of its 8 corners up to rounding, so a cell whose corners are clearly on one
-// side holds no crossing and its cubic need not be formed. Changes no output, `steps` included.
-bool cell_is_clear(Corners k, float iso) {
-    vec4 mn = min(k.lo, k.hi);
-    vec4 mx = max(k.lo, k.hi);
-    float lo = min(min(mn.x, mn.y), min(mn.z, mn.w));
-    float hi = max(max(mx.x, mx.y), max(mx.z, mx.w));
-    float tol = SKIP_MARGIN * (max(abs(lo), abs(hi)) + abs(iso));
-    return lo - iso > tol || iso - hi > tol;
-}
 
 // 6.1 Where the segment of a cell entered at t_in ends: its nearest plane, or the ray's end.
 float segment_end(vec3 tmax, float t_in, float t_hi) {
@@ -153,14 +148,6 @@ bool step_cells(bvec3 crossed, inout ivec3 cell, inout vec3 tmax, vec3 o, vec3 d
         }
     }
     return !left_box;
-}
-
-// Whether every surface is clear of the cell (cell_is_clear): no crossing can lie in it.
-bool cell_all_clear(Corners k) {
-    for (uint s = 0u; s < SURFACE_COUNT; s++) {
-        if (!cell_is_clear(k, threshold(s))) return false;
-    }
-    return true;
 }
 
 // 6.3–6.5 in one owned cell: the cubic of the segment (its c0 is each surface's g_in), split
@@ -387,6 +374,55 @@ void main() {
         // every iteration).
         bool candidate = false;
         bool ended = false;
+#ifdef OCCUPANCY
+        // The same walk with the occupancy structure (whole grids, skipping on): an empty
+        // brick's distance r makes the cube of (2r - 1)^3 bricks around it, all empty, one jump
+        // (counted one pass), landing where the cell-by-cell walk is when it leaves the cube
+        // (leave_block); a cell of a brick that may hold a surface is a candidate when its bit
+        // in the brick's mask is set, which is the test below on the same corners, so the
+        // corners of the cells stepped over are never read. The same cells are evaluated from
+        // the same entry points: the image is the walk's, bit for bit; `steps` counts the
+        // jumps this walk makes.
+        ivec3 nb = brick_counts();
+        while (passes < max_passes) {
+            bool empty = false;
+            int brick = 0;
+            while (passes < max_passes) {
+                ivec3 b = cell / BRICK;
+                brick = (b.z * nb.y + b.y) * nb.x + b.x;
+                uint reach = reaches[brick];
+                empty = reach != 0u;
+                if (!(empty && may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in)) break;
+                passes++;
+                float t_b = leave_block(cell, tmax, t_hi, o, d, b, int(reach) - 1);
+                ended = t_b >= t_hi;
+                if (ended) break;
+                entered = lessThanEqual(tmax, vec3(t_b));
+                known = false;  // t_b > t_in
+                ended = !step_cells(entered, cell, tmax, o, d);
+                if (ended) break;
+                t_in = t_b;
+            }
+            if (ended || passes >= max_passes) break;
+            passes++;
+            if (!empty) {
+                ivec3 l = cell - (cell / BRICK) * BRICK;
+                int bit = l.x + BRICK * (l.y + BRICK * l.z);
+                if ((masks[brick * MASK_WORDS + (bit >> 5)] & (1u << uint(bit & 31))) != 0u) {
+                    corners = cell_corners(cell);
+                    candidate = true;
+                    break;
+                }
+            }
+            float t_b = segment_end(tmax, t_in, t_hi);
+            if (t_b >= t_hi) break;
+            entered = lessThanEqual(tmax, vec3(t_b));
+            known = known && t_b == t_in;
+            if (known) q_known = carried(entered, q_known, d);
+            if (!step_cells(entered, cell, tmax, o, d)) break;
+            t_in = t_b;
+        }
+#else
         while (passes < max_passes) {
             bool empty = false;
             while (passes < max_passes) {
@@ -426,6 +462,7 @@ void main() {
             if (!step_cells(entered, cell, tmax, o, d)) break;
             t_in = t_b;
         }
+#endif
         if (!candidate) break;
 
         // 6b. The candidate cell.

@@ -58,6 +58,31 @@ bool range_is_empty(vec2 mm) {
     return true;
 }
 
+#ifdef CELL_TESTS
+// The trilinear walk's per-cell tests (analytic.comp, occupancy/masks.comp: the same
+// functions, so the masks hold exactly the walk's decisions). Needs field.glsl's Corners.
+// The same test for one cell (`render.skip` too): every value the walk decides the predicate on
+// in the cell (the carried entry value, the exit value, the cubic at its split points) is a
+// convex combination of its 8 corners up to rounding, so a cell whose corners are clearly on one
+// side holds no crossing and its cubic need not be formed. Changes no output, `steps` included.
+bool cell_is_clear(Corners k, float iso) {
+    vec4 mn = min(k.lo, k.hi);
+    vec4 mx = max(k.lo, k.hi);
+    float lo = min(min(mn.x, mn.y), min(mn.z, mn.w));
+    float hi = max(max(mx.x, mx.y), max(mx.z, mx.w));
+    float tol = SKIP_MARGIN * (max(abs(lo), abs(hi)) + abs(iso));
+    return lo - iso > tol || iso - hi > tol;
+}
+
+// Whether every surface is clear of the cell (cell_is_clear): no crossing can lie in it.
+bool cell_all_clear(Corners k) {
+    for (uint s = 0u; s < SURFACE_COUNT; s++) {
+        if (!cell_is_clear(k, threshold(s))) return false;
+    }
+    return true;
+}
+#endif
+
 // Bricks per axis: ceil(cells / BRICK).
 ivec3 brick_counts() {
     return (P.dims - 2) / BRICK + 1;
@@ -106,6 +131,8 @@ bool fine_brick_is_empty(ivec3 cell) {
 // Defined at the end, below the jumps that use it: that order keeps the SPIR-V (stripped of
 // debug info) what it was before these helpers left analytic.comp.
 int last_in_block(int a, int c, bool whole, vec3 d);
+float leave_cells(inout ivec3 cell, inout vec3 tmax, float t_hi, vec3 o, vec3 d,
+                  ivec3 last_cell);
 
 // The passes the walk with bricks alone makes from `cell` (at t_in, its brick empty) until it
 // leaves the superbrick, `whole`, or ends: one per brick jump, the jump out of each brick it
@@ -136,20 +163,40 @@ uint brick_jumps(ivec3 cell, float t_hi, vec3 o, vec3 d) {
     return jumps;
 }
 
-// Leaves the brick (BRICK^3 cells) holding `cell`, or its superbrick when `whole`: returns t_b,
-// where the ray leaves it (at most t_hi), and puts `cell` and `tmax` in the cell the
+// Leaves the brick (BRICK^3 cells) holding `cell`, or its superbrick when `whole` (leave_block).
+float leave_brick(inout ivec3 cell, inout vec3 tmax, float t_hi, vec3 o, vec3 d, bool whole) {
+    ivec3 last_cell;
+    for (int a = 0; a < 3; a++) last_cell[a] = last_in_block(a, cell[a], whole, d);
+    return leave_cells(cell, tmax, t_hi, o, d, last_cell);
+}
+
+// Leaves the cube of bricks b - h .. b + h (inside the grid) around brick b, which holds `cell`
+// (leave_cells): the occupancy walk's jump over bricks its distance says are empty.
+float leave_block(inout ivec3 cell, inout vec3 tmax, float t_hi, vec3 o, vec3 d, ivec3 b, int h) {
+    ivec3 last_cell;
+    for (int a = 0; a < 3; a++) {
+        if (d[a] > 0.0) {
+            last_cell[a] = min((b[a] + h + 1) * BRICK - 1, P.dims[a] - 2);
+        } else if (d[a] < 0.0) {
+            last_cell[a] = max(b[a] - h, 0) * BRICK;
+        } else {
+            last_cell[a] = cell[a];
+        }
+    }
+    return leave_cells(cell, tmax, t_hi, o, d, last_cell);
+}
+
+// Leaves the box of cells from `cell` to `last_cell` (per axis the last cell in travel order):
+// returns t_b, where the ray leaves it (at most t_hi), and puts `cell` and `tmax` in the cell the
 // cell-by-cell walk is in when its segment ends at t_b. That walk crosses every plane whose tmax
 // is below t_b, each at its own t, so it is then in the cell whose per-axis index is the first
 // (in travel order) with tmax >= t_b: found from the position at t_b, corrected against the
 // tmax of the planes on either side. Needs tmax strictly increasing along each axis (may_jump)
 // and min(tmax) > t_in.
-float leave_brick(inout ivec3 cell, inout vec3 tmax, float t_hi, vec3 o, vec3 d, bool whole) {
-    ivec3 last_cell;
+float leave_cells(inout ivec3 cell, inout vec3 tmax, float t_hi, vec3 o, vec3 d,
+                  ivec3 last_cell) {
     float t_b = t_hi;
-    for (int a = 0; a < 3; a++) {
-        last_cell[a] = last_in_block(a, cell[a], whole, d);
-        t_b = min(t_b, tmax_of(a, last_cell[a], o, d));
-    }
+    for (int a = 0; a < 3; a++) t_b = min(t_b, tmax_of(a, last_cell[a], o, d));
     if (t_b >= t_hi) return t_b;
     for (int a = 0; a < 3; a++) {
         if (d[a] == 0.0) continue;

@@ -76,3 +76,21 @@ pub const BUFFER_BINDINGS: [Binding; 5] =
 pub fn buffer_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, GpuError> {
     build(ctx, "analytic", shaders::ANALYTIC_BUFFER, &BUFFER_BINDINGS, walk)
 }
+
+/// Bindings of the `OCCUPANCY` variant: [`BUFFER_BINDINGS`], then the occupancy structure's
+/// distances and masks ([`super::occupancy`]).
+pub const OCCUPANCY_BINDINGS: [Binding; 7] = [
+    Binding::Uniform,
+    Binding::Read,
+    Binding::Write,
+    Binding::Read,
+    Binding::Read,
+    Binding::Read,
+    Binding::Read,
+];
+
+/// The `GRID_BUFFER` variant walking with the occupancy structure ([`super::occupancy`]): the
+/// default for a whole grid with skipping on.
+pub fn occupancy_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, GpuError> {
+    build(ctx, "analytic (occupancy)", shaders::ANALYTIC_OCCUPANCY, &OCCUPANCY_BINDINGS, walk)
+}

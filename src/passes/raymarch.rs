@@ -73,6 +73,9 @@ pub struct RayInputs<'a> {
     pub colormap: &'a Buffer,
     /// The brick min/max grid ([`super::bricks`]): the analytic pass's fifth binding.
     pub bricks: Option<&'a Buffer>,
+    /// The occupancy structure ([`super::occupancy`]): the `OCCUPANCY` walk's last two
+    /// bindings.
+    pub occupancy: Option<&'a super::occupancy::Occupancy>,
 }
 
 /// A ray pass bound to its inputs; records one band at a time.
@@ -98,6 +101,9 @@ impl<'a> RayPass<'a> {
                 r.extend(whole);
                 r.extend([Resource::Storage(inputs.pixels), Resource::Storage(inputs.colormap)]);
                 r.extend(inputs.bricks.map(Resource::Storage));
+                if let Some(o) = inputs.occupancy {
+                    r.extend([Resource::Storage(&o.reach), Resource::Storage(&o.masks)]);
+                }
                 r
             }
             GridInput::Pool { pool, pages, bricks } => vec![

@@ -31,6 +31,9 @@ pub struct GpuGrid {
     /// render of a whole grid (its `GRID_BUFFER` variant): a second copy of the grid on the
     /// device, read by llvmpipe far faster than the image (docs/methods.md "Exact ray tracing").
     pub(super) points: std::cell::OnceCell<Buffer>,
+    /// The analytic walk's occupancy structure for the isovalues of the last render that used
+    /// it ([`crate::passes::occupancy`]), rebuilt when they change.
+    pub(super) occupancy: std::cell::RefCell<Option<crate::passes::occupancy::Occupancy>>,
     /// The block of a larger grid the image holds (None: the whole grid).
     pub(super) block: Option<block::Block>,
     /// The largest magnitude of the finite samples it holds (of the whole grid for a block or
@@ -88,6 +91,7 @@ impl GpuGrid {
             supers: std::cell::OnceCell::new(),
             cubic_bricks: Default::default(),
             points: std::cell::OnceCell::new(),
+            occupancy: Default::default(),
             block: None,
             largest: largest_finite(grid.values.iter().copied()),
         })
@@ -112,6 +116,7 @@ impl GpuGrid {
             supers: std::cell::OnceCell::new(),
             cubic_bricks: Default::default(),
             points: std::cell::OnceCell::new(),
+            occupancy: Default::default(),
             block: Some(block),
             largest: largest_finite(bricks.iter().flatten().copied()),
         };
@@ -140,6 +145,7 @@ impl GpuGrid {
             supers: std::cell::OnceCell::new(),
             cubic_bricks: Default::default(),
             points: std::cell::OnceCell::new(),
+            occupancy: Default::default(),
             block: None,
             largest: largest_finite(supers.iter().flatten().copied()),
         };

@@ -126,6 +126,15 @@ pub struct Renderer {
     pub brick_levels: Option<u32>,
     /// The levels the last analytic frame's walk used.
     pub last_brick_levels: Option<u32>,
+    /// Whether the analytic walk over a whole grid with skipping uses the occupancy structure
+    /// ([`crate::passes::occupancy`]; on by default). Images are the same bit for bit either
+    /// way but `steps` (the work each walk does); tests and benchmarks turn it off to compare.
+    pub occupancy: bool,
+    /// GPU time of building the occupancy structure during the last frame, in milliseconds
+    /// (None when the frame did not build it).
+    pub last_occupancy_ms: Option<f64>,
+    /// The occupancy structure's passes, per surface count, built on first use.
+    occupancy_pipelines: std::collections::HashMap<u32, crate::passes::occupancy::Pipelines>,
 }
 
 impl Renderer {
@@ -154,6 +163,9 @@ impl Renderer {
             last_bricks_ms: None,
             brick_levels: None,
             last_brick_levels: None,
+            occupancy: true,
+            last_occupancy_ms: None,
+            occupancy_pipelines: Default::default(),
         })
     }
 

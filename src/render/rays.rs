@@ -16,7 +16,7 @@ use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::gpu::{Buffer, ComputePipeline, Context, GpuError};
 use crate::passes::raymarch::{GridInput, RayInputs, RayPass};
-use crate::passes::{analytic, bricks, raymarch, tricubic, voxels, Bands};
+use crate::passes::{analytic, bricks, occupancy, raymarch, tricubic, voxels, Bands};
 use crate::scene::{Method, Scene};
 
 /// The ray passes' shaders: method and how the grid is on the device; the analytic builds
@@ -28,8 +28,10 @@ pub(super) enum RayShader {
     FixedStepPool,
     /// The grid image (an MPI rank's block, or a grid over the device's storage buffer range).
     Analytic(analytic::Walk),
-    /// The whole grid in a storage buffer: the default.
+    /// The whole grid in a storage buffer.
     AnalyticBuffer(analytic::Walk),
+    /// That walk with the occupancy structure ([`occupancy`]): the default where it applies.
+    AnalyticOccupancy(analytic::Walk),
     AnalyticPool(analytic::Walk),
     /// `interpolation = "nearest"`'s exact trace, the voxel walk, on the grid image.
     Voxels(analytic::Walk),
@@ -45,6 +47,7 @@ impl RayShader {
             RayShader::FixedStepPool => raymarch::pool_pipeline(ctx),
             RayShader::Analytic(walk) => analytic::pipeline(ctx, walk),
             RayShader::AnalyticBuffer(walk) => analytic::buffer_pipeline(ctx, walk),
+            RayShader::AnalyticOccupancy(walk) => analytic::occupancy_pipeline(ctx, walk),
             RayShader::AnalyticPool(walk) => analytic::pool_pipeline(ctx, walk),
             RayShader::Voxels(walk) => voxels::pipeline(ctx, walk),
             RayShader::Tricubic(interp, walk, buffer) => {
@@ -71,6 +74,7 @@ impl Renderer {
         let mut params = RenderParams::new(scene, grid);
         let interp = scene.field.interpolation;
         self.last_bricks_ms = None;
+        self.last_occupancy_ms = None;
         self.last_brick_levels = None;
         let analytic = scene.render.method == Method::Analytic;
         if let (Storage::Pool(_), Some(why)) =
@@ -166,6 +170,15 @@ impl Renderer {
                 }
             }
         };
+        // The occupancy structure where it applies (a whole grid in a storage buffer, skipping
+        // on) and is not turned off: the same image, less work. Its walk needs no superbricks.
+        let shader = match shader {
+            RayShader::AnalyticBuffer(walk) if self.occupancy && scene.render.skip => {
+                self.last_brick_levels = Some(1);
+                RayShader::AnalyticOccupancy(analytic::Walk { levels: 1, ..walk })
+            }
+            other => other,
+        };
         if !self.ray_pipelines.contains_key(&shader) {
             self.ray_pipelines.insert(shader, shader.pipeline(&self.ctx)?);
         }
@@ -191,15 +204,50 @@ impl Renderer {
         )?;
         let bands = Bands::<Pixel>::with_max_rows(ctx, "pixels", width, height, band_rows)?;
         let bricks = if analytic { brick_buffer } else { None };
-        let grid_input = match (&gpu_grid.storage, shader) {
-            (Storage::Image(_), RayShader::AnalyticBuffer(_) | RayShader::Tricubic(_, _, true)) => {
-                GridInput::Points(
-                    gpu_grid
-                        .points
-                        .get()
-                        .ok_or_else(|| GpuError::Bug("grid points not copied".into()))?,
-                )
+        if let RayShader::AnalyticOccupancy(walk) = shader {
+            // Built for these isovalues unless the grid has it already.
+            let key = occupancy::key(&params.surface_thresholds());
+            let stale = gpu_grid.occupancy.borrow().as_ref().map_or(true, |o| o.key != key);
+            if stale {
+                if let std::collections::hash_map::Entry::Vacant(e) =
+                    self.occupancy_pipelines.entry(walk.surfaces)
+                {
+                    e.insert(occupancy::Pipelines::new(ctx, walk)?);
+                }
+                // The old one first: a grid keeps one structure on the device.
+                gpu_grid.occupancy.replace(None);
+                let missing =
+                    |what: &str| GpuError::Bug(format!("the occupancy structure needs {what}"));
+                let built = occupancy::build(
+                    ctx,
+                    &self.occupancy_pipelines[&walk.surfaces],
+                    &params_buf,
+                    gpu_grid.points.get().ok_or_else(|| missing("the grid's points"))?,
+                    bricks.ok_or_else(|| missing("the brick grid"))?,
+                    gpu_grid.dims,
+                    key,
+                )?;
+                self.last_occupancy_ms = built.ms;
+                gpu_grid.occupancy.replace(Some(built));
             }
+        }
+        let occupied = gpu_grid.occupancy.borrow();
+        let occupancy = match shader {
+            RayShader::AnalyticOccupancy(_) => occupied.as_ref(),
+            _ => None,
+        };
+        let grid_input = match (&gpu_grid.storage, shader) {
+            (
+                Storage::Image(_),
+                RayShader::AnalyticBuffer(_)
+                | RayShader::AnalyticOccupancy(_)
+                | RayShader::Tricubic(_, _, true),
+            ) => GridInput::Points(
+                gpu_grid
+                    .points
+                    .get()
+                    .ok_or_else(|| GpuError::Bug("grid points not copied".into()))?,
+            ),
             (Storage::Image(image), RayShader::FixedStep(Interpolant::Device)) => {
                 GridInput::Filtered(image)
             }
@@ -220,6 +268,7 @@ impl Renderer {
                 pixels: &bands.out,
                 colormap: &self.colormap,
                 bricks,
+                occupancy,
             },
         )?;
         let mut info = self.frame_info(scene, grid, time);
@@ -236,7 +285,9 @@ impl Renderer {
                 Ok(())
             },
         )?;
-        self.last_gpu_ms = gpu_ms;
+        // All device work of the render: the ray passes and the structures it built.
+        let built = [self.last_bricks_ms, self.last_occupancy_ms];
+        self.last_gpu_ms = gpu_ms.map(|ms| ms + built.iter().flatten().sum::<f64>());
         Ok(())
     }
 }

@@ -145,6 +145,9 @@ const VARIANTS: &[(&str, &str, &[&str])] = &[
     ("analytic.comp", "buffer", &["GRID_BUFFER"]),
     // ... and walking with the occupancy structure (passes/occupancy.rs): its default.
     ("analytic.comp", "occupancy", &["GRID_BUFFER", "OCCUPANCY"]),
+    // ... in two passes: the empty bricks from every ray's start, then the listed rays' walk.
+    ("analytic.comp", "occupancy_skip", &["GRID_BUFFER", "OCCUPANCY", "OCC_SKIP"]),
+    ("analytic.comp", "occupancy_resume", &["GRID_BUFFER", "OCCUPANCY", "OCC_RESUME"]),
     ("raymarch.comp", "pool", &["GRID_POOL"]),
     // Fixed-step through the other interpolants (`field.interpolation`; field.glsl): one
     // variant each, so the trilinear march keeps its code.

@@ -29,6 +29,15 @@ fn sdf_grid(shape: SdfShape, n: usize) -> Grid {
     spec.sample(0.0).expect("grid")
 }
 
+/// CPU seconds this process has used (user + system, every thread: lavapipe's too).
+fn cpu_seconds() -> f64 {
+    // SAFETY: getrusage writes the struct it is given.
+    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+    unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) };
+    let s = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    s(u.ru_utime) + s(u.ru_stime)
+}
+
 fn stats(mut v: Vec<f64>) -> (f64, f64) {
     v.sort_by(|a, b| a.total_cmp(b));
     (v[v.len() / 2], v[0])
@@ -50,8 +59,11 @@ fn main() {
     let frames = env("ISOVIEW_BENCH_FRAMES", 7).max(1);
     let mut renderer = Renderer::new(&ctx).expect("renderer");
     println!("device: {} ({})", ctx.info.name, ctx.info.driver_info);
-    println!("| scene | walk ms (median, min) | occupancy ms (median, min) | occupancy / walk | pixels differing |");
-    println!("|---|---|---|---|---|");
+    println!(
+        "| scene | walk ms (median, min) | occupancy ms (median, min) | occupancy / walk | \
+         CPU ms: walk, occupancy (medians) | CPU ratio | pixels differing |"
+    );
+    println!("|---|---|---|---|---|---|---|");
     let torus = SdfShape::Torus { major_radius: 0.6, minor_radius: 0.25 };
     let gyroid = SdfShape::Gyroid { scale: 6.0, thickness: 0.08 };
     let eye_torus = [2.2, 1.6, 2.4];
@@ -62,6 +74,7 @@ fn main() {
         ("gyroid 256³", gyroid, 256, eye_gyroid, 40.0),
         ("torus 256³, close", torus, 256, [0.9, 0.5, 0.9], 60.0),
         ("gyroid 256³, inside", gyroid, 256, [0.3, 0.2, 0.5], 70.0),
+        ("torus 256³, every ray misses the box", torus, 256, [2.2, 1.6, 2.4], 40.0),
     ];
     for (name, shape, n, eye, fov) in cases {
         let grid = sdf_grid(shape, n);
@@ -70,25 +83,35 @@ fn main() {
         scene.image = ImageSettings { width: size, height: size };
         scene.camera.eye = DVec3::from_array(eye);
         scene.camera.fov_y_deg = fov;
+        if name.contains("misses") {
+            scene.camera.target = DVec3::splat(10.0);
+        }
         let mut times = [Vec::new(), Vec::new()];
+        let mut cpu = [Vec::new(), Vec::new()];
         let mut last: [Option<Frame>; 2] = [None, None];
         for _ in 0..frames {
             for (v, t) in times.iter_mut().enumerate() {
                 renderer.occupancy = v == 1;
+                let c0 = cpu_seconds();
                 let f = renderer.render_uploaded(&scene, &grid, &gpu_grid, 0.0).expect("render");
+                cpu[v].push((cpu_seconds() - c0) * 1e3);
                 t.push(renderer.last_gpu_ms.unwrap_or(f64::NAN));
                 last[v] = Some(f);
             }
         }
         let [a, b] = times.map(stats);
+        let [ca, cb] = cpu.map(stats);
         let differ = same_but_steps(last[0].as_ref().unwrap(), last[1].as_ref().unwrap());
         println!(
-            "| {name} | {:.1}, {:.1} | {:.1}, {:.1} | {:.2}× | {differ} |",
+            "| {name} | {:.1}, {:.1} | {:.1}, {:.1} | {:.2}× | {:.0}, {:.0} | {:.2}× | {differ} |",
             a.0,
             a.1,
             b.0,
             b.1,
-            b.0 / a.0
+            b.0 / a.0,
+            ca.0,
+            cb.0,
+            cb.0 / ca.0
         );
     }
 }

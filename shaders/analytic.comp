@@ -45,6 +45,9 @@
 //   slab's far t.
 
 #extension GL_GOOGLE_include_directive : require
+#if defined(OCC_SKIP)
+#extension GL_KHR_shader_subgroup_ballot : require
+#endif
 
 layout(local_size_x = RAY_GROUP, local_size_y = RAY_GROUP) in;  // build.rs
 
@@ -73,6 +76,17 @@ layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 // where the cell is a candidate (the walk's own cell tests, made once per isovalue).
 layout(std430, binding = 5) readonly buffer Reach { uint reaches[]; };
 layout(std430, binding = 6) readonly buffer Masks { uint masks[]; };
+#if defined(OCC_SKIP) || defined(OCC_RESUME)
+// The walk in two passes (passes/occupancy.rs): OCC_SKIP, over every pixel, makes the walk's
+// first jumps (the empty bricks from the ray's start) and either writes the pixel's miss record
+// (the ray met no brick that may hold a surface) or lists the ray with the walk's state there;
+// OCC_RESUME, over the listed rays only (an indirect dispatch), goes on from that state. The
+// same walk, split where llvmpipe's cost is: it runs a shader's whole body for every group of
+// 8 invocations, so the cell walk and the hit's code then run only for rays that need them.
+// A listed ray: (pixel, cell.xyz), (t_in bits, passes, entered axes (bits 0-2) | jumped (bit 3)).
+layout(std430, binding = 7) buffer Listed { uvec4 listed[]; };
+layout(std430, binding = 8) buffer Count { uint count; uint groups_x; uint groups_y; uint groups_z; };
+#endif
 #endif
 
 #include "field.glsl"
@@ -232,8 +246,16 @@ bool owned(ivec3 cell) {
 }
 
 void main() {
+#ifdef OCC_RESUME
+    uint at = gl_WorkGroupID.x * uint(RAY_GROUP * RAY_GROUP) + gl_LocalInvocationIndex;
+    if (at >= count) return;
+    uvec4 state0 = listed[2u * at];
+    uvec4 state1 = listed[2u * at + 1u];
+    uvec2 px_local = uvec2(state0.x % P.picture_width, state0.x / P.picture_width);
+#else
     uvec2 px_local = gl_GlobalInvocationID.xy;
     if (px_local.x >= P.picture_width || px_local.y >= band.rows) return;
+#endif
     uvec2 px = uvec2(px_local.x, px_local.y + band.row_offset) * P.stride;
     vec3 eye;  // the ray's origin: the eye, or its pixel on the orthographic image plane
     vec3 dir;
@@ -340,6 +362,56 @@ void main() {
     // 6. The walk.
     uint max_passes = uint(ncell.x + ncell.y + ncell.z);
     uint passes = 0u;
+#ifdef OCC_SKIP
+    // The walk's first passes, while they jump (the OCCUPANCY loop below, its jumps alone).
+    {
+        ivec3 nb = brick_counts();
+        bool ended = false;
+        bool jumped = false;
+        bvec3 entered = bvec3(false);
+        while (passes < max_passes) {
+            ivec3 b = cell / BRICK;
+            uint reach = reaches[(b.z * nb.y + b.y) * nb.x + b.x];
+            if (!(reach != 0u && may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in)) break;
+            passes++;
+            float t_b = leave_block(cell, tmax, t_hi, o, d, b, int(reach) - 1);
+            ended = t_b >= t_hi;
+            if (ended) break;
+            entered = lessThanEqual(tmax, vec3(t_b));
+            ended = !step_cells(entered, cell, tmax, o, d);
+            if (ended) break;
+            t_in = t_b;
+            jumped = true;
+        }
+        ended = ended || passes >= max_passes;
+        uint pix = px_local.y * P.picture_width + px_local.x;
+        if (ended) {
+            // The walk ends here, with no crossing: the miss record.
+            r.steps = float(passes);
+            pixels[pix] = r;
+        }
+        // Listed: one atomic per subgroup for its listed lanes, and one more workgroup of the
+        // resuming pass for each RAY_GROUP^2 rays listed.
+        uvec4 ballot = subgroupBallot(!ended);
+        uint n = subgroupBallotBitCount(ballot);
+        uint first = 0u;
+        if (subgroupElect() && n > 0u) {
+            first = atomicAdd(count, n);
+            uint per = uint(RAY_GROUP * RAY_GROUP);
+            uint more = (first + n + per - 1u) / per - (first + per - 1u) / per;
+            if (more > 0u) atomicAdd(groups_x, more);
+        }
+        first = subgroupBroadcastFirst(first);
+        if (!ended) {
+            uint k = first + subgroupBallotExclusiveBitCount(ballot);
+            uint bits = (entered.x ? 1u : 0u) | (entered.y ? 2u : 0u) | (entered.z ? 4u : 0u)
+                | (jumped ? 8u : 0u);
+            listed[2u * k] = uvec4(pix, uvec3(cell));
+            listed[2u * k + 1u] = uvec4(floatBitsToUint(t_in), passes, bits, 0u);
+        }
+        return;
+    }
+#endif
     uint crossings = 0u;
     bool found = false;
     uint visited = 0u;
@@ -367,6 +439,17 @@ void main() {
     bool known = true;        // q_in is `q_known` (step 4's, carried through zero-length cells)
     vec3 q_known = q_in;
     bvec3 entered = bvec3(false);  // the axes whose planes the walk crossed into `cell`
+#ifdef OCC_RESUME
+    // From where the first pass left the walk: after its jumps, in the state they reached.
+    passes = state1.y;
+    if ((state1.z & 8u) != 0u) {
+        cell = ivec3(state0.yzw);
+        tmax = vec3(tmax_of(0, cell.x, o, d), tmax_of(1, cell.y, o, d), tmax_of(2, cell.z, o, d));
+        t_in = uintBitsToFloat(state1.x);
+        entered = bvec3((state1.z & 1u) != 0u, (state1.z & 2u) != 0u, (state1.z & 4u) != 0u);
+        known = false;
+    }
+#endif
     for (;;) {
         // 6a. To the next cell that may hold a crossing: cells one by one, and before each,
         // the empty bricks from there in jumps (a loop of its own: a jump reads one brick's
@@ -383,30 +466,18 @@ void main() {
         // corners of the cells stepped over are never read. The same cells are evaluated from
         // the same entry points: the image is the walk's, bit for bit; `steps` counts the
         // jumps this walk makes.
+        // One loop, whose every pass either jumps or steps one cell: llvmpipe runs the whole
+        // body of a loop on every iteration whichever branch the lanes take, so a jump and a
+        // cell share one body rather than each having a loop of its own.
         ivec3 nb = brick_counts();
         while (passes < max_passes) {
-            bool empty = false;
-            int brick = 0;
-            while (passes < max_passes) {
-                ivec3 b = cell / BRICK;
-                brick = (b.z * nb.y + b.y) * nb.x + b.x;
-                uint reach = reaches[brick];
-                empty = reach != 0u;
-                if (!(empty && may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in)) break;
-                passes++;
-                float t_b = leave_block(cell, tmax, t_hi, o, d, b, int(reach) - 1);
-                ended = t_b >= t_hi;
-                if (ended) break;
-                entered = lessThanEqual(tmax, vec3(t_b));
-                known = false;  // t_b > t_in
-                ended = !step_cells(entered, cell, tmax, o, d);
-                if (ended) break;
-                t_in = t_b;
-            }
-            if (ended || passes >= max_passes) break;
+            ivec3 b = cell / BRICK;
+            int brick = (b.z * nb.y + b.y) * nb.x + b.x;
+            uint reach = reaches[brick];
+            bool jump = reach != 0u && may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in;
             passes++;
-            if (!empty) {
-                ivec3 l = cell - (cell / BRICK) * BRICK;
+            if (reach == 0u) {
+                ivec3 l = cell - b * BRICK;
                 int bit = l.x + BRICK * (l.y + BRICK * l.z);
                 if ((masks[brick * MASK_WORDS + (bit >> 5)] & (1u << uint(bit & 31))) != 0u) {
                     corners = cell_corners(cell);
@@ -414,10 +485,12 @@ void main() {
                     break;
                 }
             }
-            float t_b = segment_end(tmax, t_in, t_hi);
+            // To the end of this cell's segment, or of the cube of empty bricks around it.
+            float t_b = jump ? leave_block(cell, tmax, t_hi, o, d, b, int(reach) - 1)
+                             : segment_end(tmax, t_in, t_hi);
             if (t_b >= t_hi) break;
             entered = lessThanEqual(tmax, vec3(t_b));
-            known = known && t_b == t_in;
+            known = !jump && known && t_b == t_in;  // a jump has t_b > t_in
             if (known) q_known = carried(entered, q_known, d);
             if (!step_cells(entered, cell, tmax, o, d)) break;
             t_in = t_b;

@@ -307,6 +307,7 @@ mod tests {
         DeviceInfo {
             r32f_linear_filter: true,
             sub_texel_precision_bits: 8,
+            subgroup_ballot: true,
             name: "dev".into(),
             device_type: device_type.into(),
             driver_name: String::new(),

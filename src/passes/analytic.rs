@@ -89,8 +89,34 @@ pub const OCCUPANCY_BINDINGS: [Binding; 7] = [
     Binding::Read,
 ];
 
-/// The `GRID_BUFFER` variant walking with the occupancy structure ([`super::occupancy`]): the
-/// default for a whole grid with skipping on.
+/// The `GRID_BUFFER` variant walking with the occupancy structure ([`super::occupancy`]) in one
+/// pass (on a device without subgroup ballots; else [`occupancy_pipelines`]).
 pub fn occupancy_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, GpuError> {
     build(ctx, "analytic (occupancy)", shaders::ANALYTIC_OCCUPANCY, &OCCUPANCY_BINDINGS, walk)
+}
+
+/// Bindings of the two-pass variants: [`OCCUPANCY_BINDINGS`], then the listed rays and their
+/// count ([`super::occupancy::Listed`]).
+pub const LISTED_BINDINGS: [Binding; 9] = [
+    Binding::Uniform,
+    Binding::Read,
+    Binding::Write,
+    Binding::Read,
+    Binding::Read,
+    Binding::Read,
+    Binding::Read,
+    Binding::ReadWrite,
+    Binding::ReadWrite,
+];
+
+/// The walk with the occupancy structure in two passes (`OCC_SKIP`, then `OCC_RESUME`: every
+/// pixel's empty bricks from its ray's start, then the walk of the rays that met a brick that
+/// may hold a surface, dispatched indirectly; analytic.comp says why): the first.
+pub fn skip_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, GpuError> {
+    build(ctx, "analytic (empty bricks)", shaders::ANALYTIC_OCCUPANCY_SKIP, &LISTED_BINDINGS, walk)
+}
+
+/// The second pass of the two ([`skip_pipeline`]).
+pub fn resume_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, GpuError> {
+    build(ctx, "analytic (occupancy)", shaders::ANALYTIC_OCCUPANCY_RESUME, &LISTED_BINDINGS, walk)
 }

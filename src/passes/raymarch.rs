@@ -76,6 +76,8 @@ pub struct RayInputs<'a> {
     /// The occupancy structure ([`super::occupancy`]): the `OCCUPANCY` walk's last two
     /// bindings.
     pub occupancy: Option<&'a super::occupancy::Occupancy>,
+    /// The two-pass walk's listed rays ([`super::occupancy::Listed`]): its last two bindings.
+    pub listed: Option<&'a super::occupancy::Listed>,
 }
 
 /// A ray pass bound to its inputs; records one band at a time.
@@ -104,6 +106,9 @@ impl<'a> RayPass<'a> {
                 if let Some(o) = inputs.occupancy {
                     r.extend([Resource::Storage(&o.reach), Resource::Storage(&o.masks)]);
                 }
+                if let Some(l) = inputs.listed {
+                    r.extend([Resource::Storage(&l.rays), Resource::Storage(&l.count)]);
+                }
                 r
             }
             GridInput::Pool { pool, pages, bricks } => vec![
@@ -117,6 +122,12 @@ impl<'a> RayPass<'a> {
         };
         let set = pipeline.bind(&resources)?;
         Ok(RayPass { pipeline, set, _inputs: inputs })
+    }
+
+    /// Records the pass over the rays an earlier pass listed: as many workgroups as it counted
+    /// (`args` at `offset`), the band as push constants.
+    pub fn record_indirect(&self, rec: &mut Recorder, band: Band, args: &Buffer, offset: u64) {
+        rec.dispatch_indirect(self.pipeline, &self.set, bytemuck::bytes_of(&band), args, offset);
     }
 
     /// The pass's name (its pipeline's).

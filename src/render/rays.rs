@@ -32,6 +32,11 @@ pub(super) enum RayShader {
     AnalyticBuffer(analytic::Walk),
     /// That walk with the occupancy structure ([`occupancy`]): the default where it applies.
     AnalyticOccupancy(analytic::Walk),
+    /// The same in two passes (a device with subgroup ballots): the empty bricks from every
+    /// ray's start, listing the rays that go on ...
+    AnalyticSkip(analytic::Walk),
+    /// ... and their walk.
+    AnalyticResume(analytic::Walk),
     AnalyticPool(analytic::Walk),
     /// `interpolation = "nearest"`'s exact trace, the voxel walk, on the grid image.
     Voxels(analytic::Walk),
@@ -48,6 +53,8 @@ impl RayShader {
             RayShader::Analytic(walk) => analytic::pipeline(ctx, walk),
             RayShader::AnalyticBuffer(walk) => analytic::buffer_pipeline(ctx, walk),
             RayShader::AnalyticOccupancy(walk) => analytic::occupancy_pipeline(ctx, walk),
+            RayShader::AnalyticSkip(walk) => analytic::skip_pipeline(ctx, walk),
+            RayShader::AnalyticResume(walk) => analytic::resume_pipeline(ctx, walk),
             RayShader::AnalyticPool(walk) => analytic::pool_pipeline(ctx, walk),
             RayShader::Voxels(walk) => voxels::pipeline(ctx, walk),
             RayShader::Tricubic(interp, walk, buffer) => {
@@ -175,10 +182,24 @@ impl Renderer {
         let shader = match shader {
             RayShader::AnalyticBuffer(walk) if self.occupancy && scene.render.skip => {
                 self.last_brick_levels = Some(1);
-                RayShader::AnalyticOccupancy(analytic::Walk { levels: 1, ..walk })
+                let walk = analytic::Walk { levels: 1, ..walk };
+                match self.ctx.info.subgroup_ballot {
+                    true => RayShader::AnalyticResume(walk),
+                    false => RayShader::AnalyticOccupancy(walk),
+                }
             }
             other => other,
         };
+        // The two-pass walk's first pass.
+        let first = match shader {
+            RayShader::AnalyticResume(walk) => Some(RayShader::AnalyticSkip(walk)),
+            _ => None,
+        };
+        for s in first.iter().chain([&shader]) {
+            if !self.ray_pipelines.contains_key(s) {
+                self.ray_pipelines.insert(*s, s.pipeline(&self.ctx)?);
+            }
+        }
         if !self.ray_pipelines.contains_key(&shader) {
             self.ray_pipelines.insert(shader, shader.pipeline(&self.ctx)?);
         }
@@ -204,7 +225,7 @@ impl Renderer {
         )?;
         let bands = Bands::<Pixel>::with_max_rows(ctx, "pixels", width, height, band_rows)?;
         let bricks = if analytic { brick_buffer } else { None };
-        if let RayShader::AnalyticOccupancy(walk) = shader {
+        if let RayShader::AnalyticOccupancy(walk) | RayShader::AnalyticResume(walk) = shader {
             // Built for these isovalues unless the grid has it already.
             let key = occupancy::key(&params.surface_thresholds());
             let stale = gpu_grid.occupancy.borrow().as_ref().map_or(true, |o| o.key != key);
@@ -233,14 +254,19 @@ impl Renderer {
         }
         let occupied = gpu_grid.occupancy.borrow();
         let occupancy = match shader {
-            RayShader::AnalyticOccupancy(_) => occupied.as_ref(),
+            RayShader::AnalyticOccupancy(_) | RayShader::AnalyticResume(_) => occupied.as_ref(),
             _ => None,
+        };
+        let listed = match first {
+            Some(_) => Some(occupancy::Listed::new(ctx, bands.band_pixels())?),
+            None => None,
         };
         let grid_input = match (&gpu_grid.storage, shader) {
             (
                 Storage::Image(_),
                 RayShader::AnalyticBuffer(_)
                 | RayShader::AnalyticOccupancy(_)
+                | RayShader::AnalyticResume(_)
                 | RayShader::Tricubic(_, _, true),
             ) => GridInput::Points(
                 gpu_grid
@@ -269,8 +295,24 @@ impl Renderer {
                 colormap: &self.colormap,
                 bricks,
                 occupancy,
+                listed: listed.as_ref(),
             },
         )?;
+        let first_pass = match first {
+            Some(s) => Some(RayPass::new(
+                &self.ray_pipelines[&s],
+                RayInputs {
+                    params: &params_buf,
+                    grid: grid_input,
+                    pixels: &bands.out,
+                    colormap: &self.colormap,
+                    bricks,
+                    occupancy,
+                    listed: listed.as_ref(),
+                },
+            )?),
+            None => None,
+        };
         let mut info = self.frame_info(scene, grid, time);
         if stride > 1 {
             info.extra.push(("stride".into(), stride.to_string()));
@@ -281,7 +323,14 @@ impl Renderer {
             pass.name(),
             |band, records| placed_band(sink, &placement, band, records),
             |rec, band| {
-                pass.record(rec, width, band);
+                match (&first_pass, &listed) {
+                    (Some(first), Some(l)) => {
+                        l.reset(rec);
+                        first.record(rec, width, band);
+                        pass.record_indirect(rec, band, &l.count, occupancy::Listed::ARGS);
+                    }
+                    _ => pass.record(rec, width, band),
+                }
                 Ok(())
             },
         )?;

@@ -50,6 +50,9 @@ pub struct DeviceInfo {
     /// `subTexelPrecisionBits`: the fractional bits of the texture unit's filter weights
     /// (Vulkan requires at least 4).
     pub sub_texel_precision_bits: u32,
+    /// Subgroup ballots in compute shaders (`VkPhysicalDeviceSubgroupProperties`: the compute
+    /// stage and `SUBGROUP_FEATURE_BALLOT`): passes that list work use one atomic per subgroup.
+    pub subgroup_ballot: bool,
 }
 
 /// Instance, device, queue and allocator. Shared by `Arc`; resources keep it alive.
@@ -359,9 +362,15 @@ impl Context {
             .max()
             .unwrap_or(0);
         let mut maint3 = vk::PhysicalDeviceMaintenance3Properties::default();
-        let mut props2b = vk::PhysicalDeviceProperties2::default().push_next(&mut maint3);
+        let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+        let mut props2b = vk::PhysicalDeviceProperties2::default()
+            .push_next(&mut maint3)
+            .push_next(&mut subgroup);
         // SAFETY: as above.
         unsafe { instance.get_physical_device_properties2(pd, &mut props2b) };
+        let subgroup_ballot = subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
+            && subgroup.supported_operations.contains(vk::SubgroupFeatureFlags::BALLOT)
+            && props.api_version >= vk::API_VERSION_1_1;
 
         let mut features12 = vk::PhysicalDeviceVulkan12Features::default();
         let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut features12);
@@ -398,6 +407,7 @@ impl Context {
             float64,
             r32f_linear_filter,
             sub_texel_precision_bits: limits.sub_texel_precision_bits,
+            subgroup_ballot,
         };
 
         let priorities = [1.0f32];

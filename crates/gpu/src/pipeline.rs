@@ -299,6 +299,13 @@ impl ComputePipeline {
         push: &[u8],
         groups: [u32; 3],
     ) {
+        self.bind_for(cmd, set, push);
+        // SAFETY: cmd is recording, with this pipeline bound.
+        unsafe { self.ctx.device.cmd_dispatch(cmd, groups[0], groups[1], groups[2]) };
+    }
+
+    /// Binds the pipeline, `set` and the `push` constants for a dispatch.
+    fn bind_for(&self, cmd: vk::CommandBuffer, set: &Dispatch, push: &[u8]) {
         let device = &self.ctx.device;
         debug_assert_eq!(push.len() as u32, self.push_bytes);
         // SAFETY: cmd is recording; pipeline, layout and set are valid.
@@ -315,8 +322,23 @@ impl ComputePipeline {
             if !push.is_empty() {
                 device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
             }
-            device.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
         }
+    }
+
+    /// [`ComputePipeline::record`] with the workgroup counts in `args` at `offset` (through
+    /// [`Recorder::dispatch_indirect`](crate::Recorder::dispatch_indirect)).
+    pub(crate) fn record_indirect(
+        &self,
+        cmd: vk::CommandBuffer,
+        set: &Dispatch,
+        push: &[u8],
+        args: &Buffer,
+        offset: u64,
+    ) {
+        self.bind_for(cmd, set, push);
+        // SAFETY: cmd is recording; args is a valid buffer with INDIRECT_BUFFER usage holding a
+        // VkDispatchIndirectCommand at offset (callers size it).
+        unsafe { self.ctx.device.cmd_dispatch_indirect(cmd, args.raw, offset) };
     }
 }
 

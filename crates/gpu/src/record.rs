@@ -13,7 +13,8 @@
 //!   read after a read                        nothing
 //! ```
 //!
-//! Stages are compute, transfer and the host (reads only: [`Recorder::host_read`]). A tracker
+//! Stages are compute, transfer, the host (reads only: [`Recorder::host_read`]) and the
+//! indirect-command read of [`Recorder::dispatch_indirect`] (reads only). A tracker
 //! may span several submissions (each submission waits for its fence, but a write is not
 //! visible to a later submission's commands without a barrier); [`Recorder::release`] makes
 //! every tracked write visible to whatever runs next, tracked or not. Buffers are keyed by their
@@ -37,10 +38,15 @@ pub enum Stage {
     Compute,
     Transfer,
     Host,
+    /// A dispatch reading its workgroup counts from a buffer.
+    Indirect,
 }
 
+/// How many [`Stage`]s there are.
+const STAGES: usize = 4;
+
 impl Stage {
-    const ALL: [Stage; 3] = [Stage::Compute, Stage::Transfer, Stage::Host];
+    const ALL: [Stage; STAGES] = [Stage::Compute, Stage::Transfer, Stage::Host, Stage::Indirect];
 
     fn index(self) -> usize {
         self as usize
@@ -51,6 +57,7 @@ impl Stage {
             Stage::Compute => vk::PipelineStageFlags::COMPUTE_SHADER,
             Stage::Transfer => vk::PipelineStageFlags::TRANSFER,
             Stage::Host => vk::PipelineStageFlags::HOST,
+            Stage::Indirect => vk::PipelineStageFlags::DRAW_INDIRECT,
         }
     }
 
@@ -59,6 +66,7 @@ impl Stage {
             Stage::Compute => vk::AccessFlags::SHADER_READ,
             Stage::Transfer => vk::AccessFlags::TRANSFER_READ,
             Stage::Host => vk::AccessFlags::HOST_READ,
+            Stage::Indirect => vk::AccessFlags::INDIRECT_COMMAND_READ,
         }
     }
 
@@ -67,6 +75,8 @@ impl Stage {
             Stage::Compute => vk::AccessFlags::SHADER_WRITE,
             Stage::Transfer => vk::AccessFlags::TRANSFER_WRITE,
             Stage::Host => vk::AccessFlags::HOST_WRITE,
+            // Never written there (only read).
+            Stage::Indirect => vk::AccessFlags::empty(),
         }
     }
 }
@@ -77,9 +87,9 @@ struct State {
     /// Stage of the last write.
     writer: Option<Stage>,
     /// Stages the last write has been made visible to, by [`Stage::index`].
-    visible: [bool; 3],
+    visible: [bool; STAGES],
     /// Stages that read the buffer since the last write.
-    readers: [bool; 3],
+    readers: [bool; STAGES],
 }
 
 /// One barrier: source and destination stages and accesses (empty: none needed).
@@ -159,8 +169,8 @@ impl Tracker {
             b.dst_stages = vk::PipelineStageFlags::ALL_COMMANDS;
             b.dst_access = vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE;
             for st in self.states.values_mut() {
-                st.visible = [true; 3];
-                st.readers = [false; 3];
+                st.visible = [true; STAGES];
+                st.readers = [false; STAGES];
             }
         }
         b
@@ -189,7 +199,7 @@ impl Tracker {
                 }
             }
             if Stage::ALL.iter().all(|s| b.dst_stages.contains(s.stage())) {
-                st.readers = [false; 3];
+                st.readers = [false; STAGES];
             }
         }
     }
@@ -269,6 +279,31 @@ impl<'a> Recorder<'a> {
             .collect();
         self.barrier(&accesses);
         pipeline.record(self.cmd, set, push, groups);
+    }
+
+    /// [`Recorder::dispatch`] with its workgroup counts read on the device from `args` at
+    /// `offset` (three `u32`: x, y, z, as `VkDispatchIndirectCommand`), typically written by an
+    /// earlier pass: work sized by what the GPU found, with no host round trip. `args` needs
+    /// `INDIRECT_BUFFER` usage.
+    pub fn dispatch_indirect(
+        &mut self,
+        pipeline: &ComputePipeline,
+        set: &Dispatch,
+        push: &[u8],
+        args: &Buffer,
+        offset: u64,
+    ) {
+        assert!(
+            set.pipeline == pipeline.raw,
+            "pass `{}` dispatched with a set bound for another pipeline",
+            pipeline.name
+        );
+        let mut accesses: Vec<Access> = (set.buffers.iter())
+            .map(|&(buffer, write)| Access { buffer, stage: Stage::Compute, write })
+            .collect();
+        accesses.push(Access { buffer: args.raw, stage: Stage::Indirect, write: false });
+        self.barrier(&accesses);
+        pipeline.record_indirect(self.cmd, set, push, args, offset);
     }
 
     /// Records a fill of `bytes` bytes of `dst` from `offset` with the 32-bit word `value`

@@ -91,7 +91,11 @@ fn main() {
         let mut last: [Option<Frame>; 2] = [None, None];
         for _ in 0..frames {
             for (v, t) in times.iter_mut().enumerate() {
-                renderer.occupancy = v == 1;
+                renderer.accel = if v == 1 {
+                    isoview::render::Accel::TwoPass
+                } else {
+                    isoview::render::Accel::Plain
+                };
                 let c0 = cpu_seconds();
                 let f = renderer.render_uploaded(&scene, &grid, &gpu_grid, 0.0).expect("render");
                 cpu[v].push((cpu_seconds() - c0) * 1e3);

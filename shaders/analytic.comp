@@ -54,7 +54,15 @@ layout(local_size_x = RAY_GROUP, local_size_y = RAY_GROUP) in;  // build.rs
 #include "params.glsl"
 #include "pixel.glsl"
 
+#ifdef OCC_SKIP
+// RenderParams as a storage buffer, not a uniform one: lavapipe (Mesa 22) compiles a variant of
+// a pipeline for each dispatch whose uniforms it can inline into the code, and frees them only
+// with the pipeline; storage buffers it never inlines, so this pass is compiled once (render
+// --frames kept growing by its variants).
+layout(std140, binding = 0) readonly buffer Params { RenderParams P; };
+#else
 layout(std140, binding = 0) uniform Params { RenderParams P; };
+#endif
 #ifdef GRID_POOL
 // `field.residency = "active"` (render/pool.rs): the grid's resident bricks, one slot of
 // (BRICK + 1 + 2 POOL_APRON)^3 points each, and the page table of every brick.

@@ -4,8 +4,9 @@
 //! regression test (`tests/it/compare/golden.rs`) renders.
 //!
 //! ```text
-//!   rays:     torus and gyroid SDFs at each grid size: analytic, fixed-step at 512 steps
-//!             (skip off), a new isovalue on the uploaded grid (what `serve` re-renders)
+//!   rays:     torus and gyroid SDFs at each grid size: analytic (the structures' build, then
+//!             the trace with them built; the brick-by-brick walk beside it), fixed-step at 512
+//!             steps (skip off), a new isovalue on the uploaded grid (what `serve` re-renders)
 //!   extract:  the gyroid at each grid size, marching cubes and surface nets on the GPU
 //!   goldens:  every golden scene rendered by the `isoview` binary on this device, compared
 //!             with its lavapipe golden channel by channel (the golden test's thresholds)
@@ -217,13 +218,16 @@ pub fn run(ctx: &std::sync::Arc<Context>, o: &Options) -> Result<Value, String> 
     println!("device: {} ({}), {}", ctx.info.name, ctx.info.driver_info, ctx.info.device_type);
     println!();
     println!(
-        "rays: {0}x{0} image, medians of {1}; GPU ms (timestamps); new isovalue: wall ms of \
-         a render on the uploaded grid with the isovalue moved (what serve re-renders)",
+        "rays: {0}x{0} image, medians of {1}; GPU ms (timestamps); build: the brick min/max grid \
+         (once per grid) and the occupancy structure (once per isovalue) in the first analytic \
+         frame; trace: a frame with both built; walk: the same frame brick by brick \
+         (render.occupancy = false); new isovalue: wall ms of a render on the uploaded grid with \
+         the isovalue moved (what serve re-renders, the structure's rebuild included)",
         o.image, o.frames
     );
     println!();
-    println!("| scene | grid | analytic GPU ms | Mrays/s | fixed-step 512 GPU ms | analytic / fixed-step | new isovalue ms |");
-    println!("|---|---|---|---|---|---|---|");
+    println!("| scene | grid | build GPU ms (bricks + occupancy) | analytic trace GPU ms | Mrays/s | walk GPU ms | trace / walk | fixed-step 512 GPU ms | analytic / fixed-step | new isovalue ms |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     let mut rays = Vec::new();
     for name in ["torus", "gyroid"] {
         for &n in &o.sizes {
@@ -241,7 +245,13 @@ pub fn run(ctx: &std::sync::Arc<Context>, o: &Options) -> Result<Value, String> 
                 Ok((median(gpu), median(wall)))
             };
             scene.render.method = Method::Analytic;
+            renderer.render_uploaded(&scene, &grid, &gpu_grid, 0.0).map_err(|x| e(&x))?;
+            let built = [renderer.last_bricks_ms, renderer.last_occupancy_ms];
+            let build = built.iter().map(|b| b.unwrap_or(f64::NAN)).sum::<f64>();
             let (analytic, _) = time(&scene, &mut renderer)?;
+            let mut plain = scene.clone();
+            plain.render.occupancy = false;
+            let (walk, _) = time(&plain, &mut renderer)?;
             let mut fixed = scene.clone();
             fixed.render.method = Method::FixedStep;
             fixed.render.steps = 512;
@@ -251,20 +261,24 @@ pub fn run(ctx: &std::sync::Arc<Context>, o: &Options) -> Result<Value, String> 
             moved.surface.isovalue += 0.01;
             let (_, again) = time(&moved, &mut renderer)?;
             let mrays = (o.image as f64).powi(2) / (analytic * 1e3);
+            let ratio = |a: f64, b: f64| match a.is_finite() && b > 0.0 {
+                true => format!("{:.2}×", a / b),
+                false => "-".into(),
+            };
             println!(
-                "| {name} | {n}³ | {} | {} | {} | {} | {} |",
+                "| {name} | {n}³ | {} | {} | {} | {} | {} | {} | {} | {} |",
+                cell(build),
                 cell(analytic),
                 cell(mrays),
+                cell(walk),
+                ratio(analytic, walk),
                 cell(fixed_ms),
-                if analytic.is_finite() && fixed_ms > 0.0 {
-                    format!("{:.2}×", analytic / fixed_ms)
-                } else {
-                    "-".into()
-                },
+                ratio(analytic, fixed_ms),
                 cell(again)
             );
             rays.push(json!({
-                "scene": name, "n": n, "image": o.image, "analytic_gpu_ms": analytic,
+                "scene": name, "n": n, "image": o.image, "build_gpu_ms": build,
+                "analytic_gpu_ms": analytic, "walk_gpu_ms": walk,
                 "fixed_step_512_gpu_ms": fixed_ms, "new_isovalue_ms": again,
             }));
         }

@@ -15,7 +15,10 @@ layout(local_size_x = OCCUPANCY_GROUP) in;  // build.rs
 
 #include "params.glsl"
 
-layout(std140, binding = 0) uniform Params { RenderParams P; };
+// RenderParams as a storage buffer, not a uniform one: lavapipe (Mesa 22) compiles a variant of
+// a pipeline for each dispatch whose uniforms it can inline into the code, and frees them only
+// with the pipeline; storage buffers it never inlines, so this pass is compiled once.
+layout(std140, binding = 0) readonly buffer Params { RenderParams P; };
 layout(std430, binding = 1) readonly buffer Grid { float grid[]; };
 layout(std430, binding = 2) readonly buffer Bricks { vec2 bricks[]; };
 layout(std430, binding = 3) writeonly buffer Masks { uint masks[]; };

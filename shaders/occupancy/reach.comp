@@ -18,11 +18,16 @@ layout(local_size_x = OCCUPANCY_GROUP) in;  // build.rs
 
 #include "params.glsl"
 
-layout(std140, binding = 0) uniform Params { RenderParams P; };
+// RenderParams as a storage buffer, not a uniform one: lavapipe (Mesa 22) compiles a variant of
+// a pipeline for each dispatch whose uniforms it can inline into the code, and frees them only
+// with the pipeline; storage buffers it never inlines, so this pass is compiled once.
+layout(std140, binding = 0) readonly buffer Params { RenderParams P; };
 layout(std430, binding = 1) readonly buffer Bricks { vec2 bricks[]; };
 layout(std430, binding = 2) readonly buffer Src { uint src[]; };
 layout(std430, binding = 3) writeonly buffer Dst { uint dst[]; };
-layout(push_constant) uniform Pass { int axis; } pass;
+// The axis of this pass (0, 1, 2), written before each dispatch: not a push constant, for the
+// same reason as Params.
+layout(std430, binding = 4) readonly buffer Pass { int axis; } pass;
 
 #include "bricks.glsl"
 

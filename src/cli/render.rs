@@ -241,6 +241,13 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
         let done = n.abs_diff(*frames.numbers().start()) + 1;
         if done % RELEASE_EVERY == 0 && n != *frames.numbers().end() {
             renderer.release_pipelines();
+            // The compilers' freed memory back to the system (glibc keeps it otherwise, and
+            // the heap's holes grow with each rebuild).
+            #[cfg(all(target_os = "linux", target_env = "gnu"))]
+            // SAFETY: malloc_trim only returns free heap memory to the system.
+            unsafe {
+                libc::malloc_trim(0);
+            }
         }
         match &progress {
             _ if !rank0 => {}

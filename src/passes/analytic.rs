@@ -113,8 +113,16 @@ pub const LISTED_BINDINGS: [Binding; 9] = [
 /// pixel's empty bricks from its ray's start, then the walk of the rays that met a brick that
 /// may hold a surface, dispatched indirectly; analytic.comp says why): the first.
 pub fn skip_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, GpuError> {
-    build(ctx, "analytic (empty bricks)", shaders::ANALYTIC_OCCUPANCY_SKIP, &LISTED_BINDINGS, walk)
+    build(ctx, "analytic (empty bricks)", shaders::ANALYTIC_OCCUPANCY_SKIP, &SKIP_BINDINGS, walk)
 }
+
+/// The first pass's bindings: [`LISTED_BINDINGS`] with Params as a storage buffer (it is
+/// compiled once: analytic.comp says why).
+pub const SKIP_BINDINGS: [Binding; 9] = {
+    let mut b = LISTED_BINDINGS;
+    b[0] = Binding::Read;
+    b
+};
 
 /// The second pass of the two ([`skip_pipeline`]).
 pub fn resume_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline, GpuError> {

@@ -32,7 +32,6 @@
 use std::sync::Arc;
 
 use ash::vk;
-use bytemuck::{Pod, Zeroable};
 
 use super::analytic::Walk;
 use super::bricks::{brick_counts, BRICK};
@@ -53,13 +52,6 @@ pub const REACH_CAP: u32 = shaders::consts::REACH_CAP;
 
 const _: () = assert!(MASK_WORDS * 32 == BRICK * BRICK * BRICK && 32 % BRICK == 0);
 
-/// The distance passes' push constants.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-struct Axis {
-    axis: i32,
-}
-
 /// The passes, for one surface count (their `range_is_empty` and cell tests loop over
 /// `SURFACE_COUNT`, a specialization constant as in the walk).
 pub struct Pipelines {
@@ -75,17 +67,19 @@ impl Pipelines {
                 ctx,
                 "occupancy distances",
                 shaders::OCCUPANCY_REACH,
-                // Params, brick ranges, the previous axis's distances, this axis's.
-                &[Binding::Uniform, Binding::Read, Binding::Read, Binding::Write],
-                std::mem::size_of::<Axis>() as u32,
+                // Params, brick ranges, the previous axis's distances, this axis's, the axis.
+                // Params is a storage buffer here (reach.comp says why).
+                &[Binding::Read, Binding::Read, Binding::Read, Binding::Write, Binding::Read],
+                0,
                 &constants,
             )?,
             masks: ComputePipeline::with_constants(
                 ctx,
                 "occupancy masks",
                 shaders::OCCUPANCY_MASKS,
-                // Params, grid points, brick ranges, masks.
-                &[Binding::Uniform, Binding::Read, Binding::Read, Binding::Write],
+                // Params (a storage buffer: reach.comp says why), grid points, brick ranges,
+                // masks.
+                &[Binding::Read, Binding::Read, Binding::Read, Binding::Write],
                 0,
                 &constants,
             )?,
@@ -111,7 +105,8 @@ pub fn key(thresholds: &[f32]) -> Vec<u32> {
 }
 
 /// Builds the structure of the grid of `dims` points (`points`: its values, x fastest; `bricks`:
-/// its brick min/max grid) for the isovalues of `params` (RenderParams, uniform), keyed `key`.
+/// its brick min/max grid) for the isovalues of `params` (RenderParams, bound here as a storage
+/// buffer: it needs `STORAGE_BUFFER` usage too), keyed `key`.
 pub fn build(
     ctx: &Arc<Context>,
     pipelines: &Pipelines,
@@ -123,25 +118,35 @@ pub fn build(
 ) -> Result<Occupancy, GpuError> {
     let n_bricks = brick_counts(dims).iter().product::<usize>() as u64;
     let buffer = |name: &str, bytes: u64| {
-        Buffer::new(ctx, name, bytes, vk::BufferUsageFlags::STORAGE_BUFFER, MemoryLocation::GpuOnly)
+        // TRANSFER_SRC: tests read it back.
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+        Buffer::new(ctx, name, bytes, usage, MemoryLocation::GpuOnly)
     };
     let reach = buffer("occupancy distances", n_bricks * 4)?;
     let scratch = buffer("occupancy distances (axis)", n_bricks * 4)?;
     let masks = buffer("occupancy masks", n_bricks * MASK_WORDS as u64 * 4)?;
     // Axis 0 reads the ranges (its `src` is bound but not read), 1 reads 0's, 2 reads 1's:
     // reach -> scratch -> reach.
+    let axis = Buffer::new(
+        ctx,
+        "occupancy axis",
+        4,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+        MemoryLocation::GpuOnly,
+    )?;
     let bind_axis = |src: &Buffer, dst: &Buffer| {
         pipelines.reach.bind(&[
-            Resource::Uniform(params),
+            Resource::Storage(params),
             Resource::Storage(bricks),
             Resource::Storage(src),
             Resource::Storage(dst),
+            Resource::Storage(&axis),
         ])
     };
     let axes =
         [bind_axis(&scratch, &reach)?, bind_axis(&reach, &scratch)?, bind_axis(&scratch, &reach)?];
     let mask_set = pipelines.masks.bind(&[
-        Resource::Uniform(params),
+        Resource::Storage(params),
         Resource::Storage(points),
         Resource::Storage(bricks),
         Resource::Storage(&masks),
@@ -152,9 +157,9 @@ pub fn build(
             let groups = spread_groups((n_bricks * MASK_WORDS as u64).div_ceil(GROUP as u64))?;
             rec.dispatch(&pipelines.masks, &mask_set, &[], groups);
             let groups = spread_groups(n_bricks.div_ceil(GROUP as u64))?;
-            for (axis, set) in axes.iter().enumerate() {
-                let push = Axis { axis: axis as i32 };
-                rec.dispatch(&pipelines.reach, set, bytemuck::bytes_of(&push), groups);
+            for (a, set) in axes.iter().enumerate() {
+                rec.fill(&axis, 0, 4, a as u32);
+                rec.dispatch(&pipelines.reach, set, &[], groups);
             }
             Ok(())
         })?;
@@ -166,9 +171,71 @@ pub fn build(
     Ok(Occupancy { reach, masks, key, ms })
 }
 
+/// The structure computed on the CPU for `grid` and `thresholds` (the surfaces' thresholds as
+/// the shader gets them): every brick's distance and every mask word, in the device's layout,
+/// with the masks of bricks clear of every isovalue left 0 (the device writes none for them).
+/// The CPU twin of the build, bit for bit: the same f32 tests on the same brick ranges
+/// ([`super::bricks::reference`]) and corners.
+pub fn reference(grid: &crate::field::Grid, thresholds: &[f32]) -> (Vec<u32>, Vec<u32>) {
+    use super::bricks::{clear_by, SKIP_MARGIN};
+    let nb = brick_counts(grid.dims);
+    let index = |b: [usize; 3]| (b[2] * nb[1] + b[1]) * nb[0] + b[0];
+    let clear = |mm: [f32; 2]| thresholds.iter().all(|&iso| clear_by(mm, iso, SKIP_MARGIN));
+    let ranges = super::bricks::reference(grid);
+    let occupied: Vec<bool> = ranges.iter().map(|&mm| !clear(mm)).collect();
+    let cells = grid.dims.map(|n| n - 1);
+    let mut masks = vec![0u32; ranges.len() * MASK_WORDS];
+    let mut reach = vec![0u32; ranges.len()];
+    let r = REACH_CAP as i64;
+    for bz in 0..nb[2] {
+        for by in 0..nb[1] {
+            for bx in 0..nb[0] {
+                let i = index([bx, by, bz]);
+                // The L-infinity distance to the nearest occupied brick, capped.
+                let mut best = REACH_CAP + 1;
+                for dz in -r..=r {
+                    for dy in -r..=r {
+                        for dx in -r..=r {
+                            let n = [bx as i64 + dx, by as i64 + dy, bz as i64 + dz];
+                            let inside = (0..3).all(|a| n[a] >= 0 && n[a] < nb[a] as i64);
+                            if inside && occupied[index(n.map(|c| c as usize))] {
+                                best = best.min(dx.abs().max(dy.abs()).max(dz.abs()) as u32);
+                            }
+                        }
+                    }
+                }
+                reach[i] = best;
+                if !occupied[i] {
+                    continue;
+                }
+                for bit in 0..BRICK * BRICK * BRICK {
+                    let l = [bit % BRICK, bit / BRICK % BRICK, bit / (BRICK * BRICK)];
+                    let c = [bx * BRICK + l[0], by * BRICK + l[1], bz * BRICK + l[2]];
+                    if (0..3).any(|a| c[a] >= cells[a]) {
+                        continue;
+                    }
+                    let mut mm = [f32::INFINITY, f32::NEG_INFINITY];
+                    let mut missing = false;
+                    for k in 0..8 {
+                        let v = grid.at(c[0] + (k & 1), c[1] + (k >> 1 & 1), c[2] + (k >> 2));
+                        missing |= !v.is_finite();
+                        mm = [mm[0].min(v), mm[1].max(v)];
+                    }
+                    if !missing && !clear(mm) {
+                        masks[i * MASK_WORDS + bit / 32] |= 1 << (bit % 32);
+                    }
+                }
+            }
+        }
+    }
+    (reach, masks)
+}
+
 /// The rays the two-pass walk lists per band (analytic.comp's `OCC_SKIP`): two `uvec4` each,
 /// then their count and the resuming pass's indirect dispatch.
 pub struct Listed {
+    /// Pixels of the largest band it has room for.
+    pub band_pixels: u64,
     pub rays: Buffer,
     /// `count`, then the resuming pass's `VkDispatchIndirectCommand` at [`Listed::ARGS`].
     pub count: Buffer,
@@ -181,6 +248,7 @@ impl Listed {
     /// Room for bands of at most `band_pixels` pixels.
     pub fn new(ctx: &Arc<Context>, band_pixels: u64) -> Result<Self, GpuError> {
         Ok(Listed {
+            band_pixels,
             rays: Buffer::new(
                 ctx,
                 "listed rays",

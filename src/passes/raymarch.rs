@@ -99,7 +99,13 @@ impl<'a> RayPass<'a> {
         };
         let resources = match inputs.grid {
             GridInput::Image(_) | GridInput::Filtered(_) | GridInput::Points(_) => {
-                let mut r = vec![Resource::Uniform(inputs.params)];
+                // Params as the pipeline takes it: uniform, or (a pass lavapipe must compile only
+                // once) a storage buffer.
+                let params = match pipeline.bindings().first() {
+                    Some(Binding::Uniform) => Resource::Uniform(inputs.params),
+                    _ => Resource::Storage(inputs.params),
+                };
+                let mut r = vec![params];
                 r.extend(whole);
                 r.extend([Resource::Storage(inputs.pixels), Resource::Storage(inputs.colormap)]);
                 r.extend(inputs.bricks.map(Resource::Storage));

@@ -185,6 +185,15 @@ impl GpuGrid {
         self.bricks.get()
     }
 
+    /// The analytic walk's occupancy structure, once an analytic render built it for its
+    /// isovalues: `f` gets it (None before).
+    pub fn with_occupancy<R>(
+        &self,
+        f: impl FnOnce(Option<&crate::passes::occupancy::Occupancy>) -> R,
+    ) -> R {
+        f(self.occupancy.borrow().as_ref())
+    }
+
     /// A tricubic walk's min/max grid (`bound`: `Cubic` or `CatmullRom`), once an analytic
     /// render through that interpolant has built it.
     pub fn cubic_bricks(&self, bound: bricks::Bound) -> Option<&Buffer> {

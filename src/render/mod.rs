@@ -102,6 +102,19 @@ impl From<crate::passes::extract::GpuMeshError> for RenderError {
     }
 }
 
+/// How the analytic walk crosses empty space where it may use the occupancy structure (a whole
+/// grid with `render.skip` on; MPI blocks and brick pools walk [`Accel::Plain`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Accel {
+    /// Jumps over empty bricks (and superbricks), every cell of the others read.
+    Plain,
+    /// The occupancy structure ([`crate::passes::occupancy`]) in one pass.
+    Occupancy,
+    /// The same in two passes: every ray's empty bricks from its start, then the walk of the
+    /// rays that met a brick that may hold a surface (needs subgroup ballots; else one pass).
+    TwoPass,
+}
+
 /// Owns the pipelines and constant resources; renders any number of frames.
 pub struct Renderer {
     ctx: Arc<Context>,
@@ -126,13 +139,18 @@ pub struct Renderer {
     pub brick_levels: Option<u32>,
     /// The levels the last analytic frame's walk used.
     pub last_brick_levels: Option<u32>,
-    /// Whether the analytic walk over a whole grid with skipping uses the occupancy structure
-    /// ([`crate::passes::occupancy`]; on by default). Images are the same bit for bit either
-    /// way but `steps` (the work each walk does); tests and benchmarks turn it off to compare.
-    pub occupancy: bool,
+    /// How the analytic walk over a whole grid with skipping on crosses empty space: the
+    /// occupancy structure in two passes where the device has subgroup ballots, else in one
+    /// ([`Accel`]). Images are the same bit for bit every way but `steps` (the work each walk
+    /// does); tests and benchmarks choose to compare.
+    pub accel: Accel,
     /// GPU time of building the occupancy structure during the last frame, in milliseconds
-    /// (None when the frame did not build it).
+    /// (None when the frame did not build it, or without timestamps).
     pub last_occupancy_ms: Option<f64>,
+    /// Whether the last frame built the occupancy structure (for new isovalues or a new grid).
+    pub built_occupancy: bool,
+    /// The two-pass walk's list of rays, kept between renders (`passes::occupancy::Listed`).
+    listed: Option<crate::passes::occupancy::Listed>,
     /// The occupancy structure's passes, per surface count, built on first use.
     occupancy_pipelines: std::collections::HashMap<u32, crate::passes::occupancy::Pipelines>,
 }
@@ -145,6 +163,7 @@ impl Renderer {
     /// pipeline kept for the whole of `render --frames` grew memory by about 1 MiB a frame.
     pub fn release_pipelines(&mut self) {
         self.ray_pipelines.clear();
+        self.occupancy_pipelines.clear();
         self.mesh = None;
     }
 
@@ -163,9 +182,14 @@ impl Renderer {
             last_bricks_ms: None,
             brick_levels: None,
             last_brick_levels: None,
-            occupancy: true,
+            accel: match ctx.info.subgroup_ballot {
+                true => Accel::TwoPass,
+                false => Accel::Occupancy,
+            },
             last_occupancy_ms: None,
+            built_occupancy: false,
             occupancy_pipelines: Default::default(),
+            listed: None,
         })
     }
 
@@ -179,6 +203,7 @@ impl Renderer {
     /// 1 MiB each). A long-running caller (`serve`) calls this every few dispatches.
     pub fn release_ray_pipelines(&mut self) {
         self.ray_pipelines.clear();
+        self.occupancy_pipelines.clear();
     }
 
     /// Renders `scene` over `grid` (sampled at `time`).

@@ -10,7 +10,7 @@ use ash::vk;
 use super::grid::Storage;
 use super::params::RenderParams;
 use super::sink::{placed_band, FrameSink};
-use super::{GpuGrid, Progressive, RenderError, Renderer};
+use super::{Accel, GpuGrid, Progressive, RenderError, Renderer};
 use crate::field::interpolant::{Interpolant, Reader};
 use crate::field::Grid;
 use crate::frame::Pixel;
@@ -82,6 +82,7 @@ impl Renderer {
         let interp = scene.field.interpolation;
         self.last_bricks_ms = None;
         self.last_occupancy_ms = None;
+        self.built_occupancy = false;
         self.last_brick_levels = None;
         let analytic = scene.render.method == Method::Analytic;
         if let (Storage::Pool(_), Some(why)) =
@@ -180,10 +181,12 @@ impl Renderer {
         // The occupancy structure where it applies (a whole grid in a storage buffer, skipping
         // on) and is not turned off: the same image, less work. Its walk needs no superbricks.
         let shader = match shader {
-            RayShader::AnalyticBuffer(walk) if self.occupancy && scene.render.skip => {
+            RayShader::AnalyticBuffer(walk)
+                if self.accel != Accel::Plain && scene.render.skip && scene.render.occupancy =>
+            {
                 self.last_brick_levels = Some(1);
                 let walk = analytic::Walk { levels: 1, ..walk };
-                match self.ctx.info.subgroup_ballot {
+                match self.accel == Accel::TwoPass && self.ctx.info.subgroup_ballot {
                     true => RayShader::AnalyticResume(walk),
                     false => RayShader::AnalyticOccupancy(walk),
                 }
@@ -221,7 +224,9 @@ impl Renderer {
             ctx,
             "params",
             std::slice::from_ref(&params),
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            // STORAGE_BUFFER too: the passes that must not be compiled per dispatch read it as
+            // a storage buffer (passes/occupancy.rs).
+            vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
         let bands = Bands::<Pixel>::with_max_rows(ctx, "pixels", width, height, band_rows)?;
         let bricks = if analytic { brick_buffer } else { None };
@@ -249,6 +254,7 @@ impl Renderer {
                     key,
                 )?;
                 self.last_occupancy_ms = built.ms;
+                self.built_occupancy = true;
                 gpu_grid.occupancy.replace(Some(built));
             }
         }
@@ -257,9 +263,14 @@ impl Renderer {
             RayShader::AnalyticOccupancy(_) | RayShader::AnalyticResume(_) => occupied.as_ref(),
             _ => None,
         };
-        let listed = match first {
-            Some(_) => Some(occupancy::Listed::new(ctx, bands.band_pixels())?),
-            None => None,
+        // Kept from the last render when it has room (no allocation per frame).
+        let listed = match (first, self.listed.take()) {
+            (None, kept) => {
+                self.listed = kept;
+                None
+            }
+            (Some(_), Some(l)) if l.band_pixels >= bands.band_pixels() => Some(l),
+            (Some(_), _) => Some(occupancy::Listed::new(ctx, bands.band_pixels())?),
         };
         let grid_input = match (&gpu_grid.storage, shader) {
             (
@@ -314,6 +325,13 @@ impl Renderer {
             None => None,
         };
         let mut info = self.frame_info(scene, grid, time);
+        if analytic {
+            // How the walk crossed empty space (what `steps` counts): the occupancy structure,
+            // or brick by brick (MPI blocks, brick pools, `render.occupancy = false`).
+            let occupancy =
+                matches!(shader, RayShader::AnalyticOccupancy(_) | RayShader::AnalyticResume(_));
+            info.extra.push(("occupancy".into(), occupancy.to_string()));
+        }
         if stride > 1 {
             info.extra.push(("stride".into(), stride.to_string()));
         }
@@ -334,6 +352,8 @@ impl Renderer {
                 Ok(())
             },
         )?;
+        drop((pass, first_pass));
+        self.listed = listed;
         // All device work of the render: the ray passes and the structures it built.
         let built = [self.last_bricks_ms, self.last_occupancy_ms];
         self.last_gpu_ms = gpu_ms.map(|ms| ms + built.iter().flatten().sum::<f64>());

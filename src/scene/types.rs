@@ -455,6 +455,11 @@ pub struct RenderSettings {
     /// Analytic: cross bricks of the min/max grid that cannot hold a crossing in one step
     /// (images are identical either way; only `steps` changes).
     pub skip: bool,
+    /// Analytic, with `skip`: walk a whole grid with the occupancy structure (per-cell masks
+    /// and distances over bricks: `passes::occupancy`). The same image; `steps` counts this
+    /// walk's work. Off: the brick-by-brick walk that MPI blocks and brick pools walk, so that
+    /// `steps` compares across them.
+    pub occupancy: bool,
     /// Analytic: which isovalue crossing along the ray is shown (1 = the first hit).
     pub crossing: u32,
     /// Analytic and mesh: count every crossing along the whole ray for the `crossings` channel.
@@ -483,6 +488,7 @@ impl Default for RenderSettings {
             steps: 200,
             newton_steps: 10,
             skip: true,
+            occupancy: true,
             crossing: 1,
             count_crossings: false,
             mesh: MeshAlgorithm::MarchingCubes,

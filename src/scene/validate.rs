@@ -451,6 +451,7 @@ fn render(t: &View) -> Result<RenderSettings> {
         "steps",
         "newton_steps",
         "skip",
+        "occupancy",
         "crossing",
         "count_crossings",
         "mesh",
@@ -477,6 +478,7 @@ fn render(t: &View) -> Result<RenderSettings> {
             integer(s, k, n, 0, MAX_NEWTON_STEPS)
         })? as u32,
         skip: t.or("skip", d.skip, read::boolean)?,
+        occupancy: t.or("occupancy", d.occupancy, read::boolean)?,
         crossing: t
             .or("crossing", d.crossing as i64, |s, k, n| integer(s, k, n, 1, MAX_CROSSING))?
             as u32,

@@ -314,6 +314,7 @@ pub fn describe(
         "render": {
             "method": r.method.name(), "shading": r.shading.name(), "steps": r.steps,
             "newton_steps": r.newton_steps, "crossing": r.crossing, "skip": r.skip,
+            "occupancy": r.occupancy,
             "normals": r.normals.name(),
             "mesh": r.mesh.name(),
         },

@@ -177,6 +177,11 @@ impl ComputePipeline {
         }
     }
 
+    /// What the shader does with each binding, in order.
+    pub fn bindings(&self) -> &[Binding] {
+        &self.bindings
+    }
+
     /// Allocates and fills a descriptor set with `resources` (one per binding, in order), each
     /// checked against its binding's kind.
     pub fn bind(&self, resources: &[Resource]) -> Result<Dispatch, GpuError> {

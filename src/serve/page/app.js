@@ -487,6 +487,7 @@ function buildControls(info) {
   $('crossing').value = info.render.crossing;
   $('crossing-out').textContent = info.render.crossing;
   $('skip').checked = info.render.skip;
+  $('occupancy').checked = info.render.occupancy;
   $('normals').value = info.render.normals;
   $('projection').value = info.camera.projection;
   $('time-box').hidden = !f.time_varying;
@@ -541,6 +542,8 @@ function wireControls() {
     drawOverlay();
   });
   $('skip').addEventListener('change', () => setKey('render.skip', String($('skip').checked)));
+  $('occupancy').addEventListener('change', () =>
+    setKey('render.occupancy', String($('occupancy').checked)));
   const timeInput = () => {
     view.time = Number(Number($('time').value).toPrecision(6));
     $('time-out').textContent = fmt(view.time);

@@ -63,7 +63,11 @@ fn both(
     grid: &Grid,
     file: &Path,
 ) -> (Vec<Pixel>, Vec<Pixel>, pool::Residency) {
+    // The pool walks brick by brick; so does the whole grid's render here (`steps` compares;
+    // the occupancy walk's equality with it is render::analytic's test).
+    let accel = std::mem::replace(&mut renderer.accel, isoview::render::Accel::Plain);
     let whole = renderer.render(scene, grid, 0.0).unwrap().pixels;
+    renderer.accel = accel;
     let mut mapped_scene = scene.clone();
     mapped_scene.field = raw_spec(file, grid, Residency::Active);
     let mapped = pool::mapped_for(&mapped_scene, &GridLimits::default()).unwrap().unwrap();

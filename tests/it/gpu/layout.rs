@@ -501,6 +501,7 @@ fn workgroup_sizes_are_the_dispatch_constants() {
             "bricks.comp" | "superbricks.comp" => [consts::BRICKS_GROUP; 3],
             "test/layout_probe.comp" => [1, 1, 1],
             p if p.starts_with("extract/") => [passes::extract::GROUP, 1, 1],
+            p if p.starts_with("occupancy/") => [passes::occupancy::GROUP, 1, 1],
             p => panic!("{p}: no expected workgroup size; add it here"),
         };
         assert_eq!(parse(spv).local_size, Some(want), "{path}");

@@ -26,7 +26,13 @@ fn the_gpu_benchmark_runs_every_table_at_a_tiny_size() {
     let rays = v["rays"].as_array().unwrap();
     assert_eq!(rays.len(), 4, "{rays:?}");
     for r in rays {
-        for k in ["analytic_gpu_ms", "fixed_step_512_gpu_ms", "new_isovalue_ms"] {
+        for k in [
+            "build_gpu_ms",
+            "analytic_gpu_ms",
+            "walk_gpu_ms",
+            "fixed_step_512_gpu_ms",
+            "new_isovalue_ms",
+        ] {
             assert!(r[k].as_f64().is_some_and(|x| x > 0.0), "{k} in {r}");
         }
     }

@@ -29,7 +29,7 @@ use isoview::frame::{Frame, Pixel};
 use isoview::passes::bricks;
 use isoview::reference::analytic::{self, cubic::Cubic, CellVisit};
 use isoview::reference::field::{to_grid, value_at};
-use isoview::render::{GpuGrid, Renderer};
+use isoview::render::{Accel, GpuGrid, Renderer};
 use isoview::scene::{Inside, Method, Scene, Shading};
 
 use crate::common::*;
@@ -675,16 +675,10 @@ fn skipping_leaves_images_bit_identical() {
     assert!(total_hits > 10_000, "{total_hits}");
 }
 
-/// The second level of the min/max grid (superbricks of `bricks::SUPER`³ bricks) changes no
-/// bit of any channel, `steps` included (a superbrick jump counts the brick jumps it replaces):
-/// sparse grids where most superbricks are empty, random and tie-making views (diagonals
-/// through brick corners of a unit-spaced grid), every crossing counted, the k-th crossing,
-/// several surfaces, an MPI-style block upload.
-#[gpu_test]
-fn superbricks_leave_images_bit_identical() {
-    let ctx = gpu();
-    let mut renderer = Renderer::new(&ctx).unwrap();
-    let mut rng = Rng::new(73);
+/// Scenes whose walks jump a lot, exactly: sparse grids where most bricks and superbricks are
+/// empty, random and tie-making views (diagonals through brick corners of a unit-spaced grid),
+/// every crossing counted, the k-th crossing, several surfaces, both inside sides.
+fn jump_scenes(rng: &mut Rng) -> Vec<(String, Grid, Scene)> {
     let n = 2 * bricks::SUPER * bricks::BRICK + 9; // 2 superbricks and a partial one per axis
     let sphere = grid_from([n, n - 7, n + 5], DVec3::splat(-1.0), DVec3::splat(1.0), |p| {
         (p - DVec3::new(0.3, -0.2, 0.25)).length() - 0.3
@@ -695,7 +689,7 @@ fn superbricks_leave_images_bit_identical() {
     // Unit spacing: index space is world space, so views along diagonals put rays exactly
     // through brick and superbrick edges and corners (planes of several axes at one t).
     let dyadic = {
-        let mut g = dyadic_grid_with_zeros(&mut rng, n);
+        let mut g = dyadic_grid_with_zeros(rng, n);
         for (i, v) in g.values.iter_mut().enumerate() {
             *v += if i % n < 2 * bricks::SUPER * bricks::BRICK + 3 { 3.0 } else { 0.0 };
         }
@@ -708,7 +702,7 @@ fn superbricks_leave_images_bit_identical() {
             .into_iter()
             .enumerate()
     {
-        let eye = random_eye(&mut rng, grid, false);
+        let eye = random_eye(rng, grid, false);
         let mut s = scene_for(grid, eye, 56, Method::Analytic);
         s.render.crossing = 1 + (case % 2) as u32;
         s.render.count_crossings = case == 1;
@@ -731,6 +725,21 @@ fn superbricks_leave_images_bit_identical() {
         s.camera.up = up;
         scenes.push(("dyadic".into(), dyadic.clone(), s));
     }
+    scenes
+}
+
+/// The second level of the min/max grid (superbricks of `bricks::SUPER`³ bricks) changes no
+/// bit of any channel, `steps` included (a superbrick jump counts the brick jumps it replaces):
+/// sparse grids where most superbricks are empty, random and tie-making views (diagonals
+/// through brick corners of a unit-spaced grid), every crossing counted, the k-th crossing,
+/// several surfaces, an MPI-style block upload.
+#[gpu_test]
+fn superbricks_leave_images_bit_identical() {
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    // The plain walk's levels (the occupancy walk has none).
+    renderer.accel = Accel::Plain;
+    let scenes = jump_scenes(&mut Rng::new(73));
     let mut jumped = 0;
     for (name, grid, scene) in &scenes {
         let gpu_grid = GpuGrid::upload(&ctx, grid).unwrap();
@@ -768,6 +777,139 @@ fn superbricks_leave_images_bit_identical() {
     }
     // The sparse grids are the case superbricks are for: the renderer picks them there.
     assert!(jumped >= scenes.len() - 1, "superbricks chosen for {jumped} scenes");
+}
+
+/// The occupancy structure's walks (one pass and two) are the plain walk, bit for bit in every
+/// channel but `steps`, on scenes whose walks jump a lot and exactly (`jump_scenes`), and smooth
+/// random grids with random cameras, orthographic and inside the box too, clip planes, bands of
+/// a few rows and a strided picture (the two-pass walk lists rays per band); and each ray's
+/// `steps` (the work its walk did) is never more than the plain walk's, the two ways of the
+/// occupancy walk agreeing on it exactly.
+#[gpu_test]
+fn the_occupancy_walk_is_the_plain_walk_bit_for_bit() {
+    use isoview::render::Progressive;
+    let ctx = gpu();
+    assert!(ctx.info.subgroup_ballot, "lavapipe has subgroup ballots: the two-pass walk runs");
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let mut rng = Rng::new(79);
+    let mut scenes = jump_scenes(&mut rng);
+    for case in 0..8 {
+        let grid = smooth_grid(&mut rng, 17 + 5 * case);
+        let eye = random_eye(&mut rng, &grid, case % 4 == 3);
+        let mut s = scene_for(&grid, eye, 40, Method::Analytic);
+        s.surface.isovalue = rng.range(-0.4, 0.4);
+        if case % 3 == 1 {
+            s.camera.projection = isoview::scene::Projection::Orthographic;
+            s.camera.ortho_height = 2.0 * (s.camera.target - s.camera.eye).length() * 0.4;
+        }
+        s.render.count_crossings = case % 2 == 0;
+        if case % 4 == 1 {
+            let mut clip = isoview::vocab::Clip::NONE;
+            assert!(clip.push(DVec3::new(0.3, -1.0, 0.2).normalize(), 0.1));
+            s.clip = clip;
+        }
+        scenes.push((format!("smooth {case}"), grid, s));
+    }
+    let (mut hits, mut saved) = (0usize, 0.0f64);
+    for (name, grid, scene) in &scenes {
+        let gpu_grid = GpuGrid::upload(&ctx, grid).unwrap();
+        let mut frames = Vec::new();
+        for accel in [Accel::Plain, Accel::Occupancy, Accel::TwoPass] {
+            renderer.accel = accel;
+            frames.push(renderer.render_uploaded(scene, grid, &gpu_grid, 0.0).unwrap());
+        }
+        // Bands of 3 rows and every other pixel, the two-pass walk against the plain one.
+        let mut strided = Vec::new();
+        for accel in [Accel::Plain, Accel::TwoPass] {
+            renderer.accel = accel;
+            let mut keep = |_: isoview::passes::Band, _: &[Pixel]| true;
+            let how = Progressive { stride: 2, band_rows: 3, after_band: &mut keep };
+            strided.push(renderer.render_progressive(scene, grid, &gpu_grid, 0.0, how).unwrap());
+        }
+        for (what, a, b) in [
+            ("one pass", &frames[0], &frames[1]),
+            ("two passes", &frames[0], &frames[2]),
+            ("strided, two passes", &strided[0], &strided[1]),
+        ] {
+            let differ =
+                a.pixels.iter().zip(&b.pixels).filter(|(x, y)| !same_but_steps(x, y)).count();
+            assert_eq!(differ, 0, "{name}, {what}: {differ} pixels differ from the plain walk");
+            let more = a.pixels.iter().zip(&b.pixels).filter(|(x, y)| y.steps > x.steps).count();
+            assert_eq!(more, 0, "{name}, {what}: {more} rays did more work than the plain walk");
+        }
+        let same = frames[1].pixels.iter().zip(&frames[2].pixels);
+        assert!(
+            same.clone().all(|(x, y)| bytemuck::bytes_of(x) == bytemuck::bytes_of(y)),
+            "{name}"
+        );
+        hits += frames[0].pixels.iter().filter(|p| p.is_hit()).count();
+        let sum = |f: &Frame| f.pixels.iter().map(|p| p.steps as f64).sum::<f64>();
+        saved += sum(&frames[0]) - sum(&frames[1]);
+    }
+    assert!(hits > 10_000, "{hits} hits");
+    assert!(saved > 0.0, "the occupancy walk saved no work");
+}
+
+/// The occupancy structure built on the device (the first analytic render of a whole grid with
+/// skipping) equals its CPU twin (`occupancy::reference`) bit for bit: every brick's distance,
+/// every mask word of the bricks that may hold a surface, on random grids with partial bricks,
+/// missing samples and several surfaces; rebuilt when the isovalues change, not before.
+#[gpu_test]
+fn the_occupancy_structure_equals_its_cpu_twin() {
+    use isoview::passes::occupancy::{self, MASK_WORDS};
+    use isoview::render::params::RenderParams;
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let mut rng = Rng::new(83);
+    let mut occupied_bricks = 0;
+    for (case, dims) in
+        [[2, 2, 2], [9, 10, 11], [19, 10, 26], [34, 17, 9], [70, 41, 33], [129, 9, 20]]
+            .into_iter()
+            .enumerate()
+    {
+        let mut grid = random_grid(&mut rng, dims);
+        let n = grid.values.len();
+        for _ in 0..1 + case % 3 {
+            grid.values[(rng.next_u64() as usize) % n] =
+                [f32::NAN, f32::INFINITY, f32::NEG_INFINITY][case % 3];
+        }
+        let gpu_grid = GpuGrid::upload(&ctx, &grid).unwrap();
+        let mut scene = scene_for(&grid, random_eye(&mut rng, &grid, false), 8, Method::Analytic);
+        for count in [1, 3] {
+            scene.surface.isovalue = rng.range(-0.6, 0.6);
+            scene.surface.count = count;
+            for k in 0..count - 1 {
+                scene.surface.more[k] = rng.range(-0.6, 0.6);
+            }
+            renderer.render_uploaded(&scene, &grid, &gpu_grid, 0.0).unwrap();
+            assert!(renderer.built_occupancy, "{dims:?}: new isovalues, a new structure");
+            renderer.render_uploaded(&scene, &grid, &gpu_grid, 0.0).unwrap();
+            assert!(!renderer.built_occupancy, "{dims:?}: the same isovalues, the same structure");
+            let thresholds = RenderParams::new(&scene, &grid).surface_thresholds();
+            let (reach, masks) = occupancy::reference(&grid, &thresholds);
+            let (seen_reach, seen_masks): (Vec<u32>, Vec<u32>) = gpu_grid.with_occupancy(|o| {
+                let o = o.expect("built");
+                assert_eq!(o.key, occupancy::key(&thresholds));
+                (
+                    read_device_buffer(&ctx, &o.reach, reach.len()),
+                    read_device_buffer(&ctx, &o.masks, masks.len()),
+                )
+            });
+            assert_eq!(seen_reach, reach, "{dims:?}, {count} surfaces: distances");
+            for (b, r) in reach.iter().enumerate() {
+                if *r == 0 {
+                    occupied_bricks += 1;
+                    let words = b * MASK_WORDS..(b + 1) * MASK_WORDS;
+                    assert_eq!(
+                        seen_masks[words.clone()],
+                        masks[words],
+                        "{dims:?}, {count} surfaces: brick {b}'s mask"
+                    );
+                }
+            }
+        }
+    }
+    assert!(occupied_bricks > 20, "{occupied_bricks}");
 }
 
 /// The choice of levels: superbricks when enough of them are empty for the thresholds.

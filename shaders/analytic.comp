@@ -382,7 +382,9 @@ void main() {
             uint reach = reaches[(b.z * nb.y + b.y) * nb.x + b.x];
             if (!(reach != 0u && may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in)) break;
             passes++;
-            float t_b = leave_block(cell, tmax, t_hi, o, d, b, int(reach) - 1);
+            int h = int(reach) - 1;
+            ivec3 last = block_last((b - h) * BRICK, (2 * h + 1) * BRICK, cell, d);
+            float t_b = leave_cells(cell, tmax, t_hi, o, d, last);
             ended = t_b >= t_hi;
             if (ended) break;
             entered = lessThanEqual(tmax, vec3(t_b));
@@ -469,10 +471,11 @@ void main() {
         // The same walk with the occupancy structure (whole grids, skipping on): an empty
         // brick's distance r makes the cube of (2r - 1)^3 bricks around it, all empty, one jump
         // (counted one pass), landing where the cell-by-cell walk is when it leaves the cube
-        // (leave_block); a cell of a brick that may hold a surface is a candidate when its bit
+        // (leave_cells); a cell of a brick that may hold a surface is a candidate when its bit
         // in the brick's mask is set, which is the test below on the same corners, so the
-        // corners of the cells stepped over are never read. The same cells are evaluated from
-        // the same entry points: the image is the walk's, bit for bit; `steps` counts the
+        // corners of the cells stepped over are never read, and a 2^3 or 4^3 block of the
+        // brick with no candidate is one jump too. The same cells are evaluated from the same
+        // entry points: the image is the walk's, bit for bit; `steps` counts the cells and
         // jumps this walk makes.
         // One loop, whose every pass either jumps or steps one cell: llvmpipe runs the whole
         // body of a loop on every iteration whichever branch the lanes take, so a jump and a
@@ -484,17 +487,29 @@ void main() {
             uint reach = reaches[brick];
             bool jump = reach != 0u && may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in;
             passes++;
+            // What to leave in a jump: the cube of empty bricks around this one, or the cell's
+            // 4^3 or 2^3 block when none of its cells is a candidate.
+            int h = int(reach) - 1;
+            ivec3 first = (b - h) * BRICK;
+            int size = (2 * h + 1) * BRICK;
             if (reach == 0u) {
                 ivec3 l = cell - b * BRICK;
-                int bit = l.x + BRICK * (l.y + BRICK * l.z);
-                if ((masks[brick * MASK_WORDS + (bit >> 5)] & (1u << uint(bit & 31))) != 0u) {
+                uint m = mask_bit(l);
+                uint at = uint(brick * MASK_WORDS) + (m >> 5u);
+                uint word = masks[at];
+                if ((word & (1u << (m & 31u))) != 0u) {
                     corners = cell_corners(cell);
                     candidate = true;
                     break;
                 }
+                // The 2^3 block is 8 bits of this word, the 4^3 block this word and its pair.
+                size = ((word >> (m & 24u)) & 0xffu) == 0u ? 2 : 1;
+                if (word == 0u && masks[at ^ 1u] == 0u) size = 4;
+                first = cell & ~(size - 1);  // blocks are aligned, bricks too
+                jump = size > 1 && may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in;
             }
-            // To the end of this cell's segment, or of the cube of empty bricks around it.
-            float t_b = jump ? leave_block(cell, tmax, t_hi, o, d, b, int(reach) - 1)
+            // To the end of this cell's segment, or of the block it leaves.
+            float t_b = jump ? leave_cells(cell, tmax, t_hi, o, d, block_last(first, size, cell, d))
                              : segment_end(tmax, t_in, t_hi);
             if (t_b >= t_hi) break;
             entered = lessThanEqual(tmax, vec3(t_b));

@@ -163,27 +163,51 @@ uint brick_jumps(ivec3 cell, float t_hi, vec3 o, vec3 d) {
     return jumps;
 }
 
-// Leaves the brick (BRICK^3 cells) holding `cell`, or its superbrick when `whole` (leave_block).
+// Leaves the brick (BRICK^3 cells) holding `cell`, or its superbrick when `whole` (leave_cells).
 float leave_brick(inout ivec3 cell, inout vec3 tmax, float t_hi, vec3 o, vec3 d, bool whole) {
     ivec3 last_cell;
     for (int a = 0; a < 3; a++) last_cell[a] = last_in_block(a, cell[a], whole, d);
     return leave_cells(cell, tmax, t_hi, o, d, last_cell);
 }
 
-// Leaves the cube of bricks b - h .. b + h (inside the grid) around brick b, which holds `cell`
-// (leave_cells): the occupancy walk's jump over bricks its distance says are empty.
-float leave_block(inout ivec3 cell, inout vec3 tmax, float t_hi, vec3 o, vec3 d, ivec3 b, int h) {
-    ivec3 last_cell;
+// The last cell, per axis in travel order, of the cube of `size` cells from `first` (clamped to
+// the grid): what leave_cells leaves. A zero direction component stays in `cell`'s index.
+ivec3 block_last(ivec3 first, int size, ivec3 cell, vec3 d) {
+    ivec3 last;
     for (int a = 0; a < 3; a++) {
         if (d[a] > 0.0) {
-            last_cell[a] = min((b[a] + h + 1) * BRICK - 1, P.dims[a] - 2);
+            last[a] = min(first[a] + size - 1, P.dims[a] - 2);
         } else if (d[a] < 0.0) {
-            last_cell[a] = max(b[a] - h, 0) * BRICK;
+            last[a] = max(first[a], 0);
         } else {
-            last_cell[a] = cell[a];
+            last[a] = cell[a];
         }
     }
-    return leave_cells(cell, tmax, t_hi, o, d, last_cell);
+    return last;
+}
+
+// A cell's bit in its brick's occupancy mask (passes/occupancy.rs): the Morton order of its
+// coordinates in the brick (x0 y0 z0 x1 y1 z1 x2 y2 z2, lowest first), so that each 2^3 block of
+// cells is 8 consecutive bits and each 4^3 block 64 (two words).
+uint mask_bit(ivec3 l) {
+    uint m = 0u;
+    for (int k = 0; k < 3; k++) {
+        m |= uint((l.x >> k) & 1) << uint(3 * k);
+        m |= uint((l.y >> k) & 1) << uint(3 * k + 1);
+        m |= uint((l.z >> k) & 1) << uint(3 * k + 2);
+    }
+    return m;
+}
+
+// The cell of Morton index m in its brick (mask_bit's inverse).
+ivec3 mask_cell(uint m) {
+    ivec3 l = ivec3(0);
+    for (int k = 0; k < 3; k++) {
+        l.x |= int((m >> uint(3 * k)) & 1u) << k;
+        l.y |= int((m >> uint(3 * k + 1)) & 1u) << k;
+        l.z |= int((m >> uint(3 * k + 2)) & 1u) << k;
+    }
+    return l;
 }
 
 // Leaves the box of cells from `cell` to `last_cell` (per axis the last cell in travel order):

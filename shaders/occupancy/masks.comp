@@ -1,13 +1,13 @@
 #version 450
 // The occupancy structure's cell masks (passes/occupancy.rs): for every brick that may hold a
-// surface, one bit per cell (bit x + BRICK (y + BRICK z) of the brick's cell (x, y, z), in
-// MASK_WORDS words), set where the trilinear walk would evaluate the cell: not missing and not
+// surface, one bit per cell (bricks.glsl's mask_bit: Morton order in the brick, in MASK_WORDS
+// words), set where the trilinear walk would evaluate the cell: not missing and not
 // clear of every isovalue (bricks.glsl's cell tests, the walk's own functions on the same
 // samples). The walk then reads one word instead of a cell's 8 corners for every cell it steps
 // over. Bricks clear of every isovalue get no mask (the walk never reads it: their distance is
 // not 0).
 //
-// One invocation per word: 32 cells, 32 / BRICK rows of BRICK cells along x.
+// One invocation per word: 32 cells, four 2^3 blocks.
 
 #extension GL_GOOGLE_include_directive : require
 
@@ -38,16 +38,11 @@ void main() {
     ivec3 b = ivec3(int(brick) % nb.x, (int(brick) / nb.x) % nb.y, int(brick) / (nb.x * nb.y));
     ivec3 ncell = P.dims - 1;
     uint bits = 0u;
-    for (int r = 0; r < 32 / BRICK; r++) {
-        int row = word * (32 / BRICK) + r;     // y + BRICK z within the brick
-        ivec3 c0 = b * BRICK + ivec3(0, row % BRICK, row / BRICK);
-        if (c0.y >= ncell.y || c0.z >= ncell.z) continue;
-        for (int x = 0; x < BRICK; x++) {
-            ivec3 c = c0 + ivec3(x, 0, 0);
-            if (c.x >= ncell.x) break;
-            Corners k = cell_corners(c);
-            if (!cell_missing(k) && !cell_all_clear(k)) bits |= 1u << uint(r * BRICK + x);
-        }
+    for (uint k = 0u; k < 32u; k++) {
+        ivec3 c = b * BRICK + mask_cell(uint(word) * 32u + k);
+        if (any(greaterThanEqual(c, ncell))) continue;
+        Corners corners = cell_corners(c);
+        if (!cell_missing(corners) && !cell_all_clear(corners)) bits |= 1u << k;
     }
     masks[i] = bits;
 }

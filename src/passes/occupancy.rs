@@ -11,9 +11,9 @@
 //!   reach[brick]   0: the brick may hold a surface (its range is not clear of every isovalue)
 //!                  r: empty, and so is every brick up to r - 1 away on each axis (L-infinity,
 //!                     capped at REACH_CAP + 1): the walk crosses that cube of bricks in one jump
-//!   masks[brick]   MASK_WORDS words, one bit per cell (x + BRICK (y + BRICK z)): the cell is a
-//!                  candidate (not missing, not clear of every isovalue), read only where
-//!                  reach = 0
+//!   masks[brick]   MASK_WORDS words, one bit per cell (in Morton order: [`mask_cell`]): the
+//!                  cell is a candidate (not missing, not clear of every isovalue), read only
+//!                  where reach = 0; a 2³ or 4³ block of cells with no bit set is one jump
 //!
 //!    . . . . . . .        reach of a row of bricks around two that may hold a surface (#):
 //!    3 2 1 # 1 1 # 1 2    the walk in brick "3" jumps over 5 bricks at once
@@ -50,7 +50,8 @@ pub const MASK_WORDS: usize = shaders::consts::MASK_WORDS as usize;
 /// The largest distance the structure resolves, in bricks.
 pub const REACH_CAP: u32 = shaders::consts::REACH_CAP;
 
-const _: () = assert!(MASK_WORDS * 32 == BRICK * BRICK * BRICK && 32 % BRICK == 0);
+// The masks' Morton order and its 2³ and 4³ blocks are for bricks of 8³ cells.
+const _: () = assert!(MASK_WORDS * 32 == BRICK * BRICK * BRICK && BRICK == 8);
 
 /// The passes, for one surface count (their `range_is_empty` and cell tests loop over
 /// `SURFACE_COUNT`, a specialization constant as in the walk).
@@ -209,7 +210,7 @@ pub fn reference(grid: &crate::field::Grid, thresholds: &[f32]) -> (Vec<u32>, Ve
                     continue;
                 }
                 for bit in 0..BRICK * BRICK * BRICK {
-                    let l = [bit % BRICK, bit / BRICK % BRICK, bit / (BRICK * BRICK)];
+                    let l = mask_cell(bit);
                     let c = [bx * BRICK + l[0], by * BRICK + l[1], bz * BRICK + l[2]];
                     if (0..3).any(|a| c[a] >= cells[a]) {
                         continue;
@@ -229,6 +230,20 @@ pub fn reference(grid: &crate::field::Grid, thresholds: &[f32]) -> (Vec<u32>, Ve
         }
     }
     (reach, masks)
+}
+
+/// The cell (in its brick) of bit `m` of a brick's mask: the Morton order of its coordinates
+/// (x0 y0 z0 x1 y1 z1 x2 y2 z2, lowest first), so that each 2³ block of cells is 8 consecutive
+/// bits and each 4³ block two words, which the walk jumps when they are 0 (bricks.glsl's
+/// `mask_bit`, `mask_cell`).
+pub fn mask_cell(m: usize) -> [usize; 3] {
+    let mut l = [0; 3];
+    for k in 0..3 {
+        for (a, c) in l.iter_mut().enumerate() {
+            *c |= (m >> (3 * k + a) & 1) << k;
+        }
+    }
+    l
 }
 
 /// The rays the two-pass walk lists per band (analytic.comp's `OCC_SKIP`): two `uvec4` each,

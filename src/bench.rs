@@ -246,8 +246,10 @@ pub fn run(ctx: &std::sync::Arc<Context>, o: &Options) -> Result<Value, String> 
             };
             scene.render.method = Method::Analytic;
             renderer.render_uploaded(&scene, &grid, &gpu_grid, 0.0).map_err(|x| e(&x))?;
-            let built = [renderer.last_bricks_ms, renderer.last_occupancy_ms];
-            let build = built.iter().map(|b| b.unwrap_or(f64::NAN)).sum::<f64>();
+            // The brick grid on the device, or on a CPU device by the CPU (its wall time).
+            let bricks_ms = renderer.last_bricks_ms.or(renderer.last_bricks_cpu_ms);
+            let build =
+                bricks_ms.unwrap_or(f64::NAN) + renderer.last_occupancy_ms.unwrap_or(f64::NAN);
             let (analytic, _) = time(&scene, &mut renderer)?;
             let mut plain = scene.clone();
             plain.render.occupancy = false;

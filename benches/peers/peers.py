@@ -94,10 +94,11 @@ def pixel_rays(eye, w, h):
     return np.broadcast_to(eye, d.shape), d
 
 
-def timed(cmd):
-    """Runs a process, fails loudly if it fails; returns (wall seconds, stdout, stderr)."""
+def timed(cmd, env=None):
+    """Runs a process (with `env` added to the environment), fails loudly if it fails; returns
+    (wall seconds, stdout, stderr)."""
     t = time.perf_counter()
-    p = subprocess.run(cmd, capture_output=True, text=True)
+    p = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, **(env or {})})
     wall = time.perf_counter() - t
     if p.returncode != 0:
         sys.exit(f"peers: failed ({p.returncode}): {' '.join(map(str, cmd))}\n{p.stderr}{p.stdout}")
@@ -109,22 +110,29 @@ def median(xs):
 
 
 def render(iso, out, name, *sets):
-    """`isoview render` REPEAT times: median GPU ms (Vulkan timestamps, printed by isoview; the
-    brick build of the first analytic render is not in it), median whole-process s, the EXR."""
+    """`isoview render` REPEAT times: median GPU ms (Vulkan timestamps, printed by isoview: all
+    device work of the render, the structures it builds included), median trace GPU ms and build
+    ms (the structures: the brick grid, made by the CPU on a CPU device, and the occupancy
+    structure; `ISOVIEW_TIMINGS=1`'s line), median whole-process s, the EXR."""
     exr = out / f"{name}.{'-'.join(s.split('=')[1] for s in sets)}.exr"  # name.fixed-step-512.exr
     cmd = [iso, "render", out / f"{name}.toml", "-o", exr,
            "--set", f"image.width={SIZE}", "--set", f"image.height={SIZE}"]
     for s in sets:
         cmd += ["--set", s]
-    gpu, wall = [], []
+    gpu, wall, trace, build = [], [], [], []
     for _ in range(REPEAT):
-        w, _, err = timed(cmd)
+        w, _, err = timed(cmd, {"ISOVIEW_TIMINGS": "1"})
         m = re.search(r"\(GPU ([0-9.]+) ms\)", err)
-        if not m:
+        t = re.search(r"GPU build ([0-9.]+) ms \(brick grid ([0-9.]+) ms, occupancy ([0-9.]+) ms\), "
+                      r"trace ([0-9.]+) ms(; brick grid made on the CPU in ([0-9.]+) ms)?", err)
+        if not m or not t:
             sys.exit(f"peers: no GPU time in isoview's output: {err}")
         gpu.append(float(m.group(1)))
+        trace.append(float(t.group(4)))
+        # The structures: on the device, or the brick grid by the CPU on a CPU device.
+        build.append(float(t.group(1)) + float(t.group(6) or 0.0))
         wall.append(w)
-    return median(gpu), median(wall), read_z(exr)
+    return median(gpu), median(wall), read_z(exr), median(trace), median(build)
 
 
 def read_z(exr):
@@ -207,31 +215,36 @@ def job_raytrace(iso, out):
     rows = []
     for name in INPUTS:
         f, n, eye = INPUTS[name]
-        gpu, wall, z = render(iso, out, name, "render.method=analytic")
+        gpu, wall, z, trace, build = render(iso, out, name, "render.method=analytic")
         m_ms, m_tpn, m_load, mz = mitsuba_trace(np.load(out / f"{name}.npy"), eye)
-        rows.append([f"{name.split('-')[0]} {n}³", f"{gpu:.1f}", f"{wall:.2f}", f"{m_ms:.1f}",
-                     f"{m_tpn:.1f}", f"{m_load:.0f}", f"**{gpu / m_ms:.2f}×**",
+        rows.append([f"{name.split('-')[0]} {n}³", f"{trace:.1f}", f"{build:.1f}", f"{gpu:.1f}",
+                     f"{wall:.2f}", f"{m_ms:.1f}",
+                     f"{m_tpn:.1f}", f"{m_load:.0f}", f"**{trace / m_ms:.2f}×**",
                      f"{int(np.isfinite(z).sum()):,}", f"{int(np.isfinite(mz).sum()):,}",
                      *agreement(z, mz)])
     return table(
         f"Ray tracing, {SIZE}×{SIZE}, one ray per pixel centre: isoview analytic vs Mitsuba 3 sdfgrid",
-        ["grid", "isoview GPU ms", "isoview process s", "Mitsuba ray_intersect ms (depth)",
+        ["grid", "isoview trace GPU ms", "isoview build ms", "isoview GPU ms (the summary's)",
+         "isoview process s", "Mitsuba ray_intersect ms (depth)",
          "Mitsuba ms (depth, position, normal)", "Mitsuba scene load ms",
-         "isoview GPU / Mitsuba (depth)", "isoview hits", "Mitsuba hits", "hit agreement",
+         "isoview trace / Mitsuba (depth)", "isoview hits", "Mitsuba hits", "hit agreement",
          "Δdepth / diagonal, p99", "Δdepth / diagonal, max", "pixels over 1e-5"], rows)
 
 
 def job_fixed_step(iso, out):
     name = "gyroid-256"
-    a_gpu, a_wall, az = render(iso, out, name, "render.method=analytic")
-    f_gpu, f_wall, fz = render(iso, out, name, "render.method=fixed-step", "render.steps=512")
-    rows = [["analytic", f"{a_gpu:.1f}", f"{a_wall:.2f}", f"{int(np.isfinite(az).sum()):,}", "", "", "", "", ""],
-            ["fixed-step, steps = 512", f"{f_gpu:.1f}", f"{f_wall:.2f}",
-             f"{int(np.isfinite(fz).sum()):,}", *agreement(az, fz), f"**{a_gpu / f_gpu:.2f}×**"]]
+    a_gpu, a_wall, az, a_trace, _ = render(iso, out, name, "render.method=analytic")
+    f_gpu, f_wall, fz, _, _ = render(iso, out, name, "render.method=fixed-step", "render.steps=512",
+                                     "render.skip=false")
+    rows = [["analytic (trace; with its build)", f"{a_trace:.1f}; {a_gpu:.1f}", f"{a_wall:.2f}",
+             f"{int(np.isfinite(az).sum()):,}", "", "", "", "", ""],
+            ["fixed-step, steps = 512, skip = false", f"{f_gpu:.1f}", f"{f_wall:.2f}",
+             f"{int(np.isfinite(fz).sum()):,}", *agreement(az, fz),
+             f"**{a_trace / f_gpu:.2f}×** ({a_gpu / f_gpu:.2f}×)"]]
     return table(f"Analytic vs fixed-step (512 steps), gyroid 256³, {SIZE}×{SIZE}",
                  ["method", "GPU ms", "process s", "hits", "hit agreement with analytic",
                   "Δdepth / diagonal, p99", "Δdepth / diagonal, max", "pixels over 1e-5",
-                  "analytic / fixed-step GPU time"], rows)
+                  "analytic / fixed-step GPU time (trace; with the build)"], rows)
 
 
 def job_extract_process(iso, out):

@@ -61,6 +61,13 @@ bool range_is_empty(vec2 mm) {
 #ifdef CELL_TESTS
 // The trilinear walk's per-cell tests (analytic.comp, occupancy/masks.comp: the same
 // functions, so the masks hold exactly the walk's decisions). Needs field.glsl's Corners.
+// The same test on the smallest and largest of the corners (any order of min and max gives
+// the same exact values: the mask pass takes them separably).
+bool values_clear(float lo, float hi, float iso) {
+    float tol = SKIP_MARGIN * (max(abs(lo), abs(hi)) + abs(iso));
+    return lo - iso > tol || iso - hi > tol;
+}
+
 // The same test for one cell (`render.skip` too): every value the walk decides the predicate on
 // in the cell (the carried entry value, the exit value, the cubic at its split points) is a
 // convex combination of its 8 corners up to rounding, so a cell whose corners are clearly on one
@@ -70,9 +77,9 @@ bool cell_is_clear(Corners k, float iso) {
     vec4 mx = max(k.lo, k.hi);
     float lo = min(min(mn.x, mn.y), min(mn.z, mn.w));
     float hi = max(max(mx.x, mx.y), max(mx.z, mx.w));
-    float tol = SKIP_MARGIN * (max(abs(lo), abs(hi)) + abs(iso));
-    return lo - iso > tol || iso - hi > tol;
+    return values_clear(lo, hi, iso);
 }
+
 
 // Whether every surface is clear of the cell (cell_is_clear): no crossing can lie in it.
 bool cell_all_clear(Corners k) {

@@ -254,16 +254,37 @@ pub fn run(cli: &Cli, args: &RenderArgs) -> Result<i32, Failure> {
             Some(bar) => bar.inc(1),
             // The failure's line ends the run instead (one line for a failed run).
             None if tev_failed.is_some() => {}
-            None => note!(
-                "{}x{} {} on {} in {:.0} ms{}{split} -> {}",
-                width,
-                height,
-                scene.render.method.name(),
-                ctx.info.name,
-                started.elapsed().as_secs_f64() * 1e3,
-                renderer.last_gpu_ms.map(|ms| format!(" (GPU {ms:.1} ms)")).unwrap_or_default(),
-                exr.display()
-            ),
+            None => {
+                // The GPU time apart (benchmarks: the structures' builds against the trace), on
+                // a line of its own before the summary, whose form scripts parse.
+                if std::env::var_os("ISOVIEW_TIMINGS").is_some() {
+                    if let Some(all) = renderer.last_gpu_ms {
+                        let (bricks, occupancy) =
+                            (renderer.last_bricks_ms, renderer.last_occupancy_ms);
+                        let build = bricks.unwrap_or(0.0) + occupancy.unwrap_or(0.0);
+                        let cpu = renderer.last_bricks_cpu_ms.map_or(String::new(), |ms| {
+                            format!("; brick grid made on the CPU in {ms:.1} ms")
+                        });
+                        note!(
+                            "GPU build {build:.1} ms (brick grid {:.1} ms, occupancy {:.1} ms), \
+                             trace {:.1} ms{cpu}",
+                            bricks.unwrap_or(0.0),
+                            occupancy.unwrap_or(0.0),
+                            all - build
+                        );
+                    }
+                }
+                note!(
+                    "{}x{} {} on {} in {:.0} ms{}{split} -> {}",
+                    width,
+                    height,
+                    scene.render.method.name(),
+                    ctx.info.name,
+                    started.elapsed().as_secs_f64() * 1e3,
+                    renderer.last_gpu_ms.map(|ms| format!(" (GPU {ms:.1} ms)")).unwrap_or_default(),
+                    exr.display()
+                )
+            }
         }
     }
     if let Some(bar) = progress {

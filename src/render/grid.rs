@@ -155,8 +155,14 @@ impl GpuGrid {
     }
 
     /// Uploads the min/max grid computed on the CPU (`levels`: [`bricks::levels`]' layout).
-    fn set_bricks(&self, ctx: &Arc<Context>, levels: Vec<[f32; 2]>) -> Result<(), GpuError> {
-        let buffer = Buffer::upload(ctx, "bricks", &levels, vk::BufferUsageFlags::STORAGE_BUFFER)?;
+    pub(super) fn set_bricks(
+        &self,
+        ctx: &Arc<Context>,
+        levels: Vec<[f32; 2]>,
+    ) -> Result<(), GpuError> {
+        // TRANSFER_SRC: tests read it back.
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+        let buffer = Buffer::upload(ctx, "bricks", &levels, usage)?;
         let n_bricks = bricks::brick_counts(self.dims).iter().product::<usize>();
         let _ = self.supers.set(levels[n_bricks..].to_vec());
         let _ = self.bricks.set(buffer);

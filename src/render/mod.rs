@@ -144,6 +144,9 @@ pub struct Renderer {
     /// ([`Accel`]). Images are the same bit for bit every way but `steps` (the work each walk
     /// does); tests and benchmarks choose to compare.
     pub accel: Accel,
+    /// Wall time of making the brick min/max grid on the CPU during the last frame (a CPU
+    /// device's way), in milliseconds (None when the frame did not make it there).
+    pub last_bricks_cpu_ms: Option<f64>,
     /// GPU time of building the occupancy structure during the last frame, in milliseconds
     /// (None when the frame did not build it, or without timestamps).
     pub last_occupancy_ms: Option<f64>,
@@ -186,6 +189,7 @@ impl Renderer {
                 true => Accel::TwoPass,
                 false => Accel::Occupancy,
             },
+            last_bricks_cpu_ms: None,
             last_occupancy_ms: None,
             built_occupancy: false,
             occupancy_pipelines: Default::default(),

@@ -81,6 +81,7 @@ impl Renderer {
         let mut params = RenderParams::new(scene, grid);
         let interp = scene.field.interpolation;
         self.last_bricks_ms = None;
+        self.last_bricks_cpu_ms = None;
         self.last_occupancy_ms = None;
         self.built_occupancy = false;
         self.last_brick_levels = None;
@@ -126,7 +127,18 @@ impl Renderer {
                 None => gpu_grid.bricks.get().is_none(),
                 Some(cell) => cell.get().is_none(),
             };
-            if unbuilt {
+            // On a CPU device (lavapipe) trilinear's ranges are made by the CPU's threads from
+            // the grid itself: the same numbers (bricks::ranges_threaded), a tenth of the time.
+            let on_cpu = self.ctx.info.device_type.starts_with("CPU")
+                && levels_cell.is_none()
+                && gpu_grid.block.is_none()
+                && grid.values.len() == grid.dims.iter().product::<usize>();
+            if unbuilt && on_cpu {
+                let started = std::time::Instant::now();
+                let ranges = bricks::ranges_threaded(grid);
+                gpu_grid.set_bricks(&self.ctx, bricks::levels(grid.dims, &ranges))?;
+                self.last_bricks_cpu_ms = Some(started.elapsed().as_secs_f64() * 1e3);
+            } else if unbuilt {
                 let image = gpu_grid.image("the brick min/max grid of a brick pool")?;
                 let built = bricks::build(&self.ctx, &self.bricks, image, gpu_grid.dims, bound)?;
                 self.last_bricks_ms = built.ms;
@@ -180,9 +192,19 @@ impl Renderer {
         };
         // The occupancy structure where it applies (a whole grid in a storage buffer, skipping
         // on) and is not turned off: the same image, less work. Its walk needs no superbricks.
+        // A strided picture (serve's coarse frames while a key is dragged) uses it only when it
+        // is built for these isovalues already: its build would cost more than the few rays
+        // save, and a drag would pay it for every new isovalue.
+        let current = || {
+            let key = occupancy::key(&params.surface_thresholds());
+            gpu_grid.occupancy.borrow().as_ref().is_some_and(|o| o.key == key)
+        };
         let shader = match shader {
             RayShader::AnalyticBuffer(walk)
-                if self.accel != Accel::Plain && scene.render.skip && scene.render.occupancy =>
+                if self.accel != Accel::Plain
+                    && scene.render.skip
+                    && scene.render.occupancy
+                    && (stride == 1 || current()) =>
             {
                 self.last_brick_levels = Some(1);
                 let walk = analytic::Walk { levels: 1, ..walk };

@@ -39,7 +39,21 @@ void set_error(char* err, size_t cap, const std::string& what) {
 std::once_flag init_flag;
 
 void init() {
-    std::call_once(init_flag, [] { openvdb::initialize(); });
+    std::call_once(init_flag, [] {
+        openvdb::initialize();
+        // TBB loads its allocator (libtbbmalloc, whose constructor registers an exit handler)
+        // at its first parallel allocation: do one here, in the parent, so that a forked
+        // reader never loads it (a child forked while another thread held glibc's atexit lock
+        // waited on it for ever: seen in the test suite, in countActiveVoxels' first node
+        // manager). The same call the reader makes, on a grid of one voxel.
+        try {
+            openvdb::FloatGrid::Ptr one = openvdb::FloatGrid::create(0.0f);
+            one->tree().setValueOn(openvdb::Coord(0, 0, 0), 1.0f);
+            (void)one->tree().activeVoxelCount();
+        } catch (...) {
+            // Only a warm-up: the reader reports its own errors.
+        }
+    });
 }
 
 }  // namespace

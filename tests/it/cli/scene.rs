@@ -622,7 +622,7 @@ fn load_reads_files_and_reports_io_errors() {
     let unknown = dir.join("unknown.toml");
     std::fs::write(&unknown, format!("{CELL}[render]\nfoo = 1\n")).unwrap();
     let e = scene::load(&unknown, &[]).unwrap_err().to_string();
-    assert_eq!(e, format!("{}:5:1: render.foo: unknown key ([render] has method, steps, newton_steps, skip, crossing, count_crossings, mesh, mesh_refine, shading, normals, background, color, hermite, qef_threshold, qef_clamp, feature_angle, mesh_error)", unknown.display()));
+    assert_eq!(e, format!("{}:5:1: render.foo: unknown key ([render] has method, steps, newton_steps, skip, occupancy, crossing, count_crossings, mesh, mesh_refine, shading, normals, background, color, hermite, qef_threshold, qef_clamp, feature_angle, mesh_error)", unknown.display()));
 }
 
 #[test]

@@ -220,6 +220,19 @@ fn truncated_and_corrupted_files_are_one_line() {
     }
 }
 
+/// Reading a `.vdb` sets OpenVDB up in this process before forking the reader, TBB's allocator
+/// included: a reader forked while another thread held glibc's atexit lock, and then loading
+/// libtbbmalloc (whose constructor registers an exit handler) at its first parallel count of
+/// voxels, waited on that lock for ever (seen hanging `truncated_and_corrupted_files_are_one_line`
+/// for 14 minutes). Loaded here, the child has it already.
+#[cfg(feature = "openvdb")]
+#[test]
+fn the_reader_s_libraries_are_loaded_before_it_forks() {
+    read_entry("sphere.vdb").unwrap();
+    let maps = std::fs::read_to_string("/proc/self/maps").unwrap();
+    assert!(maps.contains("libtbbmalloc"), "libtbbmalloc is not loaded in the parent");
+}
+
 /// The flipped metadata length that made OpenVDB allocate 17 GB in a minute (found by
 /// fuzzing sphere.vdb): refused in seconds by the reader's limits, in one line.
 #[cfg(feature = "openvdb")]

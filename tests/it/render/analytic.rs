@@ -853,7 +853,8 @@ fn the_occupancy_walk_is_the_plain_walk_bit_for_bit() {
 /// The occupancy structure built on the device (the first analytic render of a whole grid with
 /// skipping) equals its CPU twin (`occupancy::reference`) bit for bit: every brick's distance,
 /// every mask word of the bricks that may hold a surface, on random grids with partial bricks,
-/// missing samples and several surfaces; rebuilt when the isovalues change, not before.
+/// missing samples and several surfaces; rebuilt when the isovalues change, not before, and not
+/// by a strided picture.
 #[gpu_test]
 fn the_occupancy_structure_equals_its_cpu_twin() {
     use isoview::passes::occupancy::{self, MASK_WORDS};
@@ -881,6 +882,12 @@ fn the_occupancy_structure_equals_its_cpu_twin() {
             for k in 0..count - 1 {
                 scene.surface.more[k] = rng.range(-0.6, 0.6);
             }
+            // A strided picture (serve's coarse frame) does not build it for new isovalues.
+            let mut keep = |_: isoview::passes::Band, _: &[Pixel]| true;
+            let how =
+                isoview::render::Progressive { stride: 3, band_rows: 4, after_band: &mut keep };
+            renderer.render_progressive(&scene, &grid, &gpu_grid, 0.0, how).unwrap();
+            assert!(!renderer.built_occupancy, "{dims:?}: a strided picture built it");
             renderer.render_uploaded(&scene, &grid, &gpu_grid, 0.0).unwrap();
             assert!(renderer.built_occupancy, "{dims:?}: new isovalues, a new structure");
             renderer.render_uploaded(&scene, &grid, &gpu_grid, 0.0).unwrap();
@@ -973,14 +980,30 @@ fn grid_buffer_and_grid_image_builds_agree_bit_for_bit() {
     assert!(hits > 2_000, "{hits}");
 }
 
+/// The brick min/max grid the first analytic render makes (on lavapipe, a CPU device: by the
+/// CPU's threads, `bricks::ranges_threaded`) and the one `bricks.comp` builds (what a GPU
+/// renders with) both equal the reference, missing samples left out, partial bricks too.
 #[gpu_test]
 fn brick_grid_holds_each_bricks_min_and_max() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
+    let pipelines = bricks::pipelines(&ctx).unwrap();
     let mut rng = Rng::new(37);
-    for dims in [[2, 2, 2], [9, 9, 9], [19, 10, 26], [17, 33, 8], [70, 41, 100]] {
-        let grid = random_grid(&mut rng, dims);
+    for dims in [[2, 2, 2], [9, 9, 9], [19, 10, 26], [17, 33, 8], [70, 41, 100], [8, 17, 25]] {
+        let mut grid = random_grid(&mut rng, dims);
+        let n = grid.values.len();
+        grid.values[(rng.next_u64() as usize) % n] = f32::NAN;
+        grid.values[(rng.next_u64() as usize) % n] = f32::NEG_INFINITY;
         let gpu_grid = GpuGrid::upload(&ctx, &grid).unwrap();
+        let image =
+            isoview::gpu::Image3d::upload(&ctx, "grid", grid.dims.map(|d| d as u32), &grid.values)
+                .unwrap();
+        let on_device =
+            bricks::build(&ctx, &pipelines, &image, grid.dims, bricks::Bound::Corners).unwrap();
+        let expected = bricks::levels(grid.dims, &bricks::reference(&grid));
+        let seen: Vec<[f32; 2]> = read_device_buffer(&ctx, &on_device.buffer, expected.len());
+        assert_eq!(seen, expected, "dims {dims:?}: bricks.comp");
+        assert_eq!(bricks::ranges_threaded(&grid), bricks::reference(&grid), "dims {dims:?}");
         assert!(gpu_grid.bricks().is_none());
         let scene = scene_for(&grid, random_eye(&mut rng, &grid, false), 8, Method::Analytic);
         renderer.render_uploaded(&scene, &grid, &gpu_grid, 0.0).unwrap();

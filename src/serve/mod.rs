@@ -5,8 +5,10 @@
 //!        │   ── access (Host, token) ── api (routes)
 //!        │ POST /api/state: load + validate like --set, data files confined ──> mailbox
 //!        │ GET /api/frame, /aov, /exr, /tev, slice PNGs: parked until the board has them
+//!        │ GET /api/state, /probe, /slice: parked until the board has the sampled field
 //!        ▼
 //!   render thread (progressive): owns the Renderer, the slice renderer and the uploaded grid;
+//!   samples each state's field (the only thread that does) and pins it to the board;
 //!   coarse frame while the page drags, full frame after a pause, stale frames abandoned
 //!   between bands; pins frames and failures to the board.
 //! ```

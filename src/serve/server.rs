@@ -149,24 +149,21 @@ fn work(queue: &Mutex<Receiver<Job>>, jobs: &SyncSender<Job>, app: &App, parking
         match job {
             Job::Answer(p, found) => {
                 let (wait, unread) = (p.wait, p.unread);
-                let reply = survive(
+                let outcome = survive(
                     || match found {
                         Some(found) => app.answer(wait, found),
-                        None => wait.timed_out(),
+                        None => Outcome::Reply(wait.timed_out()),
                     },
-                    |r| r,
+                    Outcome::Reply,
                 );
-                reply.send(p.conn.stream, unread)
+                finish(app, parking, p.conn, outcome, unread);
             }
             Job::Serve(mut conn) => match conn.head.read(&mut conn.stream, http::HEAD_TURN) {
                 Ok(HeadProgress::Done(head)) => {
                     let mut body = http::Body::new(&mut conn.stream, &head);
                     let outcome = survive(|| app.route(&head, &mut body), Outcome::Reply);
                     let unread = body.unread();
-                    match outcome {
-                        Outcome::Reply(reply) => reply.send(conn.stream, unread),
-                        Outcome::Park(wait) => park(app, parking, conn, wait, unread),
-                    }
+                    finish(app, parking, conn, outcome, unread);
                 }
                 // To the back of the queue: the connections behind it get their turn. Cannot
                 // fail (see `run`); if it did, the connection would close unanswered.
@@ -177,6 +174,15 @@ fn work(queue: &Mutex<Receiver<Job>>, jobs: &SyncSender<Job>, app: &App, parking
                 Err(reply) => reply.send(conn.stream, 0),
             },
         }
+    }
+}
+
+/// Sends the reply, or parks the request (a slice picture waits for its field, then for the
+/// render thread to draw it: two waits).
+fn finish(app: &App, parking: &Parking, conn: Conn, outcome: Outcome, unread: u64) {
+    match outcome {
+        Outcome::Reply(reply) => reply.send(conn.stream, unread),
+        Outcome::Park(wait) => park(app, parking, conn, wait, unread),
     }
 }
 

@@ -940,3 +940,65 @@ fn requests_that_found_a_bug_leave_every_worker_serving() {
     }
     alive(&server);
 }
+
+/// Left by the fourth pass: `GET /api/state`, `/api/probe` and `/api/slice` sampled the field
+/// on the request's worker while the render thread had not drawn the latest state, so a
+/// costly expression within the 4096-byte limit and a dozen such GETs held all 8 workers
+/// (a plain `/api/stats` waited 13-40 s). They now wait, parked, for the field the render
+/// thread samples: the cheap request is answered before any of them.
+#[gpu_test]
+fn requests_for_the_field_leave_the_sampling_to_the_render_thread() {
+    let dir = scratch("serve-costly-field");
+    // 4095 bytes, one under the cap: ~3 s to sample 48^3 points on one core.
+    let sum = vec!["x*y"; 1024].join("+");
+    let file = write(
+        &dir,
+        "costly.toml",
+        &format!(
+            "[image]\nwidth = 16\nheight = 16\n[field]\nsource = \"expr\"\n\
+             expression = \"{sum}\"\nresolution = [48, 48, 48]\n"
+        ),
+    );
+    let server = Server::start(&file, &[]);
+    // 16 requests that need the field: two for each worker, so that with sampling on the
+    // workers the cheap request below queues behind a second round of them.
+    let asks = ["/api/state"; 6]
+        .into_iter()
+        .chain(["/api/probe?x=8&y=8"; 5])
+        .chain(["/api/slice?axis=z&at=20&format=cells"; 5]);
+    std::thread::scope(|scope| {
+        let waiting: Vec<_> = asks
+            .map(|path| {
+                let s = &server;
+                scope.spawn(move || {
+                    let a = s.get(path);
+                    (path, a, Instant::now())
+                })
+            })
+            .collect();
+        std::thread::sleep(Duration::from_millis(300));
+        let mut s = TcpStream::connect(&server.addr).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(120))).unwrap();
+        let get = format!(
+            "GET /api/stats?token={} HTTP/1.1\r\nHost: {}\r\n\r\n",
+            server.token, server.addr
+        );
+        s.write_all(get.as_bytes()).unwrap();
+        let (status, body) = read_answer(&mut s);
+        let stats_at = Instant::now();
+        assert_eq!(status, 200, "/api/stats beside 16 requests for a costly field: {body}");
+        let answers: Vec<_> = waiting.into_iter().map(|t| t.join().unwrap()).collect();
+        let first = answers.iter().map(|(_, _, at)| *at).min().unwrap();
+        assert!(
+            stats_at < first,
+            "/api/stats was answered {:?} after the first request that needed the field",
+            stats_at - first
+        );
+        for (path, a, _) in &answers {
+            assert_eq!(a.status, 200, "{path}: {}", a.text());
+        }
+        let state = answers[0].1.json();
+        assert_eq!(state["generation"], 1, "{state}");
+        assert!(state["field"]["range"].is_array(), "{state}");
+    });
+}

@@ -26,7 +26,7 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use super::mailbox::Mailbox;
-use super::state::{field_error_for_page, ViewState};
+use super::state::{field_error_for_page, scene_error_for_page, ViewState};
 use crate::field::Grid;
 use crate::frame::Frame;
 use crate::gpu::Context;
@@ -318,7 +318,7 @@ impl RenderThread {
 
     /// Draws generation `generation` (coarse first with `preview`), pinning what it finishes.
     fn draw(&mut self, generation: u64, state: &Arc<ViewState>) {
-        let result = self.draw_levels(generation, state);
+        let result = self.picked(state).and_then(|state| self.draw_levels(generation, &state));
         match result {
             Ok(()) => {}
             Err(Some((message, gpu))) => self.board.update(|b| {
@@ -326,6 +326,17 @@ impl RenderThread {
             }),
             Err(None) => self.board.update(|b| b.stats.abandoned += 1),
         }
+    }
+
+    /// `state` with its isovalue picked from its field when the page's load left it to pick
+    /// ([`ViewState::unpicked`]), the field sampled for it here.
+    fn picked(&mut self, state: &Arc<ViewState>) -> Result<Arc<ViewState>, Option<(String, bool)>> {
+        if state.unpicked.is_none() {
+            return Ok(state.clone());
+        }
+        let grid = self.grid_for(state).map_err(Some)?;
+        let picked = state.picked(&grid).map_err(|e| Some((scene_error_for_page(&e), false)))?;
+        Ok(Arc::new(picked))
     }
 
     /// `Err(None)`: abandoned for a newer state.

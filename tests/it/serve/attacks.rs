@@ -1002,3 +1002,80 @@ fn requests_for_the_field_leave_the_sampling_to_the_render_thread() {
         assert!(state["field"]["range"].is_array(), "{state}");
     });
 }
+
+/// Fifth pass: `POST /api/state` with `surface.isovalue_sigma` (or `isovalue_percentile`)
+/// sampled the whole field on the request's worker to pick the isovalue while the state was
+/// validated, so 16 posts of a costly expression held every worker (`/api/stats` waited
+/// 20 s). The page's states leave the pick to the render thread, which samples the field
+/// anyway: the posts are answered at once, the frame is the command line's, and a pick that
+/// gives no isovalue is the frame's 400 with the command line's line.
+#[gpu_test]
+fn an_isovalue_picked_from_the_samples_is_picked_by_the_render_thread() {
+    let server = small_server();
+    alive(&server);
+    // 4095 bytes, one under the cap: ~3 s to sample 48^3 points on one core.
+    let sum = vec!["x*y"; 1024].join("+");
+    let costly =
+        format!("field = {{source = \"expr\", expression = \"{sum}\", resolution = [48, 48, 48]}}");
+    let sets = ["image.width=16", "image.height=16", costly.as_str(), "surface.isovalue_sigma=1"];
+    let body = json!({ "set": sets }).to_string();
+    let request = format!(
+        "POST /api/state HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Isoview-Token: {}\r\n\
+         Content-Length: {}\r\n\r\n{body}",
+        server.token,
+        body.len()
+    );
+    std::thread::scope(|scope| {
+        let posts: Vec<_> =
+            (0..16).map(|_| scope.spawn(|| exchange(&server, request.as_bytes()))).collect();
+        std::thread::sleep(Duration::from_millis(300));
+        let mut s = TcpStream::connect(&server.addr).unwrap();
+        // Generous: answered at once now, after 20 s or more when the posts sampled.
+        s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+        let get = format!(
+            "GET /api/stats HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Isoview-Token: {}\r\n\r\n",
+            server.token
+        );
+        s.write_all(get.as_bytes()).unwrap();
+        let (status, body) = read_answer(&mut s);
+        assert_eq!(status, 200, "/api/stats beside 16 posts picking a costly isovalue: {body}");
+        for p in posts {
+            let (status, body) = p.join().unwrap();
+            assert_eq!(status, 200, "{body}");
+        }
+    });
+
+    // The pick is the command line's: the same frame, bit for bit.
+    let dir = scratch("serve-picked");
+    let file = scene("cell-tunnel.toml");
+    let sets = ["image.width=16", "image.height=16", "surface.isovalue_percentile=30"];
+    let generation = server.set(&sets);
+    let frame = server.get("/api/frame");
+    assert_eq!(frame.status, 200, "{}", frame.text());
+    assert_eq!(frame.header("x-isoview-generation"), generation.to_string());
+    let (_, png) = crate::serve::api::cli_render(&dir, "picked", &file, &sets);
+    assert_eq!(frame.body, png, "the frame differs from render --png's");
+    let state = server.get("/api/state").json();
+    assert_ne!(state["surface"]["isovalue"], 0.0, "{state}");
+
+    // A pick that gives no isovalue: the frame (and the field's requests) answer the line
+    // `render` exits 2 with.
+    let sets = ["image.width=16", "image.height=16", "surface.isovalue_sigma=1e300"];
+    let o = isoview(
+        &[
+            &["render", &file, "-o", &dir.join("o.exr").display().to_string()][..],
+            &["--set", sets[0], "--set", sets[1], "--set", sets[2]],
+        ]
+        .concat(),
+        &[],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let line = stderr(&o).trim_end().to_string();
+    assert!(line.contains("surface.isovalue_sigma: gives the isovalue"), "{line}");
+    server.set(&sets);
+    for path in ["/api/frame", "/api/state"] {
+        let a = server.get(path);
+        assert_eq!(a.status, 400, "{path}: {}", a.text());
+        assert_eq!(a.json()["error"], line.as_str(), "{path}");
+    }
+}

@@ -2,6 +2,7 @@
 //! Every route but the assets needs the token; every route needs an allowed `Host`.
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicUsize;
 use std::sync::mpsc::{Receiver, Sender, TryRecvError};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -12,6 +13,7 @@ use super::access;
 use super::http::{Body, Head, Reply, Target, Wire};
 use super::mailbox::Mailbox;
 use super::progressive::{Board, Failed, Level, Published, Rendered, Sampled, Task};
+use super::server::Place;
 use super::state::{self, Policy, ViewState};
 use crate::field::interpolant::Reader;
 use crate::frame::Channel;
@@ -44,6 +46,11 @@ const ROUTES: &[&str] = &[
 pub const WAIT: Duration = Duration::from_secs(120);
 /// How long a long-poll (`/api/frame?after=`) waits before answering 204 No Content.
 pub const LONG_POLL: Duration = Duration::from_secs(25);
+/// States loaded at once (`POST /api/state`); a post beside them is answered 503 with
+/// `Retry-After: 1`. Loading reads a volume file whole (the scene holds its samples), on the
+/// request's worker: 16 posts of a 400^3 volume held every worker for 5 s and took a grid's
+/// memory on each, 2.4 GB; at the grid cap that would be 8 GiB.
+pub const MAX_LOADING: usize = 1;
 
 /// Everything the request threads share.
 pub struct App {
@@ -55,6 +62,8 @@ pub struct App {
     pub mailbox: Arc<Mailbox<ViewState>>,
     pub board: Arc<Board>,
     pub tasks: Mutex<Sender<Task>>,
+    /// States being loaded ([`MAX_LOADING`]).
+    pub loading: Arc<AtomicUsize>,
 }
 
 /// What becomes of a request: a reply now, or a wait on the board that holds no thread
@@ -317,6 +326,11 @@ impl App {
     }
 
     fn post_state(&self, body: &[u8]) -> Result<Reply, Reply> {
+        let Some(_loading) = Place::take(&self.loading, MAX_LOADING) else {
+            let busy =
+                format!("another state is being loaded ({MAX_LOADING} at a time); ask again");
+            return Err(Reply::error(503, busy).header("Retry-After", 1));
+        };
         let state = ViewState::from_request(&self.scene_path, body, &self.policy)
             .map_err(|e| Reply::error(400, format!("isoview: {}", e.for_page())))?;
         let generation = self.mailbox.post(state);

@@ -129,6 +129,7 @@ pub fn run(options: &Options, ctx: Arc<Context>, out: &mut dyn Write) -> Result<
         mailbox,
         board,
         tasks: Mutex::new(tasks),
+        loading: Default::default(),
     });
     writeln!(out, "{}", url(options.bind, port, &token))
         .and_then(|_| out.flush())

@@ -1006,9 +1006,11 @@ fn requests_for_the_field_leave_the_sampling_to_the_render_thread() {
 /// Fifth pass: `POST /api/state` with `surface.isovalue_sigma` (or `isovalue_percentile`)
 /// sampled the whole field on the request's worker to pick the isovalue while the state was
 /// validated, so 16 posts of a costly expression held every worker (`/api/stats` waited
-/// 20 s). The page's states leave the pick to the render thread, which samples the field
-/// anyway: the posts are answered at once, the frame is the command line's, and a pick that
-/// gives no isovalue is the frame's 400 with the command line's line.
+/// 20 s); with one load at a time ([`state_loads_are_one_at_a_time`]) the load held its place
+/// as long, and every other post was told to ask again. The page's states leave the pick to
+/// the render thread, which samples the field anyway: the posts are taken at once, the frame
+/// is the command line's, and a pick that gives no isovalue is the frame's 400 with the
+/// command line's line.
 #[gpu_test]
 fn an_isovalue_picked_from_the_samples_is_picked_by_the_render_thread() {
     let server = small_server();
@@ -1039,10 +1041,19 @@ fn an_isovalue_picked_from_the_samples_is_picked_by_the_render_thread() {
         s.write_all(get.as_bytes()).unwrap();
         let (status, body) = read_answer(&mut s);
         assert_eq!(status, 200, "/api/stats beside 16 posts picking a costly isovalue: {body}");
-        for p in posts {
-            let (status, body) = p.join().unwrap();
-            assert_eq!(status, 200, "{body}");
-        }
+        // The loads no longer sample: a state posted beside them is taken within a second
+        // (with the pick in the load, the one load at a time held its place for the field's
+        // 3 s of sampling, and this post was told to ask again until then).
+        let cheap = json!({ "set": ["image.width=16", "image.height=16"] });
+        let started = Instant::now();
+        let taken = std::iter::repeat_with(|| server.post("/api/state", &cheap))
+            .take_while(|_| started.elapsed() < Duration::from_secs(1))
+            .any(|a| a.status == 200);
+        assert!(taken, "a post beside 16 that pick a costly isovalue was not taken within 1 s");
+        // One state is loaded at a time: the others were told to ask again.
+        let statuses: Vec<_> = posts.into_iter().map(|p| p.join().unwrap()).collect();
+        assert!(statuses.iter().all(|(s, _)| [200, 503].contains(s)), "{statuses:?}");
+        assert!(statuses.iter().any(|(s, _)| *s == 200), "{statuses:?}");
     });
 
     // The pick is the command line's: the same frame, bit for bit.
@@ -1078,4 +1089,58 @@ fn an_isovalue_picked_from_the_samples_is_picked_by_the_render_thread() {
         assert_eq!(a.status, 400, "{path}: {}", a.text());
         assert_eq!(a.json()["error"], line.as_str(), "{path}");
     }
+}
+
+/// Fifth pass: loading a state reads its volume file whole (a `source = "file"` field is read
+/// when the scene loads), on the request's worker. 16 posts naming a 400^3 volume in the
+/// scene's folder held every worker for 5 s (`/api/stats` waited as long) and grew the
+/// server by 2.4 GB, one grid per worker; at the grid cap that is 8 GiB. One state is loaded
+/// at a time: a post beside a load is told to ask again (503, `Retry-After: 1`, as the page
+/// does), and memory and workers stay free.
+#[gpu_test]
+fn state_loads_are_one_at_a_time() {
+    let (dir, file) = path_fixture("serve-loads");
+    // 400^3 u8 samples (244 MiB of f32 each time it is read).
+    let n = 400usize;
+    let mut nrrd =
+        format!("NRRD0004\ntype: uint8\ndimension: 3\nsizes: {n} {n} {n}\nencoding: raw\n\n")
+            .into_bytes();
+    nrrd.extend((0..n * n * n).map(|i| (i % 251) as u8));
+    std::fs::write(dir.join("scene/v.nrrd"), &nrrd).unwrap();
+    let server = Server::start(&file, &["--set", "image.width=16", "--set", "image.height=16"]);
+    alive(&server);
+    let before = rss_mib(&server);
+    let body = json!({ "set": ["image.width=16", "image.height=16",
+        "field = {source = \"file\", path = \"v.nrrd\"}"] })
+    .to_string();
+    let request = format!(
+        "POST /api/state HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Isoview-Token: {}\r\n\
+         Content-Length: {}\r\n\r\n{body}",
+        server.token,
+        body.len()
+    );
+    let peak = std::sync::atomic::AtomicU64::new(0);
+    let done = std::sync::atomic::AtomicBool::new(false);
+    let statuses = std::thread::scope(|scope| {
+        scope.spawn(|| {
+            while !done.load(std::sync::atomic::Ordering::Relaxed) {
+                let now = status_of(&server, "VmRSS");
+                peak.fetch_max(now, std::sync::atomic::Ordering::Relaxed);
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        });
+        let posts: Vec<_> =
+            (0..16).map(|_| scope.spawn(|| exchange(&server, request.as_bytes()))).collect();
+        let statuses: Vec<(u16, String)> = posts.into_iter().map(|p| p.join().unwrap()).collect();
+        done.store(true, std::sync::atomic::Ordering::Relaxed);
+        statuses
+    });
+    let grown = peak.into_inner() as f64 / 1024.0 - before;
+    for (status, body) in &statuses {
+        assert!(*status == 200 || *status == 503, "{status}: {body}");
+    }
+    assert!(statuses.iter().any(|(s, _)| *s == 200), "{statuses:?}");
+    // One load at a time: ~250 MiB (1.9 GB when every worker loaded one).
+    assert!(grown < 800.0, "the server grew by {grown:.0} MiB under 16 loads of a 244 MiB grid");
+    alive(&server);
 }

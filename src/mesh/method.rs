@@ -351,10 +351,10 @@ static DUAL_CONTOURING_QEF: Method = Method {
             .map(|_| "dual-contouring-qef with mesh_error (its octree spans the whole grid)")
     },
     not_streamed: None,
-    reference: |f, x, _| {
+    reference: |f, x, budget| {
         let q = dc_qef(f, &x.sharp, x.source)?;
         match x.sharp.mesh_error {
-            Some(eps) => octree::extract(&q, eps),
+            Some(eps) => octree::extract(&q, eps, budget),
             None => dual::extract(f, dual::Boundary::Closed, x.opts, Some(&q)),
         }
     },

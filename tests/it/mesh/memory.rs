@@ -139,32 +139,48 @@ fn a_mesh_past_the_cap_is_refused_with_the_numbers() {
     );
 }
 
-/// Fifth attack pass: `extended-mc` was counted against the mesh cap once done, but while it
-/// works it holds about 5 times its mesh (an edge table, 48 bytes of Hermite data a crossing,
-/// a table of every directed edge for the flips): a 256^3 noise grid's 746 MB mesh, under
-/// the 1 GiB cap, peaked at 4 GB, and a grid at the grid cap would run the machine out of
-/// memory before any refusal. Its tables are checked against the cap before they grow past
-/// it: this 128^3 egg crate's mesh (72 MiB) fits a 100 MiB cap, its work (460 MiB) does not.
+/// Fifth attack pass: `extended-mc` and `dual-contouring-qef` with `mesh_error` (not cut into
+/// slabs) were counted against the mesh cap once done, but hold 5 to 7 times their mesh while
+/// they work (extended-mc: an edge table, 48 bytes of Hermite data a crossing, a table of
+/// every directed edge for the flips; the octree: a QEF in every leaf). A 256^3 noise grid's
+/// meshes, under the 1 GiB cap, peaked at 4 GB and 2.6 GB, and a grid at the grid cap would
+/// run the machine out of memory before any refusal. Their tables are checked against the cap
+/// as they grow: these 128^3 egg crates' meshes fit the caps below (72 and 29 MiB), their
+/// work (460 and 380 MiB) does not.
 #[test]
-fn extended_mc_s_working_memory_is_under_the_cap() {
-    let dir = scratch("extract-memory-emc");
-    let scene_path =
-        write(&dir, "crate.toml", &egg_crate(128, ISO, "[render]\nmesh = \"extended-mc\"\n"));
+fn the_sharp_methods_working_memory_is_under_the_cap() {
+    let dir = scratch("extract-memory-sharp");
     let out = dir.join("crate.ply").display().to_string();
-    let args = ["extract", &scene_path, "-o", &out, "--device", "cpu"];
-    let o = isoview(&args, &[("ISOVIEW_MAX_MESH_MIB", "100")]);
-    assert_fails(
-        &o,
-        2,
-        &["crate.toml: render.mesh = \"extended-mc\" would hold ", "over the cap of 100 MiB"],
-    );
-    assert!(!Path::new(&out).exists());
-    // Under the cap the mesh is the library's, byte for byte (the checks change nothing).
-    let small =
-        write(&dir, "small.toml", &egg_crate(40, ISO, "[render]\nmesh = \"extended-mc\"\n"));
-    let o = isoview(&["extract", &small, "-o", &out, "--device", "cpu"], &[]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert!(std::fs::read(&out).unwrap() == library_bytes(&small, Format::Ply));
+    let cases = [
+        ("[render]\nmesh = \"extended-mc\"\n", "100", "extended-mc"),
+        (
+            "[render]\nmesh = \"dual-contouring-qef\"\nmesh_error = 0.01\n",
+            "40",
+            "dual-contouring-qef",
+        ),
+    ];
+    for (render, cap, method) in cases {
+        let scene_path = write(&dir, "crate.toml", &egg_crate(128, ISO, render));
+        let args = ["extract", &scene_path, "-o", &out, "--device", "cpu"];
+        let o = isoview(&args, &[("ISOVIEW_MAX_MESH_MIB", cap)]);
+        let would = format!("crate.toml: render.mesh = \"{method}\" would hold ");
+        assert_fails(&o, 2, &[&would, &format!("over the cap of {cap} MiB")]);
+        assert!(!Path::new(&out).exists());
+        // Under the cap the mesh is the library's, byte for byte (the checks change nothing).
+        let small = write(&dir, "small.toml", &egg_crate(40, ISO, render));
+        let o = isoview(&["extract", &small, "-o", &out, "--device", "cpu"], &[]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let s = scene::load(Path::new(&small), &[]).unwrap();
+        let grid = s.field.sample(0.0).unwrap();
+        let mut x = mesh::Request::new(s.surface.isovalue, s.surface.inside, s.render.mesh);
+        x.sharp = s.render.sharp;
+        let mut m = mesh::reference(&grid, &x).unwrap();
+        m.place(&s.field.placement);
+        let mut bytes = Vec::new();
+        export::write_labelled(&m, None, Format::Ply, &mut bytes).unwrap();
+        assert!(std::fs::read(&out).unwrap() == bytes, "{method}: not the library's mesh");
+        std::fs::remove_file(&out).unwrap();
+    }
 }
 
 /// `field.residency = "active"`: the mapped file's windows are counted as they are joined.

@@ -93,6 +93,12 @@ fn load_from(
     Ok((scene, unpicked))
 }
 
+/// The text of the scene file at `path`, read as [`load`] reads it: a regular file of at
+/// most [`MAX_SCENE_BYTES`], opened without waiting (a FIFO or `/dev/zero` is refused).
+pub fn read_text(path: &Path) -> Result<String, SceneError> {
+    tree::read_scene(path, &path.display().to_string())
+}
+
 /// Parses and validates scene text. `origin` names it in errors (usually the file name);
 /// relative data paths are resolved against `base_dir`. The scene's `path` is `None`.
 pub fn from_str(

@@ -358,7 +358,10 @@ pub fn describe(
 /// Relative data paths stay relative to `path`'s folder, so save it next to the original.
 pub fn scene_toml(path: &Path, sets: &[String], time: f64) -> Result<String, String> {
     let name = path.display();
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{name}: cannot read: {e}"))?;
+    // As the scene is loaded, not `read_to_string`: the file may have been replaced since the
+    // server started, and a FIFO there held the worker for good (8 such requests, every
+    // worker), `/dev/zero` grew it without end.
+    let text = scene::read_text(path).map_err(|e| e.to_string())?;
     let mut root: toml::Table =
         toml::from_str(&text).map_err(|e| format!("{name}: invalid TOML: {e}"))?;
     for s in sets {

@@ -1144,3 +1144,38 @@ fn state_loads_are_one_at_a_time() {
     assert!(grown < 800.0, "the server grew by {grown:.0} MiB under 16 loads of a 244 MiB grid");
     alive(&server);
 }
+
+/// Fifth pass: `GET /api/scene.toml` read the scene file again with a plain read: a scene
+/// replaced by a FIFO after the server started held each such request's worker for good
+/// (8 requests: every worker; `/api/stats` never answered), and one replaced by a link to
+/// `/dev/zero` read without end. It is read as the scene is loaded: a regular file of at
+/// most 16 MiB, opened without waiting.
+#[gpu_test]
+fn the_saved_scene_is_read_as_the_scene_is_loaded() {
+    let dir = scratch("serve-scene-fifo");
+    let file = write(&dir, "s.toml", "[image]\nwidth = 16\nheight = 16\n[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 0.5\nresolution = [8, 8, 8]\n");
+    let server = Server::start(&file, &[]);
+    assert_eq!(server.get("/api/scene.toml").status, 200);
+    std::fs::remove_file(&file).unwrap();
+    let made = std::process::Command::new("mkfifo").arg(&file).status().unwrap();
+    assert!(made.success());
+    let request = format!(
+        "GET /api/scene.toml HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Isoview-Token: {}\r\n\r\n",
+        server.token
+    );
+    std::thread::scope(|scope| {
+        let asks: Vec<_> =
+            (0..8).map(|_| scope.spawn(|| exchange(&server, request.as_bytes()))).collect();
+        for a in asks {
+            let (status, body) = a.join().unwrap();
+            assert_eq!(status, 500, "{body}");
+            assert!(body.contains("is a FIFO (named pipe), not a scene file"), "{body}");
+        }
+    });
+    alive(&server);
+    std::fs::remove_file(&file).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", &file).unwrap();
+    let a = server.get("/api/scene.toml");
+    assert_eq!(a.status, 500, "{}", a.text());
+    assert!(a.text().contains("is a character device, not a scene file"), "{}", a.text());
+}

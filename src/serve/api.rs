@@ -291,7 +291,7 @@ impl App {
     pub fn answer(&self, wait: Wait, found: Found) -> Outcome {
         let reply = match (wait, found) {
             (_, Found::Field(sampled, need)) => {
-                return self.from_field(&sampled, need).unwrap_or_else(Outcome::Reply)
+                return self.use_field(&sampled, need).unwrap_or_else(Outcome::Reply)
             }
             (_, Found::Failed(f)) => failed_reply(&f),
             (_, Found::Slice(Err(e))) => Reply::error(500, format!("isoview: {e}")),
@@ -308,7 +308,7 @@ impl App {
     }
 
     /// What a request that needs the field makes of it.
-    fn from_field(&self, sampled: &Sampled, need: Need) -> Result<Outcome, Reply> {
+    fn use_field(&self, sampled: &Sampled, need: Need) -> Result<Outcome, Reply> {
         match need {
             Need::State => Ok(Outcome::Reply(self.get_state(sampled))),
             Need::Probe { x, y } => self.probe(sampled, &x, &y).map(Outcome::Reply),

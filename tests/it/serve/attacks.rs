@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use serde_json::json;
 
 use crate::common::{isoview, scratch, stderr, write};
-use crate::serve::api::{scene, Server};
+use crate::serve::api::{scene, Answer, Server};
 
 /// A line of the server's /proc/PID/status (`VmRSS`, `Threads`), as a number (kB for sizes).
 fn status_of(server: &Server, key: &str) -> u64 {
@@ -55,6 +55,17 @@ fn small_server() -> Server {
         &scene("cell-tunnel.toml"),
         &["--set", "image.width=16", "--set", "image.height=16"],
     )
+}
+
+/// A GET of each of `paths`, each on its own thread of `scope`: the path, the answer and when
+/// it came.
+fn get_each<'scope>(
+    scope: &'scope std::thread::Scope<'scope, '_>,
+    server: &'scope Server,
+    paths: impl Iterator<Item = &'static str>,
+) -> Vec<std::thread::ScopedJoinHandle<'scope, (&'static str, Answer, Instant)>> {
+    let ask = move |path| move || (path, server.get(path), Instant::now());
+    paths.map(|path| scope.spawn(ask(path))).collect()
 }
 
 fn alive(server: &Server) {
@@ -865,15 +876,7 @@ fn frame_waits_leave_the_workers_free() {
         .chain(["/api/aov?ch=Z,N.X"; 4])
         .chain(["/api/slice?axis=z&at=0.5&format=png"; 2]);
     std::thread::scope(|scope| {
-        let waiting: Vec<_> = waits
-            .map(|path| {
-                let s = &server;
-                scope.spawn(move || {
-                    let a = s.get(path);
-                    (path, a, Instant::now())
-                })
-            })
-            .collect();
+        let waiting = get_each(scope, &server, waits);
         // Let the server take them all up: 12 requests, more than its 8 workers. (The frame
         // takes seconds: 8 s on 2 cores, in bands, beside these requests.)
         std::thread::sleep(Duration::from_millis(200));
@@ -967,15 +970,7 @@ fn requests_for_the_field_leave_the_sampling_to_the_render_thread() {
         .chain(["/api/probe?x=8&y=8"; 5])
         .chain(["/api/slice?axis=z&at=20&format=cells"; 5]);
     std::thread::scope(|scope| {
-        let waiting: Vec<_> = asks
-            .map(|path| {
-                let s = &server;
-                scope.spawn(move || {
-                    let a = s.get(path);
-                    (path, a, Instant::now())
-                })
-            })
-            .collect();
+        let waiting = get_each(scope, &server, asks);
         std::thread::sleep(Duration::from_millis(300));
         let mut s = TcpStream::connect(&server.addr).unwrap();
         s.set_read_timeout(Some(Duration::from_secs(120))).unwrap();

@@ -140,7 +140,8 @@ pub fn main() -> i32 {
     interrupt::install();
     // clap's `get_matches` would print help and errors itself and exit, ignoring a failed
     // write; console::print_clap prints them under the verbs' rules.
-    let matches = match Cli::command().try_get_matches() {
+    let (command, args) = number_values(Cli::command(), std::env::args_os());
+    let matches = match command.try_get_matches_from(args) {
         Ok(m) => m,
         Err(e) => return console::print_clap(e),
     };
@@ -167,6 +168,54 @@ pub fn main() -> i32 {
         Ok(code) => code,
         Err(f) => f.report(),
     }
+}
+
+/// The command and the words of a command line, with isoview's rule for the values of
+/// number flags in place of clap's.
+///
+/// `allow_hyphen_values` on a verb's argument marks a number flag (`--time`, `--at`, `--fps`,
+/// `--pixel`, `--frames`, compare's thresholds, ...): its value may be negative. Under clap's
+/// own rule such a flag takes whatever word follows it, so a flag given no value took the
+/// next flag as its value (`--time --set x=1` set the time to "--set" and named `x=1` as
+/// unexpected). isoview's rule: the word after a number flag is its value when it is a
+/// negative number, a '-' followed by a digit or '.' (`-1`, `-1e-3`, `-.5`, `-1,5`, `-3..0`)
+/// or a word Rust reads as a float (`-inf`, `-NaN`, for the flags' own checks to refuse);
+/// any other word starting with '-' is a flag (`--time --set x=1`: "a value is required for
+/// '--time'"). Such a value is joined to its flag (`--time=-1e-3`, which clap takes as it
+/// is) and clap's rule is turned off. Words after `--` are left as they are.
+pub fn number_values(
+    command: clap::Command,
+    args: impl IntoIterator<Item = std::ffi::OsString>,
+) -> (clap::Command, Vec<std::ffi::OsString>) {
+    let mut flags = std::collections::HashSet::new();
+    for verb in command.get_subcommands() {
+        for arg in verb.get_arguments().filter(|a| a.is_allow_hyphen_values_set()) {
+            flags.extend(arg.get_long().map(|l| format!("--{l}")));
+            flags.extend(arg.get_short().map(|c| format!("-{c}")));
+        }
+    }
+    let command = command.mut_subcommands(|verb| verb.mut_args(|a| a.allow_hyphen_values(false)));
+    let negative = |word: &str| {
+        let rest = word.strip_prefix('-').unwrap_or("");
+        let starts_a_number = rest.starts_with(|c: char| c.is_ascii_digit() || c == '.');
+        !rest.is_empty() && (starts_a_number || word.parse::<f64>().is_ok())
+    };
+    let mut words = args.into_iter().peekable();
+    let mut out = Vec::new();
+    while let Some(mut word) = words.next() {
+        if word == "--" {
+            out.push(word);
+            out.extend(words);
+            break;
+        }
+        let number_flag = word.to_str().is_some_and(|w| flags.contains(w));
+        if number_flag && words.peek().and_then(|v| v.to_str()).is_some_and(negative) {
+            word.push("=");
+            word.push(words.next().unwrap_or_default());
+        }
+        out.push(word);
+    }
+    (command, out)
 }
 
 /// A failure that every rank meets alike (a scene's setting, an output name: the same on every
@@ -328,4 +377,81 @@ fn info(cli: &Cli) -> Result<i32, Failure> {
     )?;
     say!("validation             {}", if cli.validation { "on" } else { "off" })?;
     Ok(0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::ffi::OsString;
+
+    fn words(line: &str) -> Vec<OsString> {
+        line.split(' ').map(OsString::from).collect()
+    }
+
+    /// The rule of [`number_values`] both ways: a negative number after a number flag is its
+    /// value; any other word starting with '-' is left to be a flag.
+    #[test]
+    fn number_flags_take_negative_numbers_and_not_the_next_flag() {
+        let joined = [
+            ("isoview stats s --time -1", "isoview stats s --time=-1"),
+            ("isoview stats s --time -1e-3 --bins 4", "isoview stats s --time=-1e-3 --bins 4"),
+            ("isoview stats s --time -.5", "isoview stats s --time=-.5"),
+            ("isoview stats s --time -inf", "isoview stats s --time=-inf"),
+            ("isoview probe s --pixel -1,5", "isoview probe s --pixel=-1,5"),
+            ("isoview render s -o o --frames -3..0", "isoview render s -o o --frames=-3..0"),
+            ("isoview compare a b --fail -1", "isoview compare a b --fail=-1"),
+        ];
+        let left = [
+            "isoview stats s --time --set x=1",
+            "isoview stats s --time -x",
+            "isoview stats s --time -",
+            "isoview render s -o -1.exr",
+            "isoview stats s --set -1=2",
+            "isoview stats s -- --time -1",
+        ];
+        let cases = joined.into_iter().chain(left.into_iter().map(|l| (l, l)));
+        for (line, want) in cases {
+            let (_, got) = number_values(Cli::command(), words(line));
+            assert_eq!(got, words(want), "{line}");
+        }
+    }
+
+    /// clap's own rule is off: the flag given no value is named as such, not given the next
+    /// flag. And the words the rule joins are what clap reads.
+    #[test]
+    fn a_number_flag_given_no_value_is_refused_as_one() {
+        let parse = |line: &str| {
+            let (command, args) = number_values(Cli::command(), words(line));
+            command.try_get_matches_from(args)
+        };
+        let e = parse("isoview stats s --time --set x=1").unwrap_err();
+        let text = e.to_string();
+        assert!(text.contains("a value is required for '--time <TIME>'"), "{text}");
+        let m = parse("isoview stats s --time -1e-3").unwrap();
+        let (_, stats) = m.subcommand().unwrap();
+        assert_eq!(stats.get_one::<f64>("time"), Some(&-1e-3));
+    }
+
+    /// The flags are told by their names, whatever the verb: a name that is a number flag in
+    /// one verb must be one in every verb that has it, or the rule would join a value that
+    /// another verb's flag of that name does not take.
+    #[test]
+    fn a_number_flags_name_is_one_in_every_verb() {
+        let command = Cli::command();
+        let verbs: Vec<_> = command.get_subcommands().collect();
+        let numbers: Vec<_> = verbs
+            .iter()
+            .flat_map(|v| v.get_arguments())
+            .filter(|a| a.is_allow_hyphen_values_set())
+            .filter_map(|a| a.get_long())
+            .collect();
+        assert!(numbers.contains(&"time") && numbers.contains(&"pixel"), "{numbers:?}");
+        for verb in &verbs {
+            for arg in verb.get_arguments() {
+                if arg.get_long().is_some_and(|l| numbers.contains(&l)) {
+                    assert!(arg.is_allow_hyphen_values_set(), "{} --{:?}", verb, arg.get_long());
+                }
+            }
+        }
+    }
 }

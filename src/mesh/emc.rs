@@ -30,7 +30,11 @@
 //!    already exists or a triangle was flipped already in this pass.
 //!
 //! Normals are the field's at every vertex (as every method). Not threaded: the threaded
-//! CPU extraction runs this reference as it is. Memory: one `u32` per lattice edge.
+//! CPU extraction runs this reference as it is. Memory: one `u32` per lattice edge, 48 bytes
+//! of Hermite data per crossing besides the mesh, and a table of every directed edge for the
+//! flips: about 5 times the mesh (4 GB for the 746 MB mesh of a 256^3 noise grid). It is
+//! checked against the mesh cap as it grows ([`MeshBudget::check_working`]), before each
+//! table is allocated, since the mesh itself is counted only once it is done.
 
 use glam::DVec3;
 
@@ -39,7 +43,19 @@ use super::hermite::Hermite;
 use super::mc::case_index;
 use super::qef::Qef;
 use super::tables::{MC_EDGES, MC_TRIANGLES};
-use super::{to_u32, Mesh, MeshError};
+use super::{to_u32, Mesh, MeshBudget, MeshError};
+
+/// Bytes held per crossing while extracting: its vertex (f32 position and normal, 24) and its
+/// Hermite data (f64 crossing and normal, 48).
+const CROSSING_BYTES: u64 = 24 + 48;
+
+/// What the edge-flip table of `indices` entries takes: hashbrown's buckets for that
+/// capacity (a power of two at least 8/7 of it), 16 bytes of key and value and 1 control
+/// byte each, and the flags of `indices / 3` triangles.
+fn flip_table_bytes(indices: usize) -> u64 {
+    let buckets = (indices as u64).saturating_mul(8).div_ceil(7).max(1).next_power_of_two();
+    buckets.saturating_mul(17).saturating_add(indices as u64 / 3)
+}
 
 /// The rule of `extended-mc`.
 pub(crate) struct Emc<'f, 'g, 's> {
@@ -51,10 +67,13 @@ pub(crate) struct Emc<'f, 'g, 's> {
 }
 
 impl Emc<'_, '_, '_> {
-    pub fn extract(&self) -> Result<Mesh, MeshError> {
+    pub fn extract(&self, budget: &MeshBudget) -> Result<Mesh, MeshError> {
         let f = self.hermite.f;
         let [nx, ny, nz] = f.dims;
         let np = nx * ny * nz;
+        let edge_table = (np as u64).saturating_mul(12);
+        let check = |what, bytes| budget.check_working("extended-mc", what, bytes);
+        check("its table of edge vertices, 12 bytes a grid point", edge_table)?;
 
         // 1. Edge vertices, with their Hermite normals (index space).
         let mut verts = Vertices::default();
@@ -78,6 +97,8 @@ impl Emc<'_, '_, '_> {
                     }
                 }
             }
+            let held = edge_table + CROSSING_BYTES * hermite.len() as u64;
+            check("its edge table and the crossings' vertices and Hermite data", held)?;
         }
         let edge_count = verts.positions.len();
 
@@ -129,13 +150,22 @@ impl Emc<'_, '_, '_> {
                     }
                 }
             }
+            let held = edge_table
+                + CROSSING_BYTES * (hermite.len() + feature.len()) as u64
+                + 4 * indices.len() as u64;
+            check("its edge table, the crossings' Hermite data and the mesh so far", held)?;
         }
         for &(u, dir) in &feature {
             verts.push(f, u, dir / f.spacing())?;
         }
         to_u32(indices.len(), "indices")?;
 
-        // 3. Flips.
+        // 3. Flips. The edge table and the Hermite data are no longer needed: the mesh and
+        // the flip table are what is held.
+        drop((ids, hermite));
+        let mesh = 24 * verts.positions.len() as u64 + 4 * indices.len() as u64;
+        let table = flip_table_bytes(indices.len());
+        check("the mesh and its table of directed edges for the edge flips", mesh + table)?;
         flip_features(&mut indices, edge_count as u32);
         Ok(Mesh { positions: verts.positions, normals: verts.normals, indices, quads: None })
     }

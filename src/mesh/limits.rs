@@ -140,6 +140,28 @@ impl MeshBudget {
         Ok(())
     }
 
+    /// Whether a method that is not cut into slabs may hold `bytes` more while it works (its
+    /// own tables besides the mesh so far), beside what the budget has counted:
+    /// [`MeshError::WorkOverCap`] when that passes the cap. Nothing is counted: the mesh it
+    /// makes is counted when it is done.
+    pub fn check_working(
+        &self,
+        method: &'static str,
+        what: &'static str,
+        bytes: u64,
+    ) -> Result<(), MeshError> {
+        let held = self.bytes.load(Ordering::Relaxed).saturating_add(bytes);
+        if held > self.limits.max_bytes {
+            return Err(MeshError::WorkOverCap {
+                method,
+                what,
+                bytes: held,
+                cap: self.limits.max_bytes,
+            });
+        }
+        Ok(())
+    }
+
     /// [`MeshBudget::add`] of a whole mesh.
     pub fn add_mesh(&self, mesh: &super::Mesh) -> Result<(), MeshError> {
         let quads = mesh.quads.as_ref().map_or(0, Vec::len);

@@ -15,7 +15,9 @@ use std::ops::Range;
 
 use super::field::Field;
 use super::slabs::Part;
-use super::{dcqef, dual, emc, hermite, mc, mc33, mt, nets, octree, Mesh, MeshError, Request};
+use super::{
+    dcqef, dual, emc, hermite, mc, mc33, mt, nets, octree, Mesh, MeshBudget, MeshError, Request,
+};
 use crate::field::PointField;
 use crate::vocab::{HermiteNormals, SharpSettings};
 
@@ -145,7 +147,9 @@ pub struct Method {
     /// (`mesh::extract_streamed`); None: they are.
     pub not_streamed: Option<&'static str>,
     /// The f64 reference: the whole grid on one thread.
-    pub(crate) reference: fn(&Field, &Request) -> Result<Mesh, MeshError>,
+    /// The whole mesh at once; `extended-mc` checks its working memory against the budget's
+    /// cap as it goes, the others ignore it (they are counted once done, or in slabs).
+    pub(crate) reference: fn(&Field, &Request, &MeshBudget) -> Result<Mesh, MeshError>,
     /// Its slab code, for the threaded, z-range and streamed extractions (equal to the
     /// reference bit for bit once joined); None: never cut into slabs, and then
     /// [`Method::not_in_slabs`] always says why.
@@ -248,7 +252,7 @@ static MARCHING_CUBES: Method = Method {
     gpu_off: never,
     not_in_slabs: never,
     not_streamed: None,
-    reference: |f, _| mc::extract(f),
+    reference: |f, _, _| mc::extract(f),
     slab: Some(|f, _| Ok(Box::new(move |c| mc::extract_slab(f, c)))),
 };
 
@@ -265,7 +269,7 @@ static MC33: Method = Method {
     gpu_off: never,
     not_in_slabs: never,
     not_streamed: Some("mc33 (its added vertices follow every edge vertex)"),
-    reference: |f, _| mc33::extract(f),
+    reference: |f, _, _| mc33::extract(f),
     slab: Some(|f, _| Ok(Box::new(move |c| mc33::extract_slab(f, c)))),
 };
 
@@ -282,7 +286,7 @@ static SURFACE_NETS: Method = Method {
     gpu_off: never,
     not_in_slabs: never,
     not_streamed: None,
-    reference: |f, x| dual::extract(f, dual::Boundary::Open, x.opts, None),
+    reference: |f, x, _| dual::extract(f, dual::Boundary::Open, x.opts, None),
     // The threaded path's own surface nets (`nets`), the reference's mesh bit for bit.
     slab: Some(|f, x| {
         let opts = x.opts;
@@ -303,7 +307,7 @@ static DUAL_CONTOURING: Method = Method {
     gpu_off: never,
     not_in_slabs: never,
     not_streamed: None,
-    reference: |f, x| dual::extract(f, dual::Boundary::Closed, x.opts, None),
+    reference: |f, x, _| dual::extract(f, dual::Boundary::Closed, x.opts, None),
     slab: Some(|f, x| {
         let opts = x.opts;
         Ok(Box::new(move |c| dual::extract_slab(f, dual::Boundary::Closed, opts, None, c)))
@@ -323,7 +327,7 @@ static MARCHING_TETRAHEDRA: Method = Method {
     gpu_off: never,
     not_in_slabs: never,
     not_streamed: None,
-    reference: |f, _| mt::extract(f),
+    reference: |f, _, _| mt::extract(f),
     slab: Some(|f, _| Ok(Box::new(move |c| mt::extract_slab(f, c)))),
 };
 
@@ -347,10 +351,10 @@ static DUAL_CONTOURING_QEF: Method = Method {
             .map(|_| "dual-contouring-qef with mesh_error (its octree spans the whole grid)")
     },
     not_streamed: None,
-    reference: |f, x| {
+    reference: |f, x, budget| {
         let q = dc_qef(f, &x.sharp, x.source)?;
         match x.sharp.mesh_error {
-            Some(eps) => octree::extract(&q, eps),
+            Some(eps) => octree::extract(&q, eps, budget),
             None => dual::extract(f, dual::Boundary::Closed, x.opts, Some(&q)),
         }
     },
@@ -373,7 +377,7 @@ static EXTENDED_MC: Method = Method {
     gpu_off: never,
     not_in_slabs: |_| Some("extended-mc (its edge flips look at cells of any distance)"),
     not_streamed: None,
-    reference: |f, x| emc(f, &x.sharp, x.source)?.extract(),
+    reference: |f, x, budget| emc(f, &x.sharp, x.source)?.extract(budget),
     slab: None,
 };
 

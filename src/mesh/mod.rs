@@ -215,6 +215,16 @@ pub enum MeshError {
         limits::mib(*bytes), limits::mib(*cap)
     )]
     OverCap { vertices: u64, triangles: u64, bytes: u64, cap: u64 },
+    /// A method not cut into slabs would hold more than the memory cap while it works (its
+    /// tables besides the mesh: `extended-mc`'s edge table, Hermite data and edge-flip
+    /// table); refused before it allocates them.
+    #[error(
+        "render.mesh = \"{method}\" would hold {} while it works on this grid ({what}), over \
+         the cap of {}; raise the cap with {MESH_CAP_ENV}=<MiB> (or MeshLimits::max_bytes) or \
+         use a coarser grid",
+        limits::mib(*bytes), limits::mib(*cap)
+    )]
+    WorkOverCap { method: &'static str, what: &'static str, bytes: u64, cap: u64 },
     /// `ISOVIEW_MAX_MESH_MIB` is set to something that is not a positive whole number.
     #[error("{MESH_CAP_ENV}={value:?}: expected a positive whole number of MiB")]
     BadLimit { value: String },
@@ -327,10 +337,11 @@ impl<'a> Request<'a> {
 pub fn reference(grid: &Grid, x: &Request) -> Result<Mesh, MeshError> {
     check(grid, x.iso)?;
     if !x.on_grid() {
-        return off_grid(grid, x, &MeshBudget::unlimited(), |f| (x.method().reference)(f, x));
+        let unlimited = &MeshBudget::unlimited();
+        return off_grid(grid, x, unlimited, |f| (x.method().reference)(f, x, unlimited));
     }
     let f = field::Field::new(grid, x.iso, x.inside);
-    (x.method().reference)(&f, x)
+    (x.method().reference)(&f, x, &MeshBudget::unlimited())
 }
 
 /// A request off the grid's trilinear cells ([`Request::on_grid`]): `nearest`'s voxel faces,
@@ -367,12 +378,14 @@ fn off_grid(
 /// per-cell code and joined in order. Every slab is counted into `budget` as it is done, so
 /// an extraction past the cap stops with [`MeshError::OverCap`] before the whole mesh is
 /// held; the methods that are not cut into slabs (`extended-mc`, `dual-contouring-qef` with
-/// `mesh_error`) run the reference and are counted once they are done.
+/// `mesh_error`) run the reference and are counted once they are done (`extended-mc` checks
+/// its working tables against the cap as it goes, [`MeshBudget::check_working`]).
 pub fn extract(grid: &Grid, x: &Request, budget: &MeshBudget) -> Result<Mesh, MeshError> {
     check(grid, x.iso)?;
     if (x.method().not_in_slabs)(&x.sharp).is_some() && x.on_grid() {
         // Not cut into slabs (see `emc`, `octree`): the reference itself.
-        let mesh = reference(grid, x)?;
+        let f = field::Field::new(grid, x.iso, x.inside);
+        let mesh = (x.method().reference)(&f, x, budget)?;
         budget.add_mesh(&mesh)?;
         return Ok(mesh);
     }

@@ -33,13 +33,20 @@
 //! corner bits, x + 2y + 4z); triangles in the procedure's order. The surface is open where it
 //! reaches the grid's box (as `surface-nets`): the octree has no padding cells. Not threaded:
 //! the threaded CPU path runs this as it is. Quads are not returned.
+//!
+//! Memory: the octree's nodes (a leaf holds its QEF), about 7 times the mesh (2.6 GB for the
+//! 355 MB mesh of a 256^3 noise grid); checked against the mesh cap as the tree grows
+//! ([`MeshBudget::check_working`]), since the mesh itself is counted only once it is done.
 
 use glam::DVec3;
 
 use super::dcqef::DcQef;
 use super::edges::Vertices;
 use super::qef::Qef;
-use super::{to_u32, Mesh, MeshError};
+use super::{to_u32, Mesh, MeshBudget, MeshError};
+
+/// Nodes built between two looks at the memory cap.
+const NODES_PER_CHECK: usize = 4096;
 
 /// An octree node; `min` and `size` in cells.
 enum Node {
@@ -63,16 +70,33 @@ fn bits(c: usize) -> [usize; 3] {
     [c & 1, (c >> 1) & 1, (c >> 2) & 1]
 }
 
-struct Octree<'q, 'f, 'g, 's> {
+struct Octree<'q, 'f, 'g, 's, 'b> {
     q: &'q DcQef<'f, 'g, 's>,
     nodes: Vec<Node>,
+    budget: &'b MeshBudget,
+    /// The cap's refusal, once the nodes passed it: the build stops.
+    over: Option<MeshError>,
     /// Cells per axis.
     nc: [usize; 3],
     /// ε² / max(spacing)², in index units squared.
     limit: f64,
 }
 
-impl Octree<'_, '_, '_, '_> {
+impl Octree<'_, '_, '_, '_, '_> {
+    /// Pushes `node`; every [`NODES_PER_CHECK`] nodes, checks what the nodes take (the
+    /// vector's capacity) against the cap.
+    fn push(&mut self, node: Node) -> usize {
+        self.nodes.push(node);
+        if self.nodes.len() % NODES_PER_CHECK == 0 {
+            let bytes = (self.nodes.capacity() * std::mem::size_of::<Node>()) as u64;
+            let what = "its octree's nodes, each leaf with its QEF";
+            if let Err(e) = self.budget.check_working("dual-contouring-qef", what, bytes) {
+                self.over = Some(e);
+            }
+        }
+        self.nodes.len() - 1
+    }
+
     fn inside(&self, p: [usize; 3]) -> bool {
         self.q.hermite.f.is_inside(p[0], p[1], p[2])
     }
@@ -86,7 +110,7 @@ impl Octree<'_, '_, '_, '_> {
     }
 
     fn build(&mut self, min: [usize; 3], size: usize) -> Option<usize> {
-        if (0..3).any(|a| min[a] >= self.nc[a]) {
+        if (0..3).any(|a| min[a] >= self.nc[a]) || self.over.is_some() {
             return None;
         }
         if size == 1 {
@@ -98,8 +122,7 @@ impl Octree<'_, '_, '_, '_> {
             let qef = self.q.cell_qef(min);
             let vertex = self.q.vertex(min);
             let manifold = one_piece(&s);
-            self.nodes.push(Node::Leaf { min, size, qef, vertex, manifold, id: 0 });
-            return Some(self.nodes.len() - 1);
+            return Some(self.push(Node::Leaf { min, size, qef, vertex, manifold, id: 0 }));
         }
         let half = size / 2;
         let children: [Option<usize>; 8] = std::array::from_fn(|c| {
@@ -109,13 +132,11 @@ impl Octree<'_, '_, '_, '_> {
         if children.iter().all(Option::is_none) {
             return None;
         }
-        if let Some(leaf) = self.collapse(min, size, &children) {
+        match self.collapse(min, size, &children) {
             // The children stay in the arena, unreachable.
-            self.nodes.push(leaf);
-        } else {
-            self.nodes.push(Node::Internal { children });
+            Some(leaf) => Some(self.push(leaf)),
+            None => Some(self.push(Node::Internal { children })),
         }
-        Some(self.nodes.len() - 1)
     }
 
     /// The leaf replacing `children` when the node may collapse (step 2 of the module docs).
@@ -232,7 +253,7 @@ fn one_piece(s: &[bool; 8]) -> bool {
 }
 
 /// The adaptive mesh (see the module docs); `eps` in world units.
-pub(crate) fn extract(q: &DcQef, eps: f64) -> Result<Mesh, MeshError> {
+pub(crate) fn extract(q: &DcQef, eps: f64, budget: &MeshBudget) -> Result<Mesh, MeshError> {
     let f = q.hermite.f;
     let nc = f.dims.map(|n| n - 1);
     let mut size = 1;
@@ -240,8 +261,13 @@ pub(crate) fn extract(q: &DcQef, eps: f64) -> Result<Mesh, MeshError> {
         size *= 2;
     }
     let s = f.spacing().max_element();
-    let mut t = Octree { q, nodes: Vec::new(), nc, limit: (eps / s) * (eps / s) };
-    let Some(root) = t.build([0; 3], size) else {
+    let limit = (eps / s) * (eps / s);
+    let mut t = Octree { q, nodes: Vec::new(), budget, over: None, nc, limit };
+    let root = t.build([0; 3], size);
+    if let Some(over) = t.over.take() {
+        return Err(over);
+    }
+    let Some(root) = root else {
         return Ok(Mesh::default());
     };
     let mut verts = Vertices::default();
@@ -282,12 +308,12 @@ fn ring(axis: usize, along: usize) -> [usize; 4] {
     [a, a | b, a | b | c, a | c]
 }
 
-struct Contour<'t, 'q, 'f, 'g, 's> {
-    t: &'t Octree<'q, 'f, 'g, 's>,
+struct Contour<'t, 'q, 'f, 'g, 's, 'b> {
+    t: &'t Octree<'q, 'f, 'g, 's, 'b>,
     indices: Vec<u32>,
 }
 
-impl Contour<'_, '_, '_, '_, '_> {
+impl Contour<'_, '_, '_, '_, '_, '_> {
     fn child(&self, n: usize, c: usize) -> Option<usize> {
         match &self.t.nodes[n] {
             Node::Leaf { .. } => Some(n),

@@ -33,7 +33,8 @@ pub use error::{SceneError, SceneErrorKind};
 pub use tree::{MAX_KEY_SEGMENTS, MAX_SCENE_BYTES};
 pub use types::*;
 pub use validate::{
-    DEFAULT_MAX_PIXELS, MAX_IMAGE_SIDE, MAX_NEWTON_STEPS, MAX_SLICE_DEPTH, MAX_STEPS,
+    PickIsovalue, Unpicked, DEFAULT_MAX_PIXELS, MAX_IMAGE_SIDE, MAX_NEWTON_STEPS, MAX_SLICE_DEPTH,
+    MAX_STEPS,
 };
 
 use crate::field::{DataAccess, GridLimits, GRID_CAP_ENV};
@@ -51,7 +52,7 @@ pub fn load_with(
     overrides: &[String],
     limits: &GridLimits,
 ) -> Result<Scene, SceneError> {
-    load_from(path, overrides, limits, &DataAccess::Any)
+    Ok(load_from(path, overrides, limits, &DataAccess::Any, PickIsovalue::OnLoad)?.0)
 }
 
 /// [`load`], reading only the data files `access` admits (a refused `path` key is a
@@ -61,7 +62,19 @@ pub fn load_confined(
     overrides: &[String],
     access: &DataAccess,
 ) -> Result<Scene, SceneError> {
-    load_from(path, overrides, &env_limits()?, access)
+    Ok(load_confined_picking(path, overrides, access, PickIsovalue::OnLoad)?.0)
+}
+
+/// [`load_confined`], with an isovalue picked from the samples picked `when` asked: with
+/// [`PickIsovalue::WhenSampled`] the rule to pick it by comes back beside the scene, whose
+/// `surface.isovalue` is not picked yet.
+pub fn load_confined_picking(
+    path: &Path,
+    overrides: &[String],
+    access: &DataAccess,
+    when: PickIsovalue,
+) -> Result<(Scene, Option<Unpicked>), SceneError> {
+    load_from(path, overrides, &env_limits()?, access, when)
 }
 
 fn load_from(
@@ -69,13 +82,21 @@ fn load_from(
     overrides: &[String],
     limits: &GridLimits,
     access: &DataAccess,
-) -> Result<Scene, SceneError> {
+    when: PickIsovalue,
+) -> Result<(Scene, Option<Unpicked>), SceneError> {
     let name = path.display().to_string();
     let text = tree::read_scene(path, &name)?;
     let base_dir = path.parent().unwrap_or(Path::new(""));
-    let mut scene = from_str_confined(&text, &name, base_dir, overrides, limits, access)?;
+    let (mut scene, unpicked) =
+        from_str_confined(&text, &name, base_dir, overrides, limits, access, when)?;
     scene.path = Some(path.to_path_buf());
-    Ok(scene)
+    Ok((scene, unpicked))
+}
+
+/// The text of the scene file at `path`, read as [`load`] reads it: a regular file of at
+/// most [`MAX_SCENE_BYTES`], opened without waiting (a FIFO or `/dev/zero` is refused).
+pub fn read_text(path: &Path) -> Result<String, SceneError> {
+    tree::read_scene(path, &path.display().to_string())
 }
 
 /// Parses and validates scene text. `origin` names it in errors (usually the file name);
@@ -97,7 +118,8 @@ pub fn from_str_with(
     overrides: &[String],
     limits: &GridLimits,
 ) -> Result<Scene, SceneError> {
-    from_str_confined(text, origin, base_dir, overrides, limits, &DataAccess::Any)
+    let when = PickIsovalue::OnLoad;
+    Ok(from_str_confined(text, origin, base_dir, overrides, limits, &DataAccess::Any, when)?.0)
 }
 
 /// A scene whose field is `grid`, samples already in memory (an array handed over by a
@@ -119,7 +141,8 @@ pub fn from_str_with_grid(
     for i in 0..overrides.len() {
         src.apply_override(&mut root, i)?;
     }
-    validate::scene(&src, &root, base_dir, &limits, &DataAccess::Any, Some(grid))
+    let when = PickIsovalue::OnLoad;
+    Ok(validate::scene(&src, &root, base_dir, &limits, &DataAccess::Any, Some(grid), when)?.0)
 }
 
 fn from_str_confined(
@@ -129,13 +152,14 @@ fn from_str_confined(
     overrides: &[String],
     limits: &GridLimits,
     access: &DataAccess,
-) -> Result<Scene, SceneError> {
+    when: PickIsovalue,
+) -> Result<(Scene, Option<Unpicked>), SceneError> {
     let src = Source::new(origin, text, overrides);
     let mut root = src.parse()?;
     for i in 0..overrides.len() {
         src.apply_override(&mut root, i)?;
     }
-    validate::scene(&src, &root, base_dir, limits, access, None)
+    validate::scene(&src, &root, base_dir, limits, access, None, when)
 }
 
 /// The memory cap from the environment, as a scene error if the variable is malformed:

@@ -326,8 +326,13 @@ pub(crate) fn choice<T: Copy>(
 
 /// The closest name to `word` within edit distance 2 (for "did you mean").
 pub(crate) fn suggest<'n>(word: &str, names: &[&'n str]) -> Option<&'n str> {
+    // The distance is at least the difference of the lengths: names more than 2 characters
+    // longer or shorter are not compared (a 15 MiB unknown key in a scene file took 10 s of
+    // edit distances, the words' product a name).
+    let len = word.chars().count();
     names
         .iter()
+        .filter(|n| n.chars().count().abs_diff(len) <= 2)
         .map(|n| (edit_distance(word, n), *n))
         .filter(|&(d, n)| d <= 2 && d < n.len())
         .min_by_key(|&(d, _)| d)

@@ -45,9 +45,10 @@ pub(crate) fn read_scene(path: &Path, name: &str) -> Result<String, SceneError> 
     if meta.len() > MAX_SCENE_BYTES {
         return Err(too_large(meta.len().to_string()));
     }
-    // The file may have grown since: read one byte past the cap at most.
+    // The file may have grown since: read one byte past the cap at most. It may also have been
+    // replaced by a FIFO since (a server reads its scene again later): opened without waiting.
     let mut bytes = Vec::new();
-    std::fs::File::open(path)
+    crate::vocab::open_regular(path, "a scene file")
         .and_then(|f| f.take(MAX_SCENE_BYTES + 1).read_to_end(&mut bytes))
         .map_err(io)?;
     if bytes.len() as u64 > MAX_SCENE_BYTES {

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::error::SceneErrorKind;
+use super::error::{SceneError, SceneErrorKind};
 use super::read::{self, choice, integer, number_where, numbers, vec3, Result, View};
 use super::tree::{Node, Origin, Source, Value};
 use super::{
@@ -35,8 +35,37 @@ pub const MAX_SLICE_DEPTH: i64 = 10;
 const TABLES: [&str; 9] =
     ["image", "camera", "field", "surface", "render", "slice", "clip", "color", "field2"];
 
+/// When an isovalue picked from the samples (`isovalue_sigma`, `isovalue_percentile`) is
+/// picked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PickIsovalue {
+    /// While the scene is loaded: the whole field is sampled for it (every verb).
+    OnLoad,
+    /// By whoever samples the field next, with [`Unpicked::pick`]: `serve`'s page states,
+    /// loaded on a request's worker, leave it to the render thread, which samples the field
+    /// anyway (a costly field held the worker for as long as its sampling took).
+    WhenSampled,
+}
+
+/// An isovalue still to be picked from the samples ([`PickIsovalue::WhenSampled`]), and where
+/// its key is, for the messages.
+#[derive(Clone, Debug)]
+pub struct Unpicked {
+    /// The key's location and name; the message is the pick's.
+    at: SceneError,
+}
+
+impl Unpicked {
+    /// `surface` with its isovalue picked from `values`, the field's samples (the rule needs
+    /// a field that does not depend on the time): the value and the message the load gives.
+    pub fn pick(&self, surface: SurfaceSettings, values: &[f32]) -> Result<SurfaceSettings> {
+        pick_from(surface, values).map_err(|why| SceneError { message: why, ..self.at.clone() })
+    }
+}
+
 /// Validates the whole tree into a scene. `base_dir` resolves relative data paths, `access`
-/// says which of them may be read.
+/// says which of them may be read, `when` when an isovalue is picked from the samples (the
+/// rule left to pick comes back beside the scene).
 pub(crate) fn scene(
     src: &Source,
     root: &Node,
@@ -44,7 +73,8 @@ pub(crate) fn scene(
     limits: &GridLimits,
     access: &DataAccess,
     memory: Option<&std::sync::Arc<crate::field::Grid>>,
-) -> Result<Scene> {
+    when: PickIsovalue,
+) -> Result<(Scene, Option<Unpicked>)> {
     let Value::Table(t) = &root.value else {
         return Err(src.err(SceneErrorKind::Type, root.at, "", "the scene must be a TOML table"));
     };
@@ -63,7 +93,7 @@ pub(crate) fn scene(
     check_normals(&render_table, &render, &field)?;
     let clip = clip(&root)?;
     // Last: an isovalue picked from the data samples the whole field.
-    let surface = resolve_isovalue(&surface_table, surface, &field, limits)?;
+    let (surface, unpicked) = resolve_isovalue(&surface_table, surface, &field, limits, when)?;
     if surface.several() && render.crossing > 1 {
         return Err(root.table("render")?.err(
             SceneErrorKind::Value,
@@ -81,7 +111,9 @@ pub(crate) fn scene(
             "is only read by [color] by = \"field2\"; add that or remove [field2]",
         ));
     }
-    Ok(Scene { path: None, image, camera, field, surface, render, slice, clip, color, field2 })
+    let scene =
+        Scene { path: None, image, camera, field, surface, render, slice, clip, color, field2 };
+    Ok((scene, unpicked))
 }
 
 /// `[color]`: `by`, `colormap`, `range`.
@@ -402,15 +434,17 @@ fn list<T>(
 }
 
 /// The isovalue of `isovalue_sigma` or `isovalue_percentile`, resolved once from the samples
-/// every verb will see (the field at time 0).
+/// every verb will see (the field at time 0); or, `when` it is picked later, the rule to pick
+/// it by.
 fn resolve_isovalue(
     t: &View,
     surface: SurfaceSettings,
     field: &FieldSpec,
     limits: &GridLimits,
-) -> Result<SurfaceSettings> {
+    when: PickIsovalue,
+) -> Result<(SurfaceSettings, Option<Unpicked>)> {
     let key = match surface.rule {
-        IsoRule::Value => return Ok(surface),
+        IsoRule::Value => return Ok((surface, None)),
         IsoRule::Sigma { .. } => "isovalue_sigma",
         IsoRule::Percentile { .. } => "isovalue_percentile",
     };
@@ -421,26 +455,38 @@ fn resolve_isovalue(
             "needs a field that does not depend on the time t; give isovalue instead",
         ));
     }
+    let unpicked = Unpicked { at: t.err(SceneErrorKind::Value, key, "") };
+    if when == PickIsovalue::WhenSampled {
+        return Ok((surface, Some(unpicked)));
+    }
     let grid = field
         .sample_with(0.0, limits)
         .map_err(|e| t.err(SceneErrorKind::Data, key, format!("cannot sample the field: {e}")))?;
+    Ok((unpicked.pick(surface, &grid.values)?, None))
+}
+
+/// `surface` with its isovalue picked from `values` by its rule, or why the value cannot be
+/// an isovalue.
+fn pick_from(
+    surface: SurfaceSettings,
+    values: &[f32],
+) -> std::result::Result<SurfaceSettings, String> {
     let (isovalue, rule) = match surface.rule {
         IsoRule::Sigma { k, .. } => {
-            let (mean, sigma) = stats::moments(&grid.values);
+            let (mean, sigma) = stats::moments(values);
             (mean + k * sigma, IsoRule::Sigma { k, mean, sigma })
         }
         // Only percentiles need the sorted copy Stats keeps.
-        IsoRule::Percentile { p } => (Stats::of(&grid.values).percentile(p), surface.rule),
+        IsoRule::Percentile { p } => (Stats::of(values).percentile(p), surface.rule),
         IsoRule::Value => (surface.isovalue, surface.rule),
     };
     // mean + k sigma of f32 samples may pass f32's range for a large k (a percentile cannot).
     if isovalue.abs() > f32::MAX as f64 {
-        let why = format!(
+        return Err(format!(
             "gives the isovalue {}, which {}",
             super::tree::show_float(isovalue),
             f32_range()
-        );
-        return Err(t.err(SceneErrorKind::Value, key, why));
+        ));
     }
     Ok(SurfaceSettings { isovalue, rule, ..surface })
 }

@@ -2,6 +2,7 @@
 //! Every route but the assets needs the token; every route needs an allowed `Host`.
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicUsize;
 use std::sync::mpsc::{Receiver, Sender, TryRecvError};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -11,10 +12,10 @@ use serde_json::{json, Value};
 use super::access;
 use super::http::{Body, Head, Reply, Target, Wire};
 use super::mailbox::Mailbox;
-use super::progressive::{Board, Failed, Level, Published, Rendered, Task};
+use super::progressive::{Board, Failed, Level, Published, Rendered, Sampled, Task};
+use super::server::Place;
 use super::state::{self, Policy, ViewState};
 use crate::field::interpolant::Reader;
-use crate::field::Grid;
 use crate::frame::Channel;
 use crate::output;
 use crate::probe::{self, PixelProbe};
@@ -41,10 +42,15 @@ const ROUTES: &[&str] = &[
     "/api/stats",
 ];
 
-/// How long a request waits for a frame or a slice before answering 503.
+/// How long a request waits for a frame, a slice or the sampled field before answering 503.
 pub const WAIT: Duration = Duration::from_secs(120);
 /// How long a long-poll (`/api/frame?after=`) waits before answering 204 No Content.
 pub const LONG_POLL: Duration = Duration::from_secs(25);
+/// States loaded at once (`POST /api/state`); a post beside them is answered 503 with
+/// `Retry-After: 1`. Loading reads a volume file whole (the scene holds its samples), on the
+/// request's worker: 16 posts of a 400^3 volume held every worker for 5 s and took a grid's
+/// memory on each, 2.4 GB; at the grid cap that would be 8 GiB.
+pub const MAX_LOADING: usize = 1;
 
 /// Everything the request threads share.
 pub struct App {
@@ -56,6 +62,8 @@ pub struct App {
     pub mailbox: Arc<Mailbox<ViewState>>,
     pub board: Arc<Board>,
     pub tasks: Mutex<Sender<Task>>,
+    /// States being loaded ([`MAX_LOADING`]).
+    pub loading: Arc<AtomicUsize>,
 }
 
 /// What becomes of a request: a reply now, or a wait on the board that holds no thread
@@ -65,10 +73,10 @@ pub enum Outcome {
     Park(Wait),
 }
 
-/// What a parked request waits for. Every request that waits for a frame or a slice parks:
-/// a wait of seconds (a slow frame) holds a connection slot and a parking place, never one of
-/// the workers, so eight downloads of a frame being drawn do not stop the page's other
-/// requests.
+/// What a parked request waits for. Every request that waits for a frame, a slice or the
+/// field parks: a wait of seconds (a slow frame, a costly expression) holds a connection slot
+/// and a parking place, never one of the workers, so eight downloads of a frame being drawn,
+/// or a dozen probes of a field being sampled, do not stop the page's other requests.
 pub enum Wait {
     /// `/api/frame?after=G&level=L`: anything newer than (G, L); 204 after [`LONG_POLL`].
     Newer(u64, Level),
@@ -80,6 +88,41 @@ pub enum Wait {
     /// A slice picture from the render thread (which pokes the board when it sends one);
     /// 503 after [`WAIT`].
     Slice(Receiver<Result<SliceImage, String>>),
+    /// The field of generation G or later as the render thread sampled it (or a later
+    /// failure), for `Need`; 503 after [`WAIT`]. The field is never sampled on a worker.
+    Field(u64, Need),
+}
+
+/// What is made of the sampled field.
+#[derive(Clone)]
+pub enum Need {
+    /// `GET /api/state`
+    State,
+    /// `GET /api/probe?x=&y=`: the query's words as given.
+    Probe { x: String, y: String },
+    /// `GET /api/slice`, its query checked: `at_arg` is the `at=` word as the messages show it.
+    Slice { axis: Axis, at: f64, at_arg: String, format: SliceFormat },
+}
+
+/// `/api/slice?format=`.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum SliceFormat {
+    Png,
+    Json,
+    Svg,
+    Cells,
+}
+
+impl SliceFormat {
+    fn parse(s: &str) -> Option<SliceFormat> {
+        let all = [
+            ("png", SliceFormat::Png),
+            ("json", SliceFormat::Json),
+            ("svg", SliceFormat::Svg),
+            ("cells", SliceFormat::Cells),
+        ];
+        all.into_iter().find(|(name, _)| *name == s).map(|(_, f)| f)
+    }
 }
 
 /// What is made of a full frame once it is drawn.
@@ -101,13 +144,15 @@ pub enum Found {
     Frame(Arc<Rendered>),
     Failed(Arc<Failed>),
     Slice(Result<SliceImage, String>),
+    /// The sampled field and what the request makes of it.
+    Field(Arc<Sampled>, Need),
 }
 
 impl Wait {
     pub fn timeout(&self) -> Duration {
         match self {
             Wait::Newer(..) => LONG_POLL,
-            Wait::Full(_) | Wait::Use(..) | Wait::Slice(_) => WAIT,
+            Wait::Full(_) | Wait::Use(..) | Wait::Slice(_) | Wait::Field(..) => WAIT,
         }
     }
 
@@ -125,6 +170,12 @@ impl Wait {
                     }
                 }
             }
+            Wait::Field(target, need) => {
+                return sampled_of(b, *target).map(|f| match f {
+                    Ok(s) => Found::Field(s, need.clone()),
+                    Err(f) => Found::Failed(f),
+                })
+            }
         };
         found.map(|f| match f {
             Ok(r) => Found::Frame(r),
@@ -140,6 +191,7 @@ impl Wait {
                 Reply::error(503, "the frame is not ready yet; ask again")
             }
             Wait::Slice(_) => Reply::error(503, "the slice is not ready yet; ask again"),
+            Wait::Field(..) => Reply::error(503, "the field is not sampled yet; ask again"),
         }
     }
 }
@@ -194,7 +246,8 @@ impl App {
             ("GET", "/") | ("GET", "/index.html") => {
                 Ok(Reply::text("text/html; charset=utf-8", INDEX_HTML))
             }
-            ("GET", "/api/state") => self.get_state(),
+            // The routes that read the field: it is sampled on the render thread.
+            ("GET", "/api/state") => return self.wait_for(Wait::Field(self.latest(), Need::State)),
             ("POST", "/api/state") => body.read().and_then(|b| self.post_state(&b)),
             // The routes that may wait for a frame or a slice.
             ("GET", "/api/frame") => return self.frame(&target).unwrap_or_else(Outcome::Reply),
@@ -204,7 +257,11 @@ impl App {
             ("POST", "/api/tev") => {
                 return body.read().and_then(|b| self.tev(&b)).unwrap_or_else(Outcome::Reply)
             }
-            ("GET", "/api/probe") => self.probe(&target),
+            ("GET", "/api/probe") => {
+                let (x, y) = (target.get("x").unwrap_or(""), target.get("y").unwrap_or(""));
+                let need = Need::Probe { x: x.to_string(), y: y.to_string() };
+                return self.wait_for(Wait::Field(self.latest(), need));
+            }
             ("GET", "/api/scene.toml") => self.scene_toml(),
             ("GET", "/api/stats") => Ok(Reply::json(&json!(self.board.stats()))),
             (_, path) if ROUTES.contains(&path) => {
@@ -223,14 +280,19 @@ impl App {
     /// Answers `wait` now when the board has what it waits for, else parks it.
     fn wait_for(&self, wait: Wait) -> Outcome {
         match self.board.look(|b| wait.pick(b)) {
-            Some(found) => Outcome::Reply(self.answer(wait, found)),
+            Some(found) => self.answer(wait, found),
             None => Outcome::Park(wait),
         }
     }
 
-    /// The reply to a request that waited for `found`: made on a worker (see [`Found`]).
-    pub fn answer(&self, wait: Wait, found: Found) -> Reply {
-        match (wait, found) {
+    /// The reply to a request that waited for `found`, made on a worker (see [`Found`]); or a
+    /// new wait: a slice picture, once the field it is planned on is there, waits for the
+    /// render thread to draw it.
+    pub fn answer(&self, wait: Wait, found: Found) -> Outcome {
+        let reply = match (wait, found) {
+            (_, Found::Field(sampled, need)) => {
+                return self.use_field(&sampled, need).unwrap_or_else(Outcome::Reply)
+            }
             (_, Found::Failed(f)) => failed_reply(&f),
             (_, Found::Slice(Err(e))) => Reply::error(500, format!("isoview: {e}")),
             (_, Found::Slice(Ok(picture))) => export::encode_png(Path::new("slice.png"), &picture)
@@ -241,38 +303,34 @@ impl App {
             (Wait::Use(_, Then::Tev(address)), Found::Frame(r)) => self.tev_reply(&r, &address),
             // `/api/frame` (a slice's wait finds a picture, never a frame).
             (_, Found::Frame(r)) => frame_reply(&r),
+        };
+        Outcome::Reply(reply)
+    }
+
+    /// What a request that needs the field makes of it.
+    fn use_field(&self, sampled: &Sampled, need: Need) -> Result<Outcome, Reply> {
+        match need {
+            Need::State => Ok(Outcome::Reply(self.get_state(sampled))),
+            Need::Probe { x, y } => self.probe(sampled, &x, &y).map(Outcome::Reply),
+            Need::Slice { axis, at, at_arg, format } => {
+                self.slice_of(sampled, axis, at, &at_arg, format)
+            }
         }
     }
 
-    /// The latest state, its generation, and the field sampled for it (from the board when
-    /// the render thread has it, else sampled here).
-    fn current(&self) -> Result<(u64, Arc<ViewState>, Arc<Grid>), Reply> {
-        let (generation, state) =
-            self.mailbox.latest().ok_or_else(|| Reply::error(503, "no state yet"))?;
-        let drawn = self.board.wait(Duration::ZERO, |b| {
-            [&b.full, &b.coarse]
-                .into_iter()
-                .flatten()
-                .find(|r| r.generation == generation)
-                .map(|r| r.grid.clone())
-        });
-        let grid = match drawn {
-            Some(g) => g,
-            None => Arc::new(state.scene.field.sample(state.time).map_err(|e| {
-                Reply::error(400, format!("isoview: {}", state::field_error_for_page(&e)))
-            })?),
-        };
-        Ok((generation, state, grid))
-    }
-
-    fn get_state(&self) -> Result<Reply, Reply> {
-        let (generation, state, grid) = self.current()?;
-        let mut v = state::describe(generation, &state, &self.scene_name(), &grid, &self.device);
-        v["command"] = json!(state::command_line(&self.scene_path, &state));
-        Ok(Reply::json(&v))
+    fn get_state(&self, s: &Sampled) -> Reply {
+        let (name, device) = (self.scene_name(), &self.device);
+        let mut v = state::describe(s.generation, &s.state, &name, &s.grid, device);
+        v["command"] = json!(state::command_line(&self.scene_path, &s.state));
+        Reply::json(&v)
     }
 
     fn post_state(&self, body: &[u8]) -> Result<Reply, Reply> {
+        let Some(_loading) = Place::take(&self.loading, MAX_LOADING) else {
+            let busy =
+                format!("another state is being loaded ({MAX_LOADING} at a time); ask again");
+            return Err(Reply::error(503, busy).header("Retry-After", 1));
+        };
         let state = ViewState::from_request(&self.scene_path, body, &self.policy)
             .map_err(|e| Reply::error(400, format!("isoview: {}", e.for_page())))?;
         let generation = self.mailbox.post(state);
@@ -336,9 +394,8 @@ impl App {
     }
 
     /// `GET /api/probe?x=&y=`: `probe --json --pixel X,Y` of the latest state.
-    fn probe(&self, target: &Target) -> Result<Reply, Reply> {
-        let (x, y) = (target.get("x").unwrap_or(""), target.get("y").unwrap_or(""));
-        let (_, state, grid) = self.current()?;
+    fn probe(&self, sampled: &Sampled, x: &str, y: &str) -> Result<Reply, Reply> {
+        let (state, grid) = (&sampled.state, &sampled.grid);
         if let Some(why) = state.scene.interpolation_refusal(Reader::Probe) {
             return Err(Reply::error(400, format!("isoview: {why}")));
         }
@@ -346,37 +403,61 @@ impl App {
         let (px, py) = probe::parse_pixel(&format!("{x},{y}"), image.width, image.height)
             .map_err(|e| Reply::error(400, format!("isoview: {e}")))?;
         let report =
-            PixelProbe::new(&state.scene, &grid, px, py).json(&state.scene, &self.scene_name());
+            PixelProbe::new(&state.scene, grid, px, py).json(&state.scene, &self.scene_name());
         let text = serde_json::to_string_pretty(&report).map_err(|e| Reply::error(500, e))?;
         Ok(Reply::text("application/json", text + "\n"))
     }
 
-    /// `GET /api/slice?axis=&at=&format=png|json|svg|cells`: what `isoview slice` writes
-    /// (`--png`, `--json`, `--svg`) for the latest state; `cells`: the plane's grid values.
+    /// `GET /api/slice?axis=&at=&format=png|json|svg|cells`: the query checked, then a wait
+    /// for the latest state's field ([`App::slice_of`]).
     fn slice(&self, target: &Target) -> Result<Outcome, Reply> {
         let axis_arg = target.get("axis").unwrap_or("");
         let axis = Axis::parse(axis_arg).ok_or_else(|| {
             Reply::error(400, format!("isoview: --axis {}: expected x, y or z", shorten(axis_arg)))
         })?;
-        let at_arg = target.get("at").unwrap_or("");
-        let at: f64 = at_arg.parse().ok().filter(|a: &f64| a.is_finite()).ok_or_else(|| {
-            Reply::error(400, format!("isoview: --at {}: must be a finite number", shorten(at_arg)))
+        let at_arg = shorten(target.get("at").unwrap_or(""));
+        let at: f64 = target
+            .get("at")
+            .unwrap_or("")
+            .parse()
+            .ok()
+            .filter(|a: &f64| a.is_finite())
+            .ok_or_else(|| {
+            Reply::error(400, format!("isoview: --at {at_arg}: must be a finite number"))
         })?;
-        let (_, state, grid) = self.current()?;
-        let scene = &state.scene;
-        let planned = slice::plan(scene, &grid, axis, at, state.time).map_err(|e| {
+        let format_arg = target.get("format").unwrap_or("png");
+        let format = SliceFormat::parse(format_arg).ok_or_else(|| {
             Reply::error(
                 400,
-                format!("isoview: {}", e.located(&format!("--at {}", shorten(at_arg)))),
+                format!("format={}: expected png, json, svg or cells", shorten(format_arg)),
             )
         })?;
+        let need = Need::Slice { axis, at, at_arg, format };
+        Ok(self.wait_for(Wait::Field(self.latest(), need)))
+    }
+
+    /// What `isoview slice` writes (`--png`, `--json`, `--svg`) for the sampled state;
+    /// `cells`: the plane's grid values. The PNG is drawn by the render thread: a new wait.
+    fn slice_of(
+        &self,
+        sampled: &Sampled,
+        axis: Axis,
+        at: f64,
+        at_arg: &str,
+        format: SliceFormat,
+    ) -> Result<Outcome, Reply> {
+        let (state, grid) = (&sampled.state, &sampled.grid);
+        let scene = &state.scene;
+        let planned = slice::plan(scene, grid, axis, at, state.time).map_err(|e| {
+            Reply::error(400, format!("isoview: {}", e.located(&format!("--at {at_arg}"))))
+        })?;
         let (plane, iso) = (&planned.plane, scene.surface.isovalue);
-        let reply = match target.get("format").unwrap_or("png") {
-            "json" => Ok(Reply::text(
+        let reply = match format {
+            SliceFormat::Json => Ok(Reply::text(
                 "application/json",
                 export::json(plane, &scene.field.placement, iso, &planned.set.contours),
             )),
-            "svg" => {
+            SliceFormat::Svg => {
                 let title = slice::svg_title(plane, &self.scene_name(), iso);
                 let (w, h) = (planned.style.width, planned.style.height);
                 Ok(Reply::text(
@@ -384,7 +465,7 @@ impl App {
                     export::svg(plane, &planned.set.contours, w, h, &title),
                 ))
             }
-            "cells" => {
+            SliceFormat::Cells => {
                 let names = ["x", "y", "z"];
                 Ok(Reply::json(&json!({
                     "axis": axis.name(), "at": at, "isovalue": iso,
@@ -395,7 +476,7 @@ impl App {
                     "picture": [planned.style.width, planned.style.height],
                 })))
             }
-            "png" => {
+            SliceFormat::Png => {
                 // The picture is drawn in memory: its size counts against the same cap as the
                 // image's.
                 slice::check_picture(scene, &planned.style, self.policy.max_pixels, "serve")
@@ -409,10 +490,6 @@ impl App {
                     .map_err(|_| Reply::error(500, "the render thread is gone"))?;
                 return Ok(self.wait_for(Wait::Slice(answer)));
             }
-            other => Err(Reply::error(
-                400,
-                format!("format={}: expected png, json, svg or cells", shorten(other)),
-            )),
         };
         reply.map(Outcome::Reply)
     }
@@ -458,11 +535,26 @@ impl App {
 
 /// The full frame of generation `target` or later, or a later failure.
 fn full_of(b: &Published, target: u64) -> Option<Result<Arc<Rendered>, Arc<Failed>>> {
+    or_failure(b.full.as_ref().map(|r| (r.generation, r)), b, target)
+}
+
+/// The field sampled for generation `target` or later, or a later failure.
+fn sampled_of(b: &Published, target: u64) -> Option<Result<Arc<Sampled>, Arc<Failed>>> {
+    or_failure(b.sampled.as_ref().map(|s| (s.generation, s)), b, target)
+}
+
+/// `item` (with its generation) when it is of generation `target` or later, or the board's
+/// failure when that is later still (or there is no such item). A failure of the item's own
+/// generation came after it (the state's field was sampled and its frame failed): the item.
+fn or_failure<T>(
+    item: Option<(u64, &Arc<T>)>,
+    b: &Published,
+    target: u64,
+) -> Option<Result<Arc<T>, Arc<Failed>>> {
     let failed = b.failed.as_ref().filter(|f| f.generation >= target);
-    let full = b.full.as_ref().filter(|f| f.generation >= target);
-    match (full, failed) {
-        (Some(r), Some(f)) if f.generation > r.generation => Some(Err(f.clone())),
-        (Some(r), _) => Some(Ok(r.clone())),
+    match (item.filter(|(g, _)| *g >= target), failed) {
+        (Some((g, _)), Some(f)) if f.generation > g => Some(Err(f.clone())),
+        (Some((_, r)), _) => Some(Ok(r.clone())),
         (None, Some(f)) => Some(Err(f.clone())),
         (None, None) => None,
     }

@@ -5,8 +5,10 @@
 //!        │   ── access (Host, token) ── api (routes)
 //!        │ POST /api/state: load + validate like --set, data files confined ──> mailbox
 //!        │ GET /api/frame, /aov, /exr, /tev, slice PNGs: parked until the board has them
+//!        │ GET /api/state, /probe, /slice: parked until the board has the sampled field
 //!        ▼
 //!   render thread (progressive): owns the Renderer, the slice renderer and the uploaded grid;
+//!   samples each state's field (the only thread that does) and pins it to the board;
 //!   coarse frame while the page drags, full frame after a pause, stale frames abandoned
 //!   between bands; pins frames and failures to the board.
 //! ```
@@ -127,6 +129,7 @@ pub fn run(options: &Options, ctx: Arc<Context>, out: &mut dyn Write) -> Result<
         mailbox,
         board,
         tasks: Mutex::new(tasks),
+        loading: Default::default(),
     });
     writeln!(out, "{}", url(options.bind, port, &token))
         .and_then(|_| out.flush())

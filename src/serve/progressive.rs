@@ -4,9 +4,15 @@
 //!   POST /api/state ──> Mailbox<ViewState> (latest wins) ──┐ Task::Wake
 //!   GET /api/slice  ──> Task::Slice ───────────────────────┴──> render thread ──> Board
 //!                                                                                 │
-//!   GET /api/frame, /aov, /exr, /tev <── parked on the Board for the generation ──┘
+//!   GET /api/frame, /aov, /exr, /tev <── parked on the Board for the generation ──┤
+//!   GET /api/state, /probe, /slice   <── parked on the Board for the sampled field ┘
 //!   (a slice's picture goes back on its channel; the board is poked to wake its parked request)
 //! ```
+//!
+//! The field is sampled here and nowhere else: a state's field is pinned to the board
+//! ([`Sampled`]) as soon as it is sampled, before its frame is drawn, for the requests that
+//! read it. Sampling can take minutes (an expression within its 4096 bytes can sum 2048
+//! terms at every grid point), which on a request's worker held the worker for as long.
 //!
 //! For each new state: with `preview` (the page is dragging), a coarse frame first: every
 //! [`COARSE_STRIDE`]-th pixel of every [`COARSE_STRIDE`]-th row, the same rays as the full
@@ -20,7 +26,7 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use super::mailbox::Mailbox;
-use super::state::{field_error_for_page, ViewState};
+use super::state::{field_error_for_page, scene_error_for_page, ViewState};
 use crate::field::Grid;
 use crate::frame::Frame;
 use crate::gpu::Context;
@@ -79,6 +85,13 @@ pub struct Rendered {
     pub render_ms: f64,
 }
 
+/// The field as sampled for a state: pinned when it is sampled, before the state's frame.
+pub struct Sampled {
+    pub generation: u64,
+    pub state: Arc<ViewState>,
+    pub grid: Arc<Grid>,
+}
+
 /// A state that could not be drawn: the command line's message and exit-status class.
 pub struct Failed {
     pub generation: u64,
@@ -96,11 +109,13 @@ pub struct Stats {
     pub abandoned: u64,
 }
 
-/// What the board shows: the latest frame of each level, the latest failure, the counts.
+/// What the board shows: the latest frame of each level, the latest sampled field, the latest
+/// failure, the counts.
 #[derive(Default)]
 pub struct Published {
     pub coarse: Option<Arc<Rendered>>,
     pub full: Option<Arc<Rendered>>,
+    pub sampled: Option<Arc<Sampled>>,
     pub failed: Option<Arc<Failed>>,
     pub stats: Stats,
     /// Counts the updates (and pokes), for [`Board::wait_change`].
@@ -145,23 +160,6 @@ impl Board {
             board = self.changed.wait_timeout(board, left).unwrap_or_else(|e| e.into_inner()).0;
         }
         board.version
-    }
-
-    /// Waits up to `timeout` until `pick` finds something on the board.
-    pub fn wait<T>(
-        &self,
-        timeout: Duration,
-        mut pick: impl FnMut(&Published) -> Option<T>,
-    ) -> Option<T> {
-        let deadline = Instant::now() + timeout;
-        let mut board = self.lock();
-        loop {
-            if let Some(t) = pick(&board) {
-                return Some(t);
-            }
-            let left = deadline.checked_duration_since(Instant::now())?;
-            board = self.changed.wait_timeout(board, left).unwrap_or_else(|e| e.into_inner()).0;
-        }
     }
 
     pub fn stats(&self) -> Stats {
@@ -293,6 +291,16 @@ impl RenderThread {
         }
     }
 
+    /// Pins `grid` as generation `generation`'s field, unless it is pinned already (the full
+    /// frame after a coarse one).
+    fn pin_sampled(&self, generation: u64, state: &Arc<ViewState>, grid: &Arc<Grid>) {
+        if self.board.look(|b| b.sampled.as_ref().is_some_and(|s| s.generation == generation)) {
+            return;
+        }
+        let sampled = Arc::new(Sampled { generation, state: state.clone(), grid: grid.clone() });
+        self.board.update(|b| b.sampled = Some(sampled));
+    }
+
     fn slice(&mut self, state: &ViewState, planned: &Planned) -> Result<SliceImage, String> {
         self.renew_if_worn();
         self.dispatches += 1;
@@ -310,7 +318,7 @@ impl RenderThread {
 
     /// Draws generation `generation` (coarse first with `preview`), pinning what it finishes.
     fn draw(&mut self, generation: u64, state: &Arc<ViewState>) {
-        let result = self.draw_levels(generation, state);
+        let result = self.picked(state).and_then(|state| self.draw_levels(generation, &state));
         match result {
             Ok(()) => {}
             Err(Some((message, gpu))) => self.board.update(|b| {
@@ -318,6 +326,17 @@ impl RenderThread {
             }),
             Err(None) => self.board.update(|b| b.stats.abandoned += 1),
         }
+    }
+
+    /// `state` with its isovalue picked from its field when the page's load left it to pick
+    /// ([`ViewState::unpicked`]), the field sampled for it here.
+    fn picked(&mut self, state: &Arc<ViewState>) -> Result<Arc<ViewState>, Option<(String, bool)>> {
+        if state.unpicked.is_none() {
+            return Ok(state.clone());
+        }
+        let grid = self.grid_for(state).map_err(Some)?;
+        let picked = state.picked(&grid).map_err(|e| Some((scene_error_for_page(&e), false)))?;
+        Ok(Arc::new(picked))
     }
 
     /// `Err(None)`: abandoned for a newer state.
@@ -357,6 +376,7 @@ impl RenderThread {
         let started = Instant::now();
         self.renew_if_worn();
         let grid = self.grid_for(state).map_err(Some)?;
+        self.pin_sampled(generation, state, &grid);
         let mailbox = self.mailbox.clone();
         let mut bands = 0;
         let mut still_latest = |_: crate::passes::Band, _: &[crate::frame::Pixel]| {

@@ -52,12 +52,23 @@ pub const HANGUP_CHECK: Duration = Duration::from_secs(1);
 pub struct Conn {
     pub stream: TcpStream,
     head: HeadReader,
-    _slot: Slot,
+    _slot: Place,
 }
 
-struct Slot(Arc<AtomicUsize>);
+/// One of a bounded number of places (an open connection, a state being loaded), freed when
+/// dropped.
+pub struct Place(Arc<AtomicUsize>);
 
-impl Drop for Slot {
+impl Place {
+    /// A place among `max`, counted in `taken`; None when all are taken.
+    pub fn take(taken: &Arc<AtomicUsize>, max: usize) -> Option<Place> {
+        let more = |n: usize| (n < max).then_some(n + 1);
+        taken.fetch_update(Ordering::AcqRel, Ordering::Acquire, more).ok()?;
+        Some(Place(taken.clone()))
+    }
+}
+
+impl Drop for Place {
     fn drop(&mut self) {
         self.0.fetch_sub(1, Ordering::AcqRel);
     }
@@ -120,8 +131,7 @@ pub fn run(listener: TcpListener, app: Arc<App>) -> std::io::Result<()> {
             std::thread::sleep(Duration::from_millis(10));
             continue;
         };
-        if open.fetch_add(1, Ordering::AcqRel) >= MAX_CONNECTIONS {
-            open.fetch_sub(1, Ordering::AcqRel);
+        let Some(slot) = Place::take(&open, MAX_CONNECTIONS) else {
             // The answer fits in the socket's buffer: this write does not wait for the client.
             let _ = stream.set_write_timeout(Some(Duration::from_millis(100)));
             let busy =
@@ -129,10 +139,9 @@ pub fn run(listener: TcpListener, app: Arc<App>) -> std::io::Result<()> {
                     .header("Retry-After", 1);
             let _ = stream.write_all(&busy.encode());
             continue;
-        }
+        };
         // The head's deadline counts from here, not from when a worker takes the connection.
-        let conn =
-            Conn { stream, head: HeadReader::new(Instant::now()), _slot: Slot(open.clone()) };
+        let conn = Conn { stream, head: HeadReader::new(Instant::now()), _slot: slot };
         // Cannot fail while the workers live (see the queue's size); if it does, the
         // connection is dropped, which the client sees as a closed connection.
         let _ = jobs.try_send(Job::Serve(conn));
@@ -149,24 +158,21 @@ fn work(queue: &Mutex<Receiver<Job>>, jobs: &SyncSender<Job>, app: &App, parking
         match job {
             Job::Answer(p, found) => {
                 let (wait, unread) = (p.wait, p.unread);
-                let reply = survive(
+                let outcome = survive(
                     || match found {
                         Some(found) => app.answer(wait, found),
-                        None => wait.timed_out(),
+                        None => Outcome::Reply(wait.timed_out()),
                     },
-                    |r| r,
+                    Outcome::Reply,
                 );
-                reply.send(p.conn.stream, unread)
+                finish(app, parking, p.conn, outcome, unread);
             }
             Job::Serve(mut conn) => match conn.head.read(&mut conn.stream, http::HEAD_TURN) {
                 Ok(HeadProgress::Done(head)) => {
                     let mut body = http::Body::new(&mut conn.stream, &head);
                     let outcome = survive(|| app.route(&head, &mut body), Outcome::Reply);
                     let unread = body.unread();
-                    match outcome {
-                        Outcome::Reply(reply) => reply.send(conn.stream, unread),
-                        Outcome::Park(wait) => park(app, parking, conn, wait, unread),
-                    }
+                    finish(app, parking, conn, outcome, unread);
                 }
                 // To the back of the queue: the connections behind it get their turn. Cannot
                 // fail (see `run`); if it did, the connection would close unanswered.
@@ -177,6 +183,15 @@ fn work(queue: &Mutex<Receiver<Job>>, jobs: &SyncSender<Job>, app: &App, parking
                 Err(reply) => reply.send(conn.stream, 0),
             },
         }
+    }
+}
+
+/// Sends the reply, or parks the request (a slice picture waits for its field, then for the
+/// render thread to draw it: two waits).
+fn finish(app: &App, parking: &Parking, conn: Conn, outcome: Outcome, unread: u64) {
+    match outcome {
+        Outcome::Reply(reply) => reply.send(conn.stream, unread),
+        Outcome::Park(wait) => park(app, parking, conn, wait, unread),
     }
 }
 

@@ -8,7 +8,7 @@ use std::time::Instant;
 use serde_json::{json, Value};
 
 use crate::field::{DataAccess, FieldError, FieldSource, FieldSpec, Grid};
-use crate::scene::{self, Scene, SceneError};
+use crate::scene::{self, PickIsovalue, Scene, SceneError, Unpicked};
 
 /// What a state may ask for: which data files it may name, how large an image.
 #[derive(Clone, Debug)]
@@ -20,12 +20,18 @@ pub struct Policy {
     /// image: a state over it is refused when posted, with the line `render` exits 2 with,
     /// rather than accepted and answered 500 on its frame.
     pub max_image_extent: Option<u32>,
+    /// When an isovalue picked from the samples (`isovalue_sigma`, `isovalue_percentile`) is
+    /// picked: the command line's state on load (a bad one exits 2 before serving), the
+    /// page's by the render thread once it has sampled the field ([`ViewState::unpicked`]),
+    /// since a load on the request's worker sampled the whole field there.
+    pub pick: PickIsovalue,
 }
 
 impl Policy {
     /// The command line's own state: any file (the user named them), the image cap.
     pub fn command_line(max_pixels: u64) -> Policy {
-        Policy { access: DataAccess::Any, max_pixels, max_image_extent: None }
+        let pick = PickIsovalue::OnLoad;
+        Policy { access: DataAccess::Any, max_pixels, max_image_extent: None, pick }
     }
 
     /// The page's states: files within the scene's folder, each of `allow_dirs`, and the data
@@ -62,7 +68,8 @@ impl Policy {
         }
         let roots = std::iter::once(folder).chain(allow_dirs.iter().cloned()).chain(own);
         let access = DataAccess::within(roots).map_err(|e| format!("--allow-dir {e}"))?;
-        Ok(Policy { access, max_pixels, max_image_extent: None })
+        let pick = PickIsovalue::WhenSampled;
+        Ok(Policy { access, max_pixels, max_image_extent: None, pick })
     }
 }
 
@@ -201,6 +208,10 @@ pub struct ViewState {
     /// without a newer state (the page sets it while the user drags).
     pub preview: bool,
     pub scene: Scene,
+    /// The rule of an isovalue still to be picked from the samples, when the state was
+    /// loaded under [`PickIsovalue::WhenSampled`] (`scene.surface.isovalue` is not picked
+    /// then): the render thread picks it ([`ViewState::picked`]) before it draws the state.
+    pub unpicked: Option<Unpicked>,
     /// When it arrived (the refine delay counts from here).
     pub posted: Instant,
 }
@@ -218,7 +229,9 @@ impl ViewState {
         if !time.is_finite() {
             return Err(format!("--time {time}: must be a finite number").into());
         }
-        let scene = scene::load_confined(path, &sets, &policy.access).map_err(StateError::Scene)?;
+        let (scene, unpicked) =
+            scene::load_confined_picking(path, &sets, &policy.access, policy.pick)
+                .map_err(StateError::Scene)?;
         let (w, h) = (scene.image.width as u64, scene.image.height as u64);
         if w * h > policy.max_pixels {
             return Err(format!(
@@ -237,7 +250,18 @@ impl ViewState {
         if let Some(max) = policy.max_image_extent {
             scene.field.check_image_extent(max).map_err(|e| e.to_string())?;
         }
-        Ok(ViewState { sets, time, preview, scene, posted: Instant::now() })
+        Ok(ViewState { sets, time, preview, scene, unpicked, posted: Instant::now() })
+    }
+
+    /// The state with its isovalue picked from `grid`, the field sampled for it (the state
+    /// itself when there was nothing to pick); the load's message when the pick gives no
+    /// isovalue.
+    pub fn picked(&self, grid: &Grid) -> Result<ViewState, SceneError> {
+        let mut state = self.clone();
+        if let Some(rule) = state.unpicked.take() {
+            state.scene.surface = rule.pick(state.scene.surface, &grid.values)?;
+        }
+        Ok(state)
     }
 
     /// The state a `POST /api/state` body asks for:
@@ -335,7 +359,10 @@ pub fn describe(
 /// Relative data paths stay relative to `path`'s folder, so save it next to the original.
 pub fn scene_toml(path: &Path, sets: &[String], time: f64) -> Result<String, String> {
     let name = path.display();
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{name}: cannot read: {e}"))?;
+    // As the scene is loaded, not `read_to_string`: the file may have been replaced since the
+    // server started, and a FIFO there held the worker for good (8 such requests, every
+    // worker), `/dev/zero` grew it without end.
+    let text = scene::read_text(path).map_err(|e| e.to_string())?;
     let mut root: toml::Table =
         toml::from_str(&text).map_err(|e| format!("{name}: invalid TOML: {e}"))?;
     for s in sets {

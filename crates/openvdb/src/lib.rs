@@ -98,8 +98,22 @@ const ERR_CAP: usize = 512;
 fn message(buf: &[c_char; ERR_CAP]) -> Error {
     // SAFETY: the buffer is zeroed and the C++ side writes at most ERR_CAP - 1 bytes and a NUL.
     let s = unsafe { CStr::from_ptr(buf.as_ptr()) };
-    let s = s.to_string_lossy();
-    Error(if s.is_empty() { "OpenVDB failed without a message".into() } else { s.into_owned() })
+    Error(explained(&s.to_string_lossy()))
+}
+
+/// An exception's message as isoview shows it. OpenVDB throws some with no text, only the
+/// type (`KeyError:` for a file cut short after its header, whose message quoted a name read
+/// from bytes that were not there): alone, that says nothing of what is wrong.
+pub fn explained(what: &str) -> String {
+    let what = what.trim();
+    let kind = what.trim_end_matches(':');
+    if what.is_empty() {
+        "OpenVDB failed without a message".into()
+    } else if !kind.contains(char::is_whitespace) {
+        format!("{kind} (OpenVDB gave no reason: the file may be cut short or corrupt)")
+    } else {
+        what.into()
+    }
 }
 
 fn owned(p: *const c_char) -> String {

@@ -86,7 +86,7 @@ pub fn from_file(
             file.seek(SeekFrom::Start(skip)).map_err(|e| at.io(&e))?;
             // ASCII needs at least 2 bytes a sample: more than 64 a sample is not a volume.
             let most = byte_count(dims, SampleType::U8).saturating_mul(64).saturating_add(4096);
-            ascii_stream(&at, BufReader::new(file).take(most), dims)
+            ascii_stream(&at, BufReader::new(file), dims, most)
         }
         Encoding::Gzip | Encoding::Zlib => {
             let Start::At(skip) = start else {
@@ -138,6 +138,14 @@ pub fn inflated(
     }
     let mut data = Vec::with_capacity(bytes as usize);
     reader.take(bytes + 1).read_to_end(&mut data).map_err(corrupt)?;
+    if data.len() as u64 > bytes {
+        // Only one byte past them was inflated: how much more the stream holds is not known.
+        return Err(err.bad(format!(
+            "the compressed data holds more than the {bytes} bytes of samples the header \
+             declares ({}); isoview inflates no further",
+            samples::layout(dims, ty)
+        )));
+    }
     exact(err, data, ty, endian, dims)
 }
 
@@ -175,13 +183,16 @@ pub fn ascii(err: &Located, text: &str, dims: [usize; 3]) -> Result<Vec<f32>, Fi
     values.finish()
 }
 
-/// [`ascii`] read from `reader` a block at a time: the memory is the grid's samples and one
-/// block of text, not the whole text (which may be many times the samples' size).
+/// [`ascii`] read from `reader` a block at a time, at most `most` bytes of it: the memory is
+/// the grid's samples and one block of text, not the whole text (which may be many times the
+/// samples' size).
 pub fn ascii_stream(
     err: &Located,
-    mut reader: impl Read,
+    reader: impl Read,
     dims: [usize; 3],
+    most: u64,
 ) -> Result<Vec<f32>, FieldError> {
+    let mut reader = reader.take(most);
     let mut values = AsciiValues::new(err, dims);
     let mut block = vec![0u8; 1 << 16];
     // The bytes of a word cut by the end of the last block.
@@ -204,6 +215,14 @@ pub fn ascii_stream(
         if done {
             if !partial.is_empty() {
                 values.push_bytes(&partial)?;
+            }
+            // Cut by the bound, not by the file's end: "truncated" would be untrue.
+            if reader.limit() == 0 && values.out.len() < values.count {
+                return Err(err.bad(format!(
+                    "the ASCII data takes more than {most} bytes before its {} values end \
+                     (isoview reads at most 64 bytes a value)",
+                    values.count
+                )));
             }
             return values.finish();
         }

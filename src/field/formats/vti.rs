@@ -311,11 +311,17 @@ impl Block<'_> {
             let before = out.len();
             std::io::Read::read_to_end(&mut std::io::Read::take(&mut z, want + 1), &mut out)
                 .map_err(|e| self.err.bad(format!("compressed block {b} is corrupt ({e})")))?;
-            if (out.len() - before) as u64 != want {
-                return Err(self.err.bad(format!(
-                    "compressed block {b} inflates to {} bytes, not {want}",
-                    out.len() - before
-                )));
+            let got = (out.len() - before) as u64;
+            // One byte past `want` is all that was inflated: the block may hold far more.
+            if got > want {
+                return Err(self
+                    .err
+                    .bad(format!("compressed block {b} inflates to more than its {want} bytes")));
+            }
+            if got < want {
+                return Err(self
+                    .err
+                    .bad(format!("compressed block {b} inflates to {got} bytes, not {want}")));
             }
         }
         payload::exact(self.err, out, self.ty, self.endian, self.dims)

@@ -35,9 +35,15 @@ function showError(message) {
   e.hidden = !message;
 }
 
+// A 503 with Retry-After is the server saying it is busy (another state being loaded, too
+// many requests waiting for frames): wait as it says and ask again, a minute at most.
 async function api(path, options = {}) {
-  const r = await fetch(path, { ...options, headers: { ...HEADERS, ...(options.headers || {}) } });
-  return r;
+  for (let tries = 0; ; tries++) {
+    const r = await fetch(path, { ...options, headers: { ...HEADERS, ...(options.headers || {}) } });
+    const wait = Number(r.headers.get('Retry-After'));
+    if (r.status !== 503 || !wait || tries >= 60) return r;
+    await new Promise((ok) => setTimeout(ok, wait * 1000));
+  }
 }
 
 async function errorText(r) {

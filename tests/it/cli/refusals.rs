@@ -712,6 +712,46 @@ fn every_verb_refuses_a_time_that_is_not_finite() {
     );
 }
 
+/// Left by the fourth pass: a number flag given no value took the next flag as its value
+/// (`--time --set x=1` named `x=1` as an unexpected argument), a side effect of letting
+/// negative numbers through. Now a word after a number flag is its value when it is a '-'
+/// and a digit or '.', and a flag otherwise; both ways on every kind of number flag.
+#[test]
+fn a_number_flag_given_no_value_is_named() {
+    let dir = scratch("rio-no-value");
+    let scene = write(&dir, "s.toml", SPHERE);
+    let out = |name: &str| dir.join(name).display().to_string();
+    let (exr, json) = (out("o.exr"), out("c.json"));
+    let cases: [(Vec<&str>, &str); 6] = [
+        (vec!["stats", &scene, "--time", "--set", "image.width=8"], "--time <TIME>"),
+        (vec!["stats", &scene, "--bins", "--time", "1"], "--bins <BINS>"),
+        (
+            vec!["render", &scene, "-o", &exr, "--frames", "0..1", "--fps", "--png", &json],
+            "--fps <FPS>",
+        ),
+        (vec!["slice", &scene, "-o", &exr, "--axis", "z", "--at", "--json", &json], "--at <AT>"),
+        (vec!["probe", &scene, "--pixel", "--json"], "--pixel <X,Y>"),
+        (vec!["compare", &exr, &exr, "--fail", "--shift"], "--fail <T>"),
+    ];
+    for (args, flag) in cases {
+        let o = isoview_output(&args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        let named = format!("a value is required for '{flag}' but none was supplied");
+        assert!(err.contains(&named) && !err.contains("unexpected"), "{args:?}: {err}");
+    }
+    assert!(!Path::new(&exr).exists() && !Path::new(&json).exists());
+    // The other way: negative numbers still reach isoview's own checks.
+    let o = isoview_output(&["stats", &scene, "--time", "-.5"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = isoview_output(&["probe", &scene, "--pixel", "-1,5"]);
+    assert_fails(&o, 2, &["--pixel -1,5: `-1` is not a pixel index"]);
+    let o = isoview_output(&["compare", &exr, &exr, "--fail", "-1"]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("invalid value '-1' for '--fail <T>'"), "{err}");
+}
+
 #[test]
 fn long_numbers_and_tev_addresses_are_echoed_cut_and_escaped() {
     // Third attack pass: the TOML reader's "integer N is out of range" repeated a 20,000-digit

@@ -706,3 +706,20 @@ fn ambiguous_cells_are_what_they_claim() {
     assert!((0..=100)
         .all(|s| trilinear(&v, s as f64 / 100.0, s as f64 / 100.0, s as f64 / 100.0) < 0.0));
 }
+
+/// Fifth attack pass: an unknown key of 15 MiB (under the 16 MiB a scene file may have) took
+/// 10 s to refuse: its "did you mean" measured its edit distance to every key of the table,
+/// the product of the lengths each. A name whose length differs by more than 2 cannot be
+/// within 2 edits and is no longer measured.
+#[test]
+fn a_huge_unknown_key_is_refused_at_once() {
+    let key = "k".repeat(15 << 20);
+    let started = std::time::Instant::now();
+    let e = error(&format!("{CELL}[render]\n{key} = 1\n"), &[]);
+    let took = started.elapsed();
+    assert!(e.contains("unknown key") && e.len() < 1000, "{}", &e[..e.len().min(300)]);
+    // Generous: a fraction of a second now, seconds before (in the test build as in release).
+    assert!(took < std::time::Duration::from_secs(3), "refused in {took:?}");
+    // Near misses are still named.
+    assert!(error(&format!("{CELL}[render]\nstepz = 1\n"), &[]).contains("did you mean \"steps\""));
+}

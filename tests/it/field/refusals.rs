@@ -562,6 +562,52 @@ fn nrrd_ascii_data_streams_across_blocks() {
     assert!(refusal(&p, &opts()).contains("holds more than the 64000 values"));
 }
 
+/// Fifth attack pass: two refusals that said what was not so. A gzip stream that inflates
+/// far past the samples its header declares (256 MiB of zeros behind `sizes: 4 4 4`, read
+/// only to one byte past them) was "the file has 65" bytes, and a VTI block likewise
+/// "inflates to 33 bytes, not 32"; ASCII data cut by the reader's bound (64 bytes a value)
+/// was "truncated data: the ASCII data holds 0 of the 8 values" although the file holds them.
+#[test]
+fn refusals_of_overlong_data_say_what_was_read() {
+    use std::io::Write;
+    let dir = scratch("rel-overlong");
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
+    gz.write_all(&vec![0u8; 64 << 20]).unwrap();
+    let stream = gz.finish().unwrap();
+    let p = dir.join("bomb.nrrd");
+    let mut nrrd =
+        b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4 4 4\nencoding: gzip\n\n".to_vec();
+    nrrd.extend(&stream);
+    std::fs::write(&p, &nrrd).unwrap();
+    let e = refusal(&p, &opts());
+    assert!(e.contains("the compressed data holds more than the 64 bytes of samples"), "{e}");
+    assert!(!e.contains("65"), "{e}");
+
+    let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
+    z.write_all(&vec![0u8; 1 << 20]).unwrap();
+    let block = z.finish().unwrap();
+    let mut vti = b"<VTKFile type=\"ImageData\" byte_order=\"LittleEndian\" \
+        compressor=\"vtkZLibDataCompressor\"><ImageData WholeExtent=\"0 1 0 1 0 1\" \
+        Origin=\"0 0 0\" Spacing=\"1 1 1\"><Piece Extent=\"0 1 0 1 0 1\"><PointData \
+        Scalars=\"s\"><DataArray type=\"Float32\" Name=\"s\" format=\"appended\" \
+        offset=\"0\"/></PointData></Piece></ImageData><AppendedData encoding=\"raw\">_"
+        .to_vec();
+    vti.extend([1u32, 32, 32, block.len() as u32].iter().flat_map(|v| v.to_le_bytes()));
+    vti.extend(&block);
+    vti.extend(b"</AppendedData></VTKFile>");
+    let p = dir.join("bomb.vti");
+    std::fs::write(&p, vti).unwrap();
+    let e = refusal(&p, &opts());
+    assert!(e.contains("compressed block 0 inflates to more than its 32 bytes"), "{e}");
+
+    let p = dir.join("spaced.nrrd");
+    let head = "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nencoding: ascii\n\n";
+    std::fs::write(&p, format!("{head}{}1 2 3 4 5 6 7 8\n", " ".repeat(1 << 16))).unwrap();
+    let e = refusal(&p, &opts());
+    assert!(e.contains("the ASCII data takes more than 4608 bytes before its 8 values end"), "{e}");
+    assert!(!e.contains("truncated"), "{e}");
+}
+
 /// `serve` judges a page's data path when the state is loaded (links resolved) and reads a raw
 /// or npy grid when it is sampled, later and again: a folder on the admitted path swapped for
 /// a link out in between (by anyone who can write in an allowed folder) led the read out of

@@ -140,7 +140,7 @@ impl Server {
 }
 
 /// `isoview render SCENE -o DIR/NAME.exr --png DIR/NAME.png --set ...`: (EXR bytes, PNG bytes).
-fn cli_render(
+pub(crate) fn cli_render(
     dir: &std::path::Path,
     name: &str,
     scene_file: &str,

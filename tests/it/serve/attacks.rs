@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use serde_json::json;
 
 use crate::common::{isoview, scratch, stderr, write};
-use crate::serve::api::{scene, Server};
+use crate::serve::api::{scene, Answer, Server};
 
 /// A line of the server's /proc/PID/status (`VmRSS`, `Threads`), as a number (kB for sizes).
 fn status_of(server: &Server, key: &str) -> u64 {
@@ -55,6 +55,17 @@ fn small_server() -> Server {
         &scene("cell-tunnel.toml"),
         &["--set", "image.width=16", "--set", "image.height=16"],
     )
+}
+
+/// A GET of each of `paths`, each on its own thread of `scope`: the path, the answer and when
+/// it came.
+fn get_each<'scope>(
+    scope: &'scope std::thread::Scope<'scope, '_>,
+    server: &'scope Server,
+    paths: impl Iterator<Item = &'static str>,
+) -> Vec<std::thread::ScopedJoinHandle<'scope, (&'static str, Answer, Instant)>> {
+    let ask = move |path| move || (path, server.get(path), Instant::now());
+    paths.map(|path| scope.spawn(ask(path))).collect()
 }
 
 fn alive(server: &Server) {
@@ -865,15 +876,7 @@ fn frame_waits_leave_the_workers_free() {
         .chain(["/api/aov?ch=Z,N.X"; 4])
         .chain(["/api/slice?axis=z&at=0.5&format=png"; 2]);
     std::thread::scope(|scope| {
-        let waiting: Vec<_> = waits
-            .map(|path| {
-                let s = &server;
-                scope.spawn(move || {
-                    let a = s.get(path);
-                    (path, a, Instant::now())
-                })
-            })
-            .collect();
+        let waiting = get_each(scope, &server, waits);
         // Let the server take them all up: 12 requests, more than its 8 workers. (The frame
         // takes seconds: 8 s on 2 cores, in bands, beside these requests.)
         std::thread::sleep(Duration::from_millis(200));
@@ -939,4 +942,235 @@ fn requests_that_found_a_bug_leave_every_worker_serving() {
         assert!(e.contains("huge.vti") && !e.contains('\n') && !e.contains("panicked"), "{e}");
     }
     alive(&server);
+}
+
+/// Left by the fourth pass: `GET /api/state`, `/api/probe` and `/api/slice` sampled the field
+/// on the request's worker while the render thread had not drawn the latest state, so a
+/// costly expression within the 4096-byte limit and a dozen such GETs held all 8 workers
+/// (a plain `/api/stats` waited 13-40 s). They now wait, parked, for the field the render
+/// thread samples: the cheap request is answered before any of them.
+#[gpu_test]
+fn requests_for_the_field_leave_the_sampling_to_the_render_thread() {
+    let dir = scratch("serve-costly-field");
+    // 4095 bytes, one under the cap: ~3 s to sample 48^3 points on one core.
+    let sum = vec!["x*y"; 1024].join("+");
+    let file = write(
+        &dir,
+        "costly.toml",
+        &format!(
+            "[image]\nwidth = 16\nheight = 16\n[field]\nsource = \"expr\"\n\
+             expression = \"{sum}\"\nresolution = [48, 48, 48]\n"
+        ),
+    );
+    let server = Server::start(&file, &[]);
+    // 16 requests that need the field: two for each worker, so that with sampling on the
+    // workers the cheap request below queues behind a second round of them.
+    let asks = ["/api/state"; 6]
+        .into_iter()
+        .chain(["/api/probe?x=8&y=8"; 5])
+        .chain(["/api/slice?axis=z&at=20&format=cells"; 5]);
+    std::thread::scope(|scope| {
+        let waiting = get_each(scope, &server, asks);
+        std::thread::sleep(Duration::from_millis(300));
+        let mut s = TcpStream::connect(&server.addr).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(120))).unwrap();
+        let get = format!(
+            "GET /api/stats?token={} HTTP/1.1\r\nHost: {}\r\n\r\n",
+            server.token, server.addr
+        );
+        s.write_all(get.as_bytes()).unwrap();
+        let (status, body) = read_answer(&mut s);
+        let stats_at = Instant::now();
+        assert_eq!(status, 200, "/api/stats beside 16 requests for a costly field: {body}");
+        let answers: Vec<_> = waiting.into_iter().map(|t| t.join().unwrap()).collect();
+        let first = answers.iter().map(|(_, _, at)| *at).min().unwrap();
+        assert!(
+            stats_at < first,
+            "/api/stats was answered {:?} after the first request that needed the field",
+            stats_at - first
+        );
+        for (path, a, _) in &answers {
+            assert_eq!(a.status, 200, "{path}: {}", a.text());
+        }
+        let state = answers[0].1.json();
+        assert_eq!(state["generation"], 1, "{state}");
+        assert!(state["field"]["range"].is_array(), "{state}");
+    });
+}
+
+/// Fifth pass: `POST /api/state` with `surface.isovalue_sigma` (or `isovalue_percentile`)
+/// sampled the whole field on the request's worker to pick the isovalue while the state was
+/// validated, so 16 posts of a costly expression held every worker (`/api/stats` waited
+/// 20 s); with one load at a time ([`state_loads_are_one_at_a_time`]) the load held its place
+/// as long, and every other post was told to ask again. The page's states leave the pick to
+/// the render thread, which samples the field anyway: the posts are taken at once, the frame
+/// is the command line's, and a pick that gives no isovalue is the frame's 400 with the
+/// command line's line.
+#[gpu_test]
+fn an_isovalue_picked_from_the_samples_is_picked_by_the_render_thread() {
+    let server = small_server();
+    alive(&server);
+    // 4095 bytes, one under the cap: ~3 s to sample 48^3 points on one core.
+    let sum = vec!["x*y"; 1024].join("+");
+    let costly =
+        format!("field = {{source = \"expr\", expression = \"{sum}\", resolution = [48, 48, 48]}}");
+    let sets = ["image.width=16", "image.height=16", costly.as_str(), "surface.isovalue_sigma=1"];
+    let body = json!({ "set": sets }).to_string();
+    let request = format!(
+        "POST /api/state HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Isoview-Token: {}\r\n\
+         Content-Length: {}\r\n\r\n{body}",
+        server.token,
+        body.len()
+    );
+    std::thread::scope(|scope| {
+        let posts: Vec<_> =
+            (0..16).map(|_| scope.spawn(|| exchange(&server, request.as_bytes()))).collect();
+        std::thread::sleep(Duration::from_millis(300));
+        let mut s = TcpStream::connect(&server.addr).unwrap();
+        // Generous: answered at once now, after 20 s or more when the posts sampled.
+        s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+        let get = format!(
+            "GET /api/stats HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Isoview-Token: {}\r\n\r\n",
+            server.token
+        );
+        s.write_all(get.as_bytes()).unwrap();
+        let (status, body) = read_answer(&mut s);
+        assert_eq!(status, 200, "/api/stats beside 16 posts picking a costly isovalue: {body}");
+        // The loads no longer sample: a state posted beside them is taken within a second
+        // (with the pick in the load, the one load at a time held its place for the field's
+        // 3 s of sampling, and this post was told to ask again until then).
+        let cheap = json!({ "set": ["image.width=16", "image.height=16"] });
+        let started = Instant::now();
+        let taken = std::iter::repeat_with(|| server.post("/api/state", &cheap))
+            .take_while(|_| started.elapsed() < Duration::from_secs(1))
+            .any(|a| a.status == 200);
+        assert!(taken, "a post beside 16 that pick a costly isovalue was not taken within 1 s");
+        // One state is loaded at a time: the others were told to ask again.
+        let statuses: Vec<_> = posts.into_iter().map(|p| p.join().unwrap()).collect();
+        assert!(statuses.iter().all(|(s, _)| [200, 503].contains(s)), "{statuses:?}");
+        assert!(statuses.iter().any(|(s, _)| *s == 200), "{statuses:?}");
+    });
+
+    // The pick is the command line's: the same frame, bit for bit.
+    let dir = scratch("serve-picked");
+    let file = scene("cell-tunnel.toml");
+    let sets = ["image.width=16", "image.height=16", "surface.isovalue_percentile=30"];
+    let generation = server.set(&sets);
+    let frame = server.get("/api/frame");
+    assert_eq!(frame.status, 200, "{}", frame.text());
+    assert_eq!(frame.header("x-isoview-generation"), generation.to_string());
+    let (_, png) = crate::serve::api::cli_render(&dir, "picked", &file, &sets);
+    assert_eq!(frame.body, png, "the frame differs from render --png's");
+    let state = server.get("/api/state").json();
+    assert_ne!(state["surface"]["isovalue"], 0.0, "{state}");
+
+    // A pick that gives no isovalue: the frame (and the field's requests) answer the line
+    // `render` exits 2 with.
+    let sets = ["image.width=16", "image.height=16", "surface.isovalue_sigma=1e300"];
+    let o = isoview(
+        &[
+            &["render", &file, "-o", &dir.join("o.exr").display().to_string()][..],
+            &["--set", sets[0], "--set", sets[1], "--set", sets[2]],
+        ]
+        .concat(),
+        &[],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let line = stderr(&o).trim_end().to_string();
+    assert!(line.contains("surface.isovalue_sigma: gives the isovalue"), "{line}");
+    server.set(&sets);
+    for path in ["/api/frame", "/api/state"] {
+        let a = server.get(path);
+        assert_eq!(a.status, 400, "{path}: {}", a.text());
+        assert_eq!(a.json()["error"], line.as_str(), "{path}");
+    }
+}
+
+/// Fifth pass: loading a state reads its volume file whole (a `source = "file"` field is read
+/// when the scene loads), on the request's worker. 16 posts naming a 400^3 volume in the
+/// scene's folder held every worker for 5 s (`/api/stats` waited as long) and grew the
+/// server by 2.4 GB, one grid per worker; at the grid cap that is 8 GiB. One state is loaded
+/// at a time: a post beside a load is told to ask again (503, `Retry-After: 1`, as the page
+/// does), and memory and workers stay free.
+#[gpu_test]
+fn state_loads_are_one_at_a_time() {
+    let (dir, file) = path_fixture("serve-loads");
+    // 400^3 u8 samples (244 MiB of f32 each time it is read).
+    let n = 400usize;
+    let mut nrrd =
+        format!("NRRD0004\ntype: uint8\ndimension: 3\nsizes: {n} {n} {n}\nencoding: raw\n\n")
+            .into_bytes();
+    nrrd.extend((0..n * n * n).map(|i| (i % 251) as u8));
+    std::fs::write(dir.join("scene/v.nrrd"), &nrrd).unwrap();
+    let server = Server::start(&file, &["--set", "image.width=16", "--set", "image.height=16"]);
+    alive(&server);
+    let before = rss_mib(&server);
+    let body = json!({ "set": ["image.width=16", "image.height=16",
+        "field = {source = \"file\", path = \"v.nrrd\"}"] })
+    .to_string();
+    let request = format!(
+        "POST /api/state HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Isoview-Token: {}\r\n\
+         Content-Length: {}\r\n\r\n{body}",
+        server.token,
+        body.len()
+    );
+    let peak = std::sync::atomic::AtomicU64::new(0);
+    let done = std::sync::atomic::AtomicBool::new(false);
+    let statuses = std::thread::scope(|scope| {
+        scope.spawn(|| {
+            while !done.load(std::sync::atomic::Ordering::Relaxed) {
+                let now = status_of(&server, "VmRSS");
+                peak.fetch_max(now, std::sync::atomic::Ordering::Relaxed);
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        });
+        let posts: Vec<_> =
+            (0..16).map(|_| scope.spawn(|| exchange(&server, request.as_bytes()))).collect();
+        let statuses: Vec<(u16, String)> = posts.into_iter().map(|p| p.join().unwrap()).collect();
+        done.store(true, std::sync::atomic::Ordering::Relaxed);
+        statuses
+    });
+    let grown = peak.into_inner() as f64 / 1024.0 - before;
+    for (status, body) in &statuses {
+        assert!(*status == 200 || *status == 503, "{status}: {body}");
+    }
+    assert!(statuses.iter().any(|(s, _)| *s == 200), "{statuses:?}");
+    // One load at a time: ~250 MiB (1.9 GB when every worker loaded one).
+    assert!(grown < 800.0, "the server grew by {grown:.0} MiB under 16 loads of a 244 MiB grid");
+    alive(&server);
+}
+
+/// Fifth pass: `GET /api/scene.toml` read the scene file again with a plain read: a scene
+/// replaced by a FIFO after the server started held each such request's worker for good
+/// (8 requests: every worker; `/api/stats` never answered), and one replaced by a link to
+/// `/dev/zero` read without end. It is read as the scene is loaded: a regular file of at
+/// most 16 MiB, opened without waiting.
+#[gpu_test]
+fn the_saved_scene_is_read_as_the_scene_is_loaded() {
+    let dir = scratch("serve-scene-fifo");
+    let file = write(&dir, "s.toml", "[image]\nwidth = 16\nheight = 16\n[field]\nsource = \"sdf\"\nshape = \"sphere\"\nradius = 0.5\nresolution = [8, 8, 8]\n");
+    let server = Server::start(&file, &[]);
+    assert_eq!(server.get("/api/scene.toml").status, 200);
+    std::fs::remove_file(&file).unwrap();
+    let made = std::process::Command::new("mkfifo").arg(&file).status().unwrap();
+    assert!(made.success());
+    let request = format!(
+        "GET /api/scene.toml HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Isoview-Token: {}\r\n\r\n",
+        server.token
+    );
+    std::thread::scope(|scope| {
+        let asks: Vec<_> =
+            (0..8).map(|_| scope.spawn(|| exchange(&server, request.as_bytes()))).collect();
+        for a in asks {
+            let (status, body) = a.join().unwrap();
+            assert_eq!(status, 500, "{body}");
+            assert!(body.contains("is a FIFO (named pipe), not a scene file"), "{body}");
+        }
+    });
+    alive(&server);
+    std::fs::remove_file(&file).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", &file).unwrap();
+    let a = server.get("/api/scene.toml");
+    assert_eq!(a.status, 500, "{}", a.text());
+    assert!(a.text().contains("is a character device, not a scene file"), "{}", a.text());
 }

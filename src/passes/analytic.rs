@@ -79,15 +79,7 @@ pub fn buffer_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipeline
 
 /// Bindings of the `OCCUPANCY` variant: [`BUFFER_BINDINGS`], then the occupancy structure's
 /// distances and masks ([`super::occupancy`]).
-pub const OCCUPANCY_BINDINGS: [Binding; 7] = [
-    Binding::Uniform,
-    Binding::Read,
-    Binding::Write,
-    Binding::Read,
-    Binding::Read,
-    Binding::Read,
-    Binding::Read,
-];
+pub const OCCUPANCY_BINDINGS: [Binding; 7] = extended(BUFFER_BINDINGS, Binding::Read);
 
 /// The `GRID_BUFFER` variant walking with the occupancy structure ([`super::occupancy`]) in one
 /// pass (on a device without subgroup ballots; else [`occupancy_pipelines`]).
@@ -97,17 +89,21 @@ pub fn occupancy_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipel
 
 /// Bindings of the two-pass variants: [`OCCUPANCY_BINDINGS`], then the listed rays and their
 /// count ([`super::occupancy::Listed`]).
-pub const LISTED_BINDINGS: [Binding; 9] = [
-    Binding::Uniform,
-    Binding::Read,
-    Binding::Write,
-    Binding::Read,
-    Binding::Read,
-    Binding::Read,
-    Binding::Read,
-    Binding::ReadWrite,
-    Binding::ReadWrite,
-];
+pub const LISTED_BINDINGS: [Binding; 9] = extended(OCCUPANCY_BINDINGS, Binding::ReadWrite);
+
+/// `bindings` and then `M - N` more bindings, each `more`.
+const fn extended<const N: usize, const M: usize>(
+    bindings: [Binding; N],
+    more: Binding,
+) -> [Binding; M] {
+    let mut out = [more; M];
+    let mut i = 0;
+    while i < N {
+        out[i] = bindings[i];
+        i += 1;
+    }
+    out
+}
 
 /// The walk with the occupancy structure in two passes (`OCC_SKIP`, then `OCC_RESUME`: every
 /// pixel's empty bricks from its ray's start, then the walk of the rays that met a brick that

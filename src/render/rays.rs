@@ -319,31 +319,19 @@ impl Renderer {
                 })?,
             },
         };
-        let pass = RayPass::new(
-            pipeline,
-            RayInputs {
-                params: &params_buf,
-                grid: grid_input,
-                pixels: &bands.out,
-                colormap: &self.colormap,
-                bricks,
-                occupancy,
-                listed: listed.as_ref(),
-            },
-        )?;
+        // The same inputs for both passes of the two-pass walk.
+        let inputs = || RayInputs {
+            params: &params_buf,
+            grid: grid_input,
+            pixels: &bands.out,
+            colormap: &self.colormap,
+            bricks,
+            occupancy,
+            listed: listed.as_ref(),
+        };
+        let pass = RayPass::new(pipeline, inputs())?;
         let first_pass = match first {
-            Some(s) => Some(RayPass::new(
-                &self.ray_pipelines[&s],
-                RayInputs {
-                    params: &params_buf,
-                    grid: grid_input,
-                    pixels: &bands.out,
-                    colormap: &self.colormap,
-                    bricks,
-                    occupancy,
-                    listed: listed.as_ref(),
-                },
-            )?),
+            Some(s) => Some(RayPass::new(&self.ray_pipelines[&s], inputs())?),
             None => None,
         };
         let mut info = self.frame_info(scene, grid, time);

@@ -234,6 +234,63 @@ uint cell_crossings(Corners corners, vec3 q_in, vec3 q_out, float f_in, float f_
     return cell_mask;
 }
 
+#ifdef OCCUPANCY
+// 6a with the occupancy structure (whole grids, skipping on): from `cell`, to the next cell that
+// may hold a crossing (true, its corners in `corners`) or the end of the walk (false), updating
+// the walk's state as it goes. An empty brick's distance r makes the cube of (2r - 1)^3 bricks
+// around it, all empty, one jump (counted one pass), landing where the cell-by-cell walk is
+// when it leaves the cube (leave_cells); a cell of a brick that may hold a surface is a
+// candidate when its bit in the brick's mask is set, which is the plain walk's test on the same
+// corners, so the corners of the cells stepped over are never read, and a 2^3 or 4^3 block of
+// the brick with no candidate is one jump too. Both passes of the two-pass walk run it (the
+// first up to the first candidate).
+bool occupancy_next(inout ivec3 cell, inout vec3 tmax, inout float t_in, inout bvec3 entered,
+                    inout bool known, inout vec3 q_known, inout uint passes, uint max_passes,
+                    float t_hi, vec3 o, vec3 d, bool may_jump, out Corners corners) {
+    // One loop, whose every pass either jumps or steps one cell: llvmpipe runs the whole
+    // body of a loop on every iteration whichever branch the lanes take, so a jump and a
+    // cell share one body rather than each having a loop of its own.
+    ivec3 nb = brick_counts();
+    while (passes < max_passes) {
+        ivec3 b = cell / BRICK;
+        int brick = (b.z * nb.y + b.y) * nb.x + b.x;
+        uint reach = reaches[brick];
+        bool jump = reach != 0u && may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in;
+        passes++;
+        // What to leave in a jump: the cube of empty bricks around this one, or the cell's
+        // 4^3 or 2^3 block when none of its cells is a candidate.
+        int h = int(reach) - 1;
+        ivec3 first = (b - h) * BRICK;
+        int size = (2 * h + 1) * BRICK;
+        if (reach == 0u) {
+            ivec3 l = cell - b * BRICK;
+            uint m = mask_bit(l);
+            uint at = uint(brick * MASK_WORDS) + (m >> 5u);
+            uint word = masks[at];
+            if ((word & (1u << (m & 31u))) != 0u) {
+                corners = cell_corners(cell);
+                return true;
+            }
+            // The 2^3 block is 8 bits of this word, the 4^3 block this word and its pair.
+            size = ((word >> (m & 24u)) & 0xffu) == 0u ? 2 : 1;
+            if (word == 0u && masks[at ^ 1u] == 0u) size = 4;
+            first = cell & ~(size - 1);  // blocks are aligned, bricks too
+            jump = size > 1 && may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in;
+        }
+        // To the end of this cell's segment, or of the block it leaves.
+        float t_b = jump ? leave_cells(cell, tmax, t_hi, o, d, block_last(first, size, cell, d))
+                         : segment_end(tmax, t_in, t_hi);
+        if (t_b >= t_hi) return false;
+        entered = lessThanEqual(tmax, vec3(t_b));
+        known = !jump && known && t_b == t_in;  // a jump has t_b > t_in
+        if (known) q_known = carried(entered, q_known, d);
+        if (!step_cells(entered, cell, tmax, o, d)) return false;
+        t_in = t_b;
+    }
+    return false;
+}
+#endif
+
 // Whether this process traces `cell` (P.block_lo .. P.block_hi: the whole grid, or an MPI
 // rank's block). Cells outside are walked (so `steps`, the brick jumps and the t of every
 // plane are the whole walk's) but not evaluated: their values are on another rank.
@@ -371,29 +428,20 @@ void main() {
     uint max_passes = uint(ncell.x + ncell.y + ncell.z);
     uint passes = 0u;
 #ifdef OCC_SKIP
-    // The walk's first passes, while they jump (the OCCUPANCY loop below, its jumps alone).
+    // The walk's first passes, up to its first candidate cell (occupancy_next, as the walk
+    // below): the cell walk without the cubic's code, which the second pass runs only for the
+    // rays that reach a candidate.
     {
-        ivec3 nb = brick_counts();
-        bool ended = false;
-        bool jumped = false;
         bvec3 entered = bvec3(false);
-        while (passes < max_passes) {
-            ivec3 b = cell / BRICK;
-            uint reach = reaches[(b.z * nb.y + b.y) * nb.x + b.x];
-            if (!(reach != 0u && may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in)) break;
-            passes++;
-            int h = int(reach) - 1;
-            ivec3 last = block_last((b - h) * BRICK, (2 * h + 1) * BRICK, cell, d);
-            float t_b = leave_cells(cell, tmax, t_hi, o, d, last);
-            ended = t_b >= t_hi;
-            if (ended) break;
-            entered = lessThanEqual(tmax, vec3(t_b));
-            ended = !step_cells(entered, cell, tmax, o, d);
-            if (ended) break;
-            t_in = t_b;
-            jumped = true;
-        }
-        ended = ended || passes >= max_passes;
+        bool known = true;
+        vec3 q_known = q_in;
+        Corners unused;
+        bool ended = !occupancy_next(cell, tmax, t_in, entered, known, q_known, passes,
+                                     max_passes, t_hi, o, d, may_jump, unused);
+        // The second pass counts the candidate's pass again, and starts from the ray's start
+        // when every segment so far had length 0 (its entry point is then step 4's, carried).
+        bool jumped = !known;
+        uint listed_passes = jumped ? passes - 1u : 0u;
         uint pix = px_local.y * P.picture_width + px_local.x;
         if (ended) {
             // The walk ends here, with no crossing: the miss record.
@@ -417,7 +465,7 @@ void main() {
             uint bits = (entered.x ? 1u : 0u) | (entered.y ? 2u : 0u) | (entered.z ? 4u : 0u)
                 | (jumped ? 8u : 0u);
             listed[2u * k] = uvec4(pix, uvec3(cell));
-            listed[2u * k + 1u] = uvec4(floatBitsToUint(t_in), passes, bits, 0u);
+            listed[2u * k + 1u] = uvec4(floatBitsToUint(t_in), listed_passes, bits, 0u);
         }
         return;
     }
@@ -468,56 +516,11 @@ void main() {
         bool candidate = false;
         bool ended = false;
 #ifdef OCCUPANCY
-        // The same walk with the occupancy structure (whole grids, skipping on): an empty
-        // brick's distance r makes the cube of (2r - 1)^3 bricks around it, all empty, one jump
-        // (counted one pass), landing where the cell-by-cell walk is when it leaves the cube
-        // (leave_cells); a cell of a brick that may hold a surface is a candidate when its bit
-        // in the brick's mask is set, which is the test below on the same corners, so the
-        // corners of the cells stepped over are never read, and a 2^3 or 4^3 block of the
-        // brick with no candidate is one jump too. The same cells are evaluated from the same
-        // entry points: the image is the walk's, bit for bit; `steps` counts the cells and
-        // jumps this walk makes.
-        // One loop, whose every pass either jumps or steps one cell: llvmpipe runs the whole
-        // body of a loop on every iteration whichever branch the lanes take, so a jump and a
-        // cell share one body rather than each having a loop of its own.
-        ivec3 nb = brick_counts();
-        while (passes < max_passes) {
-            ivec3 b = cell / BRICK;
-            int brick = (b.z * nb.y + b.y) * nb.x + b.x;
-            uint reach = reaches[brick];
-            bool jump = reach != 0u && may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in;
-            passes++;
-            // What to leave in a jump: the cube of empty bricks around this one, or the cell's
-            // 4^3 or 2^3 block when none of its cells is a candidate.
-            int h = int(reach) - 1;
-            ivec3 first = (b - h) * BRICK;
-            int size = (2 * h + 1) * BRICK;
-            if (reach == 0u) {
-                ivec3 l = cell - b * BRICK;
-                uint m = mask_bit(l);
-                uint at = uint(brick * MASK_WORDS) + (m >> 5u);
-                uint word = masks[at];
-                if ((word & (1u << (m & 31u))) != 0u) {
-                    corners = cell_corners(cell);
-                    candidate = true;
-                    break;
-                }
-                // The 2^3 block is 8 bits of this word, the 4^3 block this word and its pair.
-                size = ((word >> (m & 24u)) & 0xffu) == 0u ? 2 : 1;
-                if (word == 0u && masks[at ^ 1u] == 0u) size = 4;
-                first = cell & ~(size - 1);  // blocks are aligned, bricks too
-                jump = size > 1 && may_jump && min(tmax.x, min(tmax.y, tmax.z)) > t_in;
-            }
-            // To the end of this cell's segment, or of the block it leaves.
-            float t_b = jump ? leave_cells(cell, tmax, t_hi, o, d, block_last(first, size, cell, d))
-                             : segment_end(tmax, t_in, t_hi);
-            if (t_b >= t_hi) break;
-            entered = lessThanEqual(tmax, vec3(t_b));
-            known = !jump && known && t_b == t_in;  // a jump has t_b > t_in
-            if (known) q_known = carried(entered, q_known, d);
-            if (!step_cells(entered, cell, tmax, o, d)) break;
-            t_in = t_b;
-        }
+        // The same walk with the occupancy structure (occupancy_next): the same cells are
+        // evaluated from the same entry points, so the image is the plain walk's, bit for bit;
+        // `steps` counts the cells and jumps this walk makes.
+        candidate = occupancy_next(cell, tmax, t_in, entered, known, q_known, passes, max_passes,
+                                   t_hi, o, d, may_jump, corners);
 #else
         while (passes < max_passes) {
             bool empty = false;

@@ -45,14 +45,6 @@ impl Vertices {
         Ok(id)
     }
 
-    /// Appends a vertex at index-space `u` with the unit normal `normal`, returning its id.
-    pub fn push_with(&mut self, f: &Field, u: DVec3, normal: [f32; 3]) -> Result<u32, MeshError> {
-        let id = to_u32(self.positions.len(), "vertices")?;
-        self.positions.push(f.world(u));
-        self.normals.push(normal);
-        Ok(id)
-    }
-
     /// Appends the position of a vertex that belongs to the next slab, without a normal,
     /// returning its id: the dual methods' quad split reads it. [`Vertices::drop_borrowed`]
     /// removes these before the slab's vertices are joined.

@@ -4,6 +4,8 @@
 
 use glam::DVec3;
 
+use super::lanes::{self, F64x4, LANES};
+use crate::field::interpolant::trilinear::gradient_in;
 use crate::field::interpolant::{is_missing, Kernel, Trilinear};
 use crate::field::Grid;
 use crate::vocab::Inside;
@@ -83,6 +85,17 @@ impl<'a> Field<'a> {
         debug_assert_eq!(grid.dims[..2], lattice.dims[..2]);
         let (dims, min, spacing) = (lattice.dims, lattice.min, lattice.spacing());
         Field { grid, first, iso, inside, dims, min, spacing, exact: None }
+    }
+
+    /// Whether crossings and normals are another interpolant's ([`Field::refined`]), not the
+    /// trilinear cells' own.
+    pub fn is_refined(&self) -> bool {
+        self.exact.is_some()
+    }
+
+    /// World-space corner of the whole grid's point (0, 0, 0).
+    pub fn min(&self) -> DVec3 {
+        self.min
     }
 
     /// Linear index of point `(i, j, k)` in the whole grid.
@@ -202,39 +215,96 @@ impl<'a> Field<'a> {
         self.normal_from(self.gradient(u), fallback)
     }
 
-    /// [`Field::normal`] at `u`, which lies strictly inside cell `cell` along every axis:
+    /// [`Field::normal`] at `u`, which lies strictly inside the trilinear cell whose corner
+    /// values are `v` (in [`Field::corners`]' order) and whose corner 0 is at index-space `lo`:
     /// the same bits, without the search for the cells around `u` (one cell here, the one
-    /// [`Field::gradient`] would pick, with the same local coordinates and the same sum).
-    pub fn normal_in_cell(&self, cell: [usize; 3], u: DVec3, fallback: DVec3) -> [f32; 3] {
-        if self.exact.is_some() {
-            return self.normal(u, fallback);
+    /// [`Field::gradient`] would pick, with the same local coordinates and the same sum). Not
+    /// for a refined field, whose normals are not the cells' ([`Field::is_refined`]).
+    pub fn normal_in_corners(
+        &self,
+        v: &[f64; 8],
+        lo: DVec3,
+        u: DVec3,
+        fallback: DVec3,
+    ) -> [f32; 3] {
+        debug_assert!(self.exact.is_none());
+        debug_assert!(
+            u.cmpgt(lo).all() && u.cmplt(lo + 1.0).all(),
+            "{u} not inside the cell at {lo}"
+        );
+        match self.unit_in_corners(v, lo, u) {
+            Some(n) => n,
+            None => self.fallback_normal(fallback),
         }
-        let lo = DVec3::new(cell[0] as f64, cell[1] as f64, cell[2] as f64);
-        debug_assert!(u.cmpgt(lo).all() && u.cmplt(lo + 1.0).all(), "{u} not inside {cell:?}");
-        let v = self.corners(cell[0], cell[1], cell[2]);
+    }
+
+    /// [`Field::normal_in_corners`] where the gradient gives the normal; None where the
+    /// fallback would apply (the gradient vanishes or is not finite). The extractors that
+    /// compute many normals in a row call this for each and the fallback for the few Nones.
+    #[inline(always)]
+    pub fn unit_in_corners(&self, v: &[f64; 8], lo: DVec3, u: DVec3) -> Option<[f32; 3]> {
         let l = u - lo;
         // `gradient`'s mean over one cell: the sum from zero, divided by 1.
-        let g = (DVec3::ZERO + Trilinear::gradient(&v, l)) / 1.0;
-        self.normal_from(g, fallback)
+        let g = (DVec3::ZERO + Trilinear::gradient(v, l)) / 1.0;
+        self.unit_from(g)
+    }
+
+    /// [`Field::unit_in_corners`] of [`LANES`] points at once, each lane the scalar's bits:
+    /// the corner values `v`, the cells' corner 0 `lo` and the points `u` lane by lane; the
+    /// normals rounded to f32, and per lane whether the gradient gave it (false where the
+    /// fallback applies).
+    #[inline(always)]
+    pub fn units_in_corners(
+        &self,
+        v: &[F64x4; 8],
+        lo: [F64x4; 3],
+        u: [F64x4; 3],
+    ) -> ([[f32; 3]; LANES], [bool; LANES]) {
+        let l = [u[0] - lo[0], u[1] - lo[1], u[2] - lo[2]];
+        let (zero, one) = (F64x4::splat(0.0), F64x4::splat(1.0));
+        // The sum from zero; `/ 1.0` leaves every lane as it is.
+        let g = gradient_in(v, l[0], l[1], l[2], one).map(|g| zero + g);
+        // `unit_from`, lane by lane.
+        let sign = F64x4::splat(match self.inside {
+            Inside::Below => 1.0,
+            Inside::Above => -1.0,
+        });
+        let sp = self.spacing.to_array().map(F64x4::splat);
+        let g = [sign * g[0] / sp[0], sign * g[1] / sp[1], sign * g[2] / sp[2]];
+        let ls = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+        let r = one / ls.sqrt();
+        let n = g.map(|g| (g * r).to_f32());
+        let finite = g.map(F64x4::is_finite);
+        let ok = lanes::and(ls.gt(zero), lanes::and(finite[0], lanes::and(finite[1], finite[2])));
+        (std::array::from_fn(|i| [n[0][i], n[1][i], n[2][i]]), ok)
     }
 
     /// The unit normal from the index-space gradient `g` at a point (see [`Field::normal`]).
     fn normal_from(&self, g: DVec3, fallback: DVec3) -> [f32; 3] {
+        match self.unit_from(g) {
+            Some(n) => n,
+            None => self.fallback_normal(fallback),
+        }
+    }
+
+    /// [`Field::normal_from`] where the gradient `g` gives the normal, else None.
+    #[inline(always)]
+    fn unit_from(&self, g: DVec3) -> Option<[f32; 3]> {
         let sign = match self.inside {
             Inside::Below => 1.0,
             Inside::Above => -1.0,
         };
         let g = sign * g / self.spacing;
-        let n = if g.length_squared() > 0.0 && g.is_finite() {
-            g.normalize()
-        } else {
-            let f = fallback * self.spacing;
-            if f.length_squared() > 0.0 && f.is_finite() {
-                f.normalize()
-            } else {
-                DVec3::Z
-            }
-        };
+        // `g.normalize()`'s arithmetic, computed before the test without glam's assertion.
+        let n = g * (1.0 / g.length());
+        (g.length_squared() > 0.0 && g.is_finite()).then_some([n.x as f32, n.y as f32, n.z as f32])
+    }
+
+    /// The normal where the gradient gives none: the index-space direction `fallback` (inside
+    /// → outside), else +z.
+    fn fallback_normal(&self, fallback: DVec3) -> [f32; 3] {
+        let f = fallback * self.spacing;
+        let n = if f.length_squared() > 0.0 && f.is_finite() { f.normalize() } else { DVec3::Z };
         [n.x as f32, n.y as f32, n.z as f32]
     }
 

@@ -68,6 +68,7 @@ mod emc;
 pub mod export;
 mod field;
 mod hermite;
+mod lanes;
 pub mod limits;
 pub mod mapped;
 mod mc;

@@ -13,15 +13,24 @@
 //!                                    whole rows at a time (vectorised): a cell is active
 //!                                    iff nonzero; only active cells are visited
 //!   active cell       mask           its 8 corner flags; the 12 edges from a fixed table in
-//!                                    the reference's order, crossed iff their ends' bits
-//!                                    differ; crossing points in f64 as `Field::crossing`
+//!    (phase 1)                       the reference's order, crossed iff their ends' bits
+//!                                    differ; crossing points in f64 as `Field::crossing`,
+//!                                    summed; the sum, count and corners kept in `Batch`
+//!   cell row          Batch::solve   the row's positions and normals, LANES cells at a time
+//!    (phase 2)                       (`lanes`): their chains of divisions and square roots
+//!                                    overlap instead of waiting one for the other
 //!   point row         crossed        OR of the XORs with the +x, +y, +z neighbours: only
 //!                                    points that start a crossed edge make quads
 //! ```
 //!
 //! What decides a position or a normal is the reference's arithmetic in the reference's
 //! order (the sum of the crossing points, x edges first, each `q + s` along its axis, divided
-//! by the count; `Field::normal` at the mean), so nothing is rounded differently.
+//! by the count; `Field::normal` at the mean), so nothing is rounded differently. Two things
+//! the reference's way of writing it cost here, measured on the 256³ gyroid (one thread):
+//! `u[axis] += s` with `axis` known only at run time stored one lane of `u` on the stack and
+//! read all three back, a load that waits for the store (about 35 of 200 ms); and each
+//! vertex's normal right after its position, one long chain after the other (about 40 ms more
+//! than phase 2).
 
 use std::ops::Range;
 
@@ -29,9 +38,10 @@ use glam::DVec3;
 
 use super::dual::split;
 use super::edges::Vertices;
-use super::field::{Field, MISSING};
+use super::field::{crossing, Field, MISSING};
+use super::lanes::{self, F64x4, LANES};
 use super::slabs::Part;
-use super::{ExtractOptions, MeshError};
+use super::{to_u32, ExtractOptions, MeshError};
 
 /// The 12 edges of a cell in the reference's order (axis x, y, z; within axis `a` by the
 /// offsets along `(a + 1, a + 2) mod 3`: (0,0), (1,0), (0,1), (1,1)): start corner (bits
@@ -71,10 +81,113 @@ const CROSSED: [u16; 256] = {
     t
 };
 
-/// For edge `e` of [`EDGES`]: low nibble, the slot (0..4) of the previous cell's `carry` that
-/// holds its crossing (the y and z edges at x = 0: 4, 5, 8, 10), else 4; high nibble, the slot
-/// it is kept in for the next cell (those at x = 1: 6, 7, 9, 11), else 4.
-const REUSE: [u8; 12] = [0x44, 0x44, 0x44, 0x44, 0x40, 0x41, 0x04, 0x14, 0x42, 0x24, 0x43, 0x34];
+/// For each corner mask, the inside → outside direction summed over the crossed edges (+1
+/// along an edge's axis where its start corner is inside, -1 where its end is): the fallback
+/// of a vertex whose gradient vanishes, as the reference sums it edge by edge (small integers,
+/// exact in any order).
+const DIRECTIONS: [[i8; 3]; 256] = {
+    let mut t = [[0i8; 3]; 256];
+    let mut mask = 0;
+    while mask < 256 {
+        let mut e = 0;
+        while e < 12 {
+            let (start, axis) = EDGES[e];
+            if CROSSED[mask] >> e & 1 == 1 {
+                t[mask][axis] += if (mask >> start) & 1 == 1 { 1 } else { -1 };
+            }
+            e += 1;
+        }
+        mask += 1;
+    }
+    t
+};
+
+/// Offset bits of corner `n` (x = 1, y = 2, z = 4) as index-space offsets.
+const CORNER: [[f64; 3]; 8] = {
+    let mut t = [[0.0; 3]; 8];
+    let mut n = 0;
+    while n < 8 {
+        t[n] = [(n & 1) as f64, ((n >> 1) & 1) as f64, ((n >> 2) & 1) as f64];
+        n += 1;
+    }
+    t
+};
+
+/// The unit vector along each axis.
+const UNIT: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+/// [`LANES`] active cells of a row, lane by lane, between the two phases of [`extract_slab`].
+#[derive(Clone, Copy)]
+struct Chunk {
+    /// The sums of their crossing points and the counts.
+    sum: [F64x4; 3],
+    count: F64x4,
+    /// Their x (index space; y and z are the row's).
+    cx: F64x4,
+    /// Their corner values.
+    v: [F64x4; 8],
+}
+
+/// The active cells of a cell row: what phase 1 of [`extract_slab`] found, what phase 2 made.
+struct Batch {
+    chunks: Vec<Chunk>,
+    masks: Vec<u8>,
+    positions: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
+    /// Whether `normals` holds the cell's normal (false: compute it one by one).
+    ok: Vec<bool>,
+}
+
+impl Batch {
+    fn new(ncx: usize) -> Self {
+        let n = ncx.div_ceil(LANES) * LANES;
+        // Lanes past the row's cells compute harmless numbers that are never read.
+        let idle = Chunk {
+            sum: [F64x4::splat(0.5); 3],
+            count: F64x4::splat(1.0),
+            cx: F64x4::splat(0.0),
+            v: [F64x4::splat(0.0); 8],
+        };
+        Batch {
+            chunks: vec![idle; n / LANES],
+            masks: vec![0; n],
+            positions: vec![[0.0; 3]; n],
+            normals: vec![[0.0; 3]; n],
+            ok: vec![false; n],
+        }
+    }
+
+    /// The positions of the first `n` cells (at y, z = `yz`), and with `normals` their
+    /// normals where they lie strictly inside their cells and the gradient gives one
+    /// ([`Field::units_in_corners`]; `ok` says where).
+    fn solve(&mut self, f: &Field, n: usize, yz: [f64; 2], normals: bool) {
+        let min = f.min().to_array().map(F64x4::splat);
+        let sp = f.spacing().to_array().map(F64x4::splat);
+        let (cy, cz) = (F64x4::splat(yz[0]), F64x4::splat(yz[1]));
+        let one = F64x4::splat(1.0);
+        for (k, chunk) in self.chunks[..n.div_ceil(LANES)].iter().enumerate() {
+            let u = chunk.sum.map(|s| s / chunk.count);
+            // `Field::world`, lane by lane.
+            let p = [0, 1, 2].map(|a| (min[a] + u[a] * sp[a]).to_f32());
+            let out = k * LANES..(k + 1) * LANES;
+            for (i, pos) in self.positions[out.clone()].iter_mut().enumerate() {
+                *pos = [p[0][i], p[1][i], p[2][i]];
+            }
+            if !normals {
+                self.ok[out].fill(false);
+                continue;
+            }
+            let lo = [chunk.cx, cy, cz];
+            let mut inside = [true; LANES];
+            for a in 0..3 {
+                inside = lanes::and(inside, lanes::and(u[a].gt(lo[a]), u[a].lt(lo[a] + one)));
+            }
+            let (n, ok) = f.units_in_corners(&chunk.v, lo, u);
+            self.normals[out.clone()].copy_from_slice(&n);
+            self.ok[out].copy_from_slice(&lanes::and(inside, ok));
+        }
+    }
+}
 
 /// [`super::dual::extract_slab`] for `surface-nets`: the vertices of cell layers `cells` and
 /// the quads of the crossed edges starting in point layers `cells.start + 1 ..= cells.end`
@@ -89,11 +202,15 @@ pub(crate) fn extract_slab(
     let mut verts = Vertices::default();
     let mut quads: Vec<u32> = Vec::new();
     let mut indices: Vec<u32> = Vec::new();
-    // Vertex ids of cell layers z (slot z % 2); inside flags of point layers z (slot z % 2).
+    // Vertex ids of cell layers z (slot z % 2). Only active cells are written (a missing one
+    // gets u32::MAX), and only active cells are read: the four cells around a crossed edge.
     let mut ids = [vec![u32::MAX; ncx * ncy], vec![u32::MAX; ncx * ncy]];
+    // Inside flags of point layers z (slot z % 2).
     let mut flags = [Vec::new(), Vec::new()];
     let mut differs = vec![0u8; ncx.max(nx)];
     f.inside_flags(f.layer(cells.start), &mut flags[cells.start % 2]);
+    let refined = f.is_refined();
+    let mut batch = Batch::new(ncx);
 
     let points_end = if cells.end == ncz { nz } else { cells.end + 1 };
     for qz in cells.start..points_end {
@@ -106,74 +223,101 @@ pub(crate) fn extract_slab(
         if qz < ncz {
             let own = qz < cells.end;
             let (lo, hi) = (&flags[qz % 2], &flags[(qz + 1) % 2]);
-            let values = [f.layer(qz), f.layer(qz + 1)];
+            let (lv, hv) = (f.layer(qz), f.layer(qz + 1));
             let slot = &mut ids[qz % 2];
-            slot.fill(u32::MAX);
             for cy in 0..ncy {
                 let r = nx * cy;
                 super::edges::cell_row_differs(lo, hi, r, nx, &mut differs[..ncx]);
-                // The crossings of this row's last cell's y and z edges at x + 1 (slot 4: none).
-                let mut carry = [0.0f64; 5];
-                // The cell `carry` is from: a missing cell in between leaves none.
-                let mut carried_at = usize::MAX;
-                for cx in (0..ncx).filter(|&cx| differs[cx] != 0) {
-                    let p = r + cx;
-                    let corner = |n: usize| {
-                        let layer = if n & 4 == 0 { lo } else { hi };
-                        layer[p + (n & 1) + nx * ((n >> 1) & 1)]
-                    };
-                    let mask = (0..8).fold(0u8, |m, n| m | corner(n) << n);
-                    // A missing cell has no vertex (`field::interpolant::cell_missing`).
-                    if (0..8).any(|n| corner(n) & MISSING != 0) {
+                let row = &mut slot[ncx * cy..ncx * (cy + 1)];
+                // Phase 1: each active cell's crossings summed, and its id.
+                let mut n = 0;
+                let first = verts.positions.len();
+                let mut next = to_u32(first + ncx, "vertices")? - ncx as u32;
+                for cx in 0..ncx {
+                    if differs[cx] == 0 {
                         continue;
                     }
-                    let value = |n: u8| {
-                        let n = usize::from(n);
-                        f64::from(values[n >> 2][p + (n & 1) + nx * ((n >> 1) & 1)])
-                    };
+                    let p = r + cx;
+                    let (py, pyx) = (p + nx, p + nx + 1);
+                    let corner =
+                        [lo[p], lo[p + 1], lo[py], lo[pyx], hi[p], hi[p + 1], hi[py], hi[pyx]];
+                    // A missing cell has no vertex (`field::interpolant::cell_missing`).
+                    if corner.iter().fold(0, |m, &c| m | c) & MISSING != 0 {
+                        row[cx] = u32::MAX;
+                        continue;
+                    }
+                    let mask = corner.iter().rev().fold(0u8, |m, &c| m << 1 | c);
+                    let v = [lv[p], lv[p + 1], lv[py], lv[pyx], hv[p], hv[p + 1], hv[py], hv[pyx]]
+                        .map(f64::from);
                     let c = [cx as f64, cy as f64, qz as f64];
-                    let mut sum = DVec3::ZERO;
-                    let mut dir = DVec3::ZERO;
+                    // The crossing points summed in the reference's order, each `q + s` along
+                    // its axis (the fourth lane takes no axis: it lets `axis & 3` index
+                    // without a bounds check).
+                    let mut sum = [0.0f64; 3];
                     let mut count = 0u32;
                     let mut crossed = CROSSED[usize::from(mask)];
-                    let mut next = [0.0f64; 5];
                     while crossed != 0 {
                         let e = crossed.trailing_zeros() as usize;
-                        let (start, axis) = EDGES[e];
                         crossed &= crossed - 1;
+                        let (start, axis) = EDGES[e];
+                        let start = usize::from(start);
                         let end = start | 1 << axis;
-                        let inside_start = mask >> start & 1;
-                        // A y or z edge at x is the previous cell's at x + 1, and being crossed
-                        // that cell was active and just visited: the same division, done once.
-                        let from = usize::from(REUSE[e] & 15);
-                        let s = if cx > 0 && from < 4 && carried_at == cx - 1 {
-                            carry[from]
-                        } else {
-                            let b = |a: usize| usize::from((start >> a) & 1);
-                            let p = [cx + b(0), cy + b(1), qz + b(2)];
+                        let s = if refined {
+                            let o = super::edges::offset(start as u8);
                             let mut d = [0; 3];
                             d[axis] = 1;
-                            f.crossing_on(p, d, value(start), value(end))
+                            f.crossing_on([cx + o[0], cy + o[1], qz + o[2]], d, v[start], v[end])
+                        } else {
+                            crossing(v[start], v[end], f.iso)
                         };
-                        next[usize::from(REUSE[e] >> 4)] = s;
-                        let bit = |a: usize| f64::from((start >> a) & 1);
-                        let mut u = DVec3::new(c[0] + bit(0), c[1] + bit(1), c[2] + bit(2));
-                        u[axis] += s;
-                        sum += u;
-                        dir[axis] += if inside_start == 1 { 1.0 } else { -1.0 };
+                        // `q + s` along the axis: `s * 1.0` is `s` and `s * 0.0` a zero, which
+                        // leaves the other coordinates as they are (no store to a lane picked at
+                        // run time, which the loads after it would wait for).
+                        let (o, unit) = (CORNER[start & 7], UNIT[axis % 3]);
+                        sum[0] += (c[0] + o[0]) + s * unit[0];
+                        sum[1] += (c[1] + o[1]) + s * unit[1];
+                        sum[2] += (c[2] + o[2]) + s * unit[2];
                         count += 1;
                     }
-                    carry = next;
-                    carried_at = cx;
-                    let u = sum / f64::from(count);
-                    slot[cx + ncx * cy] = if !own {
-                        verts.push_borrowed(f, u)?
-                    } else if (0..3).all(|a| u[a] > c[a] && u[a] < c[a] + 1.0) {
-                        // The common case: the normal of this one cell.
-                        verts.push_with(f, u, f.normal_in_cell([cx, cy, qz], u, dir))?
+                    row[cx] = next;
+                    next += 1;
+                    let (chunk, i) = (&mut batch.chunks[n / LANES], n % LANES);
+                    for (lanes, &x) in chunk.sum.iter_mut().zip(&sum) {
+                        lanes.0[i] = x;
+                    }
+                    chunk.count.0[i] = f64::from(count);
+                    chunk.cx.0[i] = c[0];
+                    for (k, &x) in v.iter().enumerate() {
+                        chunk.v[k].0[i] = x;
+                    }
+                    batch.masks[n] = mask;
+                    n += 1;
+                }
+                // Phase 2: the positions and normals, LANES cells at a time.
+                batch.solve(f, n, [cy as f64, qz as f64], own && !refined);
+                verts.positions.extend_from_slice(&batch.positions[..n]);
+                if !own {
+                    continue; // the next slab's vertices: their positions only (for the split)
+                }
+                for i in 0..n {
+                    let normal = if batch.ok[i] {
+                        batch.normals[i]
                     } else {
-                        verts.push(f, u, dir)? // on a face, edge or corner: the cells around it
+                        let (chunk, j) = (&batch.chunks[i / LANES], i % LANES);
+                        let sum = DVec3::from(chunk.sum.map(|x| x.0[j]));
+                        let u = sum / chunk.count.0[j];
+                        let c = DVec3::new(chunk.cx.0[j], cy as f64, qz as f64);
+                        let dir =
+                            DVec3::from(DIRECTIONS[usize::from(batch.masks[i])].map(f64::from));
+                        if !refined && u.cmpgt(c).all() && u.cmplt(c + 1.0).all() {
+                            // The gradient vanishes: the fallback.
+                            f.normal_in_corners(&chunk.v.map(|x| x.0[j]), c, u, dir)
+                        } else {
+                            // On a face, edge or corner: the cells around it.
+                            f.normal(u, dir)
+                        }
                     };
+                    verts.normals.push(normal);
                 }
             }
         }
@@ -183,46 +327,30 @@ pub(crate) fn extract_slab(
         }
         let here = &flags[qz % 2];
         let above: &[u8] = if qz + 1 < nz { &flags[(qz + 1) % 2] } else { &[] };
-        let cell_id = |x: usize, y: usize, z: usize| ids[z % 2][x + ncx * y];
+        // Cell layers qz - 1 and qz; the edges of a point layer at the grid's bottom or top
+        // have no quads along x and y, and those below the grid's top none along z either.
+        let (below, cur) = (&ids[(qz + 1) % 2], &ids[qz % 2]);
+        let inner_z = qz >= 1 && qz < ncz;
         for qy in 0..ny {
             let r = nx * qy;
             point_row_crossed(here, above, r, nx, qy + 1 < ny, &mut differs[..nx]);
-            for qx in (0..nx).filter(|&qx| differs[qx] != 0) {
+            let inner_y = qy >= 1 && qy < ncy;
+            // Rows qy - 1 and qy of the cell layers (clamped: read only when inner).
+            let (ya, yb) = (ncx * qy.saturating_sub(1), ncx * qy.min(ncy - 1));
+            for qx in 0..nx {
+                if differs[qx] == 0 {
+                    continue;
+                }
                 let p = r + qx;
                 let inside = here[p];
-                let crossed = [
-                    qx + 1 < nx && here[p + 1] != inside,
-                    qy + 1 < ny && here[p + nx] != inside,
-                    qz + 1 < nz && above[p] != inside,
-                ];
-                for (axis, _) in crossed.iter().enumerate().filter(|(_, &c)| c) {
-                    // The four cells around the edge, (b, c) = (a + 1, a + 2) mod 3, at
-                    // offsets (-1,-1), (0,-1), (0,0), (-1,0); none if it lies on the boundary.
-                    let quad = match axis {
-                        0 if qy >= 1 && qz >= 1 && qy < ncy && qz < ncz => [
-                            cell_id(qx, qy - 1, qz - 1),
-                            cell_id(qx, qy, qz - 1),
-                            cell_id(qx, qy, qz),
-                            cell_id(qx, qy - 1, qz),
-                        ],
-                        1 if qz >= 1 && qx >= 1 && qz < ncz && qx < ncx => [
-                            cell_id(qx - 1, qy, qz - 1),
-                            cell_id(qx - 1, qy, qz),
-                            cell_id(qx, qy, qz),
-                            cell_id(qx, qy, qz - 1),
-                        ],
-                        2 if qx >= 1 && qy >= 1 && qx < ncx && qy < ncy => [
-                            cell_id(qx - 1, qy - 1, qz),
-                            cell_id(qx, qy - 1, qz),
-                            cell_id(qx, qy, qz),
-                            cell_id(qx - 1, qy, qz),
-                        ],
-                        _ => continue,
-                    };
+                let inner_x = qx >= 1 && qx < ncx;
+                // The four cells around each edge, (b, c) = (a + 1, a + 2) mod 3, at offsets
+                // (-1,-1), (0,-1), (0,0), (-1,0).
+                let mut emit = |quad: [u32; 4]| {
                     // A missing cell around the edge (an edge with a missing end has only
                     // those): no quad.
                     if quad.contains(&u32::MAX) {
-                        continue;
+                        return;
                     }
                     let mut quad = quad;
                     if inside == 0 {
@@ -232,6 +360,15 @@ pub(crate) fn extract_slab(
                         quads.extend_from_slice(&quad); // else `slabs::finish` drops them
                     }
                     split(&verts.positions, quad, opts.split, &mut indices);
+                };
+                if qx < ncx && inner_y && inner_z && here[p + 1] != inside {
+                    emit([below[ya + qx], below[yb + qx], cur[yb + qx], cur[ya + qx]]);
+                }
+                if qy < ncy && inner_z && inner_x && here[p + nx] != inside {
+                    emit([below[yb + qx - 1], cur[yb + qx - 1], cur[yb + qx], below[yb + qx]]);
+                }
+                if qz < ncz && inner_x && inner_y && above[p] != inside {
+                    emit([cur[ya + qx - 1], cur[ya + qx], cur[yb + qx], cur[yb + qx - 1]]);
                 }
             }
         }

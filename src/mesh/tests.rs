@@ -438,3 +438,50 @@ fn mc33_topology_matches_the_trilinear_interpolant() {
     eprintln!("mc33 topology: {checked} cells checked, {tunnels} with tunnels, {skipped} skipped; marching cubes wrong in {mc_wrong}");
     assert!(checked > 2000 && tunnels > 20 && mc_wrong > 0);
 }
+
+/// The lanes of `Field::units_in_corners` (a row's normals at once) are `unit_in_corners`'s
+/// bits, lane by lane: random cells and points, both inside rules, anisotropic spacing, and
+/// gradients that vanish (equal corners) or are not finite (an infinite corner).
+#[test]
+fn normals_in_lanes_are_the_scalar_normals_bit_for_bit() {
+    use super::field::Field;
+    use super::lanes::{F64x4, LANES};
+    let g = Grid {
+        dims: [4, 3, 5],
+        min: DVec3::new(-0.3, 1.0, 2.0),
+        max: DVec3::new(0.9, 1.5, 9.0),
+        values: vec![0.0; 60],
+    };
+    let mut rng = Rng(99);
+    for inside in Inside::ALL {
+        let f = Field::new(&g, 0.1, inside);
+        for round in 0..2000 {
+            let mut v = [[0.0f64; 8]; LANES];
+            let mut lo = [[0.0f64; 3]; LANES];
+            let mut u = [[0.0f64; 3]; LANES];
+            for i in 0..LANES {
+                for (k, x) in v[i].iter_mut().enumerate() {
+                    *x = match (round + i) % 7 {
+                        0 => 0.25,                               // a flat cell
+                        1 if k == 3 => f64::from(f32::INFINITY), // not finite
+                        _ => f64::from((rng.next() * 4.0 - 2.0) as f32),
+                    };
+                }
+                lo[i] = [0, 1, 2].map(|_| (rng.next() * 3.0).floor());
+                u[i] = [0, 1, 2].map(|a| lo[i][a] + rng.next());
+            }
+            let lanes = |x: &dyn Fn(usize) -> f64| F64x4(std::array::from_fn(x));
+            let lv: [F64x4; 8] = std::array::from_fn(|k| lanes(&|i| v[i][k]));
+            let llo = [0, 1, 2].map(|a| lanes(&|i| lo[i][a]));
+            let lu = [0, 1, 2].map(|a| lanes(&|i| u[i][a]));
+            let (normals, ok) = f.units_in_corners(&lv, llo, lu);
+            for i in 0..LANES {
+                let one = f.unit_in_corners(&v[i], DVec3::from(lo[i]), DVec3::from(u[i]));
+                assert_eq!(ok[i], one.is_some(), "{inside:?} round {round} lane {i}");
+                if let Some(n) = one {
+                    assert_eq!(normals[i].map(f32::to_bits), n.map(f32::to_bits));
+                }
+            }
+        }
+    }
+}

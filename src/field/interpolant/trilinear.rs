@@ -90,8 +90,19 @@ pub fn trilerp(c: &[f64; 8], q: DVec3) -> f64 {
 /// because meshes must keep their bytes and their normals have always been these bits.
 #[inline]
 pub fn gradient(v: &[f64; 8], x: f64, y: f64, z: f64) -> DVec3 {
-    let (mx, my, mz) = (1.0 - x, 1.0 - y, 1.0 - z);
-    DVec3::new(
+    DVec3::from(gradient_in(v, x, y, z, 1.0))
+}
+
+/// [`gradient`]'s arithmetic (the same terms in the same order) on any number type whose
+/// operations are f64's, such as several cells' f64 lanes at once (`one` is its 1.0): the mesh
+/// extractors compute a row's normals this way, bit for bit [`gradient`]'s.
+#[inline(always)]
+pub fn gradient_in<T>(v: &[T; 8], x: T, y: T, z: T, one: T) -> [T; 3]
+where
+    T: Copy + std::ops::Add<Output = T> + std::ops::Sub<Output = T> + std::ops::Mul<Output = T>,
+{
+    let (mx, my, mz) = (one - x, one - y, one - z);
+    [
         my * mz * (v[1] - v[0])
             + y * mz * (v[3] - v[2])
             + my * z * (v[5] - v[4])
@@ -104,7 +115,7 @@ pub fn gradient(v: &[f64; 8], x: f64, y: f64, z: f64) -> DVec3 {
             + x * my * (v[5] - v[1])
             + mx * y * (v[6] - v[2])
             + x * y * (v[7] - v[3]),
-    )
+    ]
 }
 
 #[cfg(test)]

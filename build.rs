@@ -139,7 +139,7 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
 /// Shaders compiled again with `#define`s: (file under `shaders/`, suffix of the variant's
 /// SPIR-V name, the macros, each defined to `1`). `GRID_POOL`: the ray passes reading the grid
 /// from the brick pool instead of a 3D image (`field.residency = "active"`); `GRID_BUFFER`: the
-/// analytic pass reading a whole grid from a storage buffer (its default, faster on llvmpipe).
+/// ray passes reading a whole grid from a storage buffer (their default, faster on llvmpipe).
 const VARIANTS: &[(&str, &str, &[&str])] = &[
     ("analytic.comp", "pool", &["GRID_POOL"]),
     ("analytic.comp", "buffer", &["GRID_BUFFER"]),
@@ -149,6 +149,8 @@ const VARIANTS: &[(&str, &str, &[&str])] = &[
     ("analytic.comp", "occupancy_skip", &["GRID_BUFFER", "OCCUPANCY", "OCC_SKIP"]),
     ("analytic.comp", "occupancy_resume", &["GRID_BUFFER", "OCCUPANCY", "OCC_RESUME"]),
     ("raymarch.comp", "pool", &["GRID_POOL"]),
+    // ... and trilinear's from a whole grid in a storage buffer, as the analytic pass's default.
+    ("raymarch.comp", "buffer", &["GRID_BUFFER"]),
     // Fixed-step through the other interpolants (`field.interpolation`; field.glsl): one
     // variant each, so the trilinear march keeps its code.
     ("raymarch.comp", "bspline", &["INTERP_BSPLINE"]),

@@ -30,6 +30,10 @@ layout(std140, binding = 0) uniform Params { RenderParams P; };
 // (BRICK + 1 + 2 POOL_APRON)^3 points each, and the page table of every brick.
 layout(std430, binding = 1) readonly buffer Pool { float pool[]; };
 layout(std430, binding = 5) readonly buffer Pages { uint pages[]; };
+#elif defined(GRID_BUFFER)
+// The whole grid's points, x fastest (a copy of the grid image; render/rays.rs): trilinear's
+// default, the same values as the image's with a fraction of the instructions on llvmpipe.
+layout(std430, binding = 1) readonly buffer Grid { float grid[]; };
 #else
 layout(binding = 1) uniform sampler3D u_grid;
 #endif

@@ -34,6 +34,23 @@ pub fn interpolant_pipeline(
     ComputePipeline::new(ctx, name, spirv, &RAY_BINDINGS, std::mem::size_of::<super::Band>() as u32)
 }
 
+/// Bindings of the `GRID_BUFFER` variant: as [`RAY_BINDINGS`] with the grid as a storage buffer.
+pub const BUFFER_BINDINGS: [Binding; 4] =
+    [Binding::Uniform, Binding::Read, Binding::Write, Binding::Read];
+
+/// The trilinear march reading a whole grid's points from a storage buffer (the `GRID_BUFFER`
+/// variant, its default where the grid fits one): the same samples as the image's, which
+/// llvmpipe reads with far fewer instructions than a texelFetch.
+pub fn buffer_pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
+    ComputePipeline::new(
+        ctx,
+        "raymarch",
+        shaders::RAYMARCH_BUFFER,
+        &BUFFER_BINDINGS,
+        std::mem::size_of::<super::Band>() as u32,
+    )
+}
+
 /// Bindings of the `GRID_POOL` variants of both ray passes (`field.residency = "active"`):
 /// params, pool, pixels (written), colormap, bricks, page table.
 pub const POOL_BINDINGS: [Binding; 6] =
@@ -57,7 +74,7 @@ pub enum GridInput<'a> {
     Image(&'a Image3d),
     /// The whole grid as a 3D image the shader filters (`interpolation = "device"`).
     Filtered(&'a Image3d),
-    /// The whole grid's points in a storage buffer (the analytic pass's `GRID_BUFFER` variant).
+    /// The whole grid's points in a storage buffer (the `GRID_BUFFER` variants).
     Points(&'a Buffer),
     /// The brick pool, its page table and the brick min/max grid (`render::pool`).
     Pool { pool: &'a Buffer, pages: &'a Buffer, bricks: &'a Buffer },

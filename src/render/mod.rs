@@ -144,6 +144,10 @@ pub struct Renderer {
     /// ([`Accel`]). Images are the same bit for bit every way but `steps` (the work each walk
     /// does); tests and benchmarks choose to compare.
     pub accel: Accel,
+    /// Whether the ray passes over a whole grid read it from a storage buffer where it fits
+    /// one (the default; the same samples as the image's, far fewer instructions on llvmpipe)
+    /// or from the grid image; tests compare the two.
+    pub grid_buffer: bool,
     /// Wall time of making the brick min/max grid on the CPU during the last frame (a CPU
     /// device's way), in milliseconds (None when the frame did not make it there).
     pub last_bricks_cpu_ms: Option<f64>,
@@ -189,6 +193,7 @@ impl Renderer {
                 true => Accel::TwoPass,
                 false => Accel::Occupancy,
             },
+            grid_buffer: true,
             last_bricks_cpu_ms: None,
             last_occupancy_ms: None,
             built_occupancy: false,

@@ -25,6 +25,8 @@ use crate::scene::{Method, Scene};
 pub(super) enum RayShader {
     /// The grid image, marched through the scene's interpolant.
     FixedStep(Interpolant),
+    /// The trilinear march over the whole grid's points in a storage buffer.
+    FixedStepBuffer,
     FixedStepPool,
     /// The grid image (an MPI rank's block, or a grid over the device's storage buffer range).
     Analytic(analytic::Walk),
@@ -50,6 +52,7 @@ impl RayShader {
         match self {
             RayShader::FixedStep(interp) => raymarch::interpolant_pipeline(ctx, interp),
             RayShader::FixedStepPool => raymarch::pool_pipeline(ctx),
+            RayShader::FixedStepBuffer => raymarch::buffer_pipeline(ctx),
             RayShader::Analytic(walk) => analytic::pipeline(ctx, walk),
             RayShader::AnalyticBuffer(walk) => analytic::buffer_pipeline(ctx, walk),
             RayShader::AnalyticOccupancy(walk) => analytic::occupancy_pipeline(ctx, walk),
@@ -166,23 +169,33 @@ impl Renderer {
             self.last_brick_levels = Some(levels);
             analytic::Walk { levels, surfaces }
         };
+        // The whole grid from a storage buffer where it fits: llvmpipe reads a point with a
+        // fraction of a texelFetch's instructions. Copied from the image on first use.
+        let points = |image: &crate::gpu::Image3d| -> Result<bool, RenderError> {
+            let bytes = image.extent.iter().map(|&e| e as u64).product::<u64>() * 4;
+            let buffer = self.grid_buffer
+                && gpu_grid.block.is_none()
+                && bytes <= self.ctx.info.max_storage_buffer_range;
+            if buffer && gpu_grid.points.get().is_none() {
+                let _ = gpu_grid.points.set(image.copy_to_buffer("grid points")?);
+            }
+            Ok(buffer)
+        };
         let shader = match (scene.render.method, &gpu_grid.storage) {
             (Method::Mesh, _) => return Err(RenderError::Unsupported("mesh (as a ray pass)")),
             (Method::FixedStep, Storage::Pool(_)) => RayShader::FixedStepPool,
+            (Method::FixedStep, Storage::Image(image))
+                if interp == Interpolant::Trilinear && points(image)? =>
+            {
+                RayShader::FixedStepBuffer
+            }
             (Method::FixedStep, Storage::Image(_)) => RayShader::FixedStep(interp),
             (Method::Analytic, Storage::Image(_)) if interp == Interpolant::Nearest => {
                 RayShader::Voxels(walk())
             }
             (Method::Analytic, Storage::Pool(_)) => RayShader::AnalyticPool(walk()),
             (Method::Analytic, Storage::Image(image)) => {
-                // The whole grid from a storage buffer where it fits: llvmpipe reads a point
-                // with a fraction of a texelFetch's instructions.
-                let bytes = image.extent.iter().map(|&e| e as u64).product::<u64>() * 4;
-                let buffer =
-                    gpu_grid.block.is_none() && bytes <= self.ctx.info.max_storage_buffer_range;
-                if buffer && gpu_grid.points.get().is_none() {
-                    let _ = gpu_grid.points.set(image.copy_to_buffer("grid points")?);
-                }
+                let buffer = points(image)?;
                 match (bound, buffer) {
                     (bricks::Bound::Corners, true) => RayShader::AnalyticBuffer(walk()),
                     (bricks::Bound::Corners, false) => RayShader::Analytic(walk()),
@@ -298,6 +311,7 @@ impl Renderer {
             (
                 Storage::Image(_),
                 RayShader::AnalyticBuffer(_)
+                | RayShader::FixedStepBuffer
                 | RayShader::AnalyticOccupancy(_)
                 | RayShader::AnalyticResume(_)
                 | RayShader::Tricubic(_, _, true),

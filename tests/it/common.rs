@@ -356,3 +356,20 @@ pub fn read_device_buffer<T: bytemuck::Pod>(
     .unwrap();
     readback.read(count).unwrap()
 }
+
+/// A smooth random field: a few random plane waves plus a ramp.
+pub fn smooth_grid(rng: &mut Rng, n: usize) -> Grid {
+    let waves: Vec<(DVec3, f64, f64)> = (0..4)
+        .map(|_| {
+            (
+                rng.unit_vector() * rng.range(2.0, 6.0),
+                rng.range(0.0, std::f64::consts::TAU),
+                rng.range(0.2, 0.6),
+            )
+        })
+        .collect();
+    let ramp = rng.unit_vector() * rng.range(0.0, 1.5);
+    grid_from([n, n + 3, n - 2], DVec3::splat(-1.0), DVec3::splat(1.0), |p| {
+        waves.iter().map(|(k, ph, a)| a * (k.dot(p) + ph).sin()).sum::<f64>() + ramp.dot(p)
+    })
+}

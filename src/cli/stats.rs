@@ -74,16 +74,33 @@ pub fn run(args: &StatsArgs) -> Result<i32, Failure> {
         "non-finite  {} sample(s) (NaN or inf: missing data, left out of the figures below)",
         s.missing
     )?;
+    let iso = scene.surface.isovalue;
+    if s.finite() == 0 {
+        // No finite sample: no range, mean or percentile to print (they read 0 .. 0 and -0).
+        say!("range       none: every sample is missing data")?;
+        return match scene.surface.rule.describe(iso) {
+            Some(how) => say!("isovalue    {how}"),
+            None => say!("isovalue    {}", n(iso)),
+        }
+        .map(|_| 0);
+    }
     say!("range       {} .. {}", echo_number(s.min), echo_number(s.max))?;
     say!("mean        {}", n(s.mean))?;
     say!("sigma       {}", n(s.sigma))?;
-    let p: Vec<String> =
-        PERCENTILES.iter().map(|&p| format!("p{p}={}", echo_number(s.percentile(p)))).collect();
+    let p: Vec<String> = PERCENTILES
+        .iter()
+        .filter_map(|&p| Some(format!("p{p}={}", echo_number(s.percentile(p)?))))
+        .collect();
     say!("percentiles {}", p.join(" "))?;
-    let iso = scene.surface.isovalue;
     match scene.surface.rule.describe(iso) {
         Some(how) => say!("isovalue    {how}")?,
-        None => say!("isovalue    {iso} (sigma {:+.3} from the mean)", (iso - s.mean) / s.sigma)?,
+        // Every finite sample equal: no spread to measure the distance in (it read NaN or inf).
+        None if s.sigma == 0.0 => {
+            say!("isovalue    {} (sigma 0: the samples are all {})", n(iso), n(s.mean))?
+        }
+        None => {
+            say!("isovalue    {} (sigma {:+.3} from the mean)", n(iso), (iso - s.mean) / s.sigma)?
+        }
     }
     say!("histogram   ({} bins over the range)", args.bins)?;
     let counts = s.histogram(args.bins);

@@ -8,7 +8,9 @@
 //!   the two neighbouring ranks.
 //!
 //! Missing data (NaN or ±inf samples, [`crate::field::interpolant::is_missing`]) is counted
-//! ([`Stats::missing`]) and left out of everything else.
+//! ([`Stats::missing`]) and left out of everything else. A grid with no finite sample has no
+//! mean, σ or percentile ([`moments`] and [`Stats::percentile`] give None): a 0 there would
+//! be a figure of data that is not there, and an isovalue picked from it a made-up one.
 
 use crate::field::interpolant::is_missing;
 
@@ -31,7 +33,7 @@ impl Stats {
     /// The statistics of `values` (a sampled grid's), the missing ones counted only.
     pub fn of(values: &[f32]) -> Stats {
         let count = values.len();
-        let (mean, sigma) = moments(values);
+        let (mean, sigma) = moments(values).unwrap_or((f64::NAN, f64::NAN));
         let mut sorted: Vec<f32> = values.iter().copied().filter(|&v| !missing(v)).collect();
         let missing = count - sorted.len();
         sorted.sort_unstable_by(f32::total_cmp);
@@ -42,17 +44,22 @@ impl Stats {
         Stats { count, missing, min, max, mean, sigma, sorted }
     }
 
-    /// The `p`-th percentile (0..=100), NumPy's linear rule.
-    pub fn percentile(&self, p: f64) -> f64 {
+    /// Samples that are not missing data.
+    pub fn finite(&self) -> usize {
+        self.sorted.len()
+    }
+
+    /// The `p`-th percentile (0..=100), NumPy's linear rule; None without a finite sample.
+    pub fn percentile(&self, p: f64) -> Option<f64> {
         let s = &self.sorted;
         if s.is_empty() {
-            return 0.0;
+            return None;
         }
         let rank = (p.clamp(0.0, 100.0) / 100.0) * (s.len() - 1) as f64;
         let lo = rank.floor() as usize;
         let hi = (lo + 1).min(s.len() - 1);
         let (a, b) = (s[lo] as f64, s[hi] as f64);
-        a + (b - a) * (rank - lo as f64)
+        Some(a + (b - a) * (rank - lo as f64))
     }
 
     /// Counts in `bins` equal bins over [min, max] (the last bin includes max).
@@ -77,13 +84,17 @@ fn missing(v: f32) -> bool {
 }
 
 /// Mean and population σ of the samples of `values` that are not missing data, without the
-/// sorted copy [`Stats::of`] keeps.
-pub fn moments(values: &[f32]) -> (f64, f64) {
+/// sorted copy [`Stats::of`] keeps; None when every sample is missing.
+pub fn moments(values: &[f32]) -> Option<(f64, f64)> {
     let finite = || values.iter().filter(|&&v| !missing(v)).map(|&v| v as f64);
-    let n = finite().count().max(1) as f64;
+    let n = finite().count();
+    if n == 0 {
+        return None;
+    }
+    let n = n as f64;
     let mean = finite().sum::<f64>() / n;
     let var = finite().map(|v| (v - mean).powi(2)).sum::<f64>() / n;
-    (mean, var.sqrt())
+    Some((mean, var.sqrt()))
 }
 
 #[cfg(test)]
@@ -98,7 +109,8 @@ mod tests {
         for (p, want) in
             [(0.0, 1.0), (10.0, 1.0), (25.0, 1.75), (50.0, 3.5), (90.0, 6.9), (100.0, 9.0)]
         {
-            assert!((s.percentile(p) - want).abs() < 1e-12, "p{p}: {}", s.percentile(p));
+            let got = s.percentile(p).unwrap();
+            assert!((got - want).abs() < 1e-12, "p{p}: {got}");
         }
         assert_eq!(s.mean, 3.875);
         assert!((s.sigma - 2.570_870_475_150_391_7).abs() < 1e-12, "{}", s.sigma);
@@ -111,9 +123,17 @@ mod tests {
         let s = Stats::of(&[3.0, f32::NAN, 1.0, f32::INFINITY, 5.0, f32::NEG_INFINITY]);
         assert_eq!((s.count, s.missing), (6, 3));
         assert_eq!((s.min, s.max, s.mean), (1.0, 5.0, 3.0));
-        assert_eq!(s.percentile(50.0), 3.0);
+        assert_eq!(s.percentile(50.0), Some(3.0));
         assert_eq!(s.histogram(2), vec![1, 2]);
         let plain = Stats::of(&[3.0, 1.0, 5.0]);
         assert_eq!((plain.mean, plain.sigma), (s.mean, s.sigma));
+    }
+
+    #[test]
+    fn no_finite_sample_has_no_figures() {
+        let s = Stats::of(&[f32::NAN, f32::INFINITY]);
+        assert_eq!((s.count, s.missing, s.finite()), (2, 2, 0));
+        assert_eq!(s.percentile(50.0), None);
+        assert_eq!(super::moments(&[f32::NAN]), None);
     }
 }

@@ -471,13 +471,24 @@ fn pick_from(
     surface: SurfaceSettings,
     values: &[f32],
 ) -> std::result::Result<SurfaceSettings, String> {
+    // A grid whose every sample is missing data has no mean or percentile: picking 0 there
+    // rendered nothing and said nothing.
+    let none = || {
+        format!(
+            "the field has no finite sample to pick the isovalue from (all {} are NaN or \
+             ±inf: missing data); give isovalue instead",
+            values.len()
+        )
+    };
     let (isovalue, rule) = match surface.rule {
         IsoRule::Sigma { k, .. } => {
-            let (mean, sigma) = stats::moments(values);
+            let (mean, sigma) = stats::moments(values).ok_or_else(none)?;
             (mean + k * sigma, IsoRule::Sigma { k, mean, sigma })
         }
         // Only percentiles need the sorted copy Stats keeps.
-        IsoRule::Percentile { p } => (Stats::of(values).percentile(p), surface.rule),
+        IsoRule::Percentile { p } => {
+            (Stats::of(values).percentile(p).ok_or_else(none)?, surface.rule)
+        }
         IsoRule::Value => (surface.isovalue, surface.rule),
     };
     // mean + k sigma of f32 samples may pass f32's range for a large k (a percentile cannot).

@@ -756,11 +756,13 @@ fn stats(py: Python<'_>, scene: &PyScene, bins: usize, time: f64) -> PyResult<Py
     d.set_item("box", (grid.min.to_array(), grid.max.to_array()))?;
     d.set_item("count", s.count)?;
     d.set_item("non_finite", s.missing)?;
-    d.set_item("min", s.min)?;
-    d.set_item("max", s.max)?;
-    d.set_item("mean", s.mean)?;
-    d.set_item("sigma", s.sigma)?;
-    let p: Vec<(f64, f64)> =
+    // None, not 0, where no sample is finite: there is no range, mean or percentile.
+    let some = |v: f64| (s.finite() > 0).then_some(v);
+    d.set_item("min", some(s.min))?;
+    d.set_item("max", some(s.max))?;
+    d.set_item("mean", some(s.mean))?;
+    d.set_item("sigma", some(s.sigma))?;
+    let p: Vec<(f64, Option<f64>)> =
         isoview::cli::stats::PERCENTILES.iter().map(|&p| (p, s.percentile(p))).collect();
     d.set_item("percentiles", p)?;
     d.set_item("histogram", s.histogram(bins))?;

@@ -264,7 +264,7 @@ fn arrays_in_memory_become_the_grid_their_npy_file_gives() {
     assert_eq!(e.kind, SceneErrorKind::UnknownKey, "{e}");
     let sets = ["surface.isovalue_percentile=50".to_string()];
     let s = scene::from_str_with_grid("[field]\n", "array", &d, &sets, &grid).unwrap();
-    let p50 = isoview::field::stats::Stats::of(&grid.values).percentile(50.0);
+    let p50 = isoview::field::stats::Stats::of(&grid.values).percentile(50.0).unwrap();
     assert_eq!(s.surface.isovalue, p50, "the percentile is the array's samples'");
 }
 

@@ -110,3 +110,33 @@ fn the_exr_header_records_the_rule() {
     let rule = img.attribute("isoview/extra/isovalue_rule").expect("isovalue_rule");
     assert!(rule.contains("percentile 50") && rule.contains(&MEDIAN.to_string()), "{rule}");
 }
+
+/// A field whose every sample is missing data (NaN or ±inf) has no mean or percentile: an
+/// isovalue picked from it is refused at its key, and `stats` says there is no range. Both
+/// read 0 before: `isovalue_sigma` picked 0 and rendered nothing, `stats` printed
+/// `range 0 .. 0`, `mean -0` and a histogram of zeros.
+#[test]
+fn a_field_without_a_finite_sample_gives_no_isovalue_and_no_range() {
+    let field = "[field]\nsource = \"expr\"\nexpression = \"sqrt(-1 - x*x)\"\n\
+                 resolution = [3, 3, 3]\n[surface]\n";
+    for (key, col) in [("isovalue_sigma = 1", 18), ("isovalue_percentile = 50", 23)] {
+        let text = format!("{field}{key}\n");
+        let e = scene::from_str_with(&text, "t.toml", &data(), &[], &GridLimits::default());
+        let e = e.unwrap_err().to_string();
+        let name = key.split(' ').next().unwrap();
+        assert!(e.starts_with(&format!("t.toml:6:{col}: surface.{name}: ")), "{e}");
+        assert!(e.contains("no finite sample to pick the isovalue from (all 27 are NaN"), "{e}");
+    }
+    let dir = crate::common::scratch("stats-no-finite");
+    let scene = crate::common::write(&dir, "s.toml", &format!("{field}isovalue = 0.5\n"));
+    let out = crate::common::isoview(&["stats", &scene], &[]);
+    assert_eq!(out.status.code(), Some(0), "{}", crate::common::stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("range       none: every sample is missing data\n"), "{text}");
+    assert!(text.ends_with("isovalue    0.5\n"), "no figure after the isovalue:\n{text}");
+    assert!(!text.contains("mean") && !text.contains("histogram"), "{text}");
+    let out = crate::common::isoview(&["stats", &scene, "--set", "surface.isovalue_sigma=1"], &[]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = crate::common::stderr(&out);
+    assert!(err.contains("no finite sample") && err.lines().count() == 1, "{err}");
+}

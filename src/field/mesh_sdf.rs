@@ -132,8 +132,16 @@ impl TriangleMesh {
         for tri in &self.triangles {
             for &v in tri {
                 let p = self.positions[v as usize];
+                // STL and OBJ positions are read in f32 (tobj's, the format's): a coordinate
+                // past its range (1e300 in an OBJ) reads inf, which the file does not hold, so
+                // the line says why. A PLY's double stays f64.
                 if !p.is_finite() {
-                    return Err(format!("vertex {v} is not finite: [{}, {}, {}]", p.x, p.y, p.z));
+                    return Err(format!(
+                        "vertex {v} is not finite: [{}, {}, {}] (NaN, or in an STL or OBJ a \
+                         coordinate beyond ±3.4028235e38, the range of the 32-bit floats they \
+                         are read in)",
+                        p.x, p.y, p.z
+                    ));
                 }
             }
         }

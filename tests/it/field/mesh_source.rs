@@ -236,7 +236,13 @@ fn bad_mesh_files_and_keys_fail_with_one_line() {
     );
     write("nan.obj", b"v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
     let e = load_err(&d, &field("nan.obj"));
-    assert!(e.contains("nan.obj: vertex 0 is not finite"), "{e}");
+    assert!(e.contains("nan.obj: vertex 0 is not finite: [0, 0, NaN] (NaN, or"), "{e}");
+    // A finite coordinate past f32's range reads inf: the line says why, not that the file
+    // holds a non-finite number (it said `vertex 0 is not finite: [inf, 0, 0]` for 1e300).
+    write("big.obj", b"v 1e300 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let e = load_err(&d, &field("big.obj"));
+    assert!(e.contains("big.obj: vertex 0 is not finite: [inf, 0, 0] (NaN, or in an STL"), "{e}");
+    assert!(e.contains("beyond ±3.4028235e38, the range of the 32-bit floats they are"), "{e}");
     write("point.obj", b"v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\n");
     let e = load_err(&d, &field("point.obj"));
     assert!(e.contains("no extent"), "{e}");

@@ -333,6 +333,34 @@ pub fn escape_unprintable(text: &str) -> std::borrow::Cow<'_, str> {
     out.into()
 }
 
+/// A whole message as it is printed (every `isoview:` line on stderr, `serve`'s error
+/// replies): [`escape_unprintable`], and past [`MESSAGE_CHARS`] characters its middle cut, the
+/// first [`MESSAGE_HEAD`] and last [`MESSAGE_TAIL`] kept around `… (N characters cut) …`.
+/// Values are cut by [`echo`] where they are quoted, but paths are shown whole (a path cut to
+/// 60 characters would not say which file), and a scene can name a 2 MB path, which the OS
+/// refuses as too long: its message was 2 MB. The cut keeps the start (the file, line and key)
+/// and the end (the cause), and never touches a message naming a few legal paths (the OS
+/// opens none over 4,096 bytes).
+pub fn message_line(text: &str) -> std::borrow::Cow<'_, str> {
+    let escaped = escape_unprintable(text);
+    let count = escaped.chars().count();
+    if count <= MESSAGE_CHARS {
+        return escaped;
+    }
+    let head_end = escaped.char_indices().nth(MESSAGE_HEAD).map_or(escaped.len(), |(at, _)| at);
+    let tail_start =
+        escaped.char_indices().nth(count - MESSAGE_TAIL).map_or(escaped.len(), |(at, _)| at);
+    let cut = count - MESSAGE_HEAD - MESSAGE_TAIL;
+    format!("{} … ({cut} characters cut) … {}", &escaped[..head_end], &escaped[tail_start..]).into()
+}
+
+/// The longest message [`message_line`] prints whole, in characters.
+pub const MESSAGE_CHARS: usize = 16_384;
+/// How many characters of a longer message's start [`message_line`] keeps.
+pub const MESSAGE_HEAD: usize = 8_192;
+/// How many characters of a longer message's end [`message_line`] keeps.
+pub const MESSAGE_TAIL: usize = 2_048;
+
 /// [`echo`]'s cut alone (the first [`ECHO_CHARS`] characters, then `…`), for a message that
 /// escapes the value itself (a `{:?}` in another crate's error: `isoview-gpu`'s device name).
 pub fn echo_cut(value: &str) -> std::borrow::Cow<'_, str> {
@@ -439,6 +467,29 @@ mod echo_tests {
         let e = echo(&long);
         assert_eq!(e, format!("{}…", "x".repeat(ECHO_CHARS)));
         assert_eq!(echo(&"é".repeat(ECHO_CHARS)), "é".repeat(ECHO_CHARS));
+    }
+
+    #[test]
+    fn message_line_cuts_the_middle_of_a_long_message_only() {
+        let short = format!("s.toml:15:8: field.path: {}: cannot read", "a/".repeat(2048));
+        assert_eq!(message_line(&short), short);
+        assert_eq!(message_line("a\nb"), "a\\nb");
+        let long = format!(
+            "s.toml:15:8: field.path: {}x.npy: cannot read: too long",
+            "a/".repeat(1_000_000)
+        );
+        let line = message_line(&long);
+        assert!(line.starts_with("s.toml:15:8: field.path: a/a/"), "{}", &line[..40]);
+        assert!(line.ends_with("a/x.npy: cannot read: too long"));
+        let cut = long.chars().count() - MESSAGE_HEAD - MESSAGE_TAIL;
+        assert!(line.contains(&format!(" … ({cut} characters cut) … ")));
+        assert!(line.chars().count() < MESSAGE_CHARS + 40);
+        // Characters, not bytes: a cut never splits one.
+        let wide = "é".repeat(MESSAGE_CHARS + 1);
+        assert_eq!(
+            message_line(&wide).chars().filter(|&c| c == 'é').count(),
+            MESSAGE_HEAD + MESSAGE_TAIL
+        );
     }
 
     #[test]

@@ -72,8 +72,10 @@ pub fn print_clap(mut e: clap::Error) -> i32 {
 pub fn note_line(args: fmt::Arguments) {
     // Every note and failure is one line whatever path or value it prints (an output named
     // with ESC or a newline was printed raw): escaped here once rather than at each caller.
+    // Cut in the middle past 16K characters, too: a path is shown whole wherever it is
+    // named, and a scene can name a 2 MB one (vocab::message_line).
     let line = args.to_string();
-    let line = crate::vocab::escape_unprintable(&line);
+    let line = crate::vocab::message_line(&line);
     let mut stderr = std::io::stderr().lock();
     let _ = writeln!(stderr, "isoview: {line}");
 }

@@ -57,9 +57,11 @@ impl Reply {
         Reply::bytes(content_type, text.into().into_bytes())
     }
 
-    /// `{"error": message}` with `status`.
+    /// `{"error": message}` with `status`, the message cut as stderr's lines are (a state
+    /// naming a 1 MB path answered a 1 MB error).
     pub fn error(status: u16, message: impl std::fmt::Display) -> Self {
-        let mut r = Reply::json(&json!({ "error": message.to_string() }));
+        let message = message.to_string();
+        let mut r = Reply::json(&json!({ "error": crate::vocab::message_line(&message) }));
         r.status = status;
         r
     }

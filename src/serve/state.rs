@@ -150,7 +150,7 @@ fn server_note(e: &dyn std::fmt::Display) {
 /// quote the file (a MetaImage ElementType, OpenVDB's text), whose ESC or BEL reached the
 /// terminal raw.
 fn server_line(e: &dyn std::fmt::Display) -> String {
-    format!("isoview: {}", crate::vocab::escape_unprintable(&e.to_string()))
+    format!("isoview: {}", crate::vocab::message_line(&e.to_string()))
 }
 
 /// The short form of an error that quotes a file's contents; None for the others.

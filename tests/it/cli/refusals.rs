@@ -610,6 +610,22 @@ fn echoed_values_are_cut_and_escaped() {
     let o = isoview_output(&["stats", &path]);
     assert_fails(&o, 2, &["render.method: unknown value", "…"]);
     assert!(stderr(&o).len() < 1000);
+    // A path is shown whole where it is named (cut to 60 characters it would not say which
+    // file), but a 2 MB one, which the OS refuses as too long, made a 2 MB line: the line's
+    // middle is cut past 16K characters, its start (file, line, key) and cause kept.
+    let far = SPHERE.replace(
+        "source = \"sdf\"\nshape = \"sphere\"\nradius = 0.6\nresolution = [10, 10, 10]",
+        &format!("source = \"npy\"\npath = \"{}x.npy\"", "a/".repeat(1_000_000)),
+    );
+    let path = write(&dir, "far.toml", &far);
+    let o = isoview_output(&["stats", &path]);
+    assert_fails(
+        &o,
+        2,
+        &["far.toml:11:8: field.path: ", "/a/a/", "characters cut) … a/a/", "x.npy: cannot read"],
+    );
+    assert!(stderr(&o).len() < 17_000, "{} bytes", stderr(&o).len());
+    assert_eq!(stderr(&o).lines().count(), 1);
     // Command-line values.
     let o = isoview_output(&["probe", &scene, "--pixel", &format!("1,{}", "9".repeat(500))]);
     assert_fails(&o, 2, &["--pixel 1,999", "…"]);

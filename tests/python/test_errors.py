@@ -73,6 +73,18 @@ def test_scene_errors_are_the_cli_line(cli, tmp_path):
         isoview.render(isoview.Scene.from_toml("scenes/torus.toml"), set=["render.steps=abc"])
     assert p.stderr.strip() == f"isoview: {_one_line(e)}"
 
+    # A scene naming a 2 MB path: the CLI's line, cut in the middle past 16K characters.
+    far = tmp_path / "far.toml"
+    far.write_text('[field]\nsource = "npy"\npath = "' + "a/" * 1_000_000 + 'x.npy"\n')
+    p = cli("render", far, "-o", tmp_path / "o.exr", check=False)
+    assert p.returncode == 2
+    with pytest.raises(ValueError) as e:
+        isoview.Scene.from_toml(far)
+    line = _one_line(e)
+    assert p.stderr.strip() == f"isoview: {line}"
+    assert "characters cut) … a/a/" in line and line.endswith("cannot read: File name too long (os error 36)")
+    assert len(line) < 17_000
+
 
 def test_keyword_errors_name_the_scene_key():
     a = np.zeros((3, 3, 3))

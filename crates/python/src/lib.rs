@@ -63,11 +63,16 @@ enum Fail {
 
 impl From<Fail> for PyErr {
     fn from(f: Fail) -> PyErr {
+        // The CLI's line as its stderr shows it: one line, and cut in the middle past 16K
+        // characters (a scene naming a 2 MB path made a 2 MB message; vocab::message_line).
+        let line = |m: &str| isoview::vocab::message_line(m).into_owned();
         match f {
-            Fail::Input(m) => PyValueError::new_err(m),
-            Fail::NoDevice(m) => NoDeviceError::new_err(m),
-            Fail::Gpu(m) => GpuError::new_err(m),
-            Fail::Bug(m) => PyRuntimeError::new_err(format!("internal error in isoview: {m}")),
+            Fail::Input(m) => PyValueError::new_err(line(&m)),
+            Fail::NoDevice(m) => NoDeviceError::new_err(line(&m)),
+            Fail::Gpu(m) => GpuError::new_err(line(&m)),
+            Fail::Bug(m) => {
+                PyRuntimeError::new_err(format!("internal error in isoview: {}", line(&m)))
+            }
         }
     }
 }

@@ -125,6 +125,19 @@ pub fn missing_note(v: &CellVisit) -> String {
     format!("cell ({i}, {j}, {k}) holds a non-finite sample: no surface")
 }
 
+/// Why fixed-step found no crossing, as the probe reports it (text, `--json`'s `"miss"`, the
+/// page): a ray that takes no sample, or one whose samples are all missing data, has no
+/// "closest sample" to name (its margin would print as NaN or inf).
+pub fn march_miss_note(m: &March) -> String {
+    if m.steps == 0 {
+        "no sample taken: the ray misses the field's box (or the clip)".to_string()
+    } else if !m.margin.is_finite() {
+        format!("no crossing found: none of the {} samples on the ray is finite", m.steps)
+    } else {
+        format!("no crossing found (closest sample is {:.3e} from the isovalue)", m.margin)
+    }
+}
+
 impl PixelProbe {
     /// Traces pixel `(px, py)` of `scene` (inside its image) through `grid`, the scene's field
     /// sampled at the time of interest.
@@ -226,6 +239,7 @@ impl PixelProbe {
                     "t": h.t, "position": v3(h.position), "normal": v3(h.normal), "cell": h.cell,
                 })),
                 "closest_sample_to_isovalue": fixed.margin,
+                "miss": fixed.hit.is_none().then(|| march_miss_note(fixed)),
             },
             "hit_distance": self.hit_distance(),
         });

@@ -226,9 +226,7 @@ fn print_probe(scene: &Scene, probe: &PixelProbe, px: u32, py: u32) -> Result<()
         Some(h) => {
             say!("  first crossing: t = {:.9}  position {:.6}  cell {:?}", h.t, h.position, h.cell)?
         }
-        None => {
-            say!("  no crossing found (closest sample is {:.3e} from the isovalue)", fixed.margin)?
-        }
+        None => say!("  {}", crate::probe::march_miss_note(fixed))?,
     }
     say!()?;
     match (&exact.hit, &fixed.hit, distance) {

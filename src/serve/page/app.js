@@ -239,7 +239,7 @@ function renderProbe(p) {
   html += '</table>';
   html += `<div><b>fixed-step</b> (steps ${f.steps}, ${f.samples_taken} samples): ` +
     (f.hit ? `<span class="hit">first crossing t = ${fmt(f.hit.t, 9)} in cell [${f.hit.cell.join(', ')}]</span>`
-      : `<span class="miss">no crossing found (closest sample ${fmt(f.closest_sample_to_isovalue)} from the isovalue)</span>`) + '</div>';
+      : `<span class="miss">${esc(f.miss)}</span>`) + '</div>';
   if (a.hit && !f.hit) html += '<div class="miss">fixed-step MISSES a surface that the exact trace hits</div>';
   if (p.hit_distance !== null) html += `<div>hits ${fmt(p.hit_distance)} apart</div>`;
   html += `<details><summary>probe --json</summary><pre>${esc(JSON.stringify(p, null, 2))}</pre></details>`;

@@ -526,6 +526,43 @@ fn probe_says_why_a_cell_has_no_surface() {
     assert!(text.contains("holds a non-finite sample: no surface"), "{text}");
 }
 
+/// Seventh attack pass: a ray whose samples are all missing data, or that takes none, has no
+/// "closest sample": the probe printed "closest sample is NaN from the isovalue" (all NaN) and
+/// "inf" (all infinite, or a ray past the box). It says which.
+#[test]
+fn probe_says_why_fixed_step_has_no_closest_sample() {
+    let dir = scratch("nan-probe-march");
+    let field = "[field]\nsource = \"expr\"\nexpression = \"sqrt(-1 - x*x)\"\n\
+                 resolution = [5, 5, 5]\n[surface]\nisovalue = 0.5\n\
+                 [image]\nwidth = 8\nheight = 8\n";
+    let scene = write(&dir, "s.toml", field);
+    // The corner pixel of a wide view from far away passes the box by.
+    let past = "camera.eye=[0, 0, 40]; camera.fov_y_deg=170";
+    for (pixel, set, want) in [
+        ("4,4", "render.steps=64", "no crossing found: none of the 64 samples on the ray"),
+        ("4,4", "field.expression=\"1/0\"; render.steps=100", "none of the 100 samples on the"),
+        ("0,0", past, "no sample taken: the ray misses the field's box"),
+    ] {
+        let mut args = vec!["probe", &scene, "--pixel", pixel];
+        for s in set.split("; ") {
+            args.extend(["--set", s]);
+        }
+        let out = isoview(&args, &[]);
+        assert_eq!(out.status.code(), Some(0), "{set}: {}", stderr(&out));
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(text.contains(want) && !text.contains("closest sample"), "{set}: {text}");
+        args.push("--json");
+        let out = isoview(&args, &[]);
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(json["fixed_step"]["miss"].as_str().map(|m| m.contains(want)), Some(true));
+    }
+    // A ray with a finite sample still names the closest one.
+    let out =
+        isoview(&["probe", &scene, "--pixel", "4,4", "--set", "field.expression=\"x-5\""], &[]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("no crossing found (closest sample is"), "{text}");
+}
+
 #[gpu_test]
 fn gpu_slice_shows_no_data_where_the_reference_does() {
     use isoview::render::GpuGrid;

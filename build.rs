@@ -112,6 +112,16 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
     ("INTERPOLANT_CATMULL_ROM", 2, Glsl::Uint, "Interpolant code: Catmull-Rom."),
     ("INTERPOLANT_NEAREST", 3, Glsl::Uint, "Interpolant code: the nearest point's value."),
     ("INTERPOLANT_DEVICE", 4, Glsl::Uint, "Interpolant code: the texture unit's linear filter."),
+    // llvmpipe (lavapipe) ends every loop of an invocation after 65,535 back-edges in all
+    // (gallivm's LP_MAX_TGSI_LOOP_ITERATIONS), silently: a march of more samples than that
+    // stopped short and lost its surface. raymarch.comp takes this many samples per back-edge
+    // (an unrolled block), so 2^20 samples (scene::MAX_STEPS) take 61,681 back-edges.
+    (
+        "MARCH_UNROLL",
+        17,
+        Glsl::Int,
+        "Samples raymarch.comp takes per loop back-edge (llvmpipe's 65,535 cap x 17 > 2^20).",
+    ),
     // `RenderParams.shading`.
     ("SHADE_LAMBERT", 0, Glsl::Uint, "RenderParams.shading: lambert shading."),
     ("SHADE_NORMAL", 1, Glsl::Uint, "RenderParams.shading: normal shading."),

@@ -19,7 +19,13 @@
 
 #extension GL_GOOGLE_include_directive : require
 
+#extension GL_EXT_control_flow_attributes : require
+
 layout(local_size_x = RAY_GROUP, local_size_y = RAY_GROUP) in;  // build.rs
+
+// The cubic variants' loops over a cell's 64 samples unrolled, as tricubic.comp's (which says
+// why): a loop's back-edges count towards llvmpipe's cap (MARCH_SAMPLE below), 128 a cell.
+#define CUBIC_UNROLL [[unroll]]
 
 #include "params.glsl"
 #include "pixel.glsl"
@@ -45,12 +51,49 @@ layout(std430, binding = 4) readonly buffer Bricks { vec2 bricks[]; };
 #endif
 layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
 
+// A march of more samples than one loop can take on llvmpipe (passes::raymarch::LOOP_STEPS):
+// the samples are taken MARCH_UNROLL at a time, written out. A specialization constant, so that
+// the usual march carries none of that code (17 copies of a sample cost llvmpipe 1.8x the
+// time even where they never run).
+layout(constant_id = 0) const bool LONG_MARCH = false;
+// The surfaces (RenderParams.surfaces), known when the pipeline is built: field.glsl's
+// inside_mask loops over them unrolled, one test a surface and no back-edge a sample (its loop
+// over P.surfaces cost one, and two thirds of llvmpipe's cap went to such loops).
+layout(constant_id = 1) const uint SURFACE_COUNT = 1u;
+#define SURFACES_TESTED SURFACE_COUNT
+
 #include "field.glsl"
 #include "shade.glsl"
 #include "camera.glsl"
 #include "clip.glsl"
 
 const int REFINE_BISECTIONS = 8;
+
+// Sample i of the march (tb, fb; `flipped`: the surfaces whose predicate changes from ta's),
+// unless the march is past its last sample or has found its step; where nothing changes, the
+// step's far end becomes its near one and i moves on.
+#define MARCH_SAMPLE                                                \
+    if (i < n && flipped == 0u) {                                   \
+        tb = t0 + (t1 - t0) * (float(i) / float(n - 1u));           \
+        fb = field_cached(cache, to_grid(o + d * tb));              \
+        count++;                                                    \
+        uint inb = inside_mask(fb);                                 \
+        flipped = gap || cache.missing ? 0u : inb ^ ina;            \
+        if (flipped == 0u) {                                        \
+            ta = tb;                                                \
+            fa = fb;                                                \
+            ina = inb;                                              \
+            gap = cache.missing;                                    \
+            i++;                                                    \
+        }                                                           \
+    }
+// MARCH_UNROLL (17) of them, written out: a loop, even one marked [[unroll]], is not unrolled
+// by lavapipe's compiler here and its back-edges count.
+#if MARCH_UNROLL != 17
+#error "MARCH_BLOCK writes out MARCH_UNROLL samples"
+#endif
+#define MARCH_4 MARCH_SAMPLE MARCH_SAMPLE MARCH_SAMPLE MARCH_SAMPLE
+#define MARCH_BLOCK MARCH_4 MARCH_4 MARCH_4 MARCH_4 MARCH_SAMPLE
 
 void main() {
     uvec2 local = gl_GlobalInvocationID.xy;
@@ -101,17 +144,26 @@ void main() {
             uint flipped = 0u;  // bit k: surface k's predicate changes in [ta, tb]
             float tb = t0;
             float fb = fa;
-            for (; i < n; i++) {
-                tb = t0 + (t1 - t0) * (float(i) / float(n - 1u));
-                fb = field_cached(cache, to_grid(o + d * tb));
-                count++;
-                uint inb = inside_mask(fb);
-                flipped = gap || cache.missing ? 0u : inb ^ ina;
-                if (flipped != 0u) break;
-                ta = tb;
-                fa = fb;
-                ina = inb;
-                gap = cache.missing;
+            if (LONG_MARCH) {
+                // MARCH_UNROLL samples per back-edge (build.rs: llvmpipe ends an invocation's
+                // loops after 65,535 back-edges in all; the block below has none): the same
+                // samples in the same order as the loop below.
+                while (i < n && flipped == 0u) {
+                    MARCH_BLOCK
+                }
+            } else {
+                for (; i < n; i++) {
+                    tb = t0 + (t1 - t0) * (float(i) / float(n - 1u));
+                    fb = field_cached(cache, to_grid(o + d * tb));
+                    count++;
+                    uint inb = inside_mask(fb);
+                    flipped = gap || cache.missing ? 0u : inb ^ ina;
+                    if (flipped != 0u) break;
+                    ta = tb;
+                    fa = fb;
+                    ina = inb;
+                    gap = cache.missing;
+                }
             }
             if (flipped == 0u) break;
             // Each surface that changes in [ta, tb] refined alone (as if it were the only

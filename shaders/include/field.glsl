@@ -21,10 +21,16 @@ bool inside_of(float v, float threshold) {
     return P.inside_sign > 0.0 ? v < threshold : v > threshold;
 }
 
+// The surfaces inside_mask tests: P.surfaces, or a constant the including shader defines
+// (raymarch.comp's specialization constant), over which the loop is unrolled.
+#ifndef SURFACES_TESTED
+#define SURFACES_TESTED P.surfaces
+#endif
+
 // Bit k set: v is inside surface k (k < P.surfaces).
 uint inside_mask(float v) {
     uint m = 0u;
-    for (uint k = 0u; k < P.surfaces; k++) {
+    for (uint k = 0u; k < SURFACES_TESTED; k++) {
         if (inside_of(v, P.thresholds[k / 4u][k % 4u])) m |= 1u << k;
     }
     return m;
@@ -173,7 +179,7 @@ bool cell_missing(Corners k) {
 
 #if defined(INTERP_CUBIC)
 // The loops over a cell's 64 samples unrolled where the including shader asks (tricubic.comp
-// says why); the fixed-step march keeps its loops.
+// says why), as the fixed-step march does.
 #ifndef CUBIC_UNROLL
 #define CUBIC_UNROLL
 #endif

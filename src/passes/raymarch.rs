@@ -20,8 +20,46 @@ pub const GROUP: u32 = shaders::consts::RAY_GROUP;
 pub const RAY_BINDINGS: [Binding; 4] =
     [Binding::Uniform, Binding::Sampled, Binding::Write, Binding::Read];
 
+/// The most samples a ray's march takes in one loop (a back-edge each). llvmpipe (lavapipe)
+/// ends all loops of an invocation after 65,535 back-edges (gallivm's
+/// LP_MAX_TGSI_LOOP_ITERATIONS), silently: a longer march lost its surface. Marches of more
+/// steps than this are built with `LONG_MARCH` (raymarch.comp), MARCH_UNROLL samples a
+/// back-edge; the rest of the shader's loops (a crossing's bisections) fit in what is left.
+pub const LOOP_STEPS: u32 = 60_000;
+
+/// What the march is specialized for (its specialization constants, folded in by the driver,
+/// as the analytic walk's [`Walk`](super::analytic::Walk)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct March {
+    /// `LONG_MARCH`: more than [`LOOP_STEPS`] samples.
+    pub long: bool,
+    /// `SURFACE_COUNT`: the surfaces (isovalues), 1 to `SURFACES`; `RenderParams.surfaces`.
+    /// Their test (field.glsl's inside_mask) is then unrolled: no back-edge a sample.
+    pub surfaces: u32,
+}
+
+impl March {
+    /// The march of `steps` samples against `surfaces` isovalues.
+    pub fn new(steps: u32, surfaces: u32) -> Self {
+        March { long: steps > LOOP_STEPS, surfaces }
+    }
+}
+
 pub fn pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
-    interpolant_pipeline(ctx, Interpolant::Trilinear)
+    interpolant_pipeline(ctx, Interpolant::Trilinear, March::new(2, 1))
+}
+
+/// One build of `raymarch.comp`'s variant `spirv`, specialized for `march`.
+fn build(
+    ctx: &Arc<Context>,
+    name: &str,
+    spirv: &[u8],
+    bindings: &[Binding],
+    march: March,
+) -> Result<ComputePipeline, GpuError> {
+    let push = std::mem::size_of::<super::Band>() as u32;
+    let constants = [march.long as u32, march.surfaces];
+    ComputePipeline::with_constants(ctx, name, spirv, bindings, push, &constants)
 }
 
 /// The pass marching the field of `interp` (its variant of `raymarch.comp`, build.rs), on the
@@ -29,9 +67,10 @@ pub fn pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
 pub fn interpolant_pipeline(
     ctx: &Arc<Context>,
     interp: Interpolant,
+    march: March,
 ) -> Result<ComputePipeline, GpuError> {
     let (name, spirv) = interp.march_shader();
-    ComputePipeline::new(ctx, name, spirv, &RAY_BINDINGS, std::mem::size_of::<super::Band>() as u32)
+    build(ctx, name, spirv, &RAY_BINDINGS, march)
 }
 
 /// Bindings of the `GRID_BUFFER` variant: as [`RAY_BINDINGS`] with the grid as a storage buffer.
@@ -41,14 +80,8 @@ pub const BUFFER_BINDINGS: [Binding; 4] =
 /// The trilinear march reading a whole grid's points from a storage buffer (the `GRID_BUFFER`
 /// variant, its default where the grid fits one): the same samples as the image's, which
 /// llvmpipe reads with far fewer instructions than a texelFetch.
-pub fn buffer_pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
-    ComputePipeline::new(
-        ctx,
-        "raymarch",
-        shaders::RAYMARCH_BUFFER,
-        &BUFFER_BINDINGS,
-        std::mem::size_of::<super::Band>() as u32,
-    )
+pub fn buffer_pipeline(ctx: &Arc<Context>, march: March) -> Result<ComputePipeline, GpuError> {
+    build(ctx, "raymarch", shaders::RAYMARCH_BUFFER, &BUFFER_BINDINGS, march)
 }
 
 /// Bindings of the `GRID_POOL` variants of both ray passes (`field.residency = "active"`):
@@ -57,14 +90,8 @@ pub const POOL_BINDINGS: [Binding; 6] =
     [Binding::Uniform, Binding::Read, Binding::Write, Binding::Read, Binding::Read, Binding::Read];
 
 /// The `GRID_POOL` variant of this pass.
-pub fn pool_pipeline(ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
-    ComputePipeline::new(
-        ctx,
-        "raymarch (brick pool)",
-        shaders::RAYMARCH_POOL,
-        &POOL_BINDINGS,
-        std::mem::size_of::<super::Band>() as u32,
-    )
+pub fn pool_pipeline(ctx: &Arc<Context>, march: March) -> Result<ComputePipeline, GpuError> {
+    build(ctx, "raymarch (brick pool)", shaders::RAYMARCH_POOL, &POOL_BINDINGS, march)
 }
 
 /// Where a ray pass reads the grid.

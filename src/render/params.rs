@@ -90,6 +90,11 @@ macro_rules! offsets {
 const _: () = {
     assert!(consts::CLIP_PLANES as usize == Clip::MAX_PLANES);
     assert!(consts::SURFACES as usize == MAX_SURFACES && MAX_SURFACES % 4 == 0);
+    // raymarch.comp's marches fit llvmpipe's cap of 65,535 loop back-edges per invocation
+    // (passes::raymarch::LOOP_STEPS), with room for its other loops (the bisections): the
+    // longest, MARCH_UNROLL samples a back-edge (build.rs), and the loop's.
+    assert!((crate::scene::MAX_STEPS as u64).div_ceil(consts::MARCH_UNROLL as u64) < 62_000);
+    assert!(crate::passes::raymarch::LOOP_STEPS < 62_000);
     // std140: a vec3 at a multiple of 16, then the scalar that fills its slot.
     offsets!(RenderParams {
         eye: 0,

@@ -23,11 +23,12 @@ use crate::scene::{Method, Scene};
 /// carry what they are specialized for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(super) enum RayShader {
-    /// The grid image, marched through the scene's interpolant.
-    FixedStep(Interpolant),
+    /// The grid image, marched through the scene's interpolant. The marches carry what they
+    /// are specialized for.
+    FixedStep(Interpolant, raymarch::March),
     /// The trilinear march over the whole grid's points in a storage buffer.
-    FixedStepBuffer,
-    FixedStepPool,
+    FixedStepBuffer(raymarch::March),
+    FixedStepPool(raymarch::March),
     /// The grid image (an MPI rank's block, or a grid over the device's storage buffer range).
     Analytic(analytic::Walk),
     /// The whole grid in a storage buffer.
@@ -50,9 +51,11 @@ pub(super) enum RayShader {
 impl RayShader {
     fn pipeline(self, ctx: &Arc<Context>) -> Result<ComputePipeline, GpuError> {
         match self {
-            RayShader::FixedStep(interp) => raymarch::interpolant_pipeline(ctx, interp),
-            RayShader::FixedStepPool => raymarch::pool_pipeline(ctx),
-            RayShader::FixedStepBuffer => raymarch::buffer_pipeline(ctx),
+            RayShader::FixedStep(interp, march) => {
+                raymarch::interpolant_pipeline(ctx, interp, march)
+            }
+            RayShader::FixedStepPool(march) => raymarch::pool_pipeline(ctx, march),
+            RayShader::FixedStepBuffer(march) => raymarch::buffer_pipeline(ctx, march),
             RayShader::Analytic(walk) => analytic::pipeline(ctx, walk),
             RayShader::AnalyticBuffer(walk) => analytic::buffer_pipeline(ctx, walk),
             RayShader::AnalyticOccupancy(walk) => analytic::occupancy_pipeline(ctx, walk),
@@ -181,15 +184,16 @@ impl Renderer {
             }
             Ok(buffer)
         };
+        let march = raymarch::March::new(scene.render.steps, params.surfaces);
         let shader = match (scene.render.method, &gpu_grid.storage) {
             (Method::Mesh, _) => return Err(RenderError::Unsupported("mesh (as a ray pass)")),
-            (Method::FixedStep, Storage::Pool(_)) => RayShader::FixedStepPool,
+            (Method::FixedStep, Storage::Pool(_)) => RayShader::FixedStepPool(march),
             (Method::FixedStep, Storage::Image(image))
                 if interp == Interpolant::Trilinear && points(image)? =>
             {
-                RayShader::FixedStepBuffer
+                RayShader::FixedStepBuffer(march)
             }
-            (Method::FixedStep, Storage::Image(_)) => RayShader::FixedStep(interp),
+            (Method::FixedStep, Storage::Image(_)) => RayShader::FixedStep(interp, march),
             (Method::Analytic, Storage::Image(_)) if interp == Interpolant::Nearest => {
                 RayShader::Voxels(walk())
             }
@@ -311,7 +315,7 @@ impl Renderer {
             (
                 Storage::Image(_),
                 RayShader::AnalyticBuffer(_)
-                | RayShader::FixedStepBuffer
+                | RayShader::FixedStepBuffer(_)
                 | RayShader::AnalyticOccupancy(_)
                 | RayShader::AnalyticResume(_)
                 | RayShader::Tricubic(_, _, true),
@@ -321,7 +325,7 @@ impl Renderer {
                     .get()
                     .ok_or_else(|| GpuError::Bug("grid points not copied".into()))?,
             ),
-            (Storage::Image(image), RayShader::FixedStep(Interpolant::Device)) => {
+            (Storage::Image(image), RayShader::FixedStep(Interpolant::Device, _)) => {
                 GridInput::Filtered(image)
             }
             (Storage::Image(image), _) => GridInput::Image(image),

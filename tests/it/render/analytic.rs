@@ -1105,3 +1105,28 @@ fn scene_keys_skip_and_crossing() {
     let e = parse(&format!("{cell}[render]\nskip = 1\n"), &[]).unwrap_err().to_string();
     assert_eq!(e, "t.toml:5:8: render.skip: expected true or false, got an integer 1");
 }
+
+/// llvmpipe ends all loops of an invocation after 65,535 back-edges (the fixed-step march's
+/// long-march fix, docs/methods.md): the walks' loops per cell must leave room for the longest
+/// ray. A rod of the widest grid lavapipe holds (4,096 points along x), a crossing in every
+/// cell, counted along its length: the trilinear walk and nearest's voxel walk count all 4,095
+/// as their references do. (The tricubic walk stops at 2,048 here: docs/limitations.md.)
+#[gpu_test]
+fn every_walk_counts_a_crossing_in_each_of_4095_cells() {
+    use isoview::field::interpolant::Interpolant;
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let n = 4096;
+    let hi = DVec3::new(n as f64 - 1.0, 3.0, 3.0);
+    let grid = grid_from([n, 4, 4], DVec3::ZERO, hi, |p| (std::f64::consts::PI * p.x).cos());
+    let mut scene = scene_for(&grid, DVec3::new(-5.0, 1.3, 1.4), 1, Method::Analytic);
+    scene.camera.target = DVec3::new(1000.0, 1.3, 1.4);
+    scene.render.count_crossings = true;
+    for interp in [Interpolant::Trilinear, Interpolant::Nearest] {
+        scene.field.interpolation = interp;
+        let g = renderer.render(&scene, &grid, 0.0).unwrap().pixels[0];
+        let r = isoview::reference::analytic::render(&scene, &grid)[0];
+        assert_eq!(r.crossings, 4095, "{}: the reference", interp.name());
+        assert_eq!(g.crossings, r.crossings, "{}", interp.name());
+    }
+}

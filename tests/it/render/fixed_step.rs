@@ -252,3 +252,58 @@ fn grid_buffer_and_grid_image_marches_agree_bit_for_bit() {
     }
     assert!(hits > 2_000, "{hits}");
 }
+
+/// Seventh attack pass: past ~21,800 samples a ray marched on lavapipe lost its surface, exit
+/// 0 (steps = 131,072 on the sphere scene: no pixel hit). llvmpipe ends all loops of an
+/// invocation after 65,535 back-edges in all (gallivm's LP_MAX_TGSI_LOOP_ITERATIONS), and a
+/// sample cost three. A sample now costs one, and a march of more than `LOOP_STEPS` takes
+/// MARCH_UNROLL samples per back-edge. A 1,400-point rod looked at along its length, at
+/// `LOOP_STEPS` (the loop's most) and at `scene::MAX_STEPS` samples (the plane at x = 1,300.25
+/// is 93% of the samples in; the far one, past the box, is never met): every interpolant's march,
+/// the trilinear one from its buffer and its image, finds what its reference finds, after as
+/// many samples. Seen failing before the change: the steps channel stopped at 21,844.
+#[gpu_test]
+fn a_march_of_the_most_steps_allowed_ends_where_its_reference_does() {
+    use isoview::field::interpolant::Interpolant;
+    use isoview::passes::raymarch::LOOP_STEPS;
+    use isoview::scene::MAX_STEPS;
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let n = 1400;
+    let (lo, hi) = (DVec3::ZERO, DVec3::new(n as f64 - 1.0, 3.0, 3.0));
+    let steps_and_planes = [LOOP_STEPS, MAX_STEPS as u32]
+        .into_iter()
+        .flat_map(|steps| [(steps, 1300.25, true), (steps, 5000.0, false)]);
+    for (steps, plane, hit) in steps_and_planes {
+        let grid = grid_from([n, 4, 4], lo, hi, |p| p.x - plane);
+        // One ray along the rod, off the voxel faces at y, z = 1.5.
+        let mut scene = scene_for(&grid, DVec3::new(-5.0, 1.3, 1.4), 1, Method::FixedStep);
+        scene.camera.target = DVec3::new(1000.0, 1.3, 1.4);
+        scene.render.steps = steps;
+        scene.surface.isovalue = 0.0;
+        for (interp, buffer) in [
+            (Interpolant::Trilinear, true),
+            (Interpolant::Trilinear, false),
+            (Interpolant::CubicBspline, true),
+            (Interpolant::CatmullRom, true),
+            (Interpolant::Nearest, true),
+        ] {
+            scene.field.interpolation = interp;
+            renderer.grid_buffer = buffer;
+            let frame = renderer.render(&scene, &grid, 0.0).unwrap();
+            let sampling = fixed_step::Sampling::new(interp);
+            let reference = fixed_step::render_sampled(&scene, &grid, sampling);
+            let what = format!("{} (buffer {buffer}), {steps} steps, plane {plane}", interp.name());
+            for (g, r) in frame.pixels.iter().zip(&reference) {
+                assert_eq!((g.is_hit(), g.steps), (hit, r.steps), "{what}: {g:?}");
+                assert_eq!(r.is_hit(), hit, "{what}: the reference");
+                if hit {
+                    assert!(r.steps > 0.9 * steps as f32, "{what}: {} samples", r.steps);
+                    assert!((g.position[0] - r.position[0]).abs() < 1e-2, "{what}: {g:?}");
+                } else {
+                    assert_eq!(g.steps, steps as f32, "{what}");
+                }
+            }
+        }
+    }
+}

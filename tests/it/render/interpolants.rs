@@ -38,6 +38,14 @@ struct Tally {
     excused: usize,
 }
 
+impl std::ops::AddAssign for Tally {
+    fn add_assign(&mut self, t: Tally) {
+        self.rays += t.rays;
+        self.hits += t.hits;
+        self.excused += t.excused;
+    }
+}
+
 /// Whether grid coordinate `u` lies within `tol` of a voxel face (a half-integer plane) on
 /// some axis: where f32 and f64 may put a sample in different voxels.
 fn near_voxel_face(u: DVec3, tol: f64) -> bool {
@@ -169,10 +177,7 @@ fn fixed_step_through_each_interpolant_matches_its_reference() {
             scene.surface.inside = if case % 2 == 0 { Inside::Below } else { Inside::Above };
             scene.render.shading = [Shading::Lambert, Shading::Normal, Shading::Cells][case % 3];
             let frame = renderer.render(&scene, &grid, 0.0).unwrap();
-            let t = compare(&scene, &grid, &frame.pixels);
-            total.rays += t.rays;
-            total.hits += t.hits;
-            total.excused += t.excused;
+            total += compare(&scene, &grid, &frame.pixels);
         }
         eprintln!("fixed-step {}: {total:?}", interp.name());
         assert!(total.hits > total.rays / 10, "{}: too few hits: {total:?}", interp.name());
@@ -201,10 +206,7 @@ fn the_cubic_marches_match_their_references_on_smooth_grids() {
             scene.render.steps = 150 + 50 * case as u32;
             scene.surface.isovalue = rng.range(-0.2, 0.2);
             let frame = renderer.render(&scene, &grid, 0.0).unwrap();
-            let t = compare(&scene, &grid, &frame.pixels);
-            total.rays += t.rays;
-            total.hits += t.hits;
-            total.excused += t.excused;
+            total += compare(&scene, &grid, &frame.pixels);
         }
         eprintln!("fixed-step {} on smooth grids: {total:?}", interp.name());
         assert!(total.hits > total.rays / 10, "{}: too few hits: {total:?}", interp.name());

@@ -145,15 +145,22 @@ Poly cubic_segment(Samples k, vec3 q_in, vec3 q_out) {
 
 // The half [0, 1/2] (left) or [1/2, 1] of a polynomial, by de Casteljau at 1/2
 // (`Bernstein::keep_left`, `keep_right`).
+// Both loops unrolled, the inner one over a constant range with the triangle's bound as a
+// condition (a bound that depends on r keeps the driver from unrolling either): as loops,
+// their back-edges counted towards llvmpipe's cap (raymarch.comp's LONG_MARCH) on every node.
 void keep_left(inout Poly c) {
-    for (int r = 1; r <= DEG; r++) {
-        for (int i = DEG; i >= r; i--) c.b[i] = 0.5 * (c.b[i - 1] + c.b[i]);
+    [[unroll]] for (int r = 1; r <= DEG; r++) {
+        [[unroll]] for (int i = DEG; i >= 1; i--) {
+            if (i >= r) c.b[i] = 0.5 * (c.b[i - 1] + c.b[i]);
+        }
     }
 }
 
 void keep_right(inout Poly c) {
-    for (int r = 1; r <= DEG; r++) {
-        for (int i = 0; i <= DEG - r; i++) c.b[i] = 0.5 * (c.b[i] + c.b[i + 1]);
+    [[unroll]] for (int r = 1; r <= DEG; r++) {
+        [[unroll]] for (int i = 0; i < DEG; i++) {
+            if (i <= DEG - r) c.b[i] = 0.5 * (c.b[i] + c.b[i + 1]);
+        }
     }
 }
 
@@ -257,7 +264,7 @@ float entry_face(int a, vec3 d) {
 // carries from the previous cell's exit point (1 - q on the crossed axes).
 vec3 entry_point(bvec3 entered, ivec3 cell, float t_in, vec3 o, vec3 d) {
     vec3 q;
-    for (int a = 0; a < 3; a++) {
+    [[unroll]] for (int a = 0; a < 3; a++) {
         q[a] = entered[a] ? entry_face(a, d) : local_at(a, t_in, cell, o, d);
     }
     return q;
@@ -266,7 +273,7 @@ vec3 entry_point(bvec3 entered, ivec3 cell, float t_in, vec3 o, vec3 d) {
 // The entry point of the next cell after a zero-length segment with entry point q: unchanged
 // but on the crossed axes.
 vec3 carried(bvec3 crossed, vec3 q, vec3 d) {
-    for (int a = 0; a < 3; a++) {
+    [[unroll]] for (int a = 0; a < 3; a++) {
         if (crossed[a]) q[a] = entry_face(a, d);
     }
     return q;
@@ -277,7 +284,7 @@ vec3 carried(bvec3 crossed, vec3 q, vec3 d) {
 bool step_cells(bvec3 crossed, inout ivec3 cell, inout vec3 tmax, vec3 o, vec3 d) {
     ivec3 ncell = P.dims - 1;
     bool left_box = false;
-    for (int a = 0; a < 3; a++) {
+    [[unroll]] for (int a = 0; a < 3; a++) {
         if (crossed[a]) {
             cell[a] += d[a] > 0.0 ? 1 : -1;
             left_box = left_box || cell[a] < 0 || cell[a] > ncell[a] - 1;
@@ -413,7 +420,7 @@ void main() {
         float t_out = max(min(min(tmax.x, min(tmax.y, tmax.z)), t_hi), t_in);
         bvec3 crossed = lessThanEqual(tmax, vec3(t_out));
         vec3 q_out;
-        for (int a = 0; a < 3; a++) {
+        [[unroll]] for (int a = 0; a < 3; a++) {
             if (crossed[a]) {
                 q_out[a] = d[a] > 0.0 ? 1.0 : 0.0;
             } else if (t_out == t_in) {
@@ -430,10 +437,10 @@ void main() {
             // The first crossing of this cell among the surfaces, for the hit.
             float best_u = 2.0;
             uint best_k = 0u;
-            for (uint s = 0u; s < surfaces; s++) {
+            for (uint s = 0u; s < SURFACE_COUNT; s++) {
                 float iso = P.thresholds[s / 4u][s % 4u];
                 Poly g;
-                for (int i = 0; i <= DEG; i++) g.b[i] = fseg.b[i] - iso;
+                [[unroll]] for (int i = 0; i <= DEG; i++) g.b[i] = fseg.b[i] - iso;
                 g.b[0] = f_in - iso;
                 g.b[DEG] = f_out - iso;
                 // 6.4 The isolation's leaves in u order; 6.5 crossings, leaf by leaf.

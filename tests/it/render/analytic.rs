@@ -1110,7 +1110,7 @@ fn scene_keys_skip_and_crossing() {
 /// long-march fix, docs/methods.md): the walks' loops per cell must leave room for the longest
 /// ray. A rod of the widest grid lavapipe holds (4,096 points along x), a crossing in every
 /// cell, counted along its length: the trilinear walk and nearest's voxel walk count all 4,095
-/// as their references do. (The tricubic walk stops at 2,048 here: docs/limitations.md.)
+/// as their references do. (The tricubic walk stops at 3,449 here: docs/limitations.md.)
 #[gpu_test]
 fn every_walk_counts_a_crossing_in_each_of_4095_cells() {
     use isoview::field::interpolant::Interpolant;

@@ -144,25 +144,14 @@ void main() {
             uint flipped = 0u;  // bit k: surface k's predicate changes in [ta, tb]
             float tb = t0;
             float fb = fa;
-            if (LONG_MARCH) {
-                // MARCH_UNROLL samples per back-edge (build.rs: llvmpipe ends an invocation's
-                // loops after 65,535 back-edges in all; the block below has none): the same
-                // samples in the same order as the loop below.
-                while (i < n && flipped == 0u) {
+            // One sample a back-edge, or with LONG_MARCH MARCH_UNROLL of them (build.rs: llvmpipe
+            // ends an invocation's loops after 65,535 back-edges in all; the block has none):
+            // the same samples in the same order either way.
+            while (i < n && flipped == 0u) {
+                if (LONG_MARCH) {
                     MARCH_BLOCK
-                }
-            } else {
-                for (; i < n; i++) {
-                    tb = t0 + (t1 - t0) * (float(i) / float(n - 1u));
-                    fb = field_cached(cache, to_grid(o + d * tb));
-                    count++;
-                    uint inb = inside_mask(fb);
-                    flipped = gap || cache.missing ? 0u : inb ^ ina;
-                    if (flipped != 0u) break;
-                    ta = tb;
-                    fa = fb;
-                    ina = inb;
-                    gap = cache.missing;
+                } else {
+                    MARCH_SAMPLE
                 }
             }
             if (flipped == 0u) break;

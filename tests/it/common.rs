@@ -98,6 +98,20 @@ pub fn scene_for(grid: &Grid, eye: DVec3, size: u32, method: Method) -> Scene {
     scene
 }
 
+/// A rod of `n` x 4 x 4 points, one unit apart from the origin, sampling `f`: the longest walk
+/// or march a small grid gives (the llvmpipe loop-cap tests).
+pub fn rod(n: usize, f: impl Fn(DVec3) -> f64) -> Grid {
+    grid_from([n, 4, 4], DVec3::ZERO, DVec3::new(n as f64 - 1.0, 3.0, 3.0), f)
+}
+
+/// A one-pixel scene of `method` whose ray runs along [`rod`]'s length from x = -5, off the
+/// voxel faces at y, z = 1.5.
+pub fn along_rod(grid: &Grid, method: Method) -> Scene {
+    let mut scene = scene_for(grid, DVec3::new(-5.0, 1.3, 1.4), 1, method);
+    scene.camera.target = DVec3::new(1000.0, 1.3, 1.4);
+    scene
+}
+
 /// A random camera position looking at the box from outside (or, with `inside`, from within).
 pub fn random_eye(rng: &mut Rng, grid: &Grid, inside: bool) -> DVec3 {
     let c = 0.5 * (grid.min + grid.max);

@@ -1116,11 +1116,8 @@ fn every_walk_counts_a_crossing_in_each_of_4095_cells() {
     use isoview::field::interpolant::Interpolant;
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
-    let n = 4096;
-    let hi = DVec3::new(n as f64 - 1.0, 3.0, 3.0);
-    let grid = grid_from([n, 4, 4], DVec3::ZERO, hi, |p| (std::f64::consts::PI * p.x).cos());
-    let mut scene = scene_for(&grid, DVec3::new(-5.0, 1.3, 1.4), 1, Method::Analytic);
-    scene.camera.target = DVec3::new(1000.0, 1.3, 1.4);
+    let grid = rod(4096, |p| (std::f64::consts::PI * p.x).cos());
+    let mut scene = along_rod(&grid, Method::Analytic);
     scene.render.count_crossings = true;
     for interp in [Interpolant::Trilinear, Interpolant::Nearest] {
         scene.field.interpolation = interp;

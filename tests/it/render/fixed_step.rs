@@ -269,16 +269,12 @@ fn a_march_of_the_most_steps_allowed_ends_where_its_reference_does() {
     use isoview::scene::MAX_STEPS;
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
-    let n = 1400;
-    let (lo, hi) = (DVec3::ZERO, DVec3::new(n as f64 - 1.0, 3.0, 3.0));
     let steps_and_planes = [LOOP_STEPS, MAX_STEPS as u32]
         .into_iter()
         .flat_map(|steps| [(steps, 1300.25, true), (steps, 5000.0, false)]);
     for (steps, plane, hit) in steps_and_planes {
-        let grid = grid_from([n, 4, 4], lo, hi, |p| p.x - plane);
-        // One ray along the rod, off the voxel faces at y, z = 1.5.
-        let mut scene = scene_for(&grid, DVec3::new(-5.0, 1.3, 1.4), 1, Method::FixedStep);
-        scene.camera.target = DVec3::new(1000.0, 1.3, 1.4);
+        let grid = rod(1400, |p| p.x - plane);
+        let mut scene = along_rod(&grid, Method::FixedStep);
         scene.render.steps = steps;
         scene.surface.isovalue = 0.0;
         for (interp, buffer) in [

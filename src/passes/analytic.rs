@@ -88,7 +88,7 @@ pub fn occupancy_pipeline(ctx: &Arc<Context>, walk: Walk) -> Result<ComputePipel
 }
 
 /// Bindings of the two-pass variants: [`OCCUPANCY_BINDINGS`], then the listed rays and their
-/// count ([`super::occupancy::Listed`]).
+/// count ([`super::listed::Listed`]).
 pub const LISTED_BINDINGS: [Binding; 9] = extended(OCCUPANCY_BINDINGS, Binding::ReadWrite);
 
 /// `bindings` and then `M - N` more bindings, each `more`.

@@ -10,6 +10,7 @@ pub use band::{band_rows, Band, Bands, MAX_BAND_PIXELS};
 
 pub mod bricks;
 pub mod extract;
+pub mod listed;
 pub mod mesh_render;
 pub mod occupancy;
 pub mod raymarch;

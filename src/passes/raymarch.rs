@@ -120,8 +120,8 @@ pub struct RayInputs<'a> {
     /// The occupancy structure ([`super::occupancy`]): the `OCCUPANCY` walk's last two
     /// bindings.
     pub occupancy: Option<&'a super::occupancy::Occupancy>,
-    /// The two-pass walk's listed rays ([`super::occupancy::Listed`]): its last two bindings.
-    pub listed: Option<&'a super::occupancy::Listed>,
+    /// The two-pass walk's listed rays ([`super::listed::Listed`]): its last two bindings.
+    pub listed: Option<&'a super::listed::Listed>,
 }
 
 /// A ray pass bound to its inputs; records one band at a time.

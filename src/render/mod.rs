@@ -156,8 +156,8 @@ pub struct Renderer {
     pub last_occupancy_ms: Option<f64>,
     /// Whether the last frame built the occupancy structure (for new isovalues or a new grid).
     pub built_occupancy: bool,
-    /// The two-pass walk's list of rays, kept between renders (`passes::occupancy::Listed`).
-    listed: Option<crate::passes::occupancy::Listed>,
+    /// The two-pass walk's list of rays, kept between renders (`passes::listed::Listed`).
+    listed: Option<crate::passes::listed::Listed>,
     /// The occupancy structure's passes, per surface count, built on first use.
     occupancy_pipelines: std::collections::HashMap<u32, crate::passes::occupancy::Pipelines>,
 }

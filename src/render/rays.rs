@@ -16,7 +16,7 @@ use crate::field::Grid;
 use crate::frame::Pixel;
 use crate::gpu::{Buffer, ComputePipeline, Context, GpuError};
 use crate::passes::raymarch::{GridInput, RayInputs, RayPass};
-use crate::passes::{analytic, bricks, occupancy, raymarch, tricubic, voxels, Bands};
+use crate::passes::{analytic, bricks, listed, occupancy, raymarch, tricubic, voxels, Bands};
 use crate::scene::{Method, Scene};
 
 /// The ray passes' shaders: method and how the grid is on the device; the analytic builds
@@ -309,7 +309,7 @@ impl Renderer {
                 None
             }
             (Some(_), Some(l)) if l.band_pixels >= bands.band_pixels() => Some(l),
-            (Some(_), _) => Some(occupancy::Listed::new(ctx, bands.band_pixels())?),
+            (Some(_), _) => Some(listed::Listed::new(ctx, bands.band_pixels())?),
         };
         let grid_input = match (&gpu_grid.storage, shader) {
             (
@@ -373,7 +373,7 @@ impl Renderer {
                     (Some(first), Some(l)) => {
                         l.reset(rec);
                         first.record(rec, width, band);
-                        pass.record_indirect(rec, band, &l.count, occupancy::Listed::ARGS);
+                        pass.record_indirect(rec, band, &l.count, listed::Listed::ARGS);
                     }
                     _ => pass.record(rec, width, band),
                 }

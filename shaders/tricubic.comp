@@ -60,10 +60,42 @@ layout(std430, binding = 1) readonly buffer Grid { float grid[]; };
 #else
 layout(binding = 1) uniform sampler3D u_grid;
 #endif
-layout(std430, binding = 2) writeonly buffer Out { Pixel pixels[]; };
+// Read too: a resumed ray that had its hit before it was cut short finds the hit's record here.
+layout(std430, binding = 2) buffer Out { Pixel pixels[]; };
 layout(std430, binding = 3) readonly buffer Colormap { vec4 colormap[256]; };
 layout(std430, binding = 4) readonly buffer Bricks { vec2 bricks[]; };
 layout(push_constant) uniform Band { uint row_offset; uint rows; } band;
+
+// Walks cut short (passes/tricubic.rs, `occupancy::Listed`). llvmpipe ends every loop of an
+// invocation once its loops have passed 65,535 back-edges in all, counted for its whole group of
+// 8 lanes (gallivm's LP_MAX_TGSI_LOOP_ITERATIONS; raymarch.comp's LONG_MARCH): a walk through
+// thousands of candidate cells (a noisy volume, `count_crossings`, a late `crossing`) stopped
+// there silently and lost what lay beyond. The walk therefore keeps, at the top of each of its
+// iterations, the state it had there (a checkpoint: clean, since loops still ran), and learns
+// whether the cap ended its loops: it did if the walk left its loop without ending (the cap
+// ends the loop), or if a probe loop of two passes, run where the walk ends, made only one. A
+// walk cut short lists its pixel and checkpoint; the resuming build of this shader (RESUMED),
+// dispatched over the listed rays (indirectly), goes on from there, in place, round after round
+// until no ray is left (`live`). Every channel is the uncut walk's, bit for bit: the walk from
+// a checkpoint is the same walk. A round that cannot finish one iteration of a ray's walk
+// counts it in `lost` (the renderer refuses the picture) instead of listing it for ever.
+// A listed ray: (pixel, cell.xyz), (t_in bits, passes, crossings, flags).
+layout(std430, binding = 5) buffer Listed { uvec4 listed[]; };
+layout(std430, binding = 6) buffer Count {
+    uint count;     // rays listed (by the first round)
+    uint groups_x;  // the resuming rounds' workgroups (VkDispatchIndirectCommand)
+    uint groups_y;
+    uint groups_z;
+    uint live;      // rays this round cut short again (zeroed before each round)
+    uint lost;      // rays whose walk made no progress in a round
+    uint probe;     // 2: the probe loop's trip count, read from memory so no compiler unrolls it
+};
+// The build that goes on from listed checkpoints (specialization constant 2).
+layout(constant_id = 2) const bool RESUMED = false;
+// A listed ray's flags: the axes entered (bits 0-2), then these.
+const uint LISTED_HIT = 8u;    // its hit is found (and its record written: count_crossings)
+const uint LISTED_LIVE = 16u;  // its walk goes on in the next round
+const uint LISTED_KNOWN = 32u; // a checkpoint's entry point is step 4's (never listed)
 
 // The build without a variant macro is the B-spline's (build.rs compiles every .comp as it is).
 #if !defined(INTERP_BSPLINE) && !defined(INTERP_CATMULL_ROM)
@@ -313,14 +345,51 @@ bool cell_is_clear(Samples k) {
     return range_is_empty(vec2(lo, hi));
 }
 
+// Whether llvmpipe's loop cap has ended this invocation's loops (Count's comment): a loop of
+// `probe` = 2 passes then makes one (past the cap every loop ends after its first pass).
+bool loop_cap_reached() {
+    uint made = 0u;
+    [[dont_unroll]] for (uint i = 0u; i < probe; i++) made++;
+    return made < 2u;
+}
+
+// The record of a hit: normal, shading and the other channels of record r.
+Pixel hit_pixel(Pixel r, vec3 eye, vec3 dir, float t_hit, uint hit_surface, ivec3 hit_cell,
+                vec3 hit_q, vec3 hit_grad) {
+    vec3 grad = hit_grad * P.inv_spacing * P.inside_sign;
+    vec3 normal = unit_or(grad, -dir);
+    vec3 u = vec3(hit_cell) + hit_q;
+    r.depth = t_hit;
+    r.position = eye + dir * t_hit;
+    r.normal = normal;
+    r.cell = hit_cell;
+    r.surface = P.surfaces > 1u ? int(hit_surface) : -1;
+    r.rgba = vec4(shade(normal, dir, t_hit, r.steps, u, hit_cell,
+                        P.surface_color[hit_surface].rgb), 1.0);
+    return r;
+}
+
 void main() {
-    uvec2 px_local = gl_GlobalInvocationID.xy;
-    if (px_local.x >= P.picture_width || px_local.y >= band.rows) return;
+    uvec2 px_local;
+    uint at = 0u;  // the listed ray (RESUMED)
+    uvec4 from0 = uvec4(0u), from1 = uvec4(0u);
+    if (RESUMED) {
+        at = gl_WorkGroupID.x * uint(RAY_GROUP * RAY_GROUP) + gl_LocalInvocationIndex;
+        if (at >= count) return;
+        from0 = listed[2u * at];
+        from1 = listed[2u * at + 1u];
+        if ((from1.w & LISTED_LIVE) == 0u) return;
+        px_local = uvec2(from0.x % P.picture_width, from0.x / P.picture_width);
+    } else {
+        px_local = gl_GlobalInvocationID.xy;
+        if (px_local.x >= P.picture_width || px_local.y >= band.rows) return;
+    }
+    uint pix = px_local.y * P.picture_width + px_local.x;
     uvec2 px = uvec2(px_local.x, px_local.y + band.row_offset) * P.stride;
     Pixel r = miss_pixel();
     WalkRay w;
     if (!walk_ray(px, w)) {
-        pixels[px_local.y * P.picture_width + px_local.x] = r;
+        pixels[pix] = r;
         return;
     }
     vec3 eye = w.eye, dir = w.dir, o = w.o, d = w.d, n = w.n, p = w.p;
@@ -369,7 +438,47 @@ void main() {
     bool known = true;        // q_in is `q_known` (step 4's, carried through zero-length cells)
     vec3 q_known = q_in;
     bvec3 entered = bvec3(false);  // the axes whose planes the walk crossed into `cell`
-    for (;;) {
+    // A listed ray goes on from its checkpoint (tmax from its cell, as the walk computes it:
+    // the same bits). Its entry point is then never step 4's: a walk is listed only past it.
+    bool resumed_hit = false;  // the hit's record is in pixels[] already
+    if (RESUMED) {
+        cell = ivec3(from0.yzw);
+        tmax = vec3(tmax_of(0, cell.x, o, d), tmax_of(1, cell.y, o, d), tmax_of(2, cell.z, o, d));
+        t_in = uintBitsToFloat(from1.x);
+        passes = from1.y;
+        crossings = from1.z;
+        entered = bvec3((from1.w & 1u) != 0u, (from1.w & 2u) != 0u, (from1.w & 4u) != 0u);
+        known = false;
+        resumed_hit = (from1.w & LISTED_HIT) != 0u;
+        hit = resumed_hit;
+    }
+    // The checkpoint (Count's comment), the state at the top of the latest iteration, is kept
+    // in memory: in the ray's listed slot (RESUMED) or its pixel's record, which is written
+    // only at the end. In variables it came out mixed: the compiler shares a copy's register
+    // with the loop's own state where no path it knows of tells them apart, and the cap's way
+    // out of the loop is one it does not know of. The hit's own fields need none (a walk goes
+    // on past its hit only to count crossings, and they do not change after it).
+    bool ended = false;    // the walk ended (not the cap)
+    bool capped = false;   // ... but the cap had ended loops first
+    // The loop's bound, 2^31, is read from memory: the compiler (NIR, before llvmpipe adds the
+    // cap) must then keep a way out of the loop that passes no `break` -- the way the cap takes
+    // -- with `ended` false on it. With `for (;;)` it folded `ended` to true after the loop.
+    uint most = probe << 30u;
+    uint iterations = 0u;
+    while (iterations < most) {
+        iterations++;
+        uint bits = (entered.x ? 1u : 0u) | (entered.y ? 2u : 0u) | (entered.z ? 4u : 0u)
+            | (hit ? LISTED_HIT : 0u) | (known ? LISTED_KNOWN : 0u) | LISTED_LIVE;
+        if (RESUMED) {
+            listed[2u * at] = uvec4(pix, uvec3(cell));
+            listed[2u * at + 1u] = uvec4(floatBitsToUint(t_in), passes, crossings, bits);
+        } else {
+            pixels[pix].cell = cell;
+            pixels[pix].depth = t_in;
+            pixels[pix].crossings = int(crossings);
+            pixels[pix].pad0 = passes;
+            pixels[pix].pad1 = bits;
+        }
         // 6a. To the next candidate cell.
         bool candidate = false;
         // No `break` in this loop: with one (to leave at a candidate while other lanes step
@@ -410,7 +519,11 @@ void main() {
                 }
             }
         }
-        if (!candidate) break;
+        if (!candidate) {
+            ended = true;
+            capped = loop_cap_reached();
+            break;
+        }
 
         // 6b. The candidate cell: 6.1 segment end, 6.2 exit point and values.
         q_in = known ? q_known : entry_point(entered, cell, t_in, o, d);
@@ -508,31 +621,70 @@ void main() {
                 hit_cell = cell;
                 hit_q = mix(q_in, q_out, best_u);
                 hit_grad = cubic_gradient(k, hit_q);
-                if (!count_all) break;
+                if (!count_all) {
+                    ended = true;
+                    capped = loop_cap_reached();
+                    break;
+                }
             }
         }
         // 6.6 Advance.
-        if (t_out >= t_hi) break;
+        if (t_out >= t_hi || !step_cells(crossed, cell, tmax, o, d)) {
+            ended = true;
+            capped = loop_cap_reached();
+            break;
+        }
         entered = crossed;
         known = known && t_out == t_in;
         if (known) q_known = carried(entered, q_in, d);
-        if (!step_cells(crossed, cell, tmax, o, d)) break;
         t_in = t_out;
     }
 
+    if (!ended || capped) {
+        // Cut short: listed from the checkpoint, which must lie past the round's start (its
+        // `passes` grows every iteration) and past step 4's entry point (not `known`): else
+        // no round could finish this iteration, and the ray is lost.
+        uvec4 ck0, ck1;
+        if (RESUMED) {
+            ck0 = listed[2u * at];
+            ck1 = listed[2u * at + 1u];
+        } else {
+            Pixel c = pixels[pix];
+            ck0 = uvec4(pix, uvec3(c.cell));
+            ck1 = uvec4(floatBitsToUint(c.depth), c.pad0, uint(c.crossings), c.pad1);
+        }
+        bool ck_hit = (ck1.w & LISTED_HIT) != 0u;
+        if ((ck1.w & LISTED_KNOWN) != 0u || (RESUMED && ck1.y == from1.y)) {
+            atomicAdd(lost, 1u);
+            if (RESUMED) listed[2u * at + 1u].w = 0u;
+            pixels[pix] = r;
+            return;
+        }
+        if (!RESUMED) {
+            uint slot = atomicAdd(count, 1u);
+            // One more workgroup of the resuming rounds per RAY_GROUP^2 rays listed.
+            if (slot % uint(RAY_GROUP * RAY_GROUP) == 0u) atomicAdd(groups_x, 1u);
+            listed[2u * slot] = ck0;
+            listed[2u * slot + 1u] = ck1;
+        }
+        atomicAdd(live, 1u);
+        // The pixel's record: a hit before the checkpoint's now (its fields did not change
+        // since), else the miss's until a round ends the walk.
+        if (ck_hit && !resumed_hit) {
+            r.steps = float(hit_steps);
+            r = hit_pixel(r, eye, dir, t_hit, hit_surface, hit_cell, hit_q, hit_grad);
+        }
+        if (!resumed_hit) pixels[pix] = r;
+        return;
+    }
+    if (RESUMED) listed[2u * at + 1u].w = 0u;
+    if (resumed_hit) {
+        // Its hit's record is written: only the crossings (count_crossings) went on.
+        pixels[pix].crossings = int(crossings);
+        return;
+    }
     if (count_all) r.crossings = int(crossings);
     r.steps = float(hit ? hit_steps : passes);
-    if (hit) {
-        vec3 grad = hit_grad * P.inv_spacing * P.inside_sign;
-        vec3 normal = unit_or(grad, -dir);
-        vec3 u = vec3(hit_cell) + hit_q;
-        r.depth = t_hit;
-        r.position = eye + dir * t_hit;
-        r.normal = normal;
-        r.cell = hit_cell;
-        r.surface = surfaces > 1u ? int(hit_surface) : -1;
-        r.rgba = vec4(shade(normal, dir, t_hit, r.steps, u, hit_cell,
-                            P.surface_color[hit_surface].rgb), 1.0);
-    }
-    pixels[px_local.y * P.picture_width + px_local.x] = r;
+    if (hit) r = hit_pixel(r, eye, dir, t_hit, hit_surface, hit_cell, hit_q, hit_grad);
+    pixels[pix] = r;
 }

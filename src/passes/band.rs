@@ -137,12 +137,30 @@ impl<P: Pod> Bands<P> {
     pub fn for_each_band<E: From<GpuError>>(
         &self,
         pass: &str,
+        after_band: impl FnMut(Band, &[P]) -> Result<(), E>,
+        record: impl FnMut(&mut Recorder, Band) -> Result<(), GpuError>,
+    ) -> Result<Option<f64>, E> {
+        self.for_each_band_in_rounds(pass, after_band, record, None)
+    }
+
+    /// [`Bands::for_each_band`] with further `rounds` of each band's passes after its first
+    /// submission, while they say work is pending; the band's records are read after the last.
+    pub fn for_each_band_in_rounds<E: From<GpuError>>(
+        &self,
+        pass: &str,
         mut after_band: impl FnMut(Band, &[P]) -> Result<(), E>,
         mut record: impl FnMut(&mut Recorder, Band) -> Result<(), GpuError>,
+        rounds: Option<&dyn Rounds>,
     ) -> Result<Option<f64>, E> {
         let ctx = &self.ctx;
         let timer = Timer::new(ctx)?;
         let mut gpu_ms = timer.as_ref().map(|_| 0.0);
+        let add_time = |gpu_ms: &mut Option<f64>| -> Result<(), GpuError> {
+            if let (Some(t), Some(ms)) = (&timer, gpu_ms.as_mut()) {
+                *ms += t.elapsed_ms()?;
+            }
+            Ok(())
+        };
         let mut row = 0;
         while row < self.height {
             let rows = self.rows.min(self.height - row);
@@ -154,14 +172,39 @@ impl<P: Pod> Bands<P> {
                 rec.readback(&self.out, &self.readback, bytes);
                 Ok(())
             })?;
-            if let (Some(t), Some(ms)) = (&timer, gpu_ms.as_mut()) {
-                *ms += t.elapsed_ms()?;
+            add_time(&mut gpu_ms)?;
+            if let Some(rounds) = rounds {
+                let mut more = false;
+                while rounds.pending()? {
+                    ctx.record(pass, &mut Tracker::default(), |rec| {
+                        rec.timed(timer.as_ref(), |rec| rounds.record(rec, band))
+                    })?;
+                    add_time(&mut gpu_ms)?;
+                    more = true;
+                }
+                if more {
+                    ctx.record(pass, &mut Tracker::default(), |rec| {
+                        rec.readback(&self.out, &self.readback, bytes);
+                        Ok(())
+                    })?;
+                }
             }
             after_band(band, &self.readback.read::<P>(count)?)?;
             row += rows;
         }
         Ok(gpu_ms)
     }
+}
+
+/// More rounds of a band's passes ([`Bands::for_each_band_in_rounds`]): work one submission
+/// left, such as the tricubic walk's rays cut short by llvmpipe's loop cap
+/// ([`super::tricubic::Resume`]).
+pub trait Rounds {
+    /// After a submission of the band: whether another round is needed (an error stops the
+    /// picture).
+    fn pending(&self) -> Result<bool, GpuError>;
+    /// Records the next round.
+    fn record(&self, rec: &mut Recorder, band: Band) -> Result<(), GpuError>;
 }
 
 /// Why [`Bands::run_until`] stopped early: the hook said so, or the GPU failed.

@@ -6,7 +6,7 @@
 
 pub mod analytic;
 pub mod band;
-pub use band::{band_rows, Band, Bands, MAX_BAND_PIXELS};
+pub use band::{band_rows, Band, Bands, Rounds, MAX_BAND_PIXELS};
 
 pub mod bricks;
 pub mod extract;

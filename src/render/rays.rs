@@ -44,8 +44,10 @@ pub(super) enum RayShader {
     /// `interpolation = "nearest"`'s exact trace, the voxel walk, on the grid image.
     Voxels(analytic::Walk),
     /// The tricubic interpolants' exact trace, the Bernstein walk: on the grid image, or
-    /// (`true`) on the whole grid's points in a storage buffer, as `AnalyticBuffer`.
+    /// (`true`) on the whole grid's points in a storage buffer, as `AnalyticBuffer` ...
     Tricubic(Interpolant, analytic::Walk, bool),
+    /// ... and its rounds over the rays llvmpipe's loop cap cut short ([`tricubic::Resume`]).
+    TricubicResume(Interpolant, analytic::Walk, bool),
 }
 
 impl RayShader {
@@ -64,7 +66,10 @@ impl RayShader {
             RayShader::AnalyticPool(walk) => analytic::pool_pipeline(ctx, walk),
             RayShader::Voxels(walk) => voxels::pipeline(ctx, walk),
             RayShader::Tricubic(interp, walk, buffer) => {
-                tricubic::pipeline(ctx, interp, walk, buffer)
+                tricubic::pipeline(ctx, interp, walk, buffer, false)
+            }
+            RayShader::TricubicResume(interp, walk, buffer) => {
+                tricubic::pipeline(ctx, interp, walk, buffer, true)
             }
         }
     }
@@ -237,7 +242,14 @@ impl Renderer {
             RayShader::AnalyticResume(walk) => Some(RayShader::AnalyticSkip(walk)),
             _ => None,
         };
-        for s in first.iter().chain([&shader]) {
+        // The tricubic walk's rounds after it.
+        let then = match shader {
+            RayShader::Tricubic(interp, walk, buffer) => {
+                Some(RayShader::TricubicResume(interp, walk, buffer))
+            }
+            _ => None,
+        };
+        for s in first.iter().chain([&shader]).chain(then.iter()) {
             if !self.ray_pipelines.contains_key(s) {
                 self.ray_pipelines.insert(*s, s.pipeline(&self.ctx)?);
             }
@@ -303,13 +315,14 @@ impl Renderer {
             _ => None,
         };
         // Kept from the last render when it has room (no allocation per frame).
-        let listed = match (first, self.listed.take()) {
-            (None, kept) => {
+        let listing = first.is_some() || then.is_some();
+        let listed = match (listing, self.listed.take()) {
+            (false, kept) => {
                 self.listed = kept;
                 None
             }
-            (Some(_), Some(l)) if l.band_pixels >= bands.band_pixels() => Some(l),
-            (Some(_), _) => Some(listed::Listed::new(ctx, bands.band_pixels())?),
+            (true, Some(l)) if l.band_pixels >= bands.band_pixels() => Some(l),
+            (true, _) => Some(listed::Listed::new(ctx, bands.band_pixels())?),
         };
         let grid_input = match (&gpu_grid.storage, shader) {
             (
@@ -318,7 +331,8 @@ impl Renderer {
                 | RayShader::FixedStepBuffer(_)
                 | RayShader::AnalyticOccupancy(_)
                 | RayShader::AnalyticResume(_)
-                | RayShader::Tricubic(_, _, true),
+                | RayShader::Tricubic(_, _, true)
+                | RayShader::TricubicResume(_, _, true),
             ) => GridInput::Points(
                 gpu_grid
                     .points
@@ -352,6 +366,14 @@ impl Renderer {
             Some(s) => Some(RayPass::new(&self.ray_pipelines[&s], inputs())?),
             None => None,
         };
+        let then_pass = match then {
+            Some(s) => Some(RayPass::new(&self.ray_pipelines[&s], inputs())?),
+            None => None,
+        };
+        let resume = match (&then_pass, &listed) {
+            (Some(pass), Some(listed)) => Some(tricubic::Resume { pass, listed }),
+            _ => None,
+        };
         let mut info = self.frame_info(scene, grid, time);
         if analytic {
             // How the walk crossed empty space (what `steps` counts): the occupancy structure,
@@ -365,22 +387,24 @@ impl Renderer {
         }
         sink.begin(width, height, &info)?;
         let placement = scene.field.placement;
-        let gpu_ms = bands.for_each_band(
+        let gpu_ms = bands.for_each_band_in_rounds(
             pass.name(),
             |band, records| placed_band(sink, &placement, band, records),
             |rec, band| {
-                match (&first_pass, &listed) {
-                    (Some(first), Some(l)) => {
+                match (&first_pass, &listed, &resume) {
+                    (Some(first), Some(l), _) => {
                         l.reset(rec);
                         first.record(rec, width, band);
                         pass.record_indirect(rec, band, &l.count, listed::Listed::ARGS);
                     }
+                    (_, _, Some(resume)) => resume.record_first(rec, &pass, width, band),
                     _ => pass.record(rec, width, band),
                 }
                 Ok(())
             },
+            resume.as_ref().map(|r| r as &dyn crate::passes::Rounds),
         )?;
-        drop((pass, first_pass));
+        drop((pass, first_pass, then_pass));
         self.listed = listed;
         // All device work of the render: the ray passes and the structures it built.
         let built = [self.last_bricks_ms, self.last_occupancy_ms];

@@ -405,6 +405,74 @@ fn the_tricubic_walk_matches_its_reference() {
     }
 }
 
+/// llvmpipe ends an invocation's loops after 65,535 passes: the tricubic walk through thousands
+/// of candidate cells is cut short there, and goes on in rounds from its checkpoint
+/// (`passes::tricubic::Resume`). 64 rays along a 4,096-point rod with a crossing in every cell,
+/// leaving it through its sides from ~1,700 cells on, in workgroups of long and short rays:
+/// counting crossings past a first-cell hit (the hit's record kept across rounds), the 3,500th
+/// crossing, and two surfaces; every pixel's hit, steps, crossings, cell, depth and normal
+/// as the reference's. Without the rounds the B-spline counted 2,979 of 4,095 (and the
+/// workgroups lost more: seen failing with `Resume::pending` answering false).
+#[gpu_test]
+fn the_tricubic_walk_goes_on_where_the_loop_cap_cut_it() {
+    use isoview::reference::analytic;
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let grid = rod(4096, |p| (std::f64::consts::PI * p.x).cos());
+    let diag = (grid.max - grid.min).length();
+    for interp in [Interpolant::CubicBspline, Interpolant::CatmullRom] {
+        for case in 0..3 {
+            let mut scene = along_rod(&grid, Method::Analytic);
+            scene.field.interpolation = interp;
+            scene.image.width = 8;
+            scene.image.height = 8;
+            // Off the rod's axis (along_rod's eye): no ray leaves it through an edge, where
+            // f32 and f64 may step differently.
+            scene.camera.fov_y_deg = 0.1;
+            match case {
+                0 => scene.render.count_crossings = true,
+                1 => {
+                    scene.render.count_crossings = false;
+                    scene.render.crossing = 3500;
+                }
+                _ => {
+                    scene.render.count_crossings = true;
+                    // Inside the B-spline's range here, +-1/3 (it smooths the samples' +-1).
+                    scene.surface.more[0] = 0.2;
+                    scene.surface.count = 2;
+                }
+            }
+            let gpu = renderer.render(&scene, &grid, 0.0).unwrap().pixels;
+            let reference = analytic::render(&scene, &grid);
+            let (mut long, mut hits) = (0, 0);
+            for (i, (g, r)) in gpu.iter().zip(&reference).enumerate() {
+                let what = format!("{} case {case} pixel {i}", interp.name());
+                assert_eq!(g.is_hit(), r.is_hit(), "{what}: GPU {g:?} vs reference {r:?}");
+                assert_eq!(
+                    (g.steps, g.crossings, g.surface),
+                    (r.steps, r.crossings, r.surface),
+                    "{what}"
+                );
+                // Cells walked: one crossing of each surface per cell, or the steps.
+                let cells = match scene.render.count_crossings {
+                    true => r.crossings as f32 / scene.surface.count as f32,
+                    false => r.steps,
+                };
+                long += (cells > 3000.0) as usize;
+                if r.is_hit() {
+                    hits += 1;
+                    assert_eq!(g.cell, r.cell, "{what}");
+                    assert!((g.depth - r.depth).abs() as f64 <= DEPTH_TOL * diag, "{what}");
+                    assert!((v3(g.normal) - v3(r.normal)).length() <= NORMAL_TOL, "{what}");
+                }
+            }
+            // Rays of every length: some past the cap, some not; and hits to compare.
+            assert!(long > 8 && long < 60, "{} case {case}: {long} long rays", interp.name());
+            assert!(hits > 8, "{} case {case}: {hits} hits", interp.name());
+        }
+    }
+}
+
 /// Renders `grid` through `interp` from a few directions, by fixed-step and, for the
 /// interpolants it traces, the analytic method, and checks every hit on a sphere of `radius`
 /// (about the box's centre) to `tol`, with outward normals.

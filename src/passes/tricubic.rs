@@ -52,42 +52,29 @@ pub fn pipeline(
     buffer: bool,
     resumed: bool,
 ) -> Result<ComputePipeline, GpuError> {
-    let (name, spirv) = match (interp, buffer, resumed) {
-        (Interpolant::CubicBspline, false, false) => {
-            ("tricubic (cubic-bspline, image)", shaders::TRICUBIC)
-        }
-        (Interpolant::CubicBspline, false, true) => {
-            ("tricubic (cubic-bspline, image, resumed)", shaders::TRICUBIC)
-        }
-        (Interpolant::CatmullRom, false, false) => {
-            ("tricubic (catmull-rom, image)", shaders::TRICUBIC_CATMULL_ROM)
-        }
-        (Interpolant::CatmullRom, false, true) => {
-            ("tricubic (catmull-rom, image, resumed)", shaders::TRICUBIC_CATMULL_ROM)
-        }
-        (Interpolant::CubicBspline, true, false) => {
-            ("tricubic (cubic-bspline)", shaders::TRICUBIC_BUFFER)
-        }
-        (Interpolant::CubicBspline, true, true) => {
-            ("tricubic (cubic-bspline, resumed)", shaders::TRICUBIC_BUFFER)
-        }
-        (Interpolant::CatmullRom, true, false) => {
-            ("tricubic (catmull-rom)", shaders::TRICUBIC_CATMULL_ROM_BUFFER)
-        }
-        (Interpolant::CatmullRom, true, true) => {
-            ("tricubic (catmull-rom, resumed)", shaders::TRICUBIC_CATMULL_ROM_BUFFER)
-        }
-        (other, _, _) => {
+    let spirv = match (interp, buffer) {
+        (Interpolant::CubicBspline, false) => shaders::TRICUBIC,
+        (Interpolant::CatmullRom, false) => shaders::TRICUBIC_CATMULL_ROM,
+        (Interpolant::CubicBspline, true) => shaders::TRICUBIC_BUFFER,
+        (Interpolant::CatmullRom, true) => shaders::TRICUBIC_CATMULL_ROM_BUFFER,
+        (other, _) => {
             return Err(GpuError::Bug(format!(
                 "the tricubic walk traces no {} field",
                 other.name()
             )))
         }
     };
+    // "tricubic (catmull-rom, image, resumed)": the interpolant, then what differs.
+    let name = format!(
+        "tricubic ({}{}{})",
+        interp.name(),
+        if buffer { "" } else { ", image" },
+        if resumed { ", resumed" } else { "" }
+    );
     let bindings = if buffer { &BUFFER_BINDINGS } else { &BINDINGS };
     ComputePipeline::with_constants(
         ctx,
-        name,
+        &name,
         spirv,
         bindings,
         std::mem::size_of::<Band>() as u32,

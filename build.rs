@@ -40,6 +40,14 @@ const SHARED: &[(&str, u32, Glsl, &str)] = &[
     ("OCCUPANCY_GROUP", 64, Glsl::Int, "Workgroup size of the occupancy passes (shaders/occupancy/)."),
     ("EXTRACT_GROUP", 64, Glsl::Int, "Workgroup size of the extraction passes (shaders/extract/)."),
     ("RASTER_GROUP", 64, Glsl::Int, "Workgroup size of mesh_raster.comp."),
+    // One row of workgroups of the raster's second stage per listed triangle: the most rows a
+    // dispatch may have (maxComputeWorkGroupCount's guaranteed minimum).
+    (
+        "LARGE_CAPACITY",
+        65535,
+        Glsl::Uint,
+        "Triangles mesh_raster.comp lists for its second stage, per band.",
+    ),
     ("SCAN_PER", 16, Glsl::Uint, "Elements each invocation of scan.comp / scan_add.comp handles."),
     (
         "SCAN_BLOCK",

@@ -9,6 +9,16 @@
 //      positive floats order like their bits, so the key keeps the nearest hit, ties going to
 //      the lower triangle id (deterministic).
 // Pass 2 (`mesh_resolve.comp`) turns the winning key into the pixel's channels.
+//
+// llvmpipe ends every loop of an invocation after 65,535 passes in all (gallivm's
+// LP_MAX_TGSI_LOOP_ITERATIONS; raymarch.comp's LONG_MARCH), silently: a triangle whose box
+// held more pixels than that was drawn only in its first rows (a coarse mesh up close at 1024^2
+// lost 434,610 pixels). So an invocation tests at most `chunk_pixels` pixels (the host makes
+// that times the passes a pixel costs, one plus the clip planes' loop, at most 60,000): a
+// triangle with more is listed by the first stage (`stage` 0) and drawn by the second (1), an
+// indirect dispatch of one invocation per chunk of `chunk_pixels` pixels of each listed
+// triangle's box, in the box's row order. Hits are atomic minima and the counts sums: the same
+// result in any order.
 // Mirrors `reference::mesh` (f64).
 
 #extension GL_GOOGLE_include_directive : require
@@ -25,11 +35,24 @@ layout(std430, binding = 2) readonly buffer Indices { uint indices[]; };
 layout(std430, binding = 3) buffer Visibility { uint64_t vis[]; };
 // Per pixel of the band: [2i] triangles tested, [2i + 1] triangles hit at t > 0.
 layout(std430, binding = 4) buffer Counts { uint counts[]; };
+// The triangles the first stage lists (passes::mesh_render::LARGE_CAPACITY at most) and the
+// second stage's indirect dispatch: x, chunks (the host's), y, one row of workgroups per listed
+// triangle; `overflow` counts triangles past the capacity (the render then fails).
+layout(std430, binding = 5) buffer Large { uint large[]; };
+layout(std430, binding = 6) buffer LargeCount {
+    uint large_count;
+    uint groups_x;
+    uint groups_y;
+    uint groups_z;
+    uint overflow;
+};
 layout(push_constant) uniform Push {
     uint row_offset;
     uint rows;
     uint triangle_count;
     uint threads_x;  // invocations per row of the 2D dispatch
+    uint chunk_pixels;  // most pixels one invocation tests
+    uint stage;         // 0: every triangle (listing the large); 1: chunks of the listed
 } pc;
 
 #include "camera.glsl"
@@ -46,8 +69,15 @@ vec2 to_pixel(vec3 q, float z) {
 }
 
 void main() {
-    uint tri = gl_GlobalInvocationID.y * pc.threads_x + gl_GlobalInvocationID.x;
-    if (tri >= pc.triangle_count) return;
+    uint tri;
+    uint chunk = 0u;
+    if (pc.stage == 0u) {
+        tri = gl_GlobalInvocationID.y * pc.threads_x + gl_GlobalInvocationID.x;
+        if (tri >= pc.triangle_count) return;
+    } else {
+        tri = large[gl_WorkGroupID.y];
+        chunk = gl_GlobalInvocationID.x;
+    }
     vec3 A = positions[indices[3u * tri]].xyz;
     vec3 B = positions[indices[3u * tri + 1u]].xyz;
     vec3 C = positions[indices[3u * tri + 2u]].xyz;
@@ -77,24 +107,45 @@ void main() {
         y1 = min(y1, int(ceil(hi.y)) + 1);
     }
 
-    for (int y = y0; y <= y1; y++) {
-        for (int x = x0; x <= x1; x++) {
-            uint i = uint(y - int(pc.row_offset)) * P.width + uint(x);
-            vec3 ro;
-            vec3 d;
-            camera_ray(uvec2(x, y), ro, d);
-            atomicAdd(counts[2u * i], 1u);
-            // Clip planes: only hits in the kept interval count.
-            float c0 = 0.0;
-            float c1 = uintBitsToFloat(0x7f800000u);
-            if (!clip_interval(ro, d, c0, c1)) continue;
-            float t;
-            vec3 bary;
-            if (intersect_triangle(ro, ray_shear(d), A, B, C, t, bary) && t > 0.0 && t >= c0
-                && t <= c1) {
-                atomicAdd(counts[2u * i + 1u], 1u);
-                atomicMin(vis[i], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(tri));
-            }
+    if (x1 < x0 || y1 < y0) return;
+    uint w = uint(x1 - x0 + 1);
+    uint total = w * uint(y1 - y0 + 1);  // at most the band's pixels
+    if (pc.stage == 0u && total > pc.chunk_pixels) {
+        uint k = atomicAdd(large_count, 1u);
+        if (k < LARGE_CAPACITY) {
+            large[k] = tri;
+            atomicAdd(groups_y, 1u);
+        } else {
+            atomicAdd(overflow, 1u);
+        }
+        return;
+    }
+    uint k0 = chunk * pc.chunk_pixels;
+    if (k0 >= total) return;
+    uint k1 = min(total, k0 + pc.chunk_pixels);
+    // The box's pixels k0 .. k1 - 1, row by row (one loop: its passes are its pixels).
+    int x = x0 + int(k0 % w);
+    int y = y0 + int(k0 / w);
+    for (uint k = k0; k < k1; k++) {
+        uint i = uint(y - int(pc.row_offset)) * P.width + uint(x);
+        vec3 ro;
+        vec3 d;
+        camera_ray(uvec2(x, y), ro, d);
+        atomicAdd(counts[2u * i], 1u);
+        // Clip planes: only hits in the kept interval count.
+        float c0 = 0.0;
+        float c1 = uintBitsToFloat(0x7f800000u);
+        float t;
+        vec3 bary;
+        if (clip_interval(ro, d, c0, c1) && intersect_triangle(ro, ray_shear(d), A, B, C, t, bary)
+            && t > 0.0 && t >= c0 && t <= c1) {
+            atomicAdd(counts[2u * i + 1u], 1u);
+            atomicMin(vis[i], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(tri));
+        }
+        x++;
+        if (x > x1) {
+            x = x0;
+            y++;
         }
     }
 }

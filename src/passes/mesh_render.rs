@@ -33,6 +33,11 @@ use crate::shaders;
 
 /// Invocations per workgroup of the raster pass.
 pub const RASTER_GROUP: u32 = shaders::consts::RASTER_GROUP;
+/// Triangles the raster's first stage lists for its second per band (mesh_raster.comp).
+pub const LARGE_CAPACITY: u32 = shaders::consts::LARGE_CAPACITY;
+/// Loop passes one raster invocation may make: under llvmpipe's 65,535 per invocation
+/// (mesh_raster.comp's header).
+pub const RASTER_PASSES: u32 = 60_000;
 /// Workgroup side of the resolve pass (8 x 8 pixels, as the ray passes).
 pub const RESOLVE_GROUP: u32 = shaders::consts::RAY_GROUP;
 /// Bytes per pixel of the visibility buffer (one u64 key).
@@ -51,6 +56,10 @@ pub struct RasterPush {
     pub triangle_count: u32,
     /// Invocations per row of the 2D dispatch (`groups_x * RASTER_GROUP`).
     pub threads_x: u32,
+    /// Most pixels one invocation tests ([`MeshPass::chunk_pixels`]).
+    pub chunk_pixels: u32,
+    /// 0: every triangle, the large ones listed; 1: the listed ones, a chunk per invocation.
+    pub stage: u32,
 }
 
 const STORAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::STORAGE_BUFFER;
@@ -109,7 +118,8 @@ impl MeshPipelines {
             ctx,
             "mesh_raster",
             shaders::MESH_RASTER,
-            &[Uniform, Read, Read, ReadWrite, ReadWrite],
+            // ... and the listed large triangles, their count and second-stage dispatch.
+            &[Uniform, Read, Read, ReadWrite, ReadWrite, ReadWrite, ReadWrite],
             std::mem::size_of::<RasterPush>() as u32,
         )?;
         // The ray passes' bindings, then positions, normals, indices, visibility and counts.
@@ -151,6 +161,14 @@ pub struct MeshPass<'a> {
     inputs: MeshInputs<'a>,
     vis: Buffer,
     counts: Buffer,
+    /// The large triangles listed (kept: the raster's set binds it), then their count and the
+    /// indirect dispatch.
+    _large: Buffer,
+    large_count: Buffer,
+    large_readback: Buffer,
+    chunk_pixels: u32,
+    /// Chunks of the largest box a band holds.
+    max_chunks: u32,
     raster: Dispatch,
     resolve: Dispatch,
 }
@@ -161,6 +179,7 @@ impl<'a> MeshPass<'a> {
         pipes: &'a MeshPipelines,
         inputs: MeshInputs<'a>,
         band_pixels: u64,
+        clip_planes: u32,
     ) -> Result<Self, GpuError> {
         let scratch = |name: &str, bytes: u64| {
             Buffer::new(
@@ -173,6 +192,28 @@ impl<'a> MeshPass<'a> {
         };
         let vis = scratch("mesh visibility", band_pixels * VIS_BYTES)?;
         let counts = scratch("mesh counts", band_pixels * COUNT_BYTES)?;
+        let large = scratch("mesh large triangles", u64::from(LARGE_CAPACITY) * 4)?;
+        let large_count = Buffer::new(
+            ctx,
+            "mesh large triangles count",
+            32,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::INDIRECT_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        let large_readback = Buffer::new(
+            ctx,
+            "mesh large triangles count readback",
+            32,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
+        // A pixel costs the loop's pass and the clip planes' loop (its passes and its end).
+        let chunk_pixels = RASTER_PASSES / (2 + clip_planes);
+        let max_chunks = u32::try_from(band_pixels.div_ceil(u64::from(chunk_pixels)))
+            .map_err(|_| GpuError::Bug(format!("a band of {band_pixels} pixels")))?;
         let i = &inputs;
         let raster = pipes.raster.bind(&[
             Resource::Uniform(i.params),
@@ -180,6 +221,8 @@ impl<'a> MeshPass<'a> {
             Resource::Storage(&i.mesh.indices),
             Resource::Storage(&vis),
             Resource::Storage(&counts),
+            Resource::Storage(&large),
+            Resource::Storage(&large_count),
         ])?;
         let resolve = pipes.resolve.bind(&[
             Resource::Uniform(i.params),
@@ -192,28 +235,73 @@ impl<'a> MeshPass<'a> {
             Resource::Storage(&vis),
             Resource::Storage(&counts),
         ])?;
-        Ok(MeshPass { pipes, inputs, vis, counts, raster, resolve })
+        Ok(MeshPass {
+            pipes,
+            inputs,
+            vis,
+            counts,
+            _large: large,
+            large_count,
+            large_readback,
+            chunk_pixels,
+            max_chunks,
+            raster,
+            resolve,
+        })
     }
 
-    /// Records the band: clear the scratch (no hit, nothing counted), raster (one invocation
-    /// per triangle, none without triangles), resolve (one per pixel, [`RESOLVE_GROUP`]² per
-    /// workgroup).
+    /// Records the band: clear the scratch (no hit, nothing counted, no triangle listed),
+    /// raster (one invocation per triangle, none without triangles, then one per chunk of each
+    /// listed large triangle), resolve (one per pixel, [`RESOLVE_GROUP`]² per workgroup).
     pub fn record(&self, rec: &mut Recorder, width: u32, band: Band) -> Result<(), GpuError> {
         let mesh = self.inputs.mesh;
         rec.fill(&self.vis, 0, self.vis.size, NO_HIT_WORD);
         rec.fill(&self.counts, 0, self.counts.size, 0);
         if mesh.triangle_count > 0 {
+            // No triangle listed; the second stage's x: every chunk a box may have; y: none.
+            rec.fill(&self.large_count, 0, 32, 0);
+            rec.fill(&self.large_count, 4, 4, self.max_chunks.div_ceil(RASTER_GROUP));
+            rec.fill(&self.large_count, 12, 4, 1);
             let (groups, threads_x) = MeshPipelines::raster_groups(mesh.triangle_count)?;
-            let push = RasterPush {
+            let mut push = RasterPush {
                 row_offset: band.row_offset,
                 rows: band.rows,
                 triangle_count: mesh.triangle_count,
                 threads_x,
+                chunk_pixels: self.chunk_pixels,
+                stage: 0,
             };
             rec.dispatch(&self.pipes.raster, &self.raster, bytemuck::bytes_of(&push), groups);
+            push.stage = 1;
+            let push = bytemuck::bytes_of(&push);
+            rec.dispatch_indirect(&self.pipes.raster, &self.raster, push, &self.large_count, 4);
+            rec.readback(&self.large_count, &self.large_readback, 32);
         }
         let groups = grid_groups([width, band.rows, 1], [RESOLVE_GROUP, RESOLVE_GROUP, 1]);
         rec.dispatch(&self.pipes.resolve, &self.resolve, bytemuck::bytes_of(&band), groups);
         Ok(())
+    }
+
+    /// After a band's submission: an error if the first stage listed more large triangles than
+    /// it holds (their pixels would be missing).
+    pub fn check_band(&self) -> Result<(), GpuError> {
+        if self.inputs.mesh.triangle_count == 0 {
+            return Ok(());
+        }
+        let words = self.large_readback.read::<u32>(5)?;
+        match words[4] {
+            0 => Ok(()),
+            over => Err(GpuError::TooLarge {
+                what: format!(
+                    "the mesh render's band of rows ({} triangles each over {} of its pixels)",
+                    u64::from(LARGE_CAPACITY) + u64::from(over),
+                    self.chunk_pixels
+                ),
+                limit: format!(
+                    "{LARGE_CAPACITY} such triangles per band; a smaller image.width or \
+                     fewer clip planes draws it"
+                ),
+            }),
+        }
     }
 }

@@ -142,7 +142,7 @@ impl Renderer {
             colormap: &self.colormap,
             pixels: &bands.out,
         };
-        let pass = MeshPass::new(ctx, pipes, inputs, bands.band_pixels())?;
+        let pass = MeshPass::new(ctx, pipes, inputs, bands.band_pixels(), params.clip_count)?;
         let mut info = self.frame_info(scene, grid, time);
         info.extra.push(("mesh_triangles".into(), mesh.triangle_count.to_string()));
         info.extra.push(("mesh_vertices".into(), mesh.vertex_count.to_string()));
@@ -150,7 +150,10 @@ impl Renderer {
         let placement = scene.field.placement;
         let gpu_ms = bands.for_each_band(
             "mesh_raster + mesh_resolve",
-            |band, records| placed_band(sink, &placement, band, records),
+            |band, records| {
+                pass.check_band()?;
+                placed_band(sink, &placement, band, records)
+            },
             |rec, band| pass.record(rec, width, band),
         )?;
         self.last_gpu_ms = gpu_ms;

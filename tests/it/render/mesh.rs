@@ -166,6 +166,32 @@ fn random_triangle_soup_and_a_camera_among_the_triangles_match_the_reference() {
     assert!(excused * 100 < rays, "too many excused: {excused} of {rays}");
 }
 
+/// llvmpipe ends an invocation's loops after 65,535 passes: the raster tested a triangle's
+/// box pixel by pixel in one invocation, so a triangle over more pixels than that was drawn
+/// in its first rows only (a coarse sphere up close at 1024^2 lost 434,610 of its pixels, exit
+/// 0). A coarse sphere (4^3 points, marching cubes: boxes of ~100,000 pixels here) at 320^2,
+/// without and with clip planes (which make a pixel cost more passes: smaller chunks): every
+/// pixel as the reference's. Seen failing with every triangle drawn by the first stage.
+#[gpu_test]
+fn triangles_over_many_pixels_are_drawn_whole() {
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let grid = grid_from([4, 4, 4], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.7);
+    let request = Request::new(0.0, Inside::Below, MeshAlgorithm::MarchingCubes);
+    let mesh = reference(&grid, &request).unwrap();
+    for clips in 0..2 {
+        let mut scene = scene_for(&grid, DVec3::new(1.2, 0.9, 1.3), 320, Method::Mesh);
+        for k in 0..clips * 12 {
+            // Planes that remove nothing in view (x > 2 + k): only the pixels' cost changes.
+            scene.clip.push(DVec3::new(1.0, 0.0, 0.0), 2.0 + k as f64);
+        }
+        let pixels = render_mesh(&mut renderer, &scene, &grid, &mesh);
+        let a = compare(&scene, &grid, &mesh, &pixels);
+        assert!(a.hits > a.rays / 2, "{clips}: {} hits of {}", a.hits, a.rays);
+        assert!(a.excused * 200 < a.rays, "{clips}: {} excused of {}", a.excused, a.rays);
+    }
+}
+
 /// A sphere of radius 0.6 as an SDF on a 65^3 grid over [-1, 1]^3 (h = 1/32).
 fn sphere_grid() -> Grid {
     grid_from([65, 65, 65], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.6)

@@ -410,8 +410,8 @@ fn the_tricubic_walk_matches_its_reference() {
 /// (`passes::tricubic::Resume`). 64 rays along a 4,096-point rod with a crossing in every cell,
 /// leaving it through its sides from ~1,700 cells on, in workgroups of long and short rays:
 /// counting crossings past a first-cell hit (the hit's record kept across rounds), the 3,500th
-/// crossing, and two surfaces; every pixel's hit, steps, crossings, cell, depth and normal
-/// as the reference's. Without the rounds the B-spline counted 2,979 of 4,095 (and the
+/// crossing, and two surfaces (the grid from a storage buffer, and once from the grid image);
+/// every pixel's hit, steps, crossings, cell, depth and normal as the reference's. Without the rounds the B-spline counted 2,979 of 4,095 (and the
 /// workgroups lost more: seen failing with `Resume::pending` answering false).
 #[gpu_test]
 fn the_tricubic_walk_goes_on_where_the_loop_cap_cut_it() {
@@ -421,7 +421,9 @@ fn the_tricubic_walk_goes_on_where_the_loop_cap_cut_it() {
     let grid = rod(4096, |p| (std::f64::consts::PI * p.x).cos());
     let diag = (grid.max - grid.min).length();
     for interp in [Interpolant::CubicBspline, Interpolant::CatmullRom] {
-        for case in 0..3 {
+        // Case 1 also from the grid image (the build for grids over the storage buffer range).
+        for (case, buffer) in [(0, true), (1, true), (2, true), (1, false)] {
+            renderer.grid_buffer = buffer;
             let mut scene = along_rod(&grid, Method::Analytic);
             scene.field.interpolation = interp;
             scene.image.width = 8;

@@ -394,7 +394,14 @@ fn every_shared_struct_matches_its_glsl_in_every_shader() {
         ),
         (rust_struct!(Band { row_offset, rows }), "Band", &any, 4),
         (
-            rust_struct!(RasterPush { row_offset, rows, triangle_count, threads_x }),
+            rust_struct!(RasterPush {
+                row_offset,
+                rows,
+                triangle_count,
+                threads_x,
+                chunk_pixels,
+                stage
+            }),
             "Push",
             &|p: &str| p == "mesh_raster.comp",
             1,

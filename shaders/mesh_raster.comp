@@ -2,7 +2,7 @@
 // Mesh render, pass 1 of 2 (`render.method = "mesh"`): visibility by compute "rasterisation".
 // One invocation per triangle, for one band of image rows:
 //   1. project the vertices to pixel coordinates and take the bounding box, widened by a pixel
-//      (the whole band when a vertex is not in front of the eye);
+//      (where a vertex is not in front of the eye, of the part that is: below);
 //   2. for every pixel centre in the box, intersect the pixel's ray with the triangle exactly
 //      (watertight test, `triangle.glsl`) and count the test;
 //   3. on a hit at t > 0, count it and atomicMin the pixel's 64-bit key (t bits << 32 | id):
@@ -24,6 +24,7 @@
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #extension GL_EXT_shader_atomic_int64 : require
+#extension GL_EXT_control_flow_attributes : require
 
 layout(local_size_x = RASTER_GROUP) in;  // build.rs
 
@@ -95,17 +96,42 @@ void main() {
     float zb = dot(qb, P.forward);
     float zc = dot(qc, P.forward);
     if (za <= 0.0 && zb <= 0.0 && zc <= 0.0) return;  // wholly behind the eye
-    if (min(za, min(zb, zc)) > 0.0) {
-        vec2 pa = to_pixel(qa, za);
-        vec2 pb = to_pixel(qb, zb);
-        vec2 pc2 = to_pixel(qc, zc);
-        vec2 lo = clamp(min(pa, min(pb, pc2)), vec2(-2.0), vec2(P.width, P.height) + 1.0);
-        vec2 hi = clamp(max(pa, max(pb, pc2)), vec2(-2.0), vec2(P.width, P.height) + 1.0);
-        x0 = max(x0, int(floor(lo.x)) - 1);
-        x1 = min(x1, int(ceil(hi.x)) + 1);
-        y0 = max(y0, int(floor(lo.y)) - 1);
-        y1 = min(y1, int(ceil(hi.y)) + 1);
+    // The box of what lies in front of the eye (`reference::mesh::screen_box`'s rule): its
+    // vertices there, projected, and for each edge that crosses the eye's plane, the way its
+    // far part runs off the screen (its point on the plane, seen as a direction): the box then
+    // reaches the picture's edge that way, both ways where the direction is within 1e-3 of
+    // square to the axis (f32 and f64 decide alike), the whole band for an edge through the
+    // eye. Orthographic: every vertex, projected (no division by depth).
+    vec3 q[3] = vec3[3](qa, qb, qc);
+    float z[3] = float[3](za, zb, zc);
+    float INF = uintBitsToFloat(0x7f800000u);
+    vec2 lo = vec2(INF);
+    vec2 hi = vec2(-INF);
+    [[unroll]] for (int i = 0; i < 3; i++) {
+        if (z[i] > 0.0 || camera_orthographic()) {
+            vec2 p = to_pixel(q[i], z[i]);
+            lo = min(lo, p);
+            hi = max(hi, p);
+        }
+        int j = (i + 1) % 3;
+        if (!camera_orthographic() && (z[i] > 0.0) != (z[j] > 0.0)) {
+            float s = z[i] / (z[i] - z[j]);
+            vec3 c = q[i] + s * (q[j] - q[i]);
+            vec2 dir = vec2(dot(c, P.right) / dot(P.right, P.right),
+                            -(dot(c, P.up) / dot(P.up, P.up)));
+            float tol = 1e-3 * (abs(dir.x) + abs(dir.y));
+            if (dir.x >= -tol) hi.x = INF;
+            if (dir.x <= tol) lo.x = -INF;
+            if (dir.y >= -tol) hi.y = INF;
+            if (dir.y <= tol) lo.y = -INF;
+        }
     }
+    lo = clamp(lo, vec2(-2.0), vec2(P.width, P.height) + 1.0);
+    hi = clamp(hi, vec2(-2.0), vec2(P.width, P.height) + 1.0);
+    x0 = max(x0, int(floor(lo.x)) - 1);
+    x1 = min(x1, int(ceil(hi.x)) + 1);
+    y0 = max(y0, int(floor(lo.y)) - 1);
+    y1 = min(y1, int(ceil(hi.y)) + 1);
 
     if (x1 < x0 || y1 < y0) return;
     uint w = uint(x1 - x0 + 1);

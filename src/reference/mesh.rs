@@ -116,9 +116,14 @@ fn to_pixel(cam: &Camera, q: DVec3, z: f64) -> (f64, f64) {
     ((sx + 1.0) * 0.5 * cam.width as f64 - 0.5, (1.0 - sy) * 0.5 * cam.height as f64 - 0.5)
 }
 
-/// The pixels `[x0, x1] x [y0, y1]` whose rays are tested against triangle (a, b, c): its
-/// screen box widened by one pixel, the whole image when a vertex is not in front of the eye,
-/// None when it lies wholly behind.
+/// The pixels `[x0, x1] x [y0, y1]` whose rays are tested against triangle (a, b, c): the
+/// screen box of its part in front of the eye, widened by one pixel, None when it lies wholly
+/// behind. That part's picture is the vertices in front, projected, and for each edge crossing
+/// the eye's plane a way off the screen (its point on the plane, seen as a direction: the far
+/// part of the edge runs off that way), so the box reaches the picture's edge in each such way,
+/// both ways where the direction is within 1e-3 of square to the axis (so f32 and f64 decide
+/// alike), the whole picture for an edge through the eye. Orthographic: every vertex projected.
+/// `mesh_raster.comp` follows the same rule.
 pub fn screen_box(cam: &Camera, a: DVec3, b: DVec3, c: DVec3) -> Option<[i64; 4]> {
     let (w, h) = (cam.width as f64, cam.height as f64);
     let q = [a - cam.eye, b - cam.eye, c - cam.eye];
@@ -127,21 +132,39 @@ pub fn screen_box(cam: &Camera, a: DVec3, b: DVec3, c: DVec3) -> Option<[i64; 4]
         return None;
     }
     let full = [0, cam.width as i64 - 1, 0, cam.height as i64 - 1];
-    if z.iter().any(|&z| z <= 0.0) {
-        return Some(full);
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for i in 0..3 {
+        if z[i] > 0.0 || cam.orthographic {
+            let p = to_pixel(cam, q[i], z[i]);
+            lo = [lo[0].min(p.0), lo[1].min(p.1)];
+            hi = [hi[0].max(p.0), hi[1].max(p.1)];
+        }
+        let j = (i + 1) % 3;
+        if !cam.orthographic && (z[i] > 0.0) != (z[j] > 0.0) {
+            let s = z[i] / (z[i] - z[j]);
+            let c = q[i] + s * (q[j] - q[i]);
+            let dir = [
+                c.dot(cam.right_scaled) / cam.right_scaled.length_squared(),
+                -(c.dot(cam.up_scaled) / cam.up_scaled.length_squared()),
+            ];
+            let tol = 1e-3 * (dir[0].abs() + dir[1].abs());
+            for k in 0..2 {
+                if dir[k] >= -tol {
+                    hi[k] = f64::INFINITY;
+                }
+                if dir[k] <= tol {
+                    lo[k] = f64::NEG_INFINITY;
+                }
+            }
+        }
     }
-    let p: Vec<(f64, f64)> = (0..3).map(|i| to_pixel(cam, q[i], z[i])).collect();
-    let lo = |f: fn(&(f64, f64)) -> f64, max: f64| {
-        p.iter().map(f).fold(f64::INFINITY, f64::min).clamp(-2.0, max + 1.0)
-    };
-    let hi = |f: fn(&(f64, f64)) -> f64, max: f64| {
-        p.iter().map(f).fold(f64::NEG_INFINITY, f64::max).clamp(-2.0, max + 1.0)
-    };
+    let lo = [lo[0].clamp(-2.0, w + 1.0), lo[1].clamp(-2.0, h + 1.0)];
+    let hi = [hi[0].clamp(-2.0, w + 1.0), hi[1].clamp(-2.0, h + 1.0)];
     Some([
-        full[0].max(lo(|p| p.0, w).floor() as i64 - 1),
-        full[1].min(hi(|p| p.0, w).ceil() as i64 + 1),
-        full[2].max(lo(|p| p.1, h).floor() as i64 - 1),
-        full[3].min(hi(|p| p.1, h).ceil() as i64 + 1),
+        full[0].max(lo[0].floor() as i64 - 1),
+        full[1].min(hi[0].ceil() as i64 + 1),
+        full[2].max(lo[1].floor() as i64 - 1),
+        full[3].min(hi[1].ceil() as i64 + 1),
     ])
 }
 

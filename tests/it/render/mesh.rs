@@ -192,6 +192,81 @@ fn triangles_over_many_pixels_are_drawn_whole() {
     }
 }
 
+/// The screen box rule (`reference::mesh::screen_box`, which `mesh_raster.comp` follows) loses
+/// no hit: triangles around and behind eyes among them, perspective and orthographic, every
+/// pixel's nearest hit and hit count with the boxes as when every triangle is tested on every
+/// pixel (the GPU-against-reference tests share the rule, so they could not tell), and the
+/// GPU's render as the reference's. Seen failing with the off-screen ways of an edge through
+/// the eye's plane left out.
+#[gpu_test]
+fn screen_boxes_lose_no_hit() {
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx).unwrap();
+    let mut rng = Rng::new(17);
+    let grid = grid_from([3, 3, 3], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.x);
+    let mut mesh = Mesh::default();
+    for t in 0..80u32 {
+        let c = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+        for _ in 0..3 {
+            let p = c + rng.unit_vector() * rng.range(0.05, 0.9);
+            mesh.positions.push(p.as_vec3().to_array());
+            mesh.normals.push([0.0, 0.0, 1.0]);
+        }
+        mesh.indices.extend([3 * t, 3 * t + 1, 3 * t + 2]);
+    }
+    let (mut hits, mut straddling) = (0, 0);
+    for case in 0..8 {
+        let eye = DVec3::new(rng.range(-0.8, 0.8), rng.range(-0.8, 0.8), rng.range(-0.8, 0.8));
+        let mut scene = scene_for(&grid, eye, 40, Method::Mesh);
+        scene.camera.target = eye + rng.unit_vector();
+        if case % 4 == 3 {
+            scene.camera.projection = isoview::scene::Projection::Orthographic;
+        }
+        let cam = Camera::new(&scene.camera, &scene.image);
+        // And a floor just under the eye, reaching behind it: near the eye its picture runs
+        // off the screen's edge, far from every vertex's.
+        let mut mesh = mesh.clone();
+        let n = mesh.positions.len() as u32;
+        for p in [
+            DVec3::new(-3.0, -0.05, -3.0),
+            DVec3::new(3.0, -0.05, -3.0),
+            DVec3::new(0.0, -0.05, 6.0),
+        ] {
+            mesh.positions.push((eye + p).as_vec3().to_array());
+            mesh.normals.push([0.0, 1.0, 0.0]);
+        }
+        mesh.indices.extend([n, n + 1, n + 2]);
+        let triangle = |t: usize| {
+            mesh.triangle(t).map(|v| DVec3::from(mesh.positions[v as usize].map(f64::from)))
+        };
+        let boxes: Vec<_> = (0..mesh.triangle_count())
+            .map(|t| {
+                let [a, b, c] = triangle(t);
+                let z = [a, b, c].map(|p| (p - cam.eye).dot(cam.forward));
+                straddling += (z.iter().any(|&z| z > 0.0) && z.iter().any(|&z| z <= 0.0)) as usize;
+                reference::screen_box(&cam, a, b, c)
+            })
+            .collect();
+        let everywhere = vec![Some([0, 39, 0, 39]); mesh.triangle_count()];
+        for py in 0..40 {
+            for px in 0..40 {
+                let boxed = reference::trace(&mesh, &cam, &scene.clip, &boxes, px, py);
+                let all = reference::trace(&mesh, &cam, &scene.clip, &everywhere, px, py);
+                assert_eq!(
+                    (boxed.hit.map(|h| h.0), boxed.hits),
+                    (all.hit.map(|h| h.0), all.hits),
+                    "case {case} pixel ({px},{py})"
+                );
+                hits += boxed.hits as usize;
+            }
+        }
+        let pixels = render_mesh(&mut renderer, &scene, &grid, &mesh);
+        let a = compare(&scene, &grid, &mesh, &pixels);
+        assert!(a.excused * 50 < a.rays, "case {case}: {} excused of {}", a.excused, a.rays);
+    }
+    assert!(hits > 1000 && straddling > 40, "{hits} hits, {straddling} straddling triangles");
+}
+
 /// A sphere of radius 0.6 as an SDF on a 65^3 grid over [-1, 1]^3 (h = 1/32).
 fn sphere_grid() -> Grid {
     grid_from([65, 65, 65], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.length() - 0.6)

@@ -136,22 +136,28 @@ fn mesh_render_matches_reference_on_random_meshes_and_cameras() {
     assert!(steps_off * 100 < rays, "too many tested counts off: {steps_off} of {rays}");
 }
 
+/// `count` triangles in [-1, 1]^3, each within `reach` of a random centre, random normals.
+fn triangle_soup(rng: &mut Rng, count: u32, reach: f64) -> Mesh {
+    let mut mesh = Mesh::default();
+    for t in 0..count {
+        let c = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+        for _ in 0..3 {
+            let p = c + rng.unit_vector() * rng.range(0.05, reach);
+            mesh.positions.push(p.as_vec3().to_array());
+            mesh.normals.push(rng.unit_vector().as_vec3().to_array());
+        }
+        mesh.indices.extend([3 * t, 3 * t + 1, 3 * t + 2]);
+    }
+    mesh
+}
+
 #[gpu_test]
 fn random_triangle_soup_and_a_camera_among_the_triangles_match_the_reference() {
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(5);
     let grid = grid_from([3, 3, 3], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.x);
-    let mut mesh = Mesh::default();
-    for t in 0..60u32 {
-        let c = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
-        for _ in 0..3 {
-            let p = c + rng.unit_vector() * rng.range(0.05, 0.5);
-            mesh.positions.push(p.as_vec3().to_array());
-            mesh.normals.push(rng.unit_vector().as_vec3().to_array());
-        }
-        mesh.indices.extend([3 * t, 3 * t + 1, 3 * t + 2]);
-    }
+    let mesh = triangle_soup(&mut rng, 60, 0.5);
     let (mut rays, mut excused) = (0, 0);
     for (k, eye) in [DVec3::new(0.1, 0.2, 0.05), DVec3::new(2.5, 1.0, -2.0)].into_iter().enumerate()
     {
@@ -204,16 +210,7 @@ fn screen_boxes_lose_no_hit() {
     let mut renderer = Renderer::new(&ctx).unwrap();
     let mut rng = Rng::new(17);
     let grid = grid_from([3, 3, 3], DVec3::splat(-1.0), DVec3::splat(1.0), |p| p.x);
-    let mut mesh = Mesh::default();
-    for t in 0..80u32 {
-        let c = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
-        for _ in 0..3 {
-            let p = c + rng.unit_vector() * rng.range(0.05, 0.9);
-            mesh.positions.push(p.as_vec3().to_array());
-            mesh.normals.push([0.0, 0.0, 1.0]);
-        }
-        mesh.indices.extend([3 * t, 3 * t + 1, 3 * t + 2]);
-    }
+    let mesh = triangle_soup(&mut rng, 80, 0.9);
     let (mut hits, mut straddling) = (0, 0);
     for case in 0..8 {
         let eye = DVec3::new(rng.range(-0.8, 0.8), rng.range(-0.8, 0.8), rng.range(-0.8, 0.8));

@@ -298,8 +298,8 @@ impl<'a> MeshPass<'a> {
                     self.chunk_pixels
                 ),
                 limit: format!(
-                    "{LARGE_CAPACITY} such triangles per band; a smaller image.width or \
-                     fewer clip planes draws it"
+                    "{LARGE_CAPACITY} such triangles per band; a smaller image or fewer clip \
+                     planes draws it"
                 ),
             }),
         }
